@@ -1,0 +1,603 @@
+//! `PdiMaster`: the sans-IO state machine every link drives.
+//!
+//! The link exchanges process images; the master decides what the next RX image is and
+//! judges every TX image that comes back. It never touches a clock: the caller passes
+//! `now` in, so tests step time by hand.
+//!
+//! The rules, from spec sections 2.2 and 2.3:
+//! * a command is *accepted* when PdiStatusToggleCmd differs from its value before the
+//!   command was sent, and *failed* when PdiStatusError is set in that same image (the
+//!   ReturnValue then holds the error code);
+//! * the same command byte twice is one command to the drive, so the master flips
+//!   ToggleCmd (bit 7) whenever a new command has the opcode of the last one sent;
+//! * halt adds bit 6 to the travel command; resetting it resumes the old target, and
+//!   resetting it while flipping ToggleCmd takes the new set values (spec 2.2.14);
+//! * *done* is the status bit the command implies (TargetReached, HomingDone,
+//!   AutosetupDone). Those bits may still be set from an earlier command, so a bit counts
+//!   only once it has been seen clear after the acknowledgement, or has stayed set for
+//!   the settle time.
+
+use std::fmt;
+use std::time::{Duration, Instant};
+
+use super::{Action, Command, Error, Opcode, RxImage, SetValues, StatusBit, TxImage};
+use crate::cia::{AbortCode, ErrorCode};
+
+/// Timeouts of the master. Defaults suit every bus: a drive answers a PDI command within a
+/// few cycles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Timing {
+    /// How long a command may wait for PdiStatusToggleCmd to flip.
+    pub ack_timeout: Duration,
+    /// How long a done bit that was already set must stay set to count (see module docs).
+    pub settle: Duration,
+    /// How long a command may take to finish after its acknowledgement; `None` waits as long
+    /// as it takes (the GUI), a script gives a bound.
+    pub done_timeout: Option<Duration>,
+}
+
+impl Default for Timing {
+    fn default() -> Self {
+        Self {
+            ack_timeout: Duration::from_millis(1000),
+            settle: Duration::from_millis(150),
+            done_timeout: None,
+        }
+    }
+}
+
+/// Why a command did not succeed, from the drive's own images.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Failure {
+    /// PdiStatusError was set with the acknowledgement; `code` is PDI-ReturnValue as u32.
+    Refused { code: u32 },
+    /// PdiStatusFault rose while the command ran; `error_code` is 603Fh.
+    DriveFault { error_code: u16 },
+    /// Clear Error was acknowledged but the fault stays: its cause is still present.
+    FaultPersists { error_code: u16 },
+    /// The drive left Operation enabled while a travel command ran (switched off or quick
+    /// stopped by someone else, or a fault reaction).
+    PowerLost,
+}
+
+impl Failure {
+    /// For a refusal, the CiA 301 abort code text when the ReturnValue is one.
+    pub fn abort_text(&self) -> Option<&'static str> {
+        match self {
+            Failure::Refused { code } => AbortCode(*code).text(),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for Failure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Failure::Refused { code } => {
+                write!(f, "refused by the drive (PdiStatusError): ReturnValue ")?;
+                match AbortCode(*code).text() {
+                    Some(text) => write!(f, "{code:08X}h: {text}"),
+                    None => write!(f, "{code:08X}h (not a CiA 301 abort code)"),
+                }
+            }
+            Failure::DriveFault { error_code } => {
+                write!(f, "drive fault while running: 603Fh = {}", ErrorCode(*error_code))
+            }
+            Failure::FaultPersists { error_code } => write!(
+                f,
+                "the fault persists because its cause is still present: 603Fh = {}",
+                ErrorCode(*error_code)
+            ),
+            Failure::PowerLost => f.write_str(
+                "the drive left Operation enabled while the command ran (switched off, quick stop or fault)",
+            ),
+        }
+    }
+}
+
+/// What the master learned from the images, in the order it happened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// The drive detected the command (PdiStatusToggleCmd flipped, no PdiStatusError).
+    Accepted { tag: u64 },
+    /// The command finished; `return_value` is PDI-ReturnValue of that image (the value read
+    /// for OD-Read, the actual value of the mode otherwise).
+    Done { tag: u64, return_value: i32 },
+    Failed { tag: u64, failure: Failure },
+    TimedOut { tag: u64, waiting_for: Waiting, after: Duration },
+    /// A newer command replaced this one before it finished.
+    Superseded { tag: u64, acknowledged: bool },
+    /// The drive's last command byte was unknown and equal to ours, so the master flipped
+    /// ToggleCmd and sent the command again.
+    Resent { tag: u64 },
+}
+
+impl Progress {
+    pub fn tag(&self) -> u64 {
+        match *self {
+            Progress::Accepted { tag }
+            | Progress::Done { tag, .. }
+            | Progress::Failed { tag, .. }
+            | Progress::TimedOut { tag, .. }
+            | Progress::Superseded { tag, .. }
+            | Progress::Resent { tag } => tag,
+        }
+    }
+
+    /// Whether the command is over (nothing more will be reported for its tag).
+    pub fn is_final(&self) -> bool {
+        !matches!(self, Progress::Accepted { .. } | Progress::Resent { .. })
+    }
+}
+
+/// What a command waits for after its acknowledgement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Waiting {
+    Acknowledgement,
+    Bit(StatusBit),
+    /// Halt: QsHaltBit and TargetReached (the axis stopped).
+    Stopped,
+    /// Switch Off: PdiStatusOperationEnabled clear.
+    PowerOff,
+    /// Quickstop: Operation enabled left or QsHaltBit set.
+    QuickStop,
+    /// Clear Error: PdiStatusFault clear.
+    FaultCleared,
+}
+
+impl fmt::Display for Waiting {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Waiting::Acknowledgement => f.write_str("the acknowledgement (PdiStatusToggleCmd)"),
+            Waiting::Bit(bit) => write!(f, "{}", bit.name()),
+            Waiting::Stopped => f.write_str("standstill (PdiStatusQsHaltBit and PdiStatusTargetReached)"),
+            Waiting::PowerOff => f.write_str("the power stage to switch off"),
+            Waiting::QuickStop => f.write_str("the quick stop"),
+            Waiting::FaultCleared => f.write_str("PdiStatusFault to clear"),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Command(Action),
+    Halt,
+    Resume,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    tag: u64,
+    kind: Kind,
+    goal: Waiting,
+    sent_at: Instant,
+    acked_at: Option<Instant>,
+    baseline_toggle: bool,
+    baseline_halt: bool,
+    goal_seen_clear: bool,
+    goal_set_since: Option<Instant>,
+    enabled_seen: bool,
+    resent: bool,
+}
+
+/// The travel command the halt bit belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Travel {
+    pub action: Action,
+    pub halted: bool,
+}
+
+/// The sans-IO PDI master. See the module documentation for its rules.
+#[derive(Debug)]
+pub struct PdiMaster {
+    timing: Timing,
+    last_sent: Option<RxImage>,
+    /// Whether `last_sent` is known to be what the drive holds (adopted or sent by us).
+    device_cmd_known: bool,
+    last_tx: Option<TxImage>,
+    pending: Option<Pending>,
+    travel: Option<Travel>,
+    progress: Vec<Progress>,
+}
+
+impl PdiMaster {
+    pub fn new(timing: Timing) -> Self {
+        Self {
+            timing,
+            last_sent: None,
+            device_cmd_known: false,
+            last_tx: None,
+            pending: None,
+            travel: None,
+            progress: Vec::new(),
+        }
+    }
+
+    pub fn timing(&self) -> Timing {
+        self.timing
+    }
+
+    pub fn set_timing(&mut self, timing: Timing) {
+        self.timing = timing;
+    }
+
+    /// Start from the RX image the drive holds now (read from 2291h on connect), so that
+    /// the first image the link writes changes nothing and nothing from an earlier session
+    /// is replayed.
+    pub fn adopt(&mut self, rx: RxImage) {
+        self.last_sent = Some(rx);
+        self.device_cmd_known = true;
+    }
+
+    /// The image the link should write, or `None` while nothing has been commanded and
+    /// the drive's own image is unknown (the link then only reads).
+    pub fn outgoing(&self) -> Option<RxImage> {
+        self.last_sent
+    }
+
+    pub fn last_tx(&self) -> Option<TxImage> {
+        self.last_tx
+    }
+
+    /// The travel command the halt bit would act on, if any.
+    pub fn travel(&self) -> Option<Travel> {
+        self.travel
+    }
+
+    pub fn is_halted(&self) -> bool {
+        self.travel.is_some_and(|t| t.halted)
+    }
+
+    /// Whether a command is still waiting for the drive to detect it.
+    pub fn is_awaiting_ack(&self) -> bool {
+        self.pending.is_some_and(|p| p.acked_at.is_none())
+    }
+
+    /// The tag of the command still running, if any.
+    pub fn pending_tag(&self) -> Option<u64> {
+        self.pending.map(|p| p.tag)
+    }
+
+    /// Everything learned since the last call.
+    pub fn drain_progress(&mut self) -> Vec<Progress> {
+        std::mem::take(&mut self.progress)
+    }
+
+    /// Send a new command. Returns the image to write.
+    pub fn start(&mut self, tag: u64, action: Action, now: Instant) -> Result<RxImage, Error> {
+        let status = self.last_tx.ok_or(Error::NoStatusYet)?.status;
+        let opcode = action.opcode();
+        let toggle = match self.last_sent {
+            Some(last) => {
+                let last_toggle = last.cmd & Command::TOGGLE_BIT != 0;
+                if last.cmd & Command::OPCODE_MASK == opcode.value() {
+                    !last_toggle
+                } else {
+                    last_toggle
+                }
+            }
+            None => false,
+        };
+        let image = RxImage::new(
+            action.set_values(),
+            Command {
+                opcode,
+                halt: false,
+                toggle,
+            },
+        );
+        self.supersede();
+        if opcode.is_travel() {
+            self.travel = Some(Travel {
+                action,
+                halted: false,
+            });
+        } else if matches!(
+            opcode,
+            Opcode::SwitchOff | Opcode::Quickstop | Opcode::Homing | Opcode::HomeHere | Opcode::AutoSetup
+        ) {
+            // These end the travel command: a later halt has nothing to act on.
+            self.travel = None;
+        }
+        self.pending = Some(Pending {
+            tag,
+            kind: Kind::Command(action),
+            goal: goal_of(opcode),
+            sent_at: now,
+            acked_at: None,
+            baseline_toggle: status.is_set(StatusBit::ToggleCmd),
+            baseline_halt: status.is_set(StatusBit::QsHaltBit),
+            goal_seen_clear: false,
+            goal_set_since: None,
+            enabled_seen: false,
+            resent: false,
+        });
+        self.last_sent = Some(image);
+        Ok(image)
+    }
+
+    /// Set the halt bit on the travel command: the drive brakes to speed 0 and stays
+    /// energised (spec 2.2.14).
+    pub fn halt(&mut self, tag: u64, now: Instant) -> Result<RxImage, Error> {
+        let status = self.last_tx.ok_or(Error::NoStatusYet)?.status;
+        let travel = self.travel.ok_or(Error::NoTravel)?;
+        let toggle = self
+            .last_sent
+            .is_some_and(|last| last.cmd & Command::TOGGLE_BIT != 0);
+        let image = RxImage::new(
+            travel.action.set_values(),
+            Command {
+                opcode: travel.action.opcode(),
+                halt: true,
+                toggle,
+            },
+        );
+        self.supersede();
+        self.travel = Some(Travel {
+            halted: true,
+            ..travel
+        });
+        self.pending = Some(Pending {
+            tag,
+            kind: Kind::Halt,
+            goal: Waiting::Stopped,
+            sent_at: now,
+            acked_at: None,
+            baseline_toggle: status.is_set(StatusBit::ToggleCmd),
+            baseline_halt: status.is_set(StatusBit::QsHaltBit),
+            goal_seen_clear: false,
+            goal_set_since: None,
+            enabled_seen: false,
+            resent: false,
+        });
+        self.last_sent = Some(image);
+        Ok(image)
+    }
+
+    /// Reset the halt bit: the drive continues to the old target with the old set values
+    /// (spec 2.2.14). To take new values instead, `start` a new travel command; the master
+    /// then resets halt and flips ToggleCmd together.
+    pub fn resume(&mut self, tag: u64, now: Instant) -> Result<RxImage, Error> {
+        let status = self.last_tx.ok_or(Error::NoStatusYet)?.status;
+        let travel = self.travel.ok_or(Error::NoTravel)?;
+        if !travel.halted {
+            return Err(Error::NotHalted);
+        }
+        let toggle = self
+            .last_sent
+            .is_some_and(|last| last.cmd & Command::TOGGLE_BIT != 0);
+        let image = RxImage::new(
+            travel.action.set_values(),
+            Command {
+                opcode: travel.action.opcode(),
+                halt: false,
+                toggle,
+            },
+        );
+        self.supersede();
+        self.travel = Some(Travel {
+            halted: false,
+            ..travel
+        });
+        self.pending = Some(Pending {
+            tag,
+            kind: Kind::Resume,
+            goal: goal_of(travel.action.opcode()),
+            sent_at: now,
+            acked_at: None,
+            baseline_toggle: status.is_set(StatusBit::ToggleCmd),
+            baseline_halt: status.is_set(StatusBit::QsHaltBit),
+            goal_seen_clear: false,
+            goal_set_since: None,
+            enabled_seen: false,
+            resent: false,
+        });
+        self.last_sent = Some(image);
+        Ok(image)
+    }
+
+    /// Forget the command in flight without a verdict (the link was lost).
+    pub fn abandon(&mut self) -> Option<u64> {
+        self.pending.take().map(|p| p.tag)
+    }
+
+    /// Judge one TX image from the drive.
+    pub fn on_tx(&mut self, tx: TxImage, now: Instant) {
+        self.last_tx = Some(tx);
+        let Some(mut p) = self.pending else {
+            return;
+        };
+        let status = tx.status;
+        if p.acked_at.is_none() {
+            let toggled = status.is_set(StatusBit::ToggleCmd) != p.baseline_toggle;
+            let halt_edge = match p.kind {
+                Kind::Halt => !p.baseline_halt && status.is_set(StatusBit::QsHaltBit),
+                Kind::Resume => p.baseline_halt && !status.is_set(StatusBit::QsHaltBit),
+                Kind::Command(_) => false,
+            };
+            if !toggled && !halt_edge {
+                return;
+            }
+            if toggled && status.is_set(StatusBit::Error) {
+                self.finish(Progress::Failed {
+                    tag: p.tag,
+                    failure: Failure::Refused {
+                        code: tx.return_value as u32,
+                    },
+                });
+                return;
+            }
+            p.acked_at = Some(now);
+            self.device_cmd_known = true;
+            self.progress.push(Progress::Accepted { tag: p.tag });
+        }
+        self.pending = Some(p);
+        self.judge_done(tx, now);
+    }
+
+    /// Check the clocks: acknowledgement and completion timeouts.
+    pub fn poll(&mut self, now: Instant) {
+        let Some(mut p) = self.pending else {
+            return;
+        };
+        match p.acked_at {
+            None => {
+                let waited = now.saturating_duration_since(p.sent_at);
+                if !self.device_cmd_known && !p.resent && waited >= self.timing.ack_timeout / 2 {
+                    // The drive may hold our exact byte from before we connected: flip
+                    // ToggleCmd once so it sees a new command.
+                    if let Some(last) = self.last_sent.as_mut() {
+                        last.cmd ^= Command::TOGGLE_BIT;
+                    }
+                    p.resent = true;
+                    self.pending = Some(p);
+                    self.progress.push(Progress::Resent { tag: p.tag });
+                } else if waited >= self.timing.ack_timeout {
+                    self.finish(Progress::TimedOut {
+                        tag: p.tag,
+                        waiting_for: Waiting::Acknowledgement,
+                        after: waited,
+                    });
+                }
+            }
+            Some(acked_at) => {
+                let waited = now.saturating_duration_since(acked_at);
+                let limit = match p.goal {
+                    Waiting::Bit(_) | Waiting::Stopped => self.timing.done_timeout,
+                    _ => Some(self.timing.ack_timeout.max(self.timing.settle)),
+                };
+                if limit.is_some_and(|limit| waited >= limit) {
+                    let last = self.last_tx.unwrap_or_default();
+                    let verdict = if p.goal == Waiting::FaultCleared {
+                        Progress::Failed {
+                            tag: p.tag,
+                            failure: Failure::FaultPersists {
+                                error_code: last.error_code,
+                            },
+                        }
+                    } else {
+                        Progress::TimedOut {
+                            tag: p.tag,
+                            waiting_for: p.goal,
+                            after: waited,
+                        }
+                    };
+                    self.finish(verdict);
+                }
+            }
+        }
+    }
+
+    fn judge_done(&mut self, tx: TxImage, now: Instant) {
+        let Some(mut p) = self.pending else {
+            return;
+        };
+        let status = tx.status;
+        let Some(acked_at) = p.acked_at else {
+            return;
+        };
+        let done = |p: &Pending| Progress::Done {
+            tag: p.tag,
+            return_value: tx.return_value,
+        };
+        let verdict = match p.goal {
+            Waiting::Acknowledgement => Some(done(&p)),
+            Waiting::PowerOff => (!status.is_set(StatusBit::OperationEnabled)).then(|| done(&p)),
+            Waiting::QuickStop => (!status.is_set(StatusBit::OperationEnabled)
+                || status.is_set(StatusBit::QsHaltBit))
+            .then(|| done(&p)),
+            Waiting::FaultCleared => {
+                if !status.is_set(StatusBit::Fault) {
+                    Some(done(&p))
+                } else if now.saturating_duration_since(acked_at) >= self.timing.settle {
+                    Some(Progress::Failed {
+                        tag: p.tag,
+                        failure: Failure::FaultPersists {
+                            error_code: tx.error_code,
+                        },
+                    })
+                } else {
+                    None
+                }
+            }
+            Waiting::Bit(_) | Waiting::Stopped => {
+                let reached = match p.goal {
+                    Waiting::Bit(bit) => status.is_set(bit),
+                    _ => {
+                        status.is_set(StatusBit::QsHaltBit)
+                            && status.is_set(StatusBit::TargetReached)
+                    }
+                };
+                let travel_like = matches!(p.kind, Kind::Resume)
+                    || matches!(p.kind, Kind::Command(a) if a.opcode().energises());
+                if status.is_set(StatusBit::Fault) && p.goal != Waiting::Stopped {
+                    Some(Progress::Failed {
+                        tag: p.tag,
+                        failure: Failure::DriveFault {
+                            error_code: tx.error_code,
+                        },
+                    })
+                } else if travel_like
+                    && p.enabled_seen
+                    && !status.is_set(StatusBit::OperationEnabled)
+                {
+                    Some(Progress::Failed {
+                        tag: p.tag,
+                        failure: Failure::PowerLost,
+                    })
+                } else {
+                    if status.is_set(StatusBit::OperationEnabled) {
+                        p.enabled_seen = true;
+                    }
+                    if !reached {
+                        p.goal_seen_clear = true;
+                        p.goal_set_since = None;
+                        None
+                    } else {
+                        let since = *p.goal_set_since.get_or_insert(now);
+                        (p.goal_seen_clear
+                            || now.saturating_duration_since(since) >= self.timing.settle)
+                            .then(|| done(&p))
+                    }
+                }
+            }
+        };
+        match verdict {
+            Some(v) => self.finish(v),
+            None => self.pending = Some(p),
+        }
+    }
+
+    fn finish(&mut self, verdict: Progress) {
+        self.pending = None;
+        self.progress.push(verdict);
+    }
+
+    fn supersede(&mut self) {
+        if let Some(p) = self.pending.take() {
+            self.progress.push(Progress::Superseded {
+                tag: p.tag,
+                acknowledged: p.acked_at.is_some(),
+            });
+        }
+    }
+
+    /// The set values a travel command would be resumed with (for display).
+    pub fn travel_values(&self) -> Option<SetValues> {
+        self.travel.map(|t| t.action.set_values())
+    }
+}
+
+fn goal_of(opcode: Opcode) -> Waiting {
+    match opcode {
+        Opcode::Nop | Opcode::OdRead | Opcode::OdWrite => Waiting::Acknowledgement,
+        Opcode::SwitchOff => Waiting::PowerOff,
+        Opcode::Quickstop => Waiting::QuickStop,
+        Opcode::ClearError => Waiting::FaultCleared,
+        Opcode::AutoSetup => Waiting::Bit(StatusBit::AutosetupDone),
+        Opcode::HomeHere | Opcode::Homing => Waiting::Bit(StatusBit::HomingDone),
+        Opcode::MoveAbsolute | Opcode::MoveRelative | Opcode::Velocity | Opcode::Torque => {
+            Waiting::Bit(StatusBit::TargetReached)
+        }
+    }
+}

@@ -1,0 +1,25 @@
+//! The Plug & Drive interface (PDI), sans-IO: commands, status bits, set values, the
+//! 8-byte process images and the master state machine. Depends on nothing but std (and the
+//! shared CiA vocabulary in `cia`).
+//!
+//! Spec: `../shared/spec/plug-and-drive-interface.txt`, sections 2.1 to 3.
+
+mod action;
+mod command;
+mod error;
+mod image;
+mod master;
+mod status;
+
+#[cfg(test)]
+mod spec_examples;
+
+pub use action::{
+    Action, Field, FieldSpec, Radix, SetValues, index_to_set_value2, parse_number,
+    set_value2_to_index, set_value3_to_subindex, subindex_to_set_value3,
+};
+pub use command::{Command, Opcode};
+pub use error::Error;
+pub use image::{RxImage, TxImage};
+pub use master::{Failure, PdiMaster, Progress, Timing, Travel, Waiting};
+pub use status::{Status, StatusBit};
