@@ -1,8 +1,11 @@
 //! drivedeck: a commissioning tool for Nanotec motor controllers.
 //!
-//! Layers, lowest first (see `../shared/DESIGN.md`): `cia` and `pdi` (sans-IO, std only),
-//! `od` (object dictionary types and catalog), `link` (the buses), `sim` (the simulated
-//! drive), `worker` (the thread that owns the link), `telemetry`, `ui` and `cli`.
+//! Layers, lowest first (see `../shared/DESIGN.md`): `number`, `cia` and `pdi` (sans-IO,
+//! std only), `od` (object dictionary types and catalog), `link` (the buses), `sim` (the
+//! simulated drive), `worker` (the thread that owns the link), `telemetry`, `ui` and `cli`.
 
 pub mod cia;
+pub mod number;
+pub mod od;
 pub mod pdi;
+pub mod sim;

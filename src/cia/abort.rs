@@ -82,14 +82,20 @@ const TABLE: &[(u32, &str)] = &[
     (0x0601_0000, "Unsupported access to an object"),
     (0x0601_0001, "Attempt to read a write-only object"),
     (0x0601_0002, "Attempt to write a read-only object"),
-    (0x0602_0000, "Object does not exist in the object dictionary"),
+    (
+        0x0602_0000,
+        "Object does not exist in the object dictionary",
+    ),
     (0x0604_0041, "Object cannot be mapped to the PDO"),
     (
         0x0604_0042,
         "Number and length of mapped objects would exceed PDO length",
     ),
     (0x0604_0043, "General parameter incompatibility"),
-    (0x0604_0047, "General internal incompatibility in the device"),
+    (
+        0x0604_0047,
+        "General internal incompatibility in the device",
+    ),
     (0x0606_0000, "Access failed due to a hardware error"),
     (
         0x0607_0010,
@@ -170,7 +176,10 @@ mod tests {
     #[test]
     fn negative_return_value_is_the_same_code() {
         // 0x8000_0000 and above arrive as negative SIGNED32 in PDI-ReturnValue.
-        assert_eq!(AbortCode::from_return_value(0x0602_0000), AbortCode::NO_OBJECT);
+        assert_eq!(
+            AbortCode::from_return_value(0x0602_0000),
+            AbortCode::NO_OBJECT
+        );
         assert_eq!(AbortCode::from_return_value(-1), AbortCode(0xFFFF_FFFF));
     }
 

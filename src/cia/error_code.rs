@@ -207,7 +207,10 @@ mod tests {
         assert_eq!(entry.class, 0x20);
         assert_eq!(entry.code, ErrorCode::FOLLOWING_ERROR);
         assert_eq!(entry.to_raw(), 0x0D20_8611);
-        assert_eq!(entry.number_text(), "following error (6065h/6066h exceeded)");
+        assert_eq!(
+            entry.number_text(),
+            "following error (6065h/6066h exceeded)"
+        );
         assert_eq!(
             HistoryEntry::from_raw(0xFF00_0000).number_text(),
             "unknown error number"

@@ -84,7 +84,9 @@ impl PowerState {
     /// What the state means for a technician beside the machine.
     pub fn meaning(self) -> &'static str {
         match self {
-            PowerState::NotReadyToSwitchOn => "the drive is initialising; the motor is not energised",
+            PowerState::NotReadyToSwitchOn => {
+                "the drive is initialising; the motor is not energised"
+            }
             PowerState::SwitchOnDisabled => {
                 "power stage off, motor de-energised; any travel command switches it on"
             }

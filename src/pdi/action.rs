@@ -137,31 +137,10 @@ impl FieldSpec {
     }
 }
 
-/// Parse a number typed by a person. Hex fields accept `2000`, `2000h`, `0x2000`; decimal
-/// fields accept `-123`, and hex with `0x` or an `h` suffix.
+/// Parse a number typed by a person (see [`crate::number::parse_integer`]); hex fields
+/// take plain hex digits.
 pub fn parse_number(text: &str, radix: Radix) -> Option<i64> {
-    let t = text.trim().replace('_', "");
-    let (negative, body) = match t.strip_prefix('-') {
-        Some(rest) => (true, rest.to_owned()),
-        None => (false, t.clone()),
-    };
-    let magnitude = if let Some(hex) = body
-        .strip_prefix("0x")
-        .or_else(|| body.strip_prefix("0X"))
-    {
-        i64::from_str_radix(hex, 16).ok()?
-    } else if let Some(hex) = body.strip_suffix('h').or_else(|| body.strip_suffix('H')) {
-        i64::from_str_radix(hex, 16).ok()?
-    } else {
-        match radix {
-            Radix::Decimal => body.parse::<i64>().ok()?,
-            Radix::Hex => i64::from_str_radix(&body, 16).ok()?,
-        }
-    };
-    if body.is_empty() {
-        return None;
-    }
-    Some(if negative { -magnitude } else { magnitude })
+    crate::number::parse_integer(text, radix == Radix::Hex).and_then(|v| i64::try_from(v).ok())
 }
 
 const POSITION: FieldSpec = FieldSpec::new(Field::SetValue1, "Target position", "0.1°");
@@ -237,16 +216,38 @@ pub enum Action {
     SwitchOff,
     ClearError,
     Quickstop,
-    OdRead { index: u16, sub: u8 },
+    OdRead {
+        index: u16,
+        sub: u8,
+    },
     /// `value` is the raw SIGNED32 of PDI-SetValue1 (unsigned objects as two's complement).
-    OdWrite { index: u16, sub: u8, value: i32 },
+    OdWrite {
+        index: u16,
+        sub: u8,
+        value: i32,
+    },
     AutoSetup,
-    HomeHere { position: i32 },
-    Homing { method: i8 },
-    MoveAbsolute { target: i32, speed: i16 },
-    MoveRelative { distance: i32, speed: i16 },
-    Velocity { speed: i32 },
-    Torque { torque: i32, max_speed: i16 },
+    HomeHere {
+        position: i32,
+    },
+    Homing {
+        method: i8,
+    },
+    MoveAbsolute {
+        target: i32,
+        speed: i16,
+    },
+    MoveRelative {
+        distance: i32,
+        speed: i16,
+    },
+    Velocity {
+        speed: i32,
+    },
+    Torque {
+        torque: i32,
+        max_speed: i16,
+    },
 }
 
 impl Action {
@@ -502,7 +503,13 @@ mod tests {
                 .inputs()
                 .into_iter()
                 .zip(op.fields())
-                .map(|(v, s)| if s.max == i64::from(u32::MAX) { i64::from(v as u32) } else { v })
+                .map(|(v, s)| {
+                    if s.max == i64::from(u32::MAX) {
+                        i64::from(v as u32)
+                    } else {
+                        v
+                    }
+                })
                 .collect();
             assert_eq!(back, inputs, "{op:?}");
         }

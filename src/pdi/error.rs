@@ -8,7 +8,10 @@ pub enum Error {
     )]
     UnknownOpcode(u8),
 
-    #[error("{label} = {value} does not fit {field}: allowed {min}..={max}{}", hint_suffix(hint))]
+    #[error(
+        "{label} = {value} does not fit {field}: allowed {min}..={max}{}",
+        hint_suffix(hint)
+    )]
     OutOfRange {
         field: Field,
         label: &'static str,
@@ -41,7 +44,9 @@ pub enum Error {
     #[error("the drive is not halted, so there is nothing to resume")]
     NotHalted,
 
-    #[error("no PDI-Status has been read from the drive yet, so an acknowledgement could not be recognised")]
+    #[error(
+        "no PDI-Status has been read from the drive yet, so an acknowledgement could not be recognised"
+    )]
     NoStatusYet,
 }
 

@@ -142,11 +142,17 @@ mod tests {
     fn wrong_lengths_are_errors() {
         assert_eq!(
             RxImage::from_bytes(&[0; 7]),
-            Err(Error::ImageLength { image: "RX", got: 7 })
+            Err(Error::ImageLength {
+                image: "RX",
+                got: 7
+            })
         );
         assert_eq!(
             TxImage::from_bytes(&[0; 9]),
-            Err(Error::ImageLength { image: "TX", got: 9 })
+            Err(Error::ImageLength {
+                image: "TX",
+                got: 9
+            })
         );
     }
 

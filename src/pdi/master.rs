@@ -99,17 +99,34 @@ impl fmt::Display for Failure {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Progress {
     /// The drive detected the command (PdiStatusToggleCmd flipped, no PdiStatusError).
-    Accepted { tag: u64 },
+    Accepted {
+        tag: u64,
+    },
     /// The command finished; `return_value` is PDI-ReturnValue of that image (the value read
     /// for OD-Read, the actual value of the mode otherwise).
-    Done { tag: u64, return_value: i32 },
-    Failed { tag: u64, failure: Failure },
-    TimedOut { tag: u64, waiting_for: Waiting, after: Duration },
+    Done {
+        tag: u64,
+        return_value: i32,
+    },
+    Failed {
+        tag: u64,
+        failure: Failure,
+    },
+    TimedOut {
+        tag: u64,
+        waiting_for: Waiting,
+        after: Duration,
+    },
     /// A newer command replaced this one before it finished.
-    Superseded { tag: u64, acknowledged: bool },
+    Superseded {
+        tag: u64,
+        acknowledged: bool,
+    },
     /// The drive's last command byte was unknown and equal to ours, so the master flipped
     /// ToggleCmd and sent the command again.
-    Resent { tag: u64 },
+    Resent {
+        tag: u64,
+    },
 }
 
 impl Progress {
@@ -150,7 +167,9 @@ impl fmt::Display for Waiting {
         match self {
             Waiting::Acknowledgement => f.write_str("the acknowledgement (PdiStatusToggleCmd)"),
             Waiting::Bit(bit) => write!(f, "{}", bit.name()),
-            Waiting::Stopped => f.write_str("standstill (PdiStatusQsHaltBit and PdiStatusTargetReached)"),
+            Waiting::Stopped => {
+                f.write_str("standstill (PdiStatusQsHaltBit and PdiStatusTargetReached)")
+            }
             Waiting::PowerOff => f.write_str("the power stage to switch off"),
             Waiting::QuickStop => f.write_str("the quick stop"),
             Waiting::FaultCleared => f.write_str("PdiStatusFault to clear"),
@@ -294,7 +313,11 @@ impl PdiMaster {
             });
         } else if matches!(
             opcode,
-            Opcode::SwitchOff | Opcode::Quickstop | Opcode::Homing | Opcode::HomeHere | Opcode::AutoSetup
+            Opcode::SwitchOff
+                | Opcode::Quickstop
+                | Opcode::Homing
+                | Opcode::HomeHere
+                | Opcode::AutoSetup
         ) {
             // These end the travel command: a later halt has nothing to act on.
             self.travel = None;
@@ -530,7 +553,16 @@ impl PdiMaster {
                 };
                 let travel_like = matches!(p.kind, Kind::Resume)
                     || matches!(p.kind, Kind::Command(a) if a.opcode().energises());
-                if status.is_set(StatusBit::Fault) && p.goal != Waiting::Stopped {
+                if status.is_set(StatusBit::Error) {
+                    // The drive gave up on the command after accepting it (e.g. a homing
+                    // run that found no switch).
+                    Some(Progress::Failed {
+                        tag: p.tag,
+                        failure: Failure::Refused {
+                            code: tx.return_value as u32,
+                        },
+                    })
+                } else if status.is_set(StatusBit::Fault) && p.goal != Waiting::Stopped {
                     Some(Progress::Failed {
                         tag: p.tag,
                         failure: Failure::DriveFault {

@@ -116,7 +116,13 @@ fn od_write_of_1000_to_203bh_01h() {
     assert_eq!(image.cmd, 15);
     assert_eq!(bytes(image), [0xE8, 0x03, 0, 0, 0x3B, 0x20, 1, 15]);
     let progress = b.detect(&[], 1000);
-    assert_eq!(progress.last(), Some(&Progress::Done { tag: 7, return_value: 1000 }));
+    assert_eq!(
+        progress.last(),
+        Some(&Progress::Done {
+            tag: 7,
+            return_value: 1000
+        })
+    );
     // "To write a second value, you must toggle the ToggleCmd bit."
     let second = b.master.start(8, action, b.now).unwrap();
     assert_eq!(second.cmd, 15 | 0x80);
@@ -148,7 +154,10 @@ fn absolute_move_to_2000_at_200_waits_for_target_reached() {
     b.tick(10);
     assert_eq!(b.answer(&[StatusBit::OperationEnabled], 1500), vec![]);
     b.tick(10);
-    let progress = b.answer(&[StatusBit::OperationEnabled, StatusBit::TargetReached], 2000);
+    let progress = b.answer(
+        &[StatusBit::OperationEnabled, StatusBit::TargetReached],
+        2000,
+    );
     assert_eq!(
         progress,
         vec![Progress::Done {
@@ -162,7 +171,14 @@ fn absolute_move_to_2000_at_200_waits_for_target_reached() {
 fn a_move_to_where_the_motor_already_is_finishes_after_the_settle_time() {
     let mut b = Bench::new();
     b.master
-        .start(1, Action::MoveAbsolute { target: 0, speed: 100 }, b.now)
+        .start(
+            1,
+            Action::MoveAbsolute {
+                target: 0,
+                speed: 100,
+            },
+            b.now,
+        )
         .unwrap();
     let on = [StatusBit::OperationEnabled, StatusBit::TargetReached];
     assert_eq!(b.detect(&on, 0), vec![Progress::Accepted { tag: 1 }]);
@@ -182,7 +198,10 @@ fn a_move_to_where_the_motor_already_is_finishes_after_the_settle_time() {
 fn velocity_300() {
     // Spec 2.2.12: SetValue1 = 300, Cmd = 23.
     let mut b = Bench::new();
-    let image = b.master.start(1, Action::Velocity { speed: 300 }, b.now).unwrap();
+    let image = b
+        .master
+        .start(1, Action::Velocity { speed: 300 }, b.now)
+        .unwrap();
     assert_eq!(bytes(image), [0x2C, 0x01, 0, 0, 0, 0, 0, 23]);
 }
 
@@ -255,7 +274,10 @@ fn halt_84_then_20_resumes_the_old_target() {
     assert_eq!(resume.values, first.values);
     let progress = b.answer(&[StatusBit::OperationEnabled], 950);
     assert_eq!(progress, vec![Progress::Accepted { tag: 3 }]);
-    let progress = b.answer(&[StatusBit::OperationEnabled, StatusBit::TargetReached], 2000);
+    let progress = b.answer(
+        &[StatusBit::OperationEnabled, StatusBit::TargetReached],
+        2000,
+    );
     assert_eq!(
         progress,
         vec![Progress::Done {
@@ -374,7 +396,10 @@ fn unknown_device_byte_is_resent_with_the_toggle_flipped() {
     // Without adopting the drive's image the master cannot know whether the drive already
     // holds our byte; it flips ToggleCmd once if no acknowledgement comes.
     let mut b = Bench::new();
-    let image = b.master.start(1, Action::Velocity { speed: 10 }, b.now).unwrap();
+    let image = b
+        .master
+        .start(1, Action::Velocity { speed: 10 }, b.now)
+        .unwrap();
     assert_eq!(image.cmd, 23);
     b.tick(500);
     b.master.poll(b.now);
@@ -406,7 +431,14 @@ fn clear_error_with_the_cause_still_present_fails() {
 fn a_fault_during_a_move_fails_it() {
     let mut b = Bench::new();
     b.master
-        .start(1, Action::MoveRelative { distance: 100, speed: 10 }, b.now)
+        .start(
+            1,
+            Action::MoveRelative {
+                distance: 100,
+                speed: 10,
+            },
+            b.now,
+        )
         .unwrap();
     b.detect(&[StatusBit::OperationEnabled], 0);
     let mut status = Status(0)
@@ -434,7 +466,9 @@ fn a_fault_during_a_move_fails_it() {
 fn halt_without_a_travel_command_is_an_error() {
     let mut b = Bench::new();
     assert_eq!(b.master.halt(1, b.now), Err(Error::NoTravel));
-    b.master.start(1, Action::Velocity { speed: 5 }, b.now).unwrap();
+    b.master
+        .start(1, Action::Velocity { speed: 5 }, b.now)
+        .unwrap();
     assert_eq!(b.master.resume(2, b.now), Err(Error::NotHalted));
 }
 

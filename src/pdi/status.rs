@@ -92,7 +92,9 @@ impl StatusBit {
             StatusBit::FollowingError => {
                 "Following error (6065h/6066h) in position mode or slippage error in velocity mode."
             }
-            StatusBit::LimitReached => "A position or speed limit is exceeded (e.g. a limit switch).",
+            StatusBit::LimitReached => {
+                "A position or speed limit is exceeded (e.g. a limit switch)."
+            }
             StatusBit::QsHaltBit => "The drive is in Quick stop active or the halt bit is set.",
             StatusBit::HomingDone => {
                 "A homing operation was performed successfully (stays set until power-off)."
@@ -101,9 +103,7 @@ impl StatusBit {
                 "An auto setup was performed successfully (stays set until power-off). Restart the device before moving."
             }
             StatusBit::ToggleCmd => "Toggles whenever the drive detects a new command.",
-            StatusBit::Error => {
-                "The last command failed; its error code is in PDI-ReturnValue."
-            }
+            StatusBit::Error => "The last command failed; its error code is in PDI-ReturnValue.",
         }
     }
 }
@@ -149,7 +149,9 @@ impl Status {
 
     /// The named bits currently set.
     pub fn set_bits(self) -> impl Iterator<Item = StatusBit> {
-        StatusBit::ALL.into_iter().filter(move |bit| self.is_set(*bit))
+        StatusBit::ALL
+            .into_iter()
+            .filter(move |bit| self.is_set(*bit))
     }
 }
 

@@ -1,0 +1,12 @@
+//! The object dictionary: addresses, CANopen data types, typed values and the catalog of
+//! known objects (built in from `assets/od/`, later also from EDS files).
+
+mod catalog;
+mod error;
+mod types;
+mod value;
+
+pub use catalog::{BUILTIN_JSON, Catalog, Entry, Group};
+pub use error::Error;
+pub use types::{Access, Address, DataType};
+pub use value::Value;

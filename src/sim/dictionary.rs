@@ -1,0 +1,146 @@
+//! The simulated drive's object storage: every catalog entry with a live value, and the
+//! access rules a real drive enforces, answered with CiA 301 abort codes.
+
+use std::collections::BTreeMap;
+
+use crate::cia::AbortCode;
+use crate::od::{Address, Catalog, DataType, Entry, Value};
+
+/// One stored object.
+#[derive(Clone, Debug)]
+struct Slot {
+    entry: Entry,
+    value: Value,
+}
+
+/// Object storage. `read`/`write` are the outside world's view (access rights, types and
+/// limits checked); `get`/`set` are the drive's own.
+#[derive(Clone, Debug, Default)]
+pub struct Dictionary {
+    slots: BTreeMap<Address, Slot>,
+}
+
+impl Dictionary {
+    /// Every catalog entry, holding its default (or zero).
+    pub fn from_catalog(catalog: &Catalog) -> Self {
+        let slots = catalog
+            .entries()
+            .map(|entry| {
+                let value = entry
+                    .default
+                    .clone()
+                    .unwrap_or_else(|| Value::zero(entry.dtype));
+                (
+                    entry.address,
+                    Slot {
+                        entry: entry.clone(),
+                        value,
+                    },
+                )
+            })
+            .collect();
+        Self { slots }
+    }
+
+    pub fn entry(&self, address: Address) -> Option<&Entry> {
+        self.slots.get(&address).map(|s| &s.entry)
+    }
+
+    pub fn addresses(&self) -> impl Iterator<Item = Address> + '_ {
+        self.slots.keys().copied()
+    }
+
+    fn has_index(&self, index: u16) -> bool {
+        self.slots
+            .range(Address::new(index, 0)..=Address::new(index, 0xFF))
+            .next()
+            .is_some()
+    }
+
+    fn locate(&self, address: Address) -> Result<&Slot, AbortCode> {
+        self.slots
+            .get(&address)
+            .ok_or(if self.has_index(address.index) {
+                AbortCode::NO_SUBINDEX
+            } else {
+                AbortCode::NO_OBJECT
+            })
+    }
+
+    /// Read as a master would: write-only objects refuse.
+    pub fn read(&self, address: Address) -> Result<Value, AbortCode> {
+        let slot = self.locate(address)?;
+        if !slot.entry.access.readable() {
+            return Err(AbortCode::WRITE_ONLY);
+        }
+        Ok(slot.value.clone())
+    }
+
+    /// Write as a master would: read-only objects, wrong types and values outside the
+    /// type or the entry's limits refuse. Does not run side effects; the drive does.
+    pub fn check_write(&self, address: Address, value: &Value) -> Result<(), AbortCode> {
+        let slot = self.locate(address)?;
+        if !slot.entry.access.writable() {
+            return Err(AbortCode::READ_ONLY);
+        }
+        slot.entry.check(value).map_err(|e| match e {
+            crate::od::Error::TooHigh { .. } => AbortCode::VALUE_TOO_HIGH,
+            crate::od::Error::TooLow { .. } => AbortCode::VALUE_TOO_LOW,
+            crate::od::Error::TypeMismatch { .. } => AbortCode::TYPE_LENGTH_MISMATCH,
+            _ => AbortCode::VALUE_RANGE,
+        })
+    }
+
+    /// Write as a master would, after `check_write`.
+    pub fn write(&mut self, address: Address, value: Value) -> Result<(), AbortCode> {
+        self.check_write(address, &value)?;
+        self.set(address, value);
+        Ok(())
+    }
+
+    /// The drive's own read; `None` for an address the dictionary lacks.
+    pub fn get(&self, address: Address) -> Option<&Value> {
+        self.slots.get(&address).map(|s| &s.value)
+    }
+
+    /// An integer object as i64 (0 when absent or not an integer).
+    pub fn int(&self, index: u16, sub: u8) -> i64 {
+        self.get(Address::new(index, sub))
+            .and_then(Value::as_i128)
+            .and_then(|v| i64::try_from(v).ok())
+            .unwrap_or(0)
+    }
+
+    /// The drive's own write: no access check. Integers are wrapped into the entry's type;
+    /// an address the dictionary lacks is ignored (the catalog decides what exists).
+    pub fn set(&mut self, address: Address, value: Value) {
+        if let Some(slot) = self.slots.get_mut(&address) {
+            slot.value = value;
+        }
+    }
+
+    /// Set an integer object from an i64, wrapped to the entry's width and signedness.
+    pub fn set_int(&mut self, index: u16, sub: u8, value: i64) {
+        let address = Address::new(index, sub);
+        if let Some(slot) = self.slots.get_mut(&address) {
+            slot.value = wrap_integer(slot.entry.dtype, value);
+        }
+    }
+}
+
+/// An integer wrapped into a type the way a device register would hold it.
+pub fn wrap_integer(dtype: DataType, value: i64) -> Value {
+    match dtype {
+        DataType::Boolean => Value::Bool(value != 0),
+        DataType::Integer8 => Value::Int(i64::from(value as i8)),
+        DataType::Integer16 => Value::Int(i64::from(value as i16)),
+        DataType::Integer32 => Value::Int(i64::from(value as i32)),
+        DataType::Integer64 => Value::Int(value),
+        DataType::Unsigned8 => Value::Uint(u64::from(value as u8)),
+        DataType::Unsigned16 => Value::Uint(u64::from(value as u16)),
+        DataType::Unsigned32 => Value::Uint(u64::from(value as u32)),
+        DataType::Unsigned64 => Value::Uint(value as u64),
+        DataType::Real32 | DataType::Real64 => Value::Real(value as f64),
+        _ => Value::zero(dtype),
+    }
+}

@@ -1,0 +1,104 @@
+//! Faults and warnings that can be injected into the simulated drive for demos and tests.
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+use crate::cia::ErrorCode;
+
+/// An injectable condition. A fault stops the drive and stays until Clear Error is sent
+/// *after* the condition is withdrawn; a warning only lights PdiStatusWarning.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Injection {
+    /// The load is blocked: the motor cannot follow its demand (fault 8611h).
+    FollowingError,
+    /// The output current exceeded its limit (fault 2300h).
+    OverCurrent,
+    /// The supply voltage dropped to 9 V (fault 3100h).
+    UnderVoltage,
+    /// The controller is hot: 85 °C (warning 4200h, no fault).
+    OverTemperature,
+}
+
+impl Injection {
+    pub const ALL: [Injection; 4] = [
+        Injection::FollowingError,
+        Injection::OverCurrent,
+        Injection::UnderVoltage,
+        Injection::OverTemperature,
+    ];
+
+    /// The code the drive reports in 603Fh, 1003h and EMCY.
+    pub fn error_code(self) -> ErrorCode {
+        match self {
+            Injection::FollowingError => ErrorCode::FOLLOWING_ERROR,
+            Injection::OverCurrent => ErrorCode::OUTPUT_CURRENT,
+            Injection::UnderVoltage => ErrorCode::VOLTAGE,
+            Injection::OverTemperature => ErrorCode::TEMPERATURE,
+        }
+    }
+
+    /// Nanotec error number (1003h bits 31-24).
+    pub fn error_number(self) -> u8 {
+        match self {
+            Injection::FollowingError => 13,
+            Injection::OverCurrent => 2,
+            Injection::UnderVoltage => 3,
+            Injection::OverTemperature => 12,
+        }
+    }
+
+    /// The 1001h error register bits this condition sets.
+    pub fn error_register(self) -> u8 {
+        match self {
+            Injection::FollowingError => 0x20 | 0x01,
+            Injection::OverCurrent => 0x02 | 0x01,
+            Injection::UnderVoltage => 0x04 | 0x01,
+            Injection::OverTemperature => 0x08 | 0x01,
+        }
+    }
+
+    pub fn is_fault(self) -> bool {
+        !matches!(self, Injection::OverTemperature)
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Injection::FollowingError => "following-error",
+            Injection::OverCurrent => "over-current",
+            Injection::UnderVoltage => "under-voltage",
+            Injection::OverTemperature => "over-temperature",
+        }
+    }
+
+    pub fn describe(self) -> &'static str {
+        match self {
+            Injection::FollowingError => "load blocked: following error fault (8611h)",
+            Injection::OverCurrent => "output current too large: fault (2300h)",
+            Injection::UnderVoltage => "supply voltage at 9 V: fault (3100h)",
+            Injection::OverTemperature => "controller at 85 °C: warning (4200h)",
+        }
+    }
+}
+
+impl fmt::Display for Injection {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Injection {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Injection::ALL
+            .into_iter()
+            .find(|i| i.name() == s.trim())
+            .ok_or_else(|| {
+                let names: Vec<&str> = Injection::ALL.iter().map(|i| i.name()).collect();
+                format!("unknown fault '{s}': use one of {}", names.join(", "))
+            })
+    }
+}

@@ -1,0 +1,20 @@
+//! The simulated Nanotec drive: it behaves like the PDI spec on simulated time, so the
+//! demo and every test work without hardware. Servers that expose it on real sockets
+//! arrive with their buses.
+
+mod dictionary;
+mod drive;
+mod faults;
+mod homing;
+mod motion;
+mod world;
+
+#[cfg(test)]
+mod tests;
+
+pub use dictionary::Dictionary;
+pub use drive::{AUTO_SETUP_TIME, Drive, STEP};
+pub use faults::Injection;
+pub use homing::SUPPORTED_METHODS;
+pub use motion::{rpm_to_units, units_to_rpm};
+pub use world::{Sensors, World};
