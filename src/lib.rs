@@ -5,7 +5,9 @@
 //! simulated drive), `worker` (the thread that owns the link), `telemetry`, `ui` and `cli`.
 
 pub mod cia;
+pub mod link;
 pub mod number;
 pub mod od;
 pub mod pdi;
 pub mod sim;
+pub mod worker;

@@ -215,6 +215,8 @@ pub struct PdiMaster {
     device_cmd_known: bool,
     last_tx: Option<TxImage>,
     pending: Option<Pending>,
+    /// A move still running while a later OD access or NOP is judged.
+    background: Option<Pending>,
     travel: Option<Travel>,
     progress: Vec<Progress>,
 }
@@ -227,6 +229,7 @@ impl PdiMaster {
             device_cmd_known: false,
             last_tx: None,
             pending: None,
+            background: None,
             travel: None,
             progress: Vec::new(),
         }
@@ -277,6 +280,11 @@ impl PdiMaster {
         self.pending.map(|p| p.tag)
     }
 
+    /// The tag of a move still watched under a later OD access, if any.
+    pub fn background_tag(&self) -> Option<u64> {
+        self.background.map(|p| p.tag)
+    }
+
     /// Everything learned since the last call.
     pub fn drain_progress(&mut self) -> Vec<Progress> {
         std::mem::take(&mut self.progress)
@@ -305,7 +313,7 @@ impl PdiMaster {
                 toggle,
             },
         );
-        self.supersede();
+        self.make_way(Some(opcode));
         if opcode.is_travel() {
             self.travel = Some(Travel {
                 action,
@@ -355,7 +363,7 @@ impl PdiMaster {
                 toggle,
             },
         );
-        self.supersede();
+        self.make_way(None);
         self.travel = Some(Travel {
             halted: true,
             ..travel
@@ -397,7 +405,7 @@ impl PdiMaster {
                 toggle,
             },
         );
-        self.supersede();
+        self.make_way(None);
         self.travel = Some(Travel {
             halted: false,
             ..travel
@@ -419,15 +427,28 @@ impl PdiMaster {
         Ok(image)
     }
 
-    /// Forget the command in flight without a verdict (the link was lost).
-    pub fn abandon(&mut self) -> Option<u64> {
-        self.pending.take().map(|p| p.tag)
+    /// Forget the commands in flight without a verdict (the link was lost). Returns their
+    /// tags.
+    pub fn abandon(&mut self) -> Vec<u64> {
+        [self.pending.take(), self.background.take()]
+            .into_iter()
+            .flatten()
+            .map(|p| p.tag)
+            .collect()
     }
 
     /// Judge one TX image from the drive.
     pub fn on_tx(&mut self, tx: TxImage, now: Instant) {
         self.last_tx = Some(tx);
-        let Some(mut p) = self.pending else {
+        if let Some(mut p) = self.background.take() {
+            // A move still running under a later OD access: judge its completion only
+            // (PdiStatusError now belongs to the later command).
+            match self.judge(&mut p, tx, now, false) {
+                Some(verdict) => self.progress.push(verdict),
+                None => self.background = Some(p),
+            }
+        }
+        let Some(mut p) = self.pending.take() else {
             return;
         };
         let status = tx.status;
@@ -439,10 +460,11 @@ impl PdiMaster {
                 Kind::Command(_) => false,
             };
             if !toggled && !halt_edge {
+                self.pending = Some(p);
                 return;
             }
             if toggled && status.is_set(StatusBit::Error) {
-                self.finish(Progress::Failed {
+                self.progress.push(Progress::Failed {
                     tag: p.tag,
                     failure: Failure::Refused {
                         code: tx.return_value as u32,
@@ -454,34 +476,51 @@ impl PdiMaster {
             self.device_cmd_known = true;
             self.progress.push(Progress::Accepted { tag: p.tag });
         }
-        self.pending = Some(p);
-        self.judge_done(tx, now);
+        match self.judge(&mut p, tx, now, true) {
+            Some(verdict) => self.progress.push(verdict),
+            None => self.pending = Some(p),
+        }
     }
 
     /// Check the clocks: acknowledgement and completion timeouts.
     pub fn poll(&mut self, now: Instant) {
-        let Some(mut p) = self.pending else {
+        if let Some(p) = self.background.take() {
+            match self.overdue(&p, now) {
+                Some(verdict) => self.progress.push(verdict),
+                None => self.background = Some(p),
+            }
+        }
+        let Some(mut p) = self.pending.take() else {
             return;
         };
+        if p.acked_at.is_none() {
+            let waited = now.saturating_duration_since(p.sent_at);
+            if !self.device_cmd_known && !p.resent && waited >= self.timing.ack_timeout / 2 {
+                // The drive may hold our exact byte from before we connected: flip
+                // ToggleCmd once so it sees a new command.
+                if let Some(last) = self.last_sent.as_mut() {
+                    last.cmd ^= Command::TOGGLE_BIT;
+                }
+                p.resent = true;
+                self.progress.push(Progress::Resent { tag: p.tag });
+            }
+        }
+        match self.overdue(&p, now) {
+            Some(verdict) => self.progress.push(verdict),
+            None => self.pending = Some(p),
+        }
+    }
+
+    /// The verdict on a command that waited too long, if it did.
+    fn overdue(&self, p: &Pending, now: Instant) -> Option<Progress> {
         match p.acked_at {
             None => {
                 let waited = now.saturating_duration_since(p.sent_at);
-                if !self.device_cmd_known && !p.resent && waited >= self.timing.ack_timeout / 2 {
-                    // The drive may hold our exact byte from before we connected: flip
-                    // ToggleCmd once so it sees a new command.
-                    if let Some(last) = self.last_sent.as_mut() {
-                        last.cmd ^= Command::TOGGLE_BIT;
-                    }
-                    p.resent = true;
-                    self.pending = Some(p);
-                    self.progress.push(Progress::Resent { tag: p.tag });
-                } else if waited >= self.timing.ack_timeout {
-                    self.finish(Progress::TimedOut {
-                        tag: p.tag,
-                        waiting_for: Waiting::Acknowledgement,
-                        after: waited,
-                    });
-                }
+                (waited >= self.timing.ack_timeout).then_some(Progress::TimedOut {
+                    tag: p.tag,
+                    waiting_for: Waiting::Acknowledgement,
+                    after: waited,
+                })
             }
             Some(acked_at) => {
                 let waited = now.saturating_duration_since(acked_at);
@@ -489,49 +528,52 @@ impl PdiMaster {
                     Waiting::Bit(_) | Waiting::Stopped => self.timing.done_timeout,
                     _ => Some(self.timing.ack_timeout.max(self.timing.settle)),
                 };
-                if limit.is_some_and(|limit| waited >= limit) {
-                    let last = self.last_tx.unwrap_or_default();
-                    let verdict = if p.goal == Waiting::FaultCleared {
-                        Progress::Failed {
-                            tag: p.tag,
-                            failure: Failure::FaultPersists {
-                                error_code: last.error_code,
-                            },
-                        }
-                    } else {
-                        Progress::TimedOut {
-                            tag: p.tag,
-                            waiting_for: p.goal,
-                            after: waited,
-                        }
-                    };
-                    self.finish(verdict);
+                if !limit.is_some_and(|limit| waited >= limit) {
+                    return None;
                 }
+                Some(if p.goal == Waiting::FaultCleared {
+                    Progress::Failed {
+                        tag: p.tag,
+                        failure: Failure::FaultPersists {
+                            error_code: self.last_tx.unwrap_or_default().error_code,
+                        },
+                    }
+                } else {
+                    Progress::TimedOut {
+                        tag: p.tag,
+                        waiting_for: p.goal,
+                        after: waited,
+                    }
+                })
             }
         }
     }
 
-    fn judge_done(&mut self, tx: TxImage, now: Instant) {
-        let Some(mut p) = self.pending else {
-            return;
-        };
+    /// Decide whether an acknowledged command is done or failed from one image.
+    /// `foreground` is false for a move watched under a later command: PdiStatusError then
+    /// belongs to that later command.
+    fn judge(
+        &self,
+        p: &mut Pending,
+        tx: TxImage,
+        now: Instant,
+        foreground: bool,
+    ) -> Option<Progress> {
         let status = tx.status;
-        let Some(acked_at) = p.acked_at else {
-            return;
-        };
-        let done = |p: &Pending| Progress::Done {
+        let acked_at = p.acked_at?;
+        let done = Progress::Done {
             tag: p.tag,
             return_value: tx.return_value,
         };
-        let verdict = match p.goal {
-            Waiting::Acknowledgement => Some(done(&p)),
-            Waiting::PowerOff => (!status.is_set(StatusBit::OperationEnabled)).then(|| done(&p)),
+        match p.goal {
+            Waiting::Acknowledgement => Some(done),
+            Waiting::PowerOff => (!status.is_set(StatusBit::OperationEnabled)).then_some(done),
             Waiting::QuickStop => (!status.is_set(StatusBit::OperationEnabled)
                 || status.is_set(StatusBit::QsHaltBit))
-            .then(|| done(&p)),
+            .then_some(done),
             Waiting::FaultCleared => {
                 if !status.is_set(StatusBit::Fault) {
-                    Some(done(&p))
+                    Some(done)
                 } else if now.saturating_duration_since(acked_at) >= self.timing.settle {
                     Some(Progress::Failed {
                         tag: p.tag,
@@ -553,63 +595,75 @@ impl PdiMaster {
                 };
                 let travel_like = matches!(p.kind, Kind::Resume)
                     || matches!(p.kind, Kind::Command(a) if a.opcode().energises());
-                if status.is_set(StatusBit::Error) {
+                if foreground && status.is_set(StatusBit::Error) {
                     // The drive gave up on the command after accepting it (e.g. a homing
                     // run that found no switch).
-                    Some(Progress::Failed {
+                    return Some(Progress::Failed {
                         tag: p.tag,
                         failure: Failure::Refused {
                             code: tx.return_value as u32,
                         },
-                    })
-                } else if status.is_set(StatusBit::Fault) && p.goal != Waiting::Stopped {
-                    Some(Progress::Failed {
+                    });
+                }
+                if status.is_set(StatusBit::Fault) && p.goal != Waiting::Stopped {
+                    return Some(Progress::Failed {
                         tag: p.tag,
                         failure: Failure::DriveFault {
                             error_code: tx.error_code,
                         },
-                    })
-                } else if travel_like
-                    && p.enabled_seen
-                    && !status.is_set(StatusBit::OperationEnabled)
-                {
-                    Some(Progress::Failed {
+                    });
+                }
+                if travel_like && p.enabled_seen && !status.is_set(StatusBit::OperationEnabled) {
+                    return Some(Progress::Failed {
                         tag: p.tag,
                         failure: Failure::PowerLost,
-                    })
-                } else {
-                    if status.is_set(StatusBit::OperationEnabled) {
-                        p.enabled_seen = true;
-                    }
-                    if !reached {
-                        p.goal_seen_clear = true;
-                        p.goal_set_since = None;
-                        None
-                    } else {
-                        let since = *p.goal_set_since.get_or_insert(now);
-                        (p.goal_seen_clear
-                            || now.saturating_duration_since(since) >= self.timing.settle)
-                            .then(|| done(&p))
-                    }
+                    });
                 }
+                if status.is_set(StatusBit::OperationEnabled) {
+                    p.enabled_seen = true;
+                }
+                if !reached {
+                    p.goal_seen_clear = true;
+                    p.goal_set_since = None;
+                    return None;
+                }
+                let since = *p.goal_set_since.get_or_insert(now);
+                let settled = now.saturating_duration_since(since) >= self.timing.settle;
+                // A watched move reports the actual value of its own mode, which the
+                // ReturnValue no longer shows; report it only as done.
+                (p.goal_seen_clear || settled).then_some(done)
             }
-        };
-        match verdict {
-            Some(v) => self.finish(v),
-            None => self.pending = Some(p),
         }
     }
 
-    fn finish(&mut self, verdict: Progress) {
-        self.pending = None;
-        self.progress.push(verdict);
-    }
-
-    fn supersede(&mut self) {
+    /// Make way for a new command. A move that is acknowledged and still running stays
+    /// watched when the new command is an OD access or NOP, which leave it running;
+    /// anything else supersedes it.
+    fn make_way(&mut self, next: Option<Opcode>) {
+        let keeps_motion = matches!(next, Some(Opcode::OdRead | Opcode::OdWrite | Opcode::Nop));
         if let Some(p) = self.pending.take() {
+            let watchable = p.acked_at.is_some()
+                && matches!(p.goal, Waiting::Bit(_))
+                && (matches!(p.kind, Kind::Resume)
+                    || matches!(p.kind, Kind::Command(a) if a.opcode().energises()));
+            if keeps_motion && watchable {
+                if let Some(old) = self.background.replace(p) {
+                    self.progress.push(Progress::Superseded {
+                        tag: old.tag,
+                        acknowledged: true,
+                    });
+                }
+            } else {
+                self.progress.push(Progress::Superseded {
+                    tag: p.tag,
+                    acknowledged: p.acked_at.is_some(),
+                });
+            }
+        }
+        if !keeps_motion && let Some(old) = self.background.take() {
             self.progress.push(Progress::Superseded {
-                tag: p.tag,
-                acknowledged: p.acked_at.is_some(),
+                tag: old.tag,
+                acknowledged: true,
             });
         }
     }

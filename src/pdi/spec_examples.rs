@@ -480,3 +480,89 @@ fn commands_need_a_status_first() {
         Err(Error::NoStatusYet)
     );
 }
+
+#[test]
+fn a_move_stays_watched_while_an_od_read_runs_under_it() {
+    let mut b = Bench::new();
+    b.master
+        .start(
+            1,
+            Action::MoveAbsolute {
+                target: 900,
+                speed: 100,
+            },
+            b.now,
+        )
+        .unwrap();
+    b.detect(&[StatusBit::OperationEnabled], 0);
+    b.master
+        .start(
+            2,
+            Action::OdRead {
+                index: 0x6064,
+                sub: 0,
+            },
+            b.now,
+        )
+        .unwrap();
+    assert_eq!(b.master.drain_progress(), vec![]);
+    assert_eq!(b.master.background_tag(), Some(1));
+    // The read fails; the move is not affected by that PdiStatusError.
+    let progress = b.detect(
+        &[StatusBit::OperationEnabled, StatusBit::Error],
+        0x0602_0000,
+    );
+    assert_eq!(
+        progress,
+        vec![Progress::Failed {
+            tag: 2,
+            failure: Failure::Refused { code: 0x0602_0000 }
+        }]
+    );
+    let progress = b.answer(&[StatusBit::OperationEnabled, StatusBit::TargetReached], 0);
+    assert_eq!(
+        progress,
+        vec![Progress::Done {
+            tag: 1,
+            return_value: 0
+        }]
+    );
+    // A new move, by contrast, supersedes the watched one.
+    b.master
+        .start(
+            3,
+            Action::MoveAbsolute {
+                target: 0,
+                speed: 100,
+            },
+            b.now,
+        )
+        .unwrap();
+    b.detect(&[StatusBit::OperationEnabled], 0);
+    b.master
+        .start(
+            4,
+            Action::OdRead {
+                index: 0x6064,
+                sub: 0,
+            },
+            b.now,
+        )
+        .unwrap();
+    b.master.start(5, Action::Quickstop, b.now).unwrap();
+    let progress = b.master.drain_progress();
+    assert!(
+        progress.contains(&Progress::Superseded {
+            tag: 3,
+            acknowledged: true
+        }),
+        "{progress:?}"
+    );
+    assert!(
+        progress.contains(&Progress::Superseded {
+            tag: 4,
+            acknowledged: false
+        }),
+        "{progress:?}"
+    );
+}

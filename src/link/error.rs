@@ -1,0 +1,62 @@
+use std::fmt;
+use std::time::Duration;
+
+use crate::cia::AbortCode;
+
+/// A link that cannot do its job: the connection, not the drive's answer.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("{scheme} links are not built yet ({issue}); use 'sim' meanwhile")]
+    NotBuiltYet {
+        scheme: &'static str,
+        issue: &'static str,
+    },
+
+    #[error("{context}: {source}")]
+    Io {
+        context: String,
+        #[source]
+        source: std::io::Error,
+    },
+
+    #[error("{what}: no answer within {} ms", after.as_millis())]
+    Timeout { what: String, after: Duration },
+
+    #[error("the connection was lost: {0}")]
+    Disconnected(String),
+
+    #[error("{0}")]
+    Unsupported(String),
+
+    #[error("malformed reply: {0}")]
+    Protocol(String),
+}
+
+impl Error {
+    /// Whether reconnecting may help (as opposed to a configuration mistake).
+    pub fn is_transient(&self) -> bool {
+        matches!(
+            self,
+            Error::Io { .. } | Error::Timeout { .. } | Error::Disconnected(_) | Error::Protocol(_)
+        )
+    }
+}
+
+/// The drive's refusal of an object access. Each variant keeps its bus's own code.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Refusal {
+    /// A CiA 301 abort code (SDO abort, the simulator, PDI-ReturnValue, FC 43 extended
+    /// exception).
+    Abort(AbortCode),
+    /// The link has no object access of its own; use the PDI.
+    NotSupported,
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Refusal::Abort(code) => write!(f, "abort {code}"),
+            Refusal::NotSupported => f.write_str("this link has no direct object access"),
+        }
+    }
+}

@@ -1,0 +1,84 @@
+//! The buses. A `Link` exchanges the PDI process images with a drive and reads and writes
+//! its objects; the worker owns exactly one link at a time and drives it.
+//!
+//! A device's refusal is data, a broken link is an error: object access returns
+//! `Result<Result<T, Refusal>, Error>` the way tokio-modbus does, so the UI shows a refusal
+//! next to the object and a link error as a banner with a reconnect.
+
+mod error;
+mod open;
+pub mod sim;
+pub mod spec;
+
+use std::fmt;
+
+pub use error::{Error, Refusal};
+pub use open::{AnyLink, open};
+pub use spec::{EnipIo, LinkSpec, Parity, SpecError};
+
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{RxImage, TxImage};
+use crate::sim::Injection;
+
+/// What a link tells about itself, for the connection bar and the log.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LinkInfo {
+    /// The connection string it was opened with.
+    pub spec: LinkSpec,
+    /// One line for the status bar, e.g. "Simulated drive (in-process)".
+    pub description: String,
+    /// Whether objects can be read and written without the PDI (SDO, FC 43, CIP, direct).
+    pub native_objects: bool,
+    /// Whether the simulator's faults can be injected through this link.
+    pub can_inject: bool,
+}
+
+impl fmt::Display for LinkInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.description)
+    }
+}
+
+/// One bus connection to one drive. The worker runs links on a current-thread runtime, so
+/// the futures need not be `Send`.
+#[allow(async_fn_in_trait)]
+pub trait Link {
+    fn info(&self) -> LinkInfo;
+
+    /// Write the RX image (when `Some`) and read the TX image, as one exchange where the
+    /// bus allows (FC 23, a PDO pair, a Class 1 cycle).
+    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<TxImage, Error>;
+
+    /// The RX image the drive holds now (2291h), so that connecting replays nothing.
+    /// `None` when the bus cannot read it back.
+    async fn read_rx(&mut self) -> Result<Option<RxImage>, Error>;
+
+    /// Read an object without the PDI. `Refusal::NotSupported` when the link has no such
+    /// path (the worker then uses PDI OD-Read).
+    async fn read_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+    ) -> Result<Result<Value, Refusal>, Error>;
+
+    /// Write an object without the PDI, sized to `dtype`.
+    async fn write_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: &Value,
+    ) -> Result<Result<(), Refusal>, Error>;
+
+    /// Inject or withdraw a simulated fault. Only the simulator can.
+    async fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
+        let _ = (injection, active);
+        Err(Error::Unsupported(
+            "fault injection works only on the simulated drive".into(),
+        ))
+    }
+
+    /// Close the connection politely (release the one TCP connection a drive allows).
+    async fn close(&mut self) -> Result<(), Error> {
+        Ok(())
+    }
+}

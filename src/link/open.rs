@@ -1,0 +1,93 @@
+//! Opening a link from its connection string.
+
+use super::sim::SimLink;
+use super::{Error, Link, LinkInfo, LinkSpec, Refusal};
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{RxImage, TxImage};
+use crate::sim::Injection;
+
+/// Every link the tool can open, so the worker can hold whichever the user picked.
+#[derive(Debug)]
+pub enum AnyLink {
+    Sim(Box<SimLink>),
+}
+
+/// Open the link a connection string names.
+pub async fn open(spec: &LinkSpec) -> Result<AnyLink, Error> {
+    match spec {
+        LinkSpec::Sim => Ok(AnyLink::Sim(Box::new(SimLink::new()))),
+        LinkSpec::ModbusTcp { .. } | LinkSpec::ModbusRtu { .. } => Err(Error::NotBuiltYet {
+            scheme: spec.scheme(),
+            issue: "issue #3",
+        }),
+        LinkSpec::CanopenSocketcan { .. } | LinkSpec::CanopenSlcan { .. } => {
+            Err(Error::NotBuiltYet {
+                scheme: spec.scheme(),
+                issue: "issue #4",
+            })
+        }
+        LinkSpec::Enip { .. } => Err(Error::NotBuiltYet {
+            scheme: spec.scheme(),
+            issue: "issue #5",
+        }),
+    }
+}
+
+impl From<SimLink> for AnyLink {
+    fn from(link: SimLink) -> Self {
+        AnyLink::Sim(Box::new(link))
+    }
+}
+
+impl Link for AnyLink {
+    fn info(&self) -> LinkInfo {
+        match self {
+            AnyLink::Sim(l) => l.info(),
+        }
+    }
+
+    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<TxImage, Error> {
+        match self {
+            AnyLink::Sim(l) => l.exchange(rx).await,
+        }
+    }
+
+    async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {
+        match self {
+            AnyLink::Sim(l) => l.read_rx().await,
+        }
+    }
+
+    async fn read_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+    ) -> Result<Result<Value, Refusal>, Error> {
+        match self {
+            AnyLink::Sim(l) => l.read_object(address, dtype).await,
+        }
+    }
+
+    async fn write_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: &Value,
+    ) -> Result<Result<(), Refusal>, Error> {
+        match self {
+            AnyLink::Sim(l) => l.write_object(address, dtype, value).await,
+        }
+    }
+
+    async fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
+        match self {
+            AnyLink::Sim(l) => l.inject(injection, active).await,
+        }
+    }
+
+    async fn close(&mut self) -> Result<(), Error> {
+        match self {
+            AnyLink::Sim(l) => l.close().await,
+        }
+    }
+}

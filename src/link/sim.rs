@@ -1,0 +1,146 @@
+//! The in-process link to the simulated drive. It owns the drive and advances it to the
+//! present on every call, so the simulation runs on real time without a thread of its own,
+//! or on a manual clock in tests.
+
+use std::time::{Duration, Instant};
+
+use super::{Error, Link, LinkInfo, LinkSpec, Refusal};
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{RxImage, TxImage};
+use crate::sim::{Drive, Injection};
+
+/// The longest stretch the drive is advanced in one go: a worker that stalled for a minute
+/// does not make the motor jump a minute ahead in one call.
+const MAX_CATCH_UP: Duration = Duration::from_secs(1);
+
+/// How the drive's time advances.
+#[derive(Clone, Copy, Debug)]
+pub enum Clock {
+    /// Wall-clock time.
+    Real { last: Instant },
+    /// Only by `SimLink::advance` (tests).
+    Manual,
+}
+
+/// The simulated drive behind a `Link`.
+#[derive(Debug)]
+pub struct SimLink {
+    drive: Drive,
+    clock: Clock,
+}
+
+impl SimLink {
+    /// A fresh simulated drive on real time.
+    pub fn new() -> Self {
+        Self::with_drive(Drive::new())
+    }
+
+    pub fn with_drive(drive: Drive) -> Self {
+        Self {
+            drive,
+            clock: Clock::Real {
+                last: Instant::now(),
+            },
+        }
+    }
+
+    /// A drive whose time moves only by `advance`.
+    pub fn manual(drive: Drive) -> Self {
+        Self {
+            drive,
+            clock: Clock::Manual,
+        }
+    }
+
+    pub fn advance(&mut self, dt: Duration) {
+        self.drive.tick(dt);
+    }
+
+    pub fn drive(&self) -> &Drive {
+        &self.drive
+    }
+
+    pub fn drive_mut(&mut self) -> &mut Drive {
+        &mut self.drive
+    }
+
+    fn catch_up(&mut self) {
+        if let Clock::Real { last } = &mut self.clock {
+            let now = Instant::now();
+            let elapsed = now.saturating_duration_since(*last).min(MAX_CATCH_UP);
+            *last = now;
+            self.drive.tick(elapsed);
+        }
+    }
+}
+
+impl Default for SimLink {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Link for SimLink {
+    fn info(&self) -> LinkInfo {
+        LinkInfo {
+            spec: LinkSpec::Sim,
+            description: "Simulated drive (in-process)".into(),
+            native_objects: true,
+            can_inject: true,
+        }
+    }
+
+    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<TxImage, Error> {
+        self.catch_up();
+        if let Some(rx) = rx {
+            self.drive.write_rx(rx);
+        }
+        Ok(self.drive.tx_image())
+    }
+
+    async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {
+        Ok(Some(self.drive.rx_image()))
+    }
+
+    async fn read_object(
+        &mut self,
+        address: Address,
+        _dtype: DataType,
+    ) -> Result<Result<Value, Refusal>, Error> {
+        self.catch_up();
+        Ok(self.drive.read(address).map_err(Refusal::Abort))
+    }
+
+    async fn write_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: &Value,
+    ) -> Result<Result<(), Refusal>, Error> {
+        self.catch_up();
+        // The value travels in the caller's type, as it would on a bus: a mismatch with the
+        // drive's own type is the drive's refusal, as an SDO server would answer.
+        if let Some(entry) = self.drive.entry(address)
+            && entry.dtype != dtype
+            && entry.dtype.size() != dtype.size()
+        {
+            return Ok(Err(Refusal::Abort(
+                crate::cia::AbortCode::TYPE_LENGTH_MISMATCH,
+            )));
+        }
+        Ok(self
+            .drive
+            .write(address, value.clone())
+            .map_err(Refusal::Abort))
+    }
+
+    async fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
+        self.catch_up();
+        if active {
+            self.drive.inject(injection);
+        } else {
+            self.drive.withdraw(injection);
+        }
+        Ok(())
+    }
+}

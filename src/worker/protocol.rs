@@ -1,0 +1,225 @@
+//! What goes in and out of the worker: `Request`s from the UI or a script, `Event`s back.
+
+use std::fmt;
+use std::time::Duration;
+
+use crate::link::{LinkInfo, LinkSpec};
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{Action, Failure, RxImage, TxImage, Waiting};
+use crate::sim::Injection;
+
+/// Identifies a request in the events it causes.
+pub type RequestId = u64;
+
+/// Which way an object access travels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ObjectPath {
+    /// The link's own object access where it has one, the PDI otherwise.
+    #[default]
+    Auto,
+    /// PDI OD-Read / OD-Write (works on every bus; 32-bit values only).
+    Pdi,
+    /// The link's own access only (SDO, FC 43, CIP 32h/33h, direct on the simulator).
+    Native,
+}
+
+/// Something the worker is asked to do.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Request {
+    Connect(LinkSpec),
+    Disconnect,
+    /// Send a PDI command.
+    Command(Action),
+    /// Set the halt bit on the running travel command.
+    Halt,
+    /// Reset the halt bit: continue to the old target.
+    Resume,
+    ReadObject {
+        address: Address,
+        /// The object's type where the caller knows it (from the catalog).
+        dtype: Option<DataType>,
+        path: ObjectPath,
+    },
+    WriteObject {
+        address: Address,
+        dtype: DataType,
+        value: Value,
+        path: ObjectPath,
+    },
+    /// Inject or withdraw a fault on the simulated drive.
+    Inject {
+        injection: Injection,
+        active: bool,
+    },
+    /// Change the poll rate (cycles per second).
+    SetPollRate(f64),
+}
+
+impl Request {
+    /// Requests that go ahead of everything queued: the ones that stop the motor.
+    pub fn is_urgent(&self) -> bool {
+        matches!(
+            self,
+            Request::Halt
+                | Request::Command(Action::Quickstop)
+                | Request::Command(Action::SwitchOff)
+        )
+    }
+}
+
+impl fmt::Display for Request {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Request::Connect(spec) => write!(f, "connect to {spec}"),
+            Request::Disconnect => f.write_str("disconnect"),
+            Request::Command(action) => write!(f, "{action}"),
+            Request::Halt => f.write_str("Halt (set bit 6)"),
+            Request::Resume => f.write_str("Resume (reset bit 6)"),
+            Request::ReadObject { address, .. } => write!(f, "read {address}"),
+            Request::WriteObject { address, value, .. } => write!(f, "write {value} to {address}"),
+            Request::Inject { injection, active } => {
+                if *active {
+                    write!(f, "inject {injection}")
+                } else {
+                    write!(f, "withdraw {injection}")
+                }
+            }
+            Request::SetPollRate(hz) => write!(f, "poll at {hz} Hz"),
+        }
+    }
+}
+
+/// How a command ended, or got on.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CommandProgress {
+    /// The drive detected the command.
+    Accepted,
+    /// The command finished (target reached, value read, …).
+    Done { return_value: i32 },
+    /// The drive refused it or a fault stopped it.
+    Failed(Failure),
+    TimedOut {
+        waiting_for: Waiting,
+        after: Duration,
+    },
+    /// A newer command replaced it.
+    Superseded,
+    /// The link was lost before the command finished.
+    LinkLost,
+}
+
+impl CommandProgress {
+    pub fn is_final(&self) -> bool {
+        !matches!(self, CommandProgress::Accepted)
+    }
+
+    pub fn is_success(&self) -> bool {
+        matches!(
+            self,
+            CommandProgress::Accepted | CommandProgress::Done { .. }
+        )
+    }
+}
+
+impl fmt::Display for CommandProgress {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CommandProgress::Accepted => f.write_str("accepted"),
+            CommandProgress::Done { return_value } => {
+                write!(f, "done (ReturnValue {return_value})")
+            }
+            CommandProgress::Failed(failure) => write!(f, "failed: {failure}"),
+            CommandProgress::TimedOut { waiting_for, after } => write!(
+                f,
+                "timed out after {:.1} s waiting for {waiting_for}",
+                after.as_secs_f64()
+            ),
+            CommandProgress::Superseded => f.write_str("superseded by a newer command"),
+            CommandProgress::LinkLost => f.write_str("the link was lost before it finished"),
+        }
+    }
+}
+
+/// One sample of the drive, taken at the worker.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// Seconds since the link was connected, when the worker received the image.
+    pub t: f64,
+    pub tx: TxImage,
+    /// 6064h, 0.1°
+    pub position: Option<f64>,
+    /// 606Ch, rpm
+    pub velocity: Option<f64>,
+    /// 6077h, ‰ of rated torque
+    pub torque: Option<f64>,
+    /// 60F4h, 0.1°
+    pub following_error: Option<f64>,
+    /// 6041h
+    pub statusword: Option<u16>,
+    /// 60FDh
+    pub digital_inputs: Option<u32>,
+    /// 6061h
+    pub mode: Option<i8>,
+}
+
+/// The link's health, once a second.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Health {
+    /// Process-image exchanges in the last second.
+    pub cycles_per_second: f64,
+    pub rtt_mean: Duration,
+    pub rtt_max: Duration,
+    /// Link errors since connecting.
+    pub errors: u64,
+    /// Samples the UI was too slow to take (dropped, never queued without bound).
+    pub dropped_samples: u64,
+}
+
+/// Something the worker reports.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Event {
+    Connecting(LinkSpec),
+    Connected(LinkInfo),
+    /// Opening the link failed; `retrying` when the worker will try again.
+    ConnectFailed {
+        spec: LinkSpec,
+        error: String,
+        retry_in: Option<Duration>,
+    },
+    /// The link is gone: `reason` is `None` when the user disconnected.
+    Disconnected {
+        reason: Option<String>,
+    },
+    /// A request was refused before anything was sent (not connected, bad values, …).
+    Rejected {
+        id: RequestId,
+        request: String,
+        reason: String,
+    },
+    /// A PDI image carrying a command was written.
+    Sent {
+        id: RequestId,
+        what: String,
+        image: RxImage,
+    },
+    Progress {
+        id: RequestId,
+        progress: CommandProgress,
+    },
+    ObjectRead {
+        id: RequestId,
+        address: Address,
+        result: Result<Value, String>,
+    },
+    ObjectWritten {
+        id: RequestId,
+        address: Address,
+        value: Value,
+        result: Result<(), String>,
+    },
+    /// The newest samples, in order; the last one is the current status.
+    Samples(Vec<Sample>),
+    Health(Health),
+    /// Something the user should know that is not tied to a request.
+    Notice(String),
+}

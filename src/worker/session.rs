@@ -1,0 +1,606 @@
+//! The worker's loop: connect, exchange the process images at the poll rate, feed the PDI
+//! master, sample, run queued jobs, report, reconnect.
+
+use std::collections::{HashMap, VecDeque};
+use std::time::{Duration, Instant};
+
+use tokio::sync::mpsc;
+use tokio::time::MissedTickBehavior;
+
+use super::protocol::{CommandProgress, Event, Health, ObjectPath, Request, RequestId, Sample};
+use super::sink::EventSink;
+use super::{Config, Envelope};
+use crate::link::{self, AnyLink, Link, LinkSpec, Refusal};
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{Action, PdiMaster, Progress};
+
+/// Jobs waiting for the PDI beyond this many are refused (the request channel bounds the
+/// rest).
+const JOB_QUEUE: usize = 256;
+/// Samples travel to the UI in batches this far apart (one frame's worth).
+const SAMPLE_BATCH: Duration = Duration::from_millis(20);
+/// Object reads without the PDI per cycle, so a long read list does not stall the cycle.
+const NATIVE_JOBS_PER_CYCLE: usize = 8;
+/// Reconnect backoff.
+const BACKOFF_FIRST: Duration = Duration::from_millis(250);
+const BACKOFF_MAX: Duration = Duration::from_secs(5);
+
+/// The plot signals read each cycle where the link has its own object access.
+const SIGNALS: [(u16, DataType); 7] = [
+    (0x6064, DataType::Integer32),
+    (0x606C, DataType::Integer32),
+    (0x6077, DataType::Integer16),
+    (0x60F4, DataType::Integer32),
+    (0x6041, DataType::Unsigned16),
+    (0x60FD, DataType::Unsigned32),
+    (0x6061, DataType::Integer8),
+];
+
+/// What a PDI command in flight was for.
+#[derive(Clone, Debug)]
+enum Purpose {
+    Command,
+    Read {
+        address: Address,
+        dtype: Option<DataType>,
+    },
+    Write {
+        address: Address,
+        value: Value,
+    },
+}
+
+struct Session {
+    link: AnyLink,
+    native_objects: bool,
+    master: PdiMaster,
+    started: Instant,
+    queue: VecDeque<Envelope>,
+    purposes: HashMap<RequestId, Purpose>,
+    samples: Vec<Sample>,
+    last_batch: Instant,
+    // health
+    cycles: u64,
+    rtt_sum: Duration,
+    rtt_max: Duration,
+    errors: u64,
+    last_health: Instant,
+}
+
+/// The worker's whole life.
+pub async fn run(
+    config: Config,
+    mut requests: mpsc::Receiver<Envelope>,
+    mut urgent: mpsc::Receiver<Envelope>,
+    sink: &mut EventSink,
+) {
+    let mut config = config;
+    let mut wanted: Option<LinkSpec> = None;
+    let mut session: Option<Session> = None;
+    let mut retry_at: Option<Instant> = None;
+    let mut backoff = BACKOFF_FIRST;
+    let mut ticker = new_ticker(config.poll_rate);
+    loop {
+        tokio::select! {
+            biased;
+            message = urgent.recv() => {
+                let Some((id, request)) = message else { break };
+                handle(id, request, &mut config, &mut wanted, &mut session, &mut retry_at, &mut backoff, &mut ticker, sink).await;
+            }
+            message = requests.recv() => {
+                let Some((id, request)) = message else { break };
+                handle(id, request, &mut config, &mut wanted, &mut session, &mut retry_at, &mut backoff, &mut ticker, sink).await;
+            }
+            _ = ticker.tick() => {
+                if let Some(s) = session.as_mut() {
+                    if let Err(error) = s.cycle(&config, sink).await {
+                        let spec = s.link.info().spec;
+                        lose(&mut session, &error.to_string(), sink);
+                        if config.reconnect && error.is_transient() {
+                            retry_at = Some(Instant::now() + backoff);
+                            sink.emit(Event::ConnectFailed { spec, error: error.to_string(), retry_in: Some(backoff) });
+                        } else {
+                            wanted = None;
+                        }
+                    }
+                } else if let (Some(spec), Some(at)) = (wanted.clone(), retry_at)
+                    && Instant::now() >= at
+                {
+                    connect(&spec, &config, &mut session, &mut retry_at, &mut backoff, sink).await;
+                }
+            }
+        }
+        sink.flush();
+        sink.wake();
+        if sink.closed {
+            break;
+        }
+    }
+    if let Some(mut s) = session.take() {
+        let _ = s.link.close().await;
+    }
+}
+
+fn new_ticker(rate: f64) -> tokio::time::Interval {
+    let period = Duration::from_secs_f64(1.0 / rate.clamp(1.0, 2000.0));
+    let mut ticker = tokio::time::interval(period);
+    ticker.set_missed_tick_behavior(MissedTickBehavior::Skip);
+    ticker
+}
+
+#[allow(clippy::too_many_arguments)]
+async fn handle(
+    id: RequestId,
+    request: Request,
+    config: &mut Config,
+    wanted: &mut Option<LinkSpec>,
+    session: &mut Option<Session>,
+    retry_at: &mut Option<Instant>,
+    backoff: &mut Duration,
+    ticker: &mut tokio::time::Interval,
+    sink: &mut EventSink,
+) {
+    match request {
+        Request::Connect(spec) => {
+            if let Some(mut s) = session.take() {
+                let _ = s.link.close().await;
+                s.abandon_all("the link was closed for a new connection", sink);
+                sink.emit(Event::Disconnected { reason: None });
+            }
+            *wanted = Some(spec.clone());
+            *backoff = BACKOFF_FIRST;
+            connect(&spec, config, session, retry_at, backoff, sink).await;
+        }
+        Request::Disconnect => {
+            *wanted = None;
+            *retry_at = None;
+            if let Some(mut s) = session.take() {
+                let _ = s.link.close().await;
+                s.abandon_all("disconnected", sink);
+            }
+            sink.emit(Event::Disconnected { reason: None });
+        }
+        Request::SetPollRate(rate) => {
+            if rate.is_finite() && (1.0..=2000.0).contains(&rate) {
+                config.poll_rate = rate;
+                *ticker = new_ticker(rate);
+            } else {
+                sink.emit(Event::Rejected {
+                    id,
+                    request: request.to_string(),
+                    reason: format!("a poll rate of {rate} Hz is outside 1 to 2000 Hz"),
+                });
+            }
+        }
+        Request::Inject { injection, active } => match session.as_mut() {
+            Some(s) => {
+                if let Err(e) = s.link.inject(injection, active).await {
+                    sink.emit(Event::Rejected {
+                        id,
+                        request: request.to_string(),
+                        reason: e.to_string(),
+                    });
+                } else {
+                    sink.emit(Event::Notice(format!(
+                        "{request}: {}",
+                        injection.describe()
+                    )));
+                }
+            }
+            None => reject_unconnected(id, &request, sink),
+        },
+        _ => match session.as_mut() {
+            None => reject_unconnected(id, &request, sink),
+            Some(s) => {
+                if request.is_urgent() {
+                    // Stops go out now, ahead of everything queued.
+                    s.start_pdi(id, request, sink);
+                } else if s.queue.len() >= JOB_QUEUE {
+                    sink.emit(Event::Rejected {
+                        id,
+                        request: request.to_string(),
+                        reason: format!("{JOB_QUEUE} requests are already waiting for the drive"),
+                    });
+                } else {
+                    s.queue.push_back((id, request));
+                }
+            }
+        },
+    }
+}
+
+fn reject_unconnected(id: RequestId, request: &Request, sink: &mut EventSink) {
+    sink.emit(Event::Rejected {
+        id,
+        request: request.to_string(),
+        reason: "not connected to a drive".into(),
+    });
+}
+
+async fn connect(
+    spec: &LinkSpec,
+    config: &Config,
+    session: &mut Option<Session>,
+    retry_at: &mut Option<Instant>,
+    backoff: &mut Duration,
+    sink: &mut EventSink,
+) {
+    sink.emit(Event::Connecting(spec.clone()));
+    match Session::open(spec, config).await {
+        Ok(s) => {
+            sink.emit(Event::Connected(s.link.info()));
+            *session = Some(s);
+            *retry_at = None;
+            *backoff = BACKOFF_FIRST;
+        }
+        Err(error) => {
+            let retry_in = (config.reconnect && error.is_transient()).then_some(*backoff);
+            sink.emit(Event::ConnectFailed {
+                spec: spec.clone(),
+                error: error.to_string(),
+                retry_in,
+            });
+            *retry_at = retry_in.map(|d| Instant::now() + d);
+            *backoff = (*backoff * 2).min(BACKOFF_MAX);
+        }
+    }
+}
+
+fn lose(session: &mut Option<Session>, reason: &str, sink: &mut EventSink) {
+    if let Some(mut s) = session.take() {
+        s.abandon_all(reason, sink);
+        sink.emit(Event::Disconnected {
+            reason: Some(reason.to_owned()),
+        });
+    }
+}
+
+impl Session {
+    async fn open(spec: &LinkSpec, config: &Config) -> Result<Session, link::Error> {
+        let mut link = link::open(spec).await?;
+        let mut master = PdiMaster::new(config.timing);
+        // Start from what the drive holds, so connecting replays no command.
+        if let Some(rx) = link.read_rx().await? {
+            master.adopt(rx);
+        }
+        let tx = link.exchange(None).await?;
+        let now = Instant::now();
+        master.on_tx(tx, now);
+        let native_objects = link.info().native_objects;
+        Ok(Session {
+            link,
+            native_objects,
+            master,
+            started: now,
+            queue: VecDeque::new(),
+            purposes: HashMap::new(),
+            samples: Vec::new(),
+            last_batch: now,
+            cycles: 0,
+            rtt_sum: Duration::ZERO,
+            rtt_max: Duration::ZERO,
+            errors: 0,
+            last_health: now,
+        })
+    }
+
+    /// One poll cycle. An error means the link is gone.
+    async fn cycle(&mut self, config: &Config, sink: &mut EventSink) -> Result<(), link::Error> {
+        let outgoing = self.master.outgoing();
+        let sent = Instant::now();
+        let tx = match self.link.exchange(outgoing.as_ref()).await {
+            Ok(tx) => tx,
+            Err(e) => {
+                self.errors += 1;
+                return Err(e);
+            }
+        };
+        let now = Instant::now();
+        let rtt = now - sent;
+        self.cycles += 1;
+        self.rtt_sum += rtt;
+        self.rtt_max = self.rtt_max.max(rtt);
+        self.master.on_tx(tx, now);
+        self.master.poll(now);
+        self.report_progress(sink);
+
+        let mut sample = Sample {
+            t: (now - self.started).as_secs_f64(),
+            tx,
+            ..Sample::default()
+        };
+        if config.sample_objects && self.native_objects {
+            self.read_signals(&mut sample).await?;
+        }
+        self.samples.push(sample);
+        if now - self.last_batch >= SAMPLE_BATCH {
+            self.last_batch = now;
+            sink.emit(Event::Samples(std::mem::take(&mut self.samples)));
+        }
+
+        self.run_jobs(sink).await?;
+
+        if now - self.last_health >= Duration::from_secs(1) {
+            let span = (now - self.last_health).as_secs_f64();
+            sink.emit(Event::Health(Health {
+                cycles_per_second: self.cycles as f64 / span,
+                rtt_mean: self.rtt_sum / (self.cycles.max(1) as u32),
+                rtt_max: self.rtt_max,
+                errors: self.errors,
+                dropped_samples: sink.dropped_samples,
+            }));
+            self.cycles = 0;
+            self.rtt_sum = Duration::ZERO;
+            self.rtt_max = Duration::ZERO;
+            self.last_health = now;
+        }
+        Ok(())
+    }
+
+    async fn read_signals(&mut self, sample: &mut Sample) -> Result<(), link::Error> {
+        let mut values = [None; SIGNALS.len()];
+        for (slot, (index, dtype)) in values.iter_mut().zip(SIGNALS) {
+            if let Ok(value) = self.link.read_object(Address::new(index, 0), dtype).await? {
+                *slot = value.as_f64();
+            }
+        }
+        let [
+            position,
+            velocity,
+            torque,
+            following,
+            statusword,
+            inputs,
+            mode,
+        ] = values;
+        sample.position = position;
+        sample.velocity = velocity;
+        sample.torque = torque;
+        sample.following_error = following;
+        sample.statusword = statusword.map(|v| v as u16);
+        sample.digital_inputs = inputs.map(|v| v as u32);
+        sample.mode = mode.map(|v| v as i8);
+        Ok(())
+    }
+
+    /// Start queued jobs: object accesses without the PDI right away (a few per cycle), one
+    /// PDI command once the previous one was acknowledged.
+    async fn run_jobs(&mut self, sink: &mut EventSink) -> Result<(), link::Error> {
+        let mut native_done = 0;
+        while let Some((id, request)) = self.queue.front().cloned() {
+            let native = match &request {
+                Request::ReadObject { path, .. } | Request::WriteObject { path, .. } => {
+                    *path == ObjectPath::Native
+                        || (*path == ObjectPath::Auto && self.native_objects)
+                }
+                _ => false,
+            };
+            if native {
+                if native_done >= NATIVE_JOBS_PER_CYCLE {
+                    break;
+                }
+                self.queue.pop_front();
+                self.native_job(id, request, sink).await?;
+                native_done += 1;
+                continue;
+            }
+            if self.master.is_awaiting_ack() {
+                break;
+            }
+            self.queue.pop_front();
+            self.start_pdi(id, request, sink);
+            break;
+        }
+        Ok(())
+    }
+
+    async fn native_job(
+        &mut self,
+        id: RequestId,
+        request: Request,
+        sink: &mut EventSink,
+    ) -> Result<(), link::Error> {
+        match request {
+            Request::ReadObject { address, dtype, .. } => {
+                let dtype = dtype.unwrap_or(DataType::Integer32);
+                let result = self.link.read_object(address, dtype).await?;
+                sink.emit(Event::ObjectRead {
+                    id,
+                    address,
+                    result: result.map_err(|r| refusal_text(&r)),
+                });
+            }
+            Request::WriteObject {
+                address,
+                dtype,
+                value,
+                ..
+            } => {
+                let result = self.link.write_object(address, dtype, &value).await?;
+                sink.emit(Event::ObjectWritten {
+                    id,
+                    address,
+                    value,
+                    result: result.map_err(|r| refusal_text(&r)),
+                });
+            }
+            other => sink.emit(Event::Rejected {
+                id,
+                request: other.to_string(),
+                reason: "not an object access".into(),
+            }),
+        }
+        Ok(())
+    }
+
+    /// Hand a request to the PDI master and write its image with the next exchange.
+    fn start_pdi(&mut self, id: RequestId, request: Request, sink: &mut EventSink) {
+        let now = Instant::now();
+        let described = request.to_string();
+        let (result, purpose) = match &request {
+            Request::Command(action) => (self.master.start(id, *action, now), Purpose::Command),
+            Request::Halt => (self.master.halt(id, now), Purpose::Command),
+            Request::Resume => (self.master.resume(id, now), Purpose::Command),
+            Request::ReadObject { address, dtype, .. } => (
+                self.master.start(
+                    id,
+                    Action::OdRead {
+                        index: address.index,
+                        sub: address.sub,
+                    },
+                    now,
+                ),
+                Purpose::Read {
+                    address: *address,
+                    dtype: *dtype,
+                },
+            ),
+            Request::WriteObject {
+                address,
+                dtype,
+                value,
+                ..
+            } => match value.to_pdi(*dtype) {
+                Ok(raw) => (
+                    self.master.start(
+                        id,
+                        Action::OdWrite {
+                            index: address.index,
+                            sub: address.sub,
+                            value: raw,
+                        },
+                        now,
+                    ),
+                    Purpose::Write {
+                        address: *address,
+                        value: value.clone(),
+                    },
+                ),
+                Err(e) => {
+                    sink.emit(Event::Rejected {
+                        id,
+                        request: described,
+                        reason: e.to_string(),
+                    });
+                    return;
+                }
+            },
+            other => {
+                sink.emit(Event::Rejected {
+                    id,
+                    request: other.to_string(),
+                    reason: "not a PDI request".into(),
+                });
+                return;
+            }
+        };
+        // Commands superseded by this one report at once.
+        self.report_progress(sink);
+        match result {
+            Ok(image) => {
+                self.purposes.insert(id, purpose);
+                sink.emit(Event::Sent {
+                    id,
+                    what: described,
+                    image,
+                });
+            }
+            Err(e) => sink.emit(Event::Rejected {
+                id,
+                request: described,
+                reason: e.to_string(),
+            }),
+        }
+    }
+
+    fn report_progress(&mut self, sink: &mut EventSink) {
+        for progress in self.master.drain_progress() {
+            let id = progress.tag();
+            let purpose = if progress.is_final() {
+                self.purposes.remove(&id)
+            } else {
+                self.purposes.get(&id).cloned()
+            };
+            match (purpose, progress) {
+                (Some(Purpose::Read { address, dtype }), Progress::Done { return_value, .. }) => {
+                    let dtype = dtype.unwrap_or(DataType::Integer32);
+                    sink.emit(Event::ObjectRead {
+                        id,
+                        address,
+                        result: Value::from_pdi(dtype, return_value).map_err(|e| e.to_string()),
+                    });
+                }
+                (Some(Purpose::Write { address, value }), Progress::Done { .. }) => {
+                    sink.emit(Event::ObjectWritten {
+                        id,
+                        address,
+                        value,
+                        result: Ok(()),
+                    });
+                }
+                (Some(Purpose::Read { address, .. }), p) if p.is_final() => {
+                    sink.emit(Event::ObjectRead {
+                        id,
+                        address,
+                        result: Err(CommandProgress::from(p).to_string()),
+                    });
+                }
+                (Some(Purpose::Write { address, value }), p) if p.is_final() => {
+                    sink.emit(Event::ObjectWritten {
+                        id,
+                        address,
+                        value,
+                        result: Err(CommandProgress::from(p).to_string()),
+                    });
+                }
+                (_, Progress::Resent { .. }) => sink.emit(Event::Notice(format!(
+                    "request {id}: no acknowledgement yet; sent again with ToggleCmd flipped"
+                ))),
+                (_, p) => sink.emit(Event::Progress {
+                    id,
+                    progress: CommandProgress::from(p),
+                }),
+            }
+        }
+    }
+
+    /// The link is gone or closed: every command in flight and every queued job ends here,
+    /// and none is replayed on the next connection.
+    fn abandon_all(&mut self, reason: &str, sink: &mut EventSink) {
+        for id in self.master.abandon() {
+            self.purposes.remove(&id);
+            sink.emit(Event::Progress {
+                id,
+                progress: CommandProgress::LinkLost,
+            });
+        }
+        for (id, request) in self.queue.drain(..) {
+            sink.emit(Event::Rejected {
+                id,
+                request: request.to_string(),
+                reason: format!("not sent: {reason}"),
+            });
+        }
+        if !self.samples.is_empty() {
+            sink.emit(Event::Samples(std::mem::take(&mut self.samples)));
+        }
+    }
+}
+
+fn refusal_text(refusal: &Refusal) -> String {
+    refusal.to_string()
+}
+
+impl From<Progress> for CommandProgress {
+    fn from(progress: Progress) -> Self {
+        match progress {
+            Progress::Accepted { .. } | Progress::Resent { .. } => CommandProgress::Accepted,
+            Progress::Done { return_value, .. } => CommandProgress::Done { return_value },
+            Progress::Failed { failure, .. } => CommandProgress::Failed(failure),
+            Progress::TimedOut {
+                waiting_for, after, ..
+            } => CommandProgress::TimedOut { waiting_for, after },
+            Progress::Superseded { .. } => CommandProgress::Superseded,
+        }
+    }
+}

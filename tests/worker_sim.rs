@@ -1,0 +1,378 @@
+//! The worker thread driving the simulated drive on real time: what a user of the window
+//! or the CLI sees happen.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use drivedeck::cia::AbortCode;
+use drivedeck::link::LinkSpec;
+use drivedeck::od::{Address, DataType, Value};
+use drivedeck::pdi::{Action, Failure, StatusBit};
+use drivedeck::sim::Injection;
+use drivedeck::worker::{CommandProgress, Config, Event, ObjectPath, Request, Sample, Worker};
+
+struct Probe {
+    worker: Worker,
+    seen: Vec<Event>,
+    last_sample: Option<Sample>,
+}
+
+impl Probe {
+    fn connected() -> Self {
+        let worker = Worker::spawn(Config::default(), Arc::new(|| {})).expect("worker thread");
+        let mut probe = Probe {
+            worker,
+            seen: vec![],
+            last_sample: None,
+        };
+        probe.send(Request::Connect(LinkSpec::Sim));
+        probe.wait("connected", Duration::from_secs(5), |e| {
+            matches!(e, Event::Connected(_))
+        });
+        probe.wait(
+            "a sample",
+            Duration::from_secs(5),
+            |e| matches!(e, Event::Samples(s) if !s.is_empty()),
+        );
+        probe
+    }
+
+    fn send(&self, request: Request) -> u64 {
+        self.worker.send(request).expect("request queued")
+    }
+
+    /// Wait for an event matching `want`, keeping every event seen.
+    fn wait(&mut self, what: &str, timeout: Duration, want: impl Fn(&Event) -> bool) -> Event {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.worker.recv_timeout(left) {
+                Ok(event) => {
+                    if let Event::Samples(samples) = &event
+                        && let Some(last) = samples.last()
+                    {
+                        self.last_sample = Some(*last);
+                    }
+                    self.seen.push(event.clone());
+                    if want(&event) {
+                        return event;
+                    }
+                }
+                Err(_) => panic!("no {what} within {timeout:?}; seen: {:#?}", self.tail()),
+            }
+        }
+    }
+
+    fn tail(&self) -> Vec<&Event> {
+        self.seen
+            .iter()
+            .filter(|e| !matches!(e, Event::Samples(_) | Event::Health(_)))
+            .collect()
+    }
+
+    fn outcome(&mut self, id: u64, timeout: Duration) -> CommandProgress {
+        match self.wait(
+            "the command's outcome",
+            timeout,
+            |e| matches!(e, Event::Progress { id: i, progress } if *i == id && progress.is_final()),
+        ) {
+            Event::Progress { progress, .. } => progress,
+            _ => unreachable!(),
+        }
+    }
+
+    fn read(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        path: ObjectPath,
+    ) -> Result<Value, String> {
+        let id = self.send(Request::ReadObject {
+            address,
+            dtype: Some(dtype),
+            path,
+        });
+        match self.wait(
+            "the object read",
+            Duration::from_secs(5),
+            |e| matches!(e, Event::ObjectRead { id: i, .. } if *i == id),
+        ) {
+            Event::ObjectRead { result, .. } => result,
+            _ => unreachable!(),
+        }
+    }
+
+    /// Let samples arrive for a while.
+    fn settle(&mut self, time: Duration) -> Sample {
+        let until = Instant::now() + time;
+        while Instant::now() < until {
+            if let Ok(event) = self.worker.recv_timeout(Duration::from_millis(20)) {
+                if let Event::Samples(samples) = &event
+                    && let Some(last) = samples.last()
+                {
+                    self.last_sample = Some(*last);
+                }
+                self.seen.push(event);
+            }
+        }
+        self.last_sample.expect("samples")
+    }
+}
+
+#[test]
+fn a_move_reaches_its_target_and_raises_target_reached() {
+    let mut probe = Probe::connected();
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 2000,
+        speed: 200,
+    }));
+    probe.wait(
+        "the image sent",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Sent { id: i, image, .. } if *i == id && image.cmd == 20),
+    );
+    probe.wait(
+        "the acceptance",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    let outcome = probe.outcome(id, Duration::from_secs(10));
+    assert_eq!(outcome, CommandProgress::Done { return_value: 2000 });
+    let sample = probe.settle(Duration::from_millis(100));
+    assert!(sample.tx.status.is_set(StatusBit::TargetReached));
+    assert!(sample.tx.status.is_set(StatusBit::OperationEnabled));
+    assert_eq!(sample.position, Some(2000.0));
+    assert_eq!(sample.statusword.map(|w| w & 0x6F), Some(0x27));
+}
+
+#[test]
+fn halt_stops_and_resume_continues() {
+    let mut probe = Probe::connected();
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 20_000,
+        speed: 300,
+    }));
+    probe.wait(
+        "the acceptance",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    probe.settle(Duration::from_millis(300));
+    let halt = probe.send(Request::Halt);
+    let halted = probe.outcome(halt, Duration::from_secs(5));
+    assert!(matches!(halted, CommandProgress::Done { .. }), "{halted:?}");
+    let stopped = probe.settle(Duration::from_millis(200));
+    assert!(stopped.tx.status.is_set(StatusBit::QsHaltBit));
+    assert_eq!(stopped.velocity, Some(0.0));
+    let at = stopped.position.expect("position");
+    assert!(at > 0.0 && at < 20_000.0, "{at}");
+    // The halt reported where the motor came to rest.
+    assert!(
+        matches!(halted, CommandProgress::Done { return_value } if (f64::from(return_value) - at).abs() < 2.0)
+    );
+    let resume = probe.send(Request::Resume);
+    assert_eq!(
+        probe.outcome(resume, Duration::from_secs(10)),
+        CommandProgress::Done {
+            return_value: 20_000
+        }
+    );
+}
+
+#[test]
+fn od_write_then_read_through_the_pdi() {
+    let mut probe = Probe::connected();
+    let address = Address::new(0x203B, 1);
+    let id = probe.send(Request::WriteObject {
+        address,
+        dtype: DataType::Unsigned32,
+        value: Value::Uint(1000),
+        path: ObjectPath::Pdi,
+    });
+    let written = probe.wait(
+        "the write",
+        Duration::from_secs(5),
+        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+    );
+    assert!(
+        matches!(written, Event::ObjectWritten { result: Ok(()), .. }),
+        "{written:?}"
+    );
+    assert_eq!(
+        probe.read(address, DataType::Unsigned32, ObjectPath::Pdi),
+        Ok(Value::Uint(1000))
+    );
+    // The same object read directly agrees.
+    assert_eq!(
+        probe.read(address, DataType::Unsigned32, ObjectPath::Native),
+        Ok(Value::Uint(1000))
+    );
+    // The sent image was the spec's OD-Write: SetValue2 = 203Bh, SetValue3 = 1, Cmd = 15.
+    let sent = probe.seen.iter().find_map(|e| match e {
+        Event::Sent { id: i, image, .. } if *i == id => Some(*image),
+        _ => None,
+    });
+    let sent = sent.expect("the OD-Write image");
+    assert_eq!(
+        (
+            sent.values.value1,
+            sent.values.value2,
+            sent.values.value3,
+            sent.cmd & 0x7F
+        ),
+        (1000, 0x203B, 1, 15)
+    );
+}
+
+#[test]
+fn a_missing_object_comes_back_as_pdi_status_error_06020000h() {
+    let mut probe = Probe::connected();
+    let result = probe.read(
+        Address::new(0x2FFF, 0),
+        DataType::Unsigned32,
+        ObjectPath::Pdi,
+    );
+    let text = result.expect_err("a missing object is refused");
+    let expected = Failure::Refused {
+        code: AbortCode::NO_OBJECT.0,
+    }
+    .to_string();
+    assert!(text.contains(&expected), "{text}");
+    assert!(text.contains("06020000h"), "{text}");
+    // Directly, the simulator answers the same abort.
+    let direct = probe.read(
+        Address::new(0x2FFF, 0),
+        DataType::Unsigned32,
+        ObjectPath::Native,
+    );
+    assert!(direct.expect_err("missing").contains("06020000h"));
+}
+
+#[test]
+fn quickstop_jumps_the_queue() {
+    let mut probe = Probe::connected();
+    let velocity = probe.send(Request::Command(Action::Velocity { speed: 500 }));
+    probe.wait("velocity accepted", Duration::from_secs(2), |e| {
+        matches!(e, Event::Progress { id, progress: CommandProgress::Accepted } if *id == velocity)
+    });
+    // A queue of PDI reads, then the stop.
+    let reads: Vec<u64> = (0..10)
+        .map(|_| {
+            probe.send(Request::ReadObject {
+                address: Address::new(0x1018, 1),
+                dtype: Some(DataType::Unsigned32),
+                path: ObjectPath::Pdi,
+            })
+        })
+        .collect();
+    let stop = probe.send(Request::Command(Action::Quickstop));
+    probe.wait(
+        "the quick stop sent",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Sent { id, .. } if *id == stop),
+    );
+    let sent_before_stop = probe
+        .seen
+        .iter()
+        .filter(|e| matches!(e, Event::Sent { id, .. } if reads.contains(id)))
+        .count();
+    assert!(
+        sent_before_stop <= 1,
+        "{sent_before_stop} reads went out before the quick stop"
+    );
+    assert!(matches!(
+        probe.outcome(stop, Duration::from_secs(2)),
+        CommandProgress::Done { .. }
+    ));
+    let sample = probe.settle(Duration::from_millis(800));
+    assert!(!sample.tx.status.is_set(StatusBit::OperationEnabled));
+}
+
+#[test]
+fn an_injected_fault_fails_the_move_and_clear_error_needs_the_cause_gone() {
+    let mut probe = Probe::connected();
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 50_000,
+        speed: 100,
+    }));
+    probe.wait(
+        "move accepted",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    probe.send(Request::Inject {
+        injection: Injection::OverCurrent,
+        active: true,
+    });
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(5)),
+        CommandProgress::Failed(Failure::DriveFault { error_code: 0x2300 })
+    );
+    let clear = probe.send(Request::Command(Action::ClearError));
+    assert_eq!(
+        probe.outcome(clear, Duration::from_secs(5)),
+        CommandProgress::Failed(Failure::FaultPersists { error_code: 0x2300 })
+    );
+    probe.send(Request::Inject {
+        injection: Injection::OverCurrent,
+        active: false,
+    });
+    let clear = probe.send(Request::Command(Action::ClearError));
+    assert!(matches!(
+        probe.outcome(clear, Duration::from_secs(5)),
+        CommandProgress::Done { .. }
+    ));
+}
+
+#[test]
+fn requests_without_a_link_are_rejected_with_a_reason() {
+    let worker = Worker::spawn(Config::default(), Arc::new(|| {})).expect("worker");
+    let id = worker.send(Request::Command(Action::Nop)).expect("queued");
+    let event = worker
+        .recv_timeout(Duration::from_secs(2))
+        .expect("an answer");
+    assert_eq!(
+        event,
+        Event::Rejected {
+            id,
+            request: "NOP".into(),
+            reason: "not connected to a drive".into()
+        }
+    );
+    let id = worker
+        .send(Request::Connect(
+            "modbus-tcp://127.0.0.1:1502".parse().expect("spec"),
+        ))
+        .expect("queued");
+    let _ = id;
+    let mut failed = None;
+    for _ in 0..3 {
+        if let Ok(Event::ConnectFailed {
+            error, retry_in, ..
+        }) = worker.recv_timeout(Duration::from_secs(2))
+        {
+            failed = Some((error, retry_in));
+            break;
+        }
+    }
+    let (error, retry_in) = failed.expect("connect failed");
+    assert!(error.contains("not built yet"), "{error}");
+    assert_eq!(retry_in, None, "a missing bus is not retried");
+}
+
+#[test]
+fn health_reports_the_cycle_rate() {
+    let mut probe = Probe::connected();
+    let health = probe.wait("health", Duration::from_secs(3), |e| {
+        matches!(e, Event::Health(_))
+    });
+    let Event::Health(health) = health else {
+        unreachable!()
+    };
+    // The default poll rate is 100 Hz; a loaded CI machine may fall behind a little.
+    assert!(
+        health.cycles_per_second > 50.0 && health.cycles_per_second < 120.0,
+        "{health:?}"
+    );
+    assert_eq!(health.errors, 0);
+}
