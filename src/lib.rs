@@ -5,9 +5,12 @@
 //! simulated drive), `worker` (the thread that owns the link), `telemetry`, `ui` and `cli`.
 
 pub mod cia;
+pub mod cli;
 pub mod link;
 pub mod number;
 pub mod od;
 pub mod pdi;
 pub mod sim;
+pub mod telemetry;
+pub mod ui;
 pub mod worker;

@@ -1,1 +1,5 @@
-fn main() {}
+//! `drivedeck`: the window, one-shot commands and the simulated drive's servers.
+
+fn main() -> std::process::ExitCode {
+    drivedeck::cli::main()
+}

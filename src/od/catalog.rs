@@ -104,6 +104,15 @@ pub struct Catalog {
 /// The built-in catalog's JSON, embedded in the binary.
 pub const BUILTIN_JSON: &str = include_str!("../../assets/od/nanotec.json");
 
+static BUILTIN: std::sync::LazyLock<Catalog> =
+    std::sync::LazyLock::new(|| Catalog::builtin().unwrap_or_default());
+
+/// The built-in catalog, parsed once. (Its JSON is compiled in and covered by tests; were
+/// it ever broken the catalog would be empty, never a panic.)
+pub fn builtin() -> &'static Catalog {
+    &BUILTIN
+}
+
 impl Catalog {
     /// The built-in Nanotec catalog. It is part of the binary and tested, so a failure
     /// here is a build defect; the error still says where.

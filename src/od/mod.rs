@@ -6,7 +6,7 @@ mod error;
 mod types;
 mod value;
 
-pub use catalog::{BUILTIN_JSON, Catalog, Entry, Group};
+pub use catalog::{BUILTIN_JSON, Catalog, Entry, Group, builtin};
 pub use error::Error;
 pub use types::{Access, Address, DataType};
 pub use value::Value;

@@ -356,6 +356,40 @@ impl Action {
         })
     }
 
+    /// The command an RX image describes (the inverse of `set_values`).
+    pub fn from_set_values(opcode: Opcode, v: SetValues) -> Action {
+        let index = set_value2_to_index(v.value2);
+        let sub = set_value3_to_subindex(v.value3);
+        match opcode {
+            Opcode::Nop => Action::Nop,
+            Opcode::SwitchOff => Action::SwitchOff,
+            Opcode::ClearError => Action::ClearError,
+            Opcode::Quickstop => Action::Quickstop,
+            Opcode::AutoSetup => Action::AutoSetup,
+            Opcode::OdRead => Action::OdRead { index, sub },
+            Opcode::OdWrite => Action::OdWrite {
+                index,
+                sub,
+                value: v.value1,
+            },
+            Opcode::HomeHere => Action::HomeHere { position: v.value1 },
+            Opcode::Homing => Action::Homing { method: v.value3 },
+            Opcode::MoveAbsolute => Action::MoveAbsolute {
+                target: v.value1,
+                speed: v.value2,
+            },
+            Opcode::MoveRelative => Action::MoveRelative {
+                distance: v.value1,
+                speed: v.value2,
+            },
+            Opcode::Velocity => Action::Velocity { speed: v.value1 },
+            Opcode::Torque => Action::Torque {
+                torque: v.value1,
+                max_speed: v.value2,
+            },
+        }
+    }
+
     /// The values as a user would type them back, in the order of `opcode.fields()`.
     pub fn inputs(&self) -> Vec<i64> {
         match *self {
@@ -512,6 +546,15 @@ mod tests {
                 })
                 .collect();
             assert_eq!(back, inputs, "{op:?}");
+        }
+    }
+
+    #[test]
+    fn set_values_round_trip_for_every_opcode() {
+        for op in Opcode::ALL {
+            let inputs: Vec<i64> = op.fields().iter().map(|s| s.min.max(-7)).collect();
+            let action = Action::from_inputs(op, &inputs).unwrap();
+            assert_eq!(Action::from_set_values(op, action.set_values()), action);
         }
     }
 

@@ -249,6 +249,16 @@ impl PdiMaster {
     pub fn adopt(&mut self, rx: RxImage) {
         self.last_sent = Some(rx);
         self.device_cmd_known = true;
+        // A travel command the drive holds (e.g. from another master, or a script that
+        // exited) can be halted and resumed from here.
+        if let Ok(command) = rx.command()
+            && command.opcode.is_travel()
+        {
+            self.travel = Some(Travel {
+                action: Action::from_set_values(command.opcode, rx.values),
+                halted: command.halt,
+            });
+        }
     }
 
     /// The image the link should write, or `None` while nothing has been commanded and

@@ -566,3 +566,19 @@ fn a_move_stays_watched_while_an_od_read_runs_under_it() {
         "{progress:?}"
     );
 }
+
+#[test]
+fn an_adopted_travel_command_can_be_halted() {
+    let mut b = Bench::new();
+    b.master.adopt(RxImage {
+        values: SetValues {
+            value1: 5000,
+            value2: 150,
+            value3: 0,
+        },
+        cmd: 20 | 0x80,
+    });
+    let halt = b.master.halt(1, b.now).unwrap();
+    assert_eq!(halt.cmd, 20 | 0x40 | 0x80);
+    assert_eq!(halt.values.value1, 5000);
+}

@@ -110,10 +110,7 @@ pub struct Drive {
 impl Drive {
     /// A drive with the built-in catalog's dictionary and the default machine.
     pub fn new() -> Self {
-        // The built-in catalog is compiled in and covered by tests; an empty one still
-        // gives a drive that answers every access with an abort code instead of panicking.
-        let catalog = Catalog::builtin().unwrap_or_default();
-        Self::with_catalog(&catalog, World::default())
+        Self::with_catalog(crate::od::builtin(), World::default())
     }
 
     pub fn with_catalog(catalog: &Catalog, world: World) -> Self {
@@ -716,6 +713,7 @@ impl Drive {
         let dec = rpm_to_units(self.od.int(0x6084, 0) as f64);
         let x_before = self.x;
         let demand_velocity_before = self.demand.velocity;
+        let demand_position_before = self.demand.position;
         let quick = rpm_to_units(self.od.int(0x6085, 0) as f64);
         let mut torque_controlled = false;
         match self.state {
@@ -817,14 +815,19 @@ impl Drive {
         } else if torque_controlled {
             // torque_physics moved x and v already.
         } else if energised {
-            let alpha = 1.0 - (-dt / LOAD_LAG).exp();
-            let mut x_new = self.x + (self.demand.position - self.x) * alpha;
-            if self.demand.velocity == 0.0 && (self.demand.position - x_new).abs() < 0.01 {
+            // The load follows the demand with a first-order lag, solved exactly over the
+            // step (so the result does not depend on how time is cut into steps):
+            // e = demand − x obeys de/dt = v_demand − e/τ, and the load's speed is e/τ.
+            let v_demand = (self.demand.position - demand_position_before) / dt;
+            let e0 = demand_position_before - self.x;
+            let decay = (-dt / LOAD_LAG).exp();
+            let mut e = v_demand * LOAD_LAG + (e0 - v_demand * LOAD_LAG) * decay;
+            if self.demand.velocity == 0.0 && e.abs() < 0.01 {
                 // Settled: the load stands on the demand.
-                x_new = self.demand.position;
+                e = 0.0;
             }
-            self.v = (x_new - self.x) / dt;
-            self.x = x_new;
+            self.x = self.demand.position - e;
+            self.v = e / LOAD_LAG;
         } else {
             // Coasting with the power stage off.
             self.v *= (-dt / 0.15).exp();

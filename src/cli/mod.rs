@@ -1,0 +1,230 @@
+//! The command line: `drivedeck` opens the window; `drivedeck --link URL COMMAND` runs one
+//! action and exits; `drivedeck sim …` serves the simulated drive on real sockets.
+
+mod oneshot;
+mod report;
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+use crate::link::{LinkSpec, spec::FORMS};
+use crate::od::{Address, DataType};
+
+/// Exit codes: 0 success, 1 the drive refused or a command failed, 2 bad usage or no link.
+pub const EXIT_FAILED: u8 = 1;
+pub const EXIT_USAGE: u8 = 2;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "drivedeck",
+    version,
+    about = "Commissioning tool for Nanotec motor controllers",
+    long_about = "Without a command, opens the window (on the simulated drive unless --link or the saved settings say otherwise). With a command, runs that one action against --link and exits: 0 on success, 1 when the drive refuses or the command fails, 2 for bad usage or no link.",
+    after_help = format!("Connection strings: {FORMS}")
+)]
+pub struct Cli {
+    /// The drive to talk to, e.g. `sim` or `modbus-tcp://192.168.2.100:502`.
+    #[arg(long, global = true, value_name = "URL")]
+    pub link: Option<LinkSpec>,
+
+    /// Print JSON instead of text.
+    #[arg(long, global = true)]
+    pub json: bool,
+
+    /// How long to wait for the drive, in seconds (acknowledgement, and completion with --wait).
+    #[arg(long, global = true, default_value_t = 30.0, value_name = "SECONDS")]
+    pub timeout: f64,
+
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug, Clone)]
+pub enum Command {
+    /// Print the drive's status: PDI bits, 603Fh, ReturnValue, CiA 402 state, actual values.
+    Status,
+    /// Read an object, e.g. `read 1018:01`.
+    Read(ReadArgs),
+    /// Write an object, e.g. `write 203B:01 1000`.
+    Write(WriteArgs),
+    /// Profile Position absolute (PDI-Cmd 20) to POS (0.1°) at --speed (rpm).
+    MoveAbs(MoveArgs),
+    /// Profile Position relative (PDI-Cmd 21) by DELTA (0.1°) at --speed (rpm).
+    MoveRel(MoveArgs),
+    /// Profile Velocity (PDI-Cmd 23) at V rpm.
+    Velocity(VelocityArgs),
+    /// Profile Torque (PDI-Cmd 25) at T ‰ of rated torque, limited to --max-speed rpm.
+    Torque(TorqueArgs),
+    /// Set the halt bit on the drive's travel command.
+    Halt(WaitArg),
+    /// Reset the halt bit: continue to the old target.
+    Resume(WaitArg),
+    /// Quickstop (PDI-Cmd 3), with the reaction of 605Ah.
+    Quickstop,
+    /// Switch Off (PDI-Cmd 1): power stage off.
+    SwitchOff,
+    /// Clear Error (PDI-Cmd 2): clears a fault once its cause is gone.
+    ClearError,
+    /// Homing (PDI-Cmd 18) with --method.
+    Home(HomeArgs),
+    /// Homing on current position (PDI-Cmd 17): the actual position becomes POS.
+    HomeHere(HomeHereArgs),
+    /// Auto setup (PDI-Cmd 16).
+    AutoSetup(WaitArg),
+    /// Serve the simulated drive on real sockets for any client (PLCs, pymodbus, …).
+    Sim(SimArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct WaitArg {
+    /// Wait until the command is done, not only accepted.
+    #[arg(long)]
+    pub wait: bool,
+}
+
+/// How an object access travels.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Via {
+    /// The link's own object access where it has one, the PDI otherwise.
+    Auto,
+    /// PDI OD-Read / OD-Write.
+    Pdi,
+    /// The link's own object access only.
+    Native,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ReadArgs {
+    /// INDEX:SUB in hex, e.g. 1018:01 or 6041.
+    pub address: Address,
+    /// The object's type, when the catalog does not know it (e.g. u32, i16, string).
+    #[arg(long = "type", value_parser = parse_type)]
+    pub dtype: Option<DataType>,
+    #[arg(long, value_enum, default_value_t = Via::Auto)]
+    pub via: Via,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct WriteArgs {
+    /// INDEX:SUB in hex, e.g. 203B:01.
+    pub address: Address,
+    /// The value: decimal, 0x… hex, or text for strings.
+    #[arg(allow_hyphen_values = true)]
+    pub value: String,
+    #[arg(long = "type", value_parser = parse_type)]
+    pub dtype: Option<DataType>,
+    #[arg(long, value_enum, default_value_t = Via::Auto)]
+    pub via: Via,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct MoveArgs {
+    /// Target position (move-abs) or distance (move-rel), 0.1° in factory units.
+    #[arg(allow_hyphen_values = true)]
+    pub position: i64,
+    /// Max speed, rpm in factory units (16 bits: −32768 to 32767).
+    #[arg(long, allow_hyphen_values = true)]
+    pub speed: i64,
+    #[arg(long)]
+    pub wait: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct VelocityArgs {
+    /// Target speed, rpm in factory units.
+    #[arg(allow_hyphen_values = true)]
+    pub speed: i64,
+    /// Wait until the speed is reached.
+    #[arg(long)]
+    pub wait: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct TorqueArgs {
+    /// Target torque, ‰ of rated torque.
+    #[arg(allow_hyphen_values = true)]
+    pub torque: i64,
+    /// Max speed, rpm in factory units.
+    #[arg(long)]
+    pub max_speed: i64,
+    /// Set the torque slope 6087h (‰/s) first; the drive's default of 0 never builds up torque.
+    #[arg(long)]
+    pub slope: Option<u32>,
+    #[arg(long)]
+    pub wait: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct HomeArgs {
+    /// Homing method (CiA 402), e.g. 17, 18, 19, 21, 33, 34, 35, 37.
+    #[arg(long, allow_hyphen_values = true)]
+    pub method: i64,
+    #[arg(long)]
+    pub wait: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct HomeHereArgs {
+    /// The value the actual position takes, 0.1°.
+    #[arg(allow_hyphen_values = true)]
+    pub position: i64,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct SimArgs {}
+
+fn parse_type(text: &str) -> Result<DataType, String> {
+    let t = text.trim().to_ascii_lowercase();
+    let found = DataType::ALL.into_iter().find(|d| {
+        d.short_name().eq_ignore_ascii_case(&t)
+            || format!("{d:?}").eq_ignore_ascii_case(&t)
+            || (t == "string" && *d == DataType::VisibleString)
+    });
+    found.ok_or_else(|| {
+        let names: Vec<String> = DataType::ALL
+            .iter()
+            .map(|d| d.short_name().to_ascii_lowercase())
+            .collect();
+        format!("unknown type '{text}': use one of {}", names.join(", "))
+    })
+}
+
+/// Run the command line. Without a command, the window opens.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_tracing();
+    match cli.command.clone() {
+        None => match crate::ui::run_window(cli.link.clone()) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("drivedeck: the window could not open: {e}");
+                eprintln!(
+                    "(no display? run one-shot commands instead, e.g. `drivedeck --link sim status`)"
+                );
+                ExitCode::from(EXIT_USAGE)
+            }
+        },
+        Some(Command::Sim(_)) => {
+            eprintln!(
+                "drivedeck sim: no bus to serve yet. The simulated drive gets its Modbus TCP/RTU server with issue #3, its CANopen node with issue #4 and its EtherNet/IP adapter with issue #5. The window and every one-shot command already use it in-process: --link sim."
+            );
+            ExitCode::from(EXIT_USAGE)
+        }
+        Some(command) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));
+            oneshot::run(&link, &command, cli.json, timeout)
+        }
+    }
+}
+
+fn init_tracing() {
+    let filter = tracing_subscriber::EnvFilter::try_from_env("DRIVEDECK_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}

@@ -1,0 +1,270 @@
+//! What a one-shot command prints: text for people, JSON for scripts.
+
+use serde::Serialize;
+
+use crate::cia::{AbortCode, ErrorCode, PowerState};
+use crate::link::LinkSpec;
+use crate::od::{self, Address, DataType, Value};
+use crate::pdi::StatusBit;
+use crate::worker::{CommandProgress, Sample};
+
+#[derive(Serialize, Debug)]
+#[serde(untagged)]
+pub enum Report {
+    Status(StatusReport),
+    Object(ObjectReport),
+    Command(CommandReport),
+}
+
+impl Report {
+    pub fn set_warnings(&mut self, warnings: Vec<String>) {
+        match self {
+            Report::Status(r) => r.warnings = warnings,
+            Report::Object(r) => r.warnings = warnings,
+            Report::Command(r) => r.warnings = warnings,
+        }
+    }
+
+    fn warnings(&self) -> &[String] {
+        match self {
+            Report::Status(r) => &r.warnings,
+            Report::Object(r) => &r.warnings,
+            Report::Command(r) => &r.warnings,
+        }
+    }
+}
+
+#[derive(Serialize, Debug)]
+pub struct Bit {
+    pub bit: u8,
+    pub name: &'static str,
+    pub set: bool,
+}
+
+#[derive(Serialize, Debug)]
+pub struct StatusReport {
+    pub link: String,
+    pub pdi_status: u16,
+    pub bits: Vec<Bit>,
+    pub undefined_bits: u16,
+    pub error_code: u16,
+    pub error_meaning: &'static str,
+    pub return_value: i32,
+    /// When PdiStatusError is set: ReturnValue as an abort code.
+    pub return_error: Option<String>,
+    pub statusword: Option<u16>,
+    pub state: Option<&'static str>,
+    pub mode: Option<i8>,
+    pub position: Option<f64>,
+    pub velocity: Option<f64>,
+    pub torque: Option<f64>,
+    pub following_error: Option<f64>,
+    pub digital_inputs: Option<u32>,
+    pub warnings: Vec<String>,
+}
+
+#[derive(Serialize, Debug)]
+pub struct ObjectReport {
+    pub address: String,
+    pub name: Option<String>,
+    #[serde(rename = "type")]
+    pub dtype: Option<String>,
+    pub value: Value,
+    pub text: String,
+    pub hex: Option<String>,
+    pub unit: Option<String>,
+    pub written: bool,
+    pub warnings: Vec<String>,
+}
+
+#[derive(Serialize, Debug)]
+pub struct CommandReport {
+    pub command: String,
+    /// The RX image written: SetValue1 (4 bytes LE), SetValue2 (2), SetValue3 (1), PDI-Cmd.
+    pub image: Option<[u8; 8]>,
+    pub outcome: &'static str,
+    pub return_value: Option<i32>,
+    pub warnings: Vec<String>,
+}
+
+pub fn status(link: &LinkSpec, sample: Option<Sample>) -> StatusReport {
+    let sample = sample.unwrap_or_default();
+    let status = sample.tx.status;
+    let code = ErrorCode(sample.tx.error_code);
+    StatusReport {
+        link: link.to_string(),
+        pdi_status: status.0,
+        bits: StatusBit::ALL
+            .iter()
+            .map(|b| Bit {
+                bit: b.bit(),
+                name: b.name(),
+                set: status.is_set(*b),
+            })
+            .collect(),
+        undefined_bits: status.undefined_bits(),
+        error_code: code.0,
+        error_meaning: code.meaning(),
+        return_value: sample.tx.return_value,
+        return_error: status
+            .is_set(StatusBit::Error)
+            .then(|| AbortCode(sample.tx.return_value as u32).to_string()),
+        statusword: sample.statusword,
+        state: sample
+            .statusword
+            .and_then(PowerState::from_statusword)
+            .map(PowerState::name),
+        mode: sample.mode,
+        position: sample.position,
+        velocity: sample.velocity,
+        torque: sample.torque,
+        following_error: sample.following_error,
+        digital_inputs: sample.digital_inputs,
+        warnings: vec![],
+    }
+}
+
+pub fn object(
+    address: Address,
+    dtype: Option<DataType>,
+    value: &Value,
+    written: bool,
+) -> ObjectReport {
+    let entry = od::builtin().get(address);
+    ObjectReport {
+        address: address.to_string(),
+        name: entry.map(|e| e.full_name()),
+        dtype: dtype.map(|d| d.short_name().to_owned()),
+        value: value.clone(),
+        text: value.to_string(),
+        hex: dtype.map(|d| value.to_hex(d)).filter(|h| !h.is_empty()),
+        unit: entry.and_then(|e| e.unit.clone()),
+        written,
+        warnings: vec![],
+    }
+}
+
+pub fn command(what: String, image: Option<[u8; 8]>, progress: &CommandProgress) -> CommandReport {
+    let (outcome, return_value) = match progress {
+        CommandProgress::Done { return_value } => ("done", Some(*return_value)),
+        CommandProgress::Accepted => ("accepted", None),
+        _ => ("failed", None),
+    };
+    CommandReport {
+        command: what,
+        image,
+        outcome,
+        return_value,
+        warnings: vec![],
+    }
+}
+
+pub fn print(report: &Report, json: bool) {
+    for warning in report.warnings() {
+        eprintln!("warning: {warning}");
+    }
+    if json {
+        match serde_json::to_string_pretty(report) {
+            Ok(text) => println!("{text}"),
+            Err(e) => eprintln!("drivedeck: cannot format the report as JSON: {e}"),
+        }
+        return;
+    }
+    match report {
+        Report::Status(s) => print_status(s),
+        Report::Object(o) => {
+            let name = o
+                .name
+                .as_deref()
+                .map(|n| format!(" {n}"))
+                .unwrap_or_default();
+            let unit = o
+                .unit
+                .as_deref()
+                .map(|u| format!(" {u}"))
+                .unwrap_or_default();
+            let hex = o
+                .hex
+                .as_deref()
+                .map(|h| format!(" ({h})"))
+                .unwrap_or_default();
+            let verb = if o.written { "written: " } else { "" };
+            println!("{}{name} = {verb}{}{unit}{hex}", o.address, o.text);
+        }
+        Report::Command(c) => {
+            let image = c
+                .image
+                .map(|b| {
+                    format!(
+                        " [{}]",
+                        b.iter()
+                            .map(|x| format!("{x:02X}"))
+                            .collect::<Vec<_>>()
+                            .join(" ")
+                    )
+                })
+                .unwrap_or_default();
+            match c.return_value {
+                Some(rv) => println!("{}{image}: {} (ReturnValue {rv})", c.command, c.outcome),
+                None => println!("{}{image}: {}", c.command, c.outcome),
+            }
+        }
+    }
+}
+
+fn print_status(s: &StatusReport) {
+    println!("link        {}", s.link);
+    match (s.state, s.statusword) {
+        (Some(state), Some(word)) => println!("state       {state} (6041h = {word:04X}h)"),
+        (None, Some(word)) => {
+            println!("state       statusword {word:04X}h matches no CiA 402 state")
+        }
+        _ => println!("state       unknown (6041h not readable on this link)"),
+    }
+    let on: Vec<&str> = s.bits.iter().filter(|b| b.set).map(|b| b.name).collect();
+    println!(
+        "PDI-Status  {:04X}h{}",
+        s.pdi_status,
+        if on.is_empty() {
+            String::new()
+        } else {
+            format!(" {}", on.join(" "))
+        }
+    );
+    if s.undefined_bits != 0 {
+        println!("            undefined bits {:04X}h", s.undefined_bits);
+    }
+    println!("603Fh       {:04X}h {}", s.error_code, s.error_meaning);
+    match &s.return_error {
+        Some(text) => println!("ReturnValue {:08X}h: {text}", s.return_value as u32),
+        None => println!("ReturnValue {}", s.return_value),
+    }
+    if let Some(mode) = s.mode {
+        println!("mode        {mode} (6061h)");
+    }
+    let mut actual = vec![];
+    if let Some(p) = s.position {
+        actual.push(format!("position {p:.0} (0.1°)"));
+    }
+    if let Some(v) = s.velocity {
+        actual.push(format!("velocity {v:.0} rpm"));
+    }
+    if let Some(t) = s.torque {
+        actual.push(format!("torque {t:.0} ‰"));
+    }
+    if let Some(f) = s.following_error {
+        actual.push(format!("following error {f:.0}"));
+    }
+    if !actual.is_empty() {
+        println!("actual      {}", actual.join(", "));
+    }
+}
+
+pub fn print_error(message: &str, json: bool) {
+    if json {
+        let body = serde_json::json!({ "error": message });
+        println!("{body}");
+    } else {
+        eprintln!("drivedeck: {message}");
+    }
+}

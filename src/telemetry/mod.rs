@@ -1,0 +1,5 @@
+//! Recorded signals: bounded histories for the live plots.
+
+mod history;
+
+pub use history::{History, Trace};

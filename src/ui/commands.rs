@@ -1,0 +1,384 @@
+//! The command panel: a button for every PDI command with its set values, each field with
+//! its unit and range; a button stays disabled, with the reason as its tooltip, while a
+//! field is invalid. The halt toggle sits on top.
+
+use eframe::egui::{self, Color32, RichText, TextEdit, Ui};
+
+use super::state::{AppState, TORQUE_SLOPE, TorqueWarning};
+use super::widgets::{AMBER, RED, name_widget, named_text_edit};
+use crate::od::{self, Address, DataType, Value};
+use crate::pdi::{Action, FieldSpec, Opcode};
+use crate::sim::SUPPORTED_METHODS;
+use crate::worker::{ObjectPath, Request};
+
+/// The button text of a command.
+pub fn button_label(opcode: Opcode) -> &'static str {
+    match opcode {
+        Opcode::Nop => "NOP",
+        Opcode::SwitchOff => "Switch off",
+        Opcode::ClearError => "Clear error",
+        Opcode::Quickstop => "Quickstop",
+        Opcode::OdRead => "OD-Read",
+        Opcode::OdWrite => "OD-Write",
+        Opcode::AutoSetup => "Auto setup",
+        Opcode::HomeHere => "Home here",
+        Opcode::Homing => "Homing",
+        Opcode::MoveAbsolute => "Move absolute",
+        Opcode::MoveRelative => "Move relative",
+        Opcode::Velocity => "Velocity",
+        Opcode::Torque => "Torque",
+    }
+}
+
+/// The accessible name of a command's input box, e.g. "Move absolute: Max speed".
+pub fn field_label(opcode: Opcode, spec: &FieldSpec) -> String {
+    format!("{}: {}", button_label(opcode), spec.label)
+}
+
+fn command_hint(opcode: Opcode) -> String {
+    match opcode {
+        Opcode::Homing => format!(
+            "Homing method in SetValue3. The simulator supports {}.",
+            SUPPORTED_METHODS.map(|m| m.to_string()).join(", ")
+        ),
+        Opcode::Torque => "Ramps at the torque slope 6087h; the drive's default slope is 0, which never builds up torque.".into(),
+        Opcode::AutoSetup => "Identifies the motor; it moves. Restart the device afterwards: the coordinate system is no longer valid.".into(),
+        Opcode::HomeHere => "Sets the actual position to this value without moving.".into(),
+        Opcode::OdRead => "Reads an object through the PDI (32 bits at most).".into(),
+        Opcode::OdWrite => "Writes an object through the PDI (32 bits at most).".into(),
+        Opcode::Nop => "Deletes the command; PdiStatusToggleCmd still toggles.".into(),
+        Opcode::ClearError => "Clears a fault once its cause is gone.".into(),
+        _ => String::new(),
+    }
+}
+
+/// A command's inputs, validated: the request to send, or why not.
+fn validate(state: &AppState, opcode: Opcode) -> Result<Request, String> {
+    let specs = opcode.fields();
+    let texts = state
+        .settings
+        .inputs
+        .get(opcode.name())
+        .cloned()
+        .unwrap_or_default();
+    let text = |i: usize| texts.get(i).map(String::as_str).unwrap_or("");
+    match opcode {
+        Opcode::OdRead | Opcode::OdWrite => {
+            let index = specs[0].parse(text(0)).map_err(|e| e.to_string())?;
+            let sub = specs[1].parse(text(1)).map_err(|e| e.to_string())?;
+            let address = Address::new(index as u16, sub as u8);
+            let entry = od::builtin().get(address);
+            if opcode == Opcode::OdRead {
+                return Ok(Request::ReadObject {
+                    address,
+                    dtype: entry.map(|e| e.dtype),
+                    path: ObjectPath::Pdi,
+                });
+            }
+            let (dtype, value) = match entry {
+                Some(entry) => {
+                    if !entry.access.writable() {
+                        return Err(format!("{address} {} is read-only", entry.full_name()));
+                    }
+                    let value =
+                        Value::parse(entry.dtype, text(2)).map_err(|e| format!("Value: {e}"))?;
+                    entry.check(&value).map_err(|e| format!("Value: {e}"))?;
+                    if !entry.dtype.fits_pdi() {
+                        return Err(format!("{} values do not fit the 32-bit PDI", entry.dtype));
+                    }
+                    (entry.dtype, value)
+                }
+                None => {
+                    let raw = specs[2].parse(text(2)).map_err(|e| e.to_string())?;
+                    let value = if raw < 0 {
+                        Value::Int(raw)
+                    } else {
+                        Value::Uint(raw as u64)
+                    };
+                    let dtype = if raw < 0 {
+                        DataType::Integer32
+                    } else {
+                        DataType::Unsigned32
+                    };
+                    (dtype, value)
+                }
+            };
+            Ok(Request::WriteObject {
+                address,
+                dtype,
+                value,
+                path: ObjectPath::Pdi,
+            })
+        }
+        _ => {
+            let mut values = Vec::with_capacity(specs.len());
+            for (i, spec) in specs.iter().enumerate() {
+                values.push(spec.parse(text(i)).map_err(|e| e.to_string())?);
+            }
+            Action::from_inputs(opcode, &values)
+                .map(Request::Command)
+                .map_err(|e| e.to_string())
+        }
+    }
+}
+
+/// A warning shown under a valid command that will not do what one might expect.
+fn caution(state: &AppState, request: &Request) -> Option<String> {
+    match request {
+        Request::Command(Action::MoveAbsolute { speed: 0, .. })
+        | Request::Command(Action::MoveRelative { speed: 0, .. }) => {
+            Some("Max speed 0: the drive will not move.".into())
+        }
+        Request::Command(Action::Torque { max_speed: 0, .. }) => {
+            Some("Max speed 0: the motor will not turn.".into())
+        }
+        Request::Command(Action::Torque { .. }) => match state.torque_slope {
+            Some(0) => Some("Torque slope 6087h is 0: the torque will never build up.".into()),
+            None => Some("Torque slope 6087h unknown: read it before sending.".into()),
+            Some(_) => None,
+        },
+        Request::Command(Action::Homing { method }) if !SUPPORTED_METHODS.contains(method) => Some(
+            format!("Method {method} is not one the simulator supports; a real drive may."),
+        ),
+        _ => None,
+    }
+}
+
+const GROUPS: [(&str, &[Opcode]); 3] = [
+    (
+        "Motion",
+        &[
+            Opcode::MoveAbsolute,
+            Opcode::MoveRelative,
+            Opcode::Velocity,
+            Opcode::Torque,
+        ],
+    ),
+    (
+        "Homing and setup",
+        &[Opcode::Homing, Opcode::HomeHere, Opcode::AutoSetup],
+    ),
+    (
+        "Objects and housekeeping",
+        &[
+            Opcode::OdRead,
+            Opcode::OdWrite,
+            Opcode::ClearError,
+            Opcode::Nop,
+        ],
+    ),
+];
+
+pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
+    ui.heading("Commands");
+    halt_ui(ui, state);
+    ui.separator();
+    for (title, opcodes) in GROUPS {
+        ui.label(RichText::new(title).strong());
+        egui::Grid::new(title)
+            .num_columns(2)
+            .spacing([8.0, 4.0])
+            .show(ui, |ui| {
+                for opcode in opcodes {
+                    command_row(ui, state, *opcode);
+                }
+            });
+        ui.add_space(6.0);
+    }
+    if let Some(read) = &state.last_object {
+        let text = match &read.result {
+            Ok(value) => {
+                let entry = od::builtin().get(read.address);
+                let hex = entry.map(|e| value.to_hex(e.dtype)).unwrap_or_default();
+                let unit = entry.and_then(|e| e.unit.clone()).unwrap_or_default();
+                let name = entry.map(|e| e.full_name()).unwrap_or_default();
+                format!("{} {name} = {value} {unit} {hex}", read.address)
+            }
+            Err(e) => format!("{}: {e}", read.address),
+        };
+        let color = if read.result.is_ok() {
+            ui.visuals().text_color()
+        } else {
+            RED
+        };
+        ui.label(RichText::new(text).color(color).monospace());
+    }
+    torque_warning_ui(ui, state);
+}
+
+fn halt_ui(ui: &mut Ui, state: &mut AppState) {
+    let connected = state.is_connected();
+    let halted = state.halt_engaged;
+    ui.horizontal(|ui| {
+        let button = egui::Button::selectable(
+            halted,
+            RichText::new("Halt").size(20.0).strong().color(if halted { Color32::BLACK } else { AMBER }),
+        )
+        .min_size(egui::vec2(110.0, 36.0))
+        .fill(if halted { AMBER } else { ui.visuals().widgets.inactive.bg_fill });
+        let response = ui
+            .add_enabled(connected, button)
+            .on_hover_text("Halt bit (PDI-Cmd bit 6): brake to speed 0 with the ramp and stay energised. Click again to continue to the old target.")
+            .on_disabled_hover_text("not connected");
+        if response.clicked() {
+            state.request(if halted {
+                crate::worker::Request::Resume
+            } else {
+                crate::worker::Request::Halt
+            });
+        }
+        ui.vertical(|ui| {
+            if halted {
+                ui.colored_label(AMBER, "Halted: click to resume the old target,");
+                ui.colored_label(AMBER, "or send a new travel command.");
+            } else {
+                ui.weak("Brakes the running travel command.");
+            }
+        });
+    });
+}
+
+fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
+    let specs = opcode.fields();
+    let verdict = validate(state, opcode);
+    let connected = state.is_connected();
+    let enabled = connected && verdict.is_ok();
+    let button = egui::Button::new(button_label(opcode)).min_size(egui::vec2(110.0, 0.0));
+    let mut response = ui.add_enabled(enabled, button);
+    let hint = command_hint(opcode);
+    if !hint.is_empty() {
+        response = response.on_hover_text(&hint);
+    }
+    let reason = match (&verdict, connected) {
+        (Err(reason), _) => reason.clone(),
+        (Ok(_), false) => "not connected to a drive".to_owned(),
+        _ => String::new(),
+    };
+    let response = response.on_disabled_hover_text(&reason);
+    if response.clicked()
+        && let Ok(request) = &verdict
+    {
+        send(state, request.clone());
+    }
+
+    ui.vertical(|ui| {
+        ui.horizontal_wrapped(|ui| {
+            let inputs = state
+                .settings
+                .inputs
+                .entry(opcode.name().to_owned())
+                .or_default();
+            inputs.resize(specs.len(), String::new());
+            for (spec, text) in specs.iter().zip(inputs.iter_mut()) {
+                ui.label(spec.label);
+                let valid = spec.parse(text).is_ok();
+                let width = if spec.radix == crate::pdi::Radix::Hex {
+                    48.0
+                } else {
+                    72.0
+                };
+                let edit = TextEdit::singleline(text)
+                    .desired_width(width)
+                    .text_color_opt((!valid).then_some(RED));
+                let name = field_label(opcode, spec);
+                let field = ui.add(edit);
+                name_widget(&field, egui::accesskit::Role::TextInput, &name);
+                field.on_hover_text(format!(
+                    "{} ({}): {} to {} {}{}",
+                    spec.field.name(),
+                    spec.field.object(),
+                    spec.format(spec.min),
+                    spec.format(spec.max),
+                    spec.unit,
+                    if spec.hint.is_empty() {
+                        String::new()
+                    } else {
+                        format!("\n{}", spec.hint)
+                    }
+                ));
+                if !spec.unit.is_empty() && spec.radix == crate::pdi::Radix::Decimal {
+                    ui.weak(spec.unit);
+                }
+            }
+        });
+        match &verdict {
+            Err(reason) if !specs.is_empty() => {
+                ui.colored_label(RED, reason);
+            }
+            Ok(request) => {
+                if let Some(text) = caution(state, request) {
+                    ui.colored_label(AMBER, text);
+                }
+            }
+            _ => {}
+        }
+    });
+    ui.end_row();
+}
+
+/// Send a command, stopping first to warn about a torque command that cannot work.
+fn send(state: &mut AppState, request: Request) {
+    if let Request::Command(action @ Action::Torque { .. }) = request
+        && !state.torque_slope.is_some_and(|slope| slope > 0)
+    {
+        state.torque_warning = Some(TorqueWarning { action });
+        return;
+    }
+    state.request(request);
+}
+
+fn torque_warning_ui(ui: &mut Ui, state: &mut AppState) {
+    let Some(warning) = state.torque_warning.clone() else {
+        return;
+    };
+    let slope_text = match state.torque_slope {
+        Some(0) => "The torque slope 6087h is 0 (the factory value): with it the torque never builds up and the motor does not move.".to_owned(),
+        Some(v) => format!("The torque slope 6087h is {v} ‰/s."),
+        None => "The torque slope 6087h could not be read, so it may still be 0 (the factory value), which never builds up torque.".to_owned(),
+    };
+    let modal = egui::Modal::new(egui::Id::unique("torque_slope_warning")).show(ui.ctx(), |ui| {
+        ui.set_max_width(420.0);
+        ui.heading("Torque slope is not set");
+        ui.label(slope_text);
+        ui.add_space(6.0);
+        ui.horizontal(|ui| {
+            ui.label("Set 6087h to");
+            named_text_edit(
+                ui,
+                &mut state.settings.torque_slope,
+                70.0,
+                "Torque slope 6087h",
+            );
+            ui.label("‰/s");
+        });
+        let slope = Value::parse(DataType::Unsigned32, &state.settings.torque_slope)
+            .ok()
+            .filter(|v| v.as_i128().is_some_and(|v| v > 0));
+        ui.add_space(6.0);
+        ui.horizontal(|ui| {
+            let set = ui.add_enabled(slope.is_some(), egui::Button::new("Set slope and send"));
+            if set.clicked()
+                && let Some(value) = slope.clone()
+            {
+                state.request(Request::WriteObject {
+                    address: TORQUE_SLOPE,
+                    dtype: DataType::Unsigned32,
+                    value,
+                    path: ObjectPath::Auto,
+                });
+                state.request(Request::Command(warning.action));
+                state.torque_warning = None;
+            }
+            if ui.button("Send anyway").clicked() {
+                state.request(Request::Command(warning.action));
+                state.torque_warning = None;
+            }
+            if ui.button("Cancel").clicked() {
+                state.torque_warning = None;
+            }
+        });
+    });
+    if modal.should_close() {
+        state.torque_warning = None;
+    }
+}

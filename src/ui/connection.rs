@@ -1,0 +1,202 @@
+//! The connection bar: the bus, its fields with the hardware's defaults, connect and
+//! disconnect, the link's health; and the stop strip, always visible.
+
+use eframe::egui::{self, Color32, RichText, Ui};
+
+use super::state::{AppState, Bus, Connection};
+use super::widgets::{AMBER, GREEN, RED, name_widget, named_text_edit};
+use crate::link::{EnipIo, Parity};
+use crate::pdi::Action;
+use crate::worker::Request;
+
+fn field(ui: &mut Ui, label: &str, text: &mut String, width: f32) {
+    ui.label(label);
+    named_text_edit(ui, text, width, &format!("Connection: {label}"));
+}
+
+fn combo_name(response: &egui::Response, name: &str) {
+    name_widget(response, egui::accesskit::Role::ComboBox, name);
+}
+
+pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
+    ui.horizontal_wrapped(|ui| {
+        let form = &mut state.settings.connection;
+        let bus = egui::ComboBox::from_id_salt("bus")
+            .selected_text(form.bus.name())
+            .show_ui(ui, |ui| {
+                for bus in Bus::ALL {
+                    ui.selectable_value(&mut form.bus, bus, bus.name());
+                }
+            });
+        combo_name(&bus.response, "Bus");
+        match form.bus {
+            Bus::Sim => {
+                ui.weak("built in: no hardware needed");
+            }
+            Bus::ModbusTcp => {
+                field(ui, "Host", &mut form.tcp_host, 110.0);
+                field(ui, "Port", &mut form.tcp_port, 44.0);
+                field(ui, "Unit", &mut form.unit, 28.0);
+            }
+            Bus::ModbusRtu => {
+                field(ui, "Port", &mut form.rtu_path, 110.0);
+                field(ui, "Baud", &mut form.baud, 56.0);
+                let parity = egui::ComboBox::from_id_salt("parity")
+                    .selected_text(form.parity.name())
+                    .width(60.0)
+                    .show_ui(ui, |ui| {
+                        for parity in [Parity::Even, Parity::None, Parity::Odd] {
+                            ui.selectable_value(&mut form.parity, parity, parity.name());
+                        }
+                    });
+                combo_name(&parity.response, "Parity");
+                field(ui, "Stop", &mut form.stop_bits, 20.0);
+                field(ui, "Slave", &mut form.slave, 32.0);
+            }
+            Bus::CanopenSocketcan => {
+                field(ui, "Interface", &mut form.can_iface, 70.0);
+                field(ui, "Node", &mut form.node, 32.0);
+            }
+            Bus::CanopenSlcan => {
+                field(ui, "Port", &mut form.slcan_path, 110.0);
+                field(ui, "Bit rate", &mut form.bitrate, 70.0);
+                field(ui, "Node", &mut form.node, 32.0);
+            }
+            Bus::Enip => {
+                field(ui, "Host", &mut form.enip_host, 110.0);
+                field(ui, "Port", &mut form.enip_port, 48.0);
+                let io = egui::ComboBox::from_id_salt("enip_io")
+                    .selected_text(form.enip_io.name())
+                    .width(70.0)
+                    .show_ui(ui, |ui| {
+                        for io in [EnipIo::Pdi, EnipIo::Common, EnipIo::Explicit] {
+                            ui.selectable_value(&mut form.enip_io, io, io.name());
+                        }
+                    });
+                combo_name(&io.response, "I/O set");
+                field(ui, "RPI ms", &mut form.rpi, 32.0);
+            }
+        }
+
+        let spec = form.spec();
+        let busy = matches!(state.connection, Connection::Connecting(_));
+        match &state.connection {
+            Connection::Connected(_)
+            | Connection::Failed {
+                retry_in: Some(_), ..
+            } => {
+                if ui.button("Disconnect").clicked() {
+                    state.request(Request::Disconnect);
+                }
+            }
+            _ => {
+                let response = ui
+                    .add_enabled(spec.is_ok() && !busy, egui::Button::new("Connect"))
+                    .on_disabled_hover_text(spec.as_ref().err().cloned().unwrap_or_default());
+                if response.clicked()
+                    && let Ok(spec) = spec.clone()
+                {
+                    state.request(Request::Connect(spec));
+                }
+            }
+        }
+        if let Err(reason) = &spec {
+            ui.colored_label(RED, reason);
+        }
+
+        ui.separator();
+        match &state.connection {
+            Connection::Disconnected => {
+                ui.weak("disconnected");
+            }
+            Connection::Connecting(spec) => {
+                ui.spinner();
+                ui.label(format!("connecting to {spec}"));
+            }
+            Connection::Connected(info) => {
+                ui.colored_label(GREEN, "connected:");
+                ui.label(&info.description);
+                if let Some(health) = state.health {
+                    ui.weak(format!(
+                        "{:.0} cycles/s, RTT {:.2} ms (max {:.2}), {} errors",
+                        health.cycles_per_second,
+                        health.rtt_mean.as_secs_f64() * 1e3,
+                        health.rtt_max.as_secs_f64() * 1e3,
+                        health.errors
+                    ))
+                    .on_hover_text(if health.dropped_samples > 0 {
+                        format!(
+                            "{} samples dropped because the window was busy",
+                            health.dropped_samples
+                        )
+                    } else {
+                        "Process-image exchanges per second and their round-trip time".to_owned()
+                    });
+                }
+            }
+            Connection::Failed {
+                error, retry_in, ..
+            } => {
+                let retry = retry_in
+                    .map(|d| format!(" (retrying in {:.1} s)", d.as_secs_f64()))
+                    .unwrap_or_default();
+                ui.colored_label(RED, format!("{error}{retry}"));
+            }
+        }
+    });
+}
+
+/// Quickstop and Switch Off, always visible; Esc and Shift+Esc reach them from anywhere.
+pub fn stop_strip_ui(ui: &mut Ui, state: &mut AppState) {
+    let connected = state.is_connected();
+    ui.horizontal(|ui| {
+        let quickstop = egui::Button::new(
+            RichText::new("QUICKSTOP (Esc)")
+                .size(17.0)
+                .strong()
+                .color(Color32::WHITE),
+        )
+        .fill(RED)
+        .min_size(egui::vec2(170.0, 34.0));
+        if ui
+            .add_enabled(connected, quickstop)
+            .on_hover_text("PDI-Cmd 3: brake with the quick stop reaction of 605Ah")
+            .on_disabled_hover_text("not connected")
+            .clicked()
+        {
+            state.request(Request::Command(Action::Quickstop));
+        }
+        let switch_off = egui::Button::new(
+            RichText::new("Switch off (Shift+Esc)")
+                .size(15.0)
+                .color(Color32::BLACK),
+        )
+        .fill(AMBER)
+        .min_size(egui::vec2(150.0, 34.0));
+        if ui
+            .add_enabled(connected, switch_off)
+            .on_hover_text("PDI-Cmd 1: power stage off, motor de-energised (it coasts)")
+            .on_disabled_hover_text("not connected")
+            .clicked()
+        {
+            state.request(Request::Command(Action::SwitchOff));
+        }
+    });
+}
+
+/// Esc = Quickstop, Shift+Esc = Switch Off, whatever has focus.
+pub fn stop_keys(ctx: &egui::Context, state: &mut AppState) {
+    if !state.is_connected() {
+        return;
+    }
+    let (quickstop, switch_off) = ctx.input_mut(|i| {
+        let switch_off = i.consume_key(egui::Modifiers::SHIFT, egui::Key::Escape);
+        let quickstop = i.consume_key(egui::Modifiers::NONE, egui::Key::Escape);
+        (quickstop, switch_off)
+    });
+    if switch_off {
+        state.request(Request::Command(Action::SwitchOff));
+    } else if quickstop {
+        state.request(Request::Command(Action::Quickstop));
+    }
+}

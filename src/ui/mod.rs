@@ -1,0 +1,193 @@
+//! The window (eframe). `AppState` is plain data changed only by worker events
+//! (`logic`); the panels draw it and collect the user's intents as requests (`ui`).
+
+pub mod commands;
+pub mod connection;
+pub mod log;
+pub mod plots;
+pub mod state;
+pub mod status;
+pub mod widgets;
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use eframe::egui::{self, Ui};
+
+pub use state::{AppState, Settings};
+
+use crate::worker::{self, Request, Worker};
+
+/// Where eframe keeps the settings between runs.
+pub const SETTINGS_KEY: &str = "drivedeck-settings";
+
+/// The application: the state, and the worker that owns the link.
+pub struct App {
+    pub state: AppState,
+    worker: Option<Worker>,
+    started: Instant,
+    last_poll_rate: f64,
+}
+
+impl App {
+    /// Start the worker and connect to the link of the saved settings (the simulator by
+    /// default). `notify` wakes the window when the worker has news.
+    pub fn new(settings: Settings, notify: worker::Notify, connect: bool) -> Self {
+        let mut state = AppState::new(settings);
+        let config = worker::Config {
+            poll_rate: state.settings.poll_rate,
+            ..worker::Config::default()
+        };
+        let worker = match Worker::spawn(config, notify) {
+            Ok(worker) => Some(worker),
+            Err(e) => {
+                state.info(format!("the worker thread could not start: {e}"));
+                None
+            }
+        };
+        let last_poll_rate = state.settings.poll_rate;
+        let mut app = Self {
+            state,
+            worker,
+            started: Instant::now(),
+            last_poll_rate,
+        };
+        if connect {
+            match app.state.settings.connection.spec() {
+                Ok(spec) => app.state.request(Request::Connect(spec)),
+                Err(e) => app.state.info(format!("saved connection is invalid: {e}")),
+            }
+            app.flush_outbox();
+        }
+        app
+    }
+
+    /// Apply every waiting worker event.
+    pub fn pump_events(&mut self) {
+        self.state.clock = self.started.elapsed().as_secs_f64();
+        if let Some(worker) = &self.worker {
+            for event in worker.drain() {
+                self.state.apply(event);
+            }
+        }
+    }
+
+    /// Hand the user's requests to the worker. The worker never blocks the window: a full
+    /// queue is reported, not waited for.
+    pub fn flush_outbox(&mut self) {
+        if self.state.settings.poll_rate != self.last_poll_rate {
+            self.last_poll_rate = self.state.settings.poll_rate;
+            self.state
+                .outbox
+                .push(Request::SetPollRate(self.last_poll_rate));
+        }
+        let requests = std::mem::take(&mut self.state.outbox);
+        for request in requests {
+            match &self.worker {
+                Some(worker) => match worker.send(request.clone()) {
+                    Ok(id) => self.state.note_queued(id, &request),
+                    Err(e) => self.state.note_unsent(&request, e.to_string()),
+                },
+                None => self
+                    .state
+                    .note_unsent(&request, "the worker is not running".into()),
+            }
+        }
+    }
+
+    /// Draw the whole window into `ui`.
+    pub fn draw(&mut self, ui: &mut Ui) {
+        connection::stop_keys(ui.ctx(), &mut self.state);
+        let state = &mut self.state;
+        egui::Panel::top("connection_bar").show(ui, |ui| {
+            ui.add_space(4.0);
+            ui.horizontal(|ui| {
+                ui.heading("drivedeck");
+                ui.separator();
+                ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                    connection::stop_strip_ui(ui, state);
+                    ui.with_layout(egui::Layout::left_to_right(egui::Align::Center), |ui| {
+                        connection::connection_ui(ui, state);
+                    });
+                });
+            });
+            ui.add_space(4.0);
+        });
+        egui::Panel::bottom("log")
+            .resizable(true)
+            .default_size(150.0)
+            .show(ui, |ui| log::log_ui(ui, state));
+        egui::Panel::left("status")
+            .resizable(true)
+            .default_size(290.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical()
+                    .id_salt("status_scroll")
+                    .show(ui, |ui| status::status_ui(ui, state));
+            });
+        egui::Panel::right("commands")
+            .resizable(true)
+            .default_size(430.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical()
+                    .id_salt("commands_scroll")
+                    .show(ui, |ui| commands::commands_ui(ui, state));
+            });
+        egui::CentralPanel::default_margins().show(ui, |ui| plots::plots_ui(ui, state));
+    }
+
+    /// One frame without eframe (UI tests): events in, draw, requests out.
+    pub fn frame(&mut self, ui: &mut Ui) {
+        self.pump_events();
+        self.draw(ui);
+        self.flush_outbox();
+    }
+}
+
+impl eframe::App for App {
+    fn logic(&mut self, _ctx: &egui::Context, _frame: &mut eframe::Frame) {
+        self.pump_events();
+        self.flush_outbox();
+    }
+
+    fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
+        self.draw(ui);
+        self.flush_outbox();
+    }
+
+    fn save(&mut self, storage: &mut dyn eframe::Storage) {
+        eframe::set_value(storage, SETTINGS_KEY, &self.state.settings);
+    }
+
+    fn auto_save_interval(&self) -> Duration {
+        Duration::from_secs(10)
+    }
+}
+
+/// Open the window. Blocks until it is closed.
+pub fn run_window(connect_to: Option<crate::link::LinkSpec>) -> Result<(), eframe::Error> {
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("drivedeck")
+            .with_inner_size([1380.0, 860.0])
+            .with_min_inner_size([900.0, 560.0]),
+        ..Default::default()
+    };
+    eframe::run_native(
+        "drivedeck",
+        options,
+        Box::new(move |cc| {
+            let mut settings: Settings = cc
+                .storage
+                .and_then(|s| eframe::get_value(s, SETTINGS_KEY))
+                .unwrap_or_default();
+            if let Some(spec) = &connect_to {
+                settings.connection = state::ConnectionForm::from_spec(spec, settings.connection);
+            }
+            let ctx = cc.egui_ctx.clone();
+            let notify: worker::Notify =
+                Arc::new(move || ctx.request_repaint_after(Duration::from_millis(5)));
+            Ok(Box::new(App::new(settings, notify, true)))
+        }),
+    )
+}

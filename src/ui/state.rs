@@ -1,0 +1,620 @@
+//! `AppState`: everything the window shows, as plain data. The worker's events change it
+//! through `apply`; panels read it and put the user's intents into `outbox`.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+
+use crate::link::{EnipIo, LinkInfo, LinkSpec, Parity};
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{Action, Opcode, RxImage, StatusBit};
+use crate::sim::Injection;
+use crate::telemetry::History;
+use crate::worker::{CommandProgress, Event, Health, ObjectPath, Request, RequestId, Sample};
+
+/// Log entries kept in the window.
+pub const LOG_LIMIT: usize = 2000;
+/// Plot history per signal: 60 s at the default 100 Hz.
+pub const HISTORY_SAMPLES: usize = 6000;
+
+/// The bus picked in the connection bar.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Bus {
+    Sim,
+    ModbusTcp,
+    ModbusRtu,
+    CanopenSocketcan,
+    CanopenSlcan,
+    Enip,
+}
+
+impl Bus {
+    pub const ALL: [Bus; 6] = [
+        Bus::Sim,
+        Bus::ModbusTcp,
+        Bus::ModbusRtu,
+        Bus::CanopenSocketcan,
+        Bus::CanopenSlcan,
+        Bus::Enip,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Bus::Sim => "Simulated drive",
+            Bus::ModbusTcp => "Modbus TCP",
+            Bus::ModbusRtu => "Modbus RTU",
+            Bus::CanopenSocketcan => "CANopen (SocketCAN)",
+            Bus::CanopenSlcan => "CANopen (slcan)",
+            Bus::Enip => "EtherNet/IP",
+        }
+    }
+}
+
+/// The connection bar's fields, one set per bus, so switching buses loses nothing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ConnectionForm {
+    pub bus: Bus,
+    pub tcp_host: String,
+    pub tcp_port: String,
+    pub unit: String,
+    pub rtu_path: String,
+    pub baud: String,
+    pub parity: Parity,
+    pub stop_bits: String,
+    pub slave: String,
+    pub can_iface: String,
+    pub slcan_path: String,
+    pub bitrate: String,
+    pub node: String,
+    pub enip_host: String,
+    pub enip_port: String,
+    pub enip_io: EnipIo,
+    pub rpi: String,
+}
+
+impl Default for ConnectionForm {
+    fn default() -> Self {
+        Self {
+            bus: Bus::Sim,
+            tcp_host: "192.168.2.100".into(),
+            tcp_port: "502".into(),
+            unit: "0".into(),
+            rtu_path: if cfg!(windows) {
+                "COM3"
+            } else {
+                "/dev/ttyUSB0"
+            }
+            .into(),
+            baud: "19200".into(),
+            parity: Parity::Even,
+            stop_bits: "1".into(),
+            slave: "5".into(),
+            can_iface: "can0".into(),
+            slcan_path: if cfg!(windows) {
+                "COM4"
+            } else {
+                "/dev/ttyACM0"
+            }
+            .into(),
+            bitrate: "1000000".into(),
+            node: "1".into(),
+            enip_host: "192.168.2.100".into(),
+            enip_port: "44818".into(),
+            enip_io: EnipIo::Pdi,
+            rpi: "10".into(),
+        }
+    }
+}
+
+impl ConnectionForm {
+    /// The connection string the fields describe, checked by the one parser.
+    pub fn spec(&self) -> Result<LinkSpec, String> {
+        let text = match self.bus {
+            Bus::Sim => "sim".to_owned(),
+            Bus::ModbusTcp => format!(
+                "modbus-tcp://{}:{}?unit={}",
+                bracket(&self.tcp_host),
+                self.tcp_port.trim(),
+                self.unit.trim()
+            ),
+            Bus::ModbusRtu => format!(
+                "modbus-rtu://{}?baud={}&parity={}&stop={}&slave={}",
+                self.rtu_path.trim(),
+                self.baud.trim(),
+                self.parity.name(),
+                self.stop_bits.trim(),
+                self.slave.trim()
+            ),
+            Bus::CanopenSocketcan => format!(
+                "canopen+socketcan://{}?node={}",
+                self.can_iface.trim(),
+                self.node.trim()
+            ),
+            Bus::CanopenSlcan => format!(
+                "canopen+slcan://{}?bitrate={}&node={}",
+                self.slcan_path.trim(),
+                self.bitrate.trim(),
+                self.node.trim()
+            ),
+            Bus::Enip => format!(
+                "enip://{}:{}?io={}&rpi={}",
+                bracket(&self.enip_host),
+                self.enip_port.trim(),
+                self.enip_io.name(),
+                self.rpi.trim()
+            ),
+        };
+        text.parse::<LinkSpec>().map_err(|e| e.reason)
+    }
+}
+
+impl ConnectionForm {
+    /// The form filled from a connection string, keeping `base`'s fields for other buses.
+    pub fn from_spec(spec: &LinkSpec, base: ConnectionForm) -> ConnectionForm {
+        let mut form = base;
+        match spec.clone() {
+            LinkSpec::Sim => form.bus = Bus::Sim,
+            LinkSpec::ModbusTcp { host, port, unit } => {
+                form.bus = Bus::ModbusTcp;
+                form.tcp_host = host;
+                form.tcp_port = port.to_string();
+                form.unit = unit.to_string();
+            }
+            LinkSpec::ModbusRtu {
+                path,
+                baud,
+                parity,
+                stop_bits,
+                slave,
+            } => {
+                form.bus = Bus::ModbusRtu;
+                form.rtu_path = path;
+                form.baud = baud.to_string();
+                form.parity = parity;
+                form.stop_bits = stop_bits.to_string();
+                form.slave = slave.to_string();
+            }
+            LinkSpec::CanopenSocketcan { iface, node } => {
+                form.bus = Bus::CanopenSocketcan;
+                form.can_iface = iface;
+                form.node = node.to_string();
+            }
+            LinkSpec::CanopenSlcan {
+                path,
+                bitrate,
+                node,
+            } => {
+                form.bus = Bus::CanopenSlcan;
+                form.slcan_path = path;
+                form.bitrate = bitrate.to_string();
+                form.node = node.to_string();
+            }
+            LinkSpec::Enip {
+                host,
+                port,
+                io,
+                rpi_ms,
+            } => {
+                form.bus = Bus::Enip;
+                form.enip_host = host;
+                form.enip_port = port.to_string();
+                form.enip_io = io;
+                form.rpi = rpi_ms.to_string();
+            }
+        }
+        form
+    }
+}
+
+fn bracket(host: &str) -> String {
+    let host = host.trim();
+    if host.contains(':') && !host.starts_with('[') {
+        format!("[{host}]")
+    } else {
+        host.to_owned()
+    }
+}
+
+/// What persists between runs: the connection bar, every input box, plot settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Settings {
+    pub connection: ConnectionForm,
+    /// The text of every command's input boxes, by opcode name.
+    pub inputs: BTreeMap<String, Vec<String>>,
+    pub poll_rate: f64,
+    /// Torque slope suggested when 6087h is 0, ‰/s.
+    pub torque_slope: String,
+    pub show_log: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        let mut inputs = BTreeMap::new();
+        let mut put = |op: Opcode, values: &[&str]| {
+            inputs.insert(
+                op.name().to_owned(),
+                values.iter().map(|v| (*v).to_owned()).collect(),
+            );
+        };
+        put(Opcode::MoveAbsolute, &["2000", "200"]);
+        put(Opcode::MoveRelative, &["3600", "200"]);
+        put(Opcode::Velocity, &["300"]);
+        put(Opcode::Torque, &["500", "100"]);
+        put(Opcode::Homing, &["19"]);
+        put(Opcode::HomeHere, &["0"]);
+        put(Opcode::OdRead, &["1018", "01"]);
+        put(Opcode::OdWrite, &["203B", "01", "1000"]);
+        Self {
+            connection: ConnectionForm::default(),
+            inputs,
+            poll_rate: 100.0,
+            torque_slope: "1000".into(),
+            show_log: true,
+        }
+    }
+}
+
+/// The link as the window sees it.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub enum Connection {
+    #[default]
+    Disconnected,
+    Connecting(LinkSpec),
+    Connected(LinkInfo),
+    Failed {
+        spec: LinkSpec,
+        error: String,
+        retry_in: Option<Duration>,
+    },
+}
+
+/// One line of the command log.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogEntry {
+    /// Seconds since the window opened.
+    pub at: f64,
+    pub id: Option<RequestId>,
+    pub what: String,
+    /// The RX image as written, once sent.
+    pub image: Option<RxImage>,
+    pub outcome: Outcome,
+}
+
+/// Where a logged request stands.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    Queued,
+    Sent,
+    Accepted,
+    Succeeded(String),
+    Failed(String),
+    /// Not tied to a request (connection changes, notices).
+    Info,
+}
+
+impl Outcome {
+    pub fn is_open(&self) -> bool {
+        matches!(self, Outcome::Queued | Outcome::Sent | Outcome::Accepted)
+    }
+}
+
+/// A value read from the drive for the window (the torque slope, the OD-Read box).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReadBack {
+    pub address: Address,
+    pub result: Result<Value, String>,
+}
+
+/// A torque command waiting for the user's answer because 6087h is 0.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TorqueWarning {
+    pub action: Action,
+}
+
+/// Everything the window shows.
+#[derive(Clone, Debug)]
+pub struct AppState {
+    pub settings: Settings,
+    pub connection: Connection,
+    pub latest: Option<Sample>,
+    pub health: Option<Health>,
+    pub history: History,
+    pub plot_paused_at: Option<f64>,
+    pub log: VecDeque<LogEntry>,
+    /// Requests for the worker, taken by the app after each frame.
+    pub outbox: Vec<Request>,
+    /// Whether the user holds the halt toggle on.
+    pub halt_engaged: bool,
+    /// 6087h as last read (None = unknown).
+    pub torque_slope: Option<i64>,
+    pub torque_warning: Option<TorqueWarning>,
+    /// The last OD-Read/OD-Write result of the command panel.
+    pub last_object: Option<ReadBack>,
+    /// Faults injected into the simulated drive.
+    pub injected: Vec<Injection>,
+    /// Seconds since the window opened, advanced by the app.
+    pub clock: f64,
+    /// Reads of 6087h the window asked for itself (not logged).
+    slope_reads: Vec<RequestId>,
+    /// The halt request still running.
+    halt_request: Option<RequestId>,
+}
+
+impl AppState {
+    pub fn new(settings: Settings) -> Self {
+        Self {
+            settings,
+            connection: Connection::Disconnected,
+            latest: None,
+            health: None,
+            history: History::new(HISTORY_SAMPLES),
+            plot_paused_at: None,
+            log: VecDeque::new(),
+            outbox: Vec::new(),
+            halt_engaged: false,
+            torque_slope: None,
+            torque_warning: None,
+            last_object: None,
+            injected: Vec::new(),
+            clock: 0.0,
+            slope_reads: Vec::new(),
+            halt_request: None,
+        }
+    }
+
+    pub fn is_connected(&self) -> bool {
+        matches!(self.connection, Connection::Connected(_))
+    }
+
+    pub fn link_info(&self) -> Option<&LinkInfo> {
+        match &self.connection {
+            Connection::Connected(info) => Some(info),
+            _ => None,
+        }
+    }
+
+    /// Whether a status bit is set in the newest sample.
+    pub fn bit(&self, bit: StatusBit) -> bool {
+        self.latest.is_some_and(|s| s.tx.status.is_set(bit))
+    }
+
+    /// Queue a request for the worker.
+    pub fn request(&mut self, request: Request) {
+        match &request {
+            Request::Command(action) => {
+                if action.opcode().is_travel()
+                    || matches!(action, Action::Quickstop | Action::SwitchOff)
+                {
+                    self.halt_engaged = false;
+                }
+            }
+            Request::Halt => self.halt_engaged = true,
+            Request::Resume => self.halt_engaged = false,
+            _ => {}
+        }
+        self.outbox.push(request);
+    }
+
+    /// Record that the app handed a request to the worker.
+    pub fn note_queued(&mut self, id: RequestId, request: &Request) {
+        if matches!(request, Request::ReadObject { address, .. } if *address == TORQUE_SLOPE)
+            && !self.slope_reads.contains(&id)
+        {
+            self.slope_reads.push(id);
+            return;
+        }
+        if matches!(request, Request::SetPollRate(_)) {
+            return;
+        }
+        if matches!(request, Request::Halt) {
+            self.halt_request = Some(id);
+        }
+        self.push_log(LogEntry {
+            at: self.clock,
+            id: Some(id),
+            what: request.to_string(),
+            image: None,
+            outcome: Outcome::Queued,
+        });
+    }
+
+    /// The worker could not take a request.
+    pub fn note_unsent(&mut self, request: &Request, reason: String) {
+        self.push_log(LogEntry {
+            at: self.clock,
+            id: None,
+            what: request.to_string(),
+            image: None,
+            outcome: Outcome::Failed(reason),
+        });
+    }
+
+    pub fn info(&mut self, text: impl Into<String>) {
+        self.push_log(LogEntry {
+            at: self.clock,
+            id: None,
+            what: text.into(),
+            image: None,
+            outcome: Outcome::Info,
+        });
+    }
+
+    fn push_log(&mut self, entry: LogEntry) {
+        if self.log.len() >= LOG_LIMIT {
+            self.log.pop_front();
+        }
+        self.log.push_back(entry);
+    }
+
+    fn entry(&mut self, id: RequestId) -> Option<&mut LogEntry> {
+        self.log.iter_mut().rev().find(|e| e.id == Some(id))
+    }
+
+    /// The reducer: one worker event into the state.
+    pub fn apply(&mut self, event: Event) {
+        match event {
+            Event::Connecting(spec) => {
+                self.connection = Connection::Connecting(spec.clone());
+                self.info(format!("connecting to {spec}"));
+            }
+            Event::Connected(info) => {
+                self.info(format!("connected: {}", info.description));
+                self.connection = Connection::Connected(info);
+                self.halt_engaged = false;
+                self.torque_slope = None;
+                self.injected.clear();
+                // Know the torque slope before anyone asks for torque.
+                self.outbox.push(Request::ReadObject {
+                    address: TORQUE_SLOPE,
+                    dtype: Some(DataType::Unsigned32),
+                    path: ObjectPath::Auto,
+                });
+            }
+            Event::ConnectFailed {
+                spec,
+                error,
+                retry_in,
+            } => {
+                let retry = retry_in
+                    .map(|d| format!("; retrying in {:.1} s", d.as_secs_f64()))
+                    .unwrap_or_default();
+                self.info(format!("connection to {spec} failed: {error}{retry}"));
+                self.connection = Connection::Failed {
+                    spec,
+                    error,
+                    retry_in,
+                };
+            }
+            Event::Disconnected { reason } => {
+                match &reason {
+                    Some(reason) => self.info(format!("link lost: {reason}")),
+                    None => self.info("disconnected"),
+                }
+                self.connection = Connection::Disconnected;
+                self.health = None;
+                self.halt_engaged = false;
+                self.halt_request = None;
+            }
+            Event::Rejected {
+                id,
+                request,
+                reason,
+            } => {
+                if self.slope_reads.contains(&id) {
+                    return;
+                }
+                if self.halt_request == Some(id) {
+                    self.halt_request = None;
+                    self.halt_engaged = false;
+                }
+                match self.entry(id) {
+                    Some(entry) => entry.outcome = Outcome::Failed(reason),
+                    None => self.push_log(LogEntry {
+                        at: self.clock,
+                        id: Some(id),
+                        what: request,
+                        image: None,
+                        outcome: Outcome::Failed(reason),
+                    }),
+                }
+            }
+            Event::Sent { id, what, image } => {
+                if let Some(entry) = self.entry(id) {
+                    entry.image = Some(image);
+                    entry.outcome = Outcome::Sent;
+                } else {
+                    self.push_log(LogEntry {
+                        at: self.clock,
+                        id: Some(id),
+                        what,
+                        image: Some(image),
+                        outcome: Outcome::Sent,
+                    });
+                }
+            }
+            Event::Progress { id, progress } => {
+                if self.halt_request == Some(id) && progress.is_final() {
+                    self.halt_request = None;
+                    if !progress.is_success() {
+                        self.halt_engaged = false;
+                    }
+                }
+                if let Some(entry) = self.entry(id) {
+                    entry.outcome = match &progress {
+                        CommandProgress::Accepted => Outcome::Accepted,
+                        CommandProgress::Done { .. } => Outcome::Succeeded(progress.to_string()),
+                        _ => Outcome::Failed(progress.to_string()),
+                    };
+                }
+            }
+            Event::ObjectRead {
+                id,
+                address,
+                result,
+            } => {
+                if let Some(at) = self.slope_reads.iter().position(|r| *r == id) {
+                    self.slope_reads.remove(at);
+                    self.torque_slope = result
+                        .as_ref()
+                        .ok()
+                        .and_then(Value::as_i128)
+                        .and_then(|v| i64::try_from(v).ok());
+                    return;
+                }
+                if let Some(entry) = self.entry(id) {
+                    entry.outcome = match &result {
+                        Ok(value) => Outcome::Succeeded(format!("{address} = {value}")),
+                        Err(e) => Outcome::Failed(e.clone()),
+                    };
+                }
+                self.last_object = Some(ReadBack { address, result });
+            }
+            Event::ObjectWritten {
+                id,
+                address,
+                value,
+                result,
+            } => {
+                if address == TORQUE_SLOPE && result.is_ok() {
+                    self.torque_slope = value.as_i128().and_then(|v| i64::try_from(v).ok());
+                }
+                if let Some(entry) = self.entry(id) {
+                    entry.outcome = match &result {
+                        Ok(()) => Outcome::Succeeded(format!("{address} = {value} written")),
+                        Err(e) => Outcome::Failed(e.clone()),
+                    };
+                }
+                self.last_object = Some(ReadBack {
+                    address,
+                    result: result.map(|()| value),
+                });
+            }
+            Event::Samples(samples) => {
+                for sample in &samples {
+                    self.history
+                        .push(sample.t, sample.position, sample.velocity, sample.torque);
+                }
+                if let Some(last) = samples.last() {
+                    self.latest = Some(*last);
+                    // A finished halt the drive no longer shows (a new command, a quick
+                    // stop, a fault) releases the toggle.
+                    if self.halt_engaged
+                        && self.halt_request.is_none()
+                        && !last.tx.status.is_set(StatusBit::QsHaltBit)
+                    {
+                        self.halt_engaged = false;
+                    }
+                }
+            }
+            Event::Health(health) => self.health = Some(health),
+            Event::Notice(text) => self.info(text),
+        }
+    }
+}
+
+/// 6087h, Torque Slope: read on connect, so a torque command with slope 0 can be warned
+/// about before it is sent.
+pub const TORQUE_SLOPE: Address = Address::new(0x6087, 0);

@@ -1,0 +1,208 @@
+//! The status panel: every PDI-Status bit as a lamp, 603Fh with its meaning, ReturnValue,
+//! the CiA 402 state from 6041h and the actual values.
+
+use eframe::egui::{self, RichText, Ui};
+
+use super::state::AppState;
+use super::widgets::{AMBER, BLUE, GREEN, RED, lamp, value_with_unit};
+use crate::cia::{ErrorCode, PowerState};
+use crate::pdi::StatusBit;
+use crate::sim::Injection;
+use crate::worker::Request;
+
+fn lamp_color(bit: StatusBit) -> egui::Color32 {
+    match bit {
+        StatusBit::OperationEnabled | StatusBit::TargetReached => GREEN,
+        StatusBit::HomingDone | StatusBit::AutosetupDone | StatusBit::ToggleCmd => BLUE,
+        StatusBit::Warning | StatusBit::LimitReached | StatusBit::QsHaltBit => AMBER,
+        StatusBit::Fault | StatusBit::FollowingError | StatusBit::Error => RED,
+    }
+}
+
+/// The unit of ReturnValue for the mode the drive reports.
+fn return_value_unit(mode: Option<i8>) -> &'static str {
+    match mode {
+        Some(1) | Some(6) => "0.1° (position)",
+        Some(3) => "rpm (velocity)",
+        Some(4) => "‰ (torque)",
+        _ => "",
+    }
+}
+
+fn mode_name(mode: i8) -> &'static str {
+    match mode {
+        -2 => "Auto setup",
+        -1 => "Clock-direction",
+        0 => "No mode",
+        1 => "Profile Position",
+        2 => "Velocity",
+        3 => "Profile Velocity",
+        4 => "Profile Torque",
+        6 => "Homing",
+        7 => "Interpolated Position",
+        8 => "Cyclic Sync Position",
+        9 => "Cyclic Sync Velocity",
+        10 => "Cyclic Sync Torque",
+        _ => "unknown",
+    }
+}
+
+pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
+    ui.heading("Drive status");
+    let Some(sample) = state.latest else {
+        ui.label("No status yet: connect to a drive.");
+        return;
+    };
+    let status = sample.tx.status;
+
+    // The CiA 402 power state first: it says why a command is refused.
+    ui.add_space(4.0);
+    match sample.statusword.and_then(PowerState::from_statusword) {
+        Some(power) => {
+            let color = match power {
+                PowerState::OperationEnabled => GREEN,
+                PowerState::Fault | PowerState::FaultReactionActive => RED,
+                PowerState::QuickStopActive => AMBER,
+                _ => ui.visuals().text_color(),
+            };
+            ui.label(RichText::new(power.name()).size(18.0).color(color).strong())
+                .on_hover_text(power.meaning());
+            ui.small(power.meaning());
+        }
+        None => {
+            ui.label(match sample.statusword {
+                Some(word) => format!("Statusword {word:04X}h matches no CiA 402 state"),
+                None => "CiA 402 state unknown (6041h not read on this link)".to_owned(),
+            });
+        }
+    }
+
+    ui.add_space(6.0);
+    ui.label(RichText::new("PDI-Status (2292h:01h)").strong());
+    egui::Grid::new("pdi_lamps")
+        .num_columns(2)
+        .spacing([12.0, 2.0])
+        .show(ui, |ui| {
+            for (i, bit) in StatusBit::ALL.into_iter().enumerate() {
+                lamp(
+                    ui,
+                    status.is_set(bit),
+                    lamp_color(bit),
+                    bit.label(),
+                    &format!("bit {}: {}\n{}", bit.bit(), bit.name(), bit.meaning()),
+                );
+                if i % 2 == 1 {
+                    ui.end_row();
+                }
+            }
+            ui.end_row();
+        });
+    let undefined = status.undefined_bits();
+    ui.horizontal(|ui| {
+        ui.weak("raw");
+        ui.monospace(format!("{:04X}h", status.0));
+        if undefined != 0 {
+            ui.colored_label(AMBER, format!("undefined bits {undefined:04X}h"))
+                .on_hover_text("Bits 6, 8, 9, 10 and 13 are not defined by the PDI spec; shown as the drive sent them.");
+        }
+    });
+
+    ui.add_space(6.0);
+    egui::Grid::new("pdi_values")
+        .num_columns(2)
+        .spacing([8.0, 3.0])
+        .show(ui, |ui| {
+            ui.label("Error code 603Fh");
+            let code = ErrorCode(sample.tx.error_code);
+            if code.0 == 0 {
+                ui.monospace("0000h (none)");
+            } else {
+                let color = if status.is_set(StatusBit::Fault) {
+                    RED
+                } else {
+                    AMBER
+                };
+                ui.colored_label(color, format!("{:04X}h", code.0))
+                    .on_hover_text(code.meaning());
+            }
+            ui.end_row();
+            if code.0 != 0 {
+                ui.label("");
+                ui.label(code.meaning());
+                ui.end_row();
+            }
+            ui.label("ReturnValue");
+            let rv = sample.tx.return_value;
+            if status.is_set(StatusBit::Error) {
+                let abort = crate::cia::AbortCode(rv as u32);
+                ui.colored_label(RED, format!("{:08X}h", rv as u32))
+                    .on_hover_text(abort.to_string());
+                ui.end_row();
+                ui.label("");
+                ui.label(abort.text().unwrap_or("not a CiA 301 abort code"));
+            } else {
+                value_with_unit(ui, rv.to_string(), return_value_unit(sample.mode));
+            }
+            ui.end_row();
+            if let Some(mode) = sample.mode {
+                ui.label("Mode 6061h");
+                ui.label(format!("{mode} {}", mode_name(mode)));
+                ui.end_row();
+            }
+            if let Some(word) = sample.statusword {
+                ui.label("Statusword 6041h");
+                ui.monospace(format!("{word:04X}h"));
+                ui.end_row();
+            }
+        });
+
+    if sample.position.is_some() {
+        ui.add_space(6.0);
+        ui.label(RichText::new("Actual values").strong());
+        egui::Grid::new("actual_values")
+            .num_columns(2)
+            .spacing([8.0, 3.0])
+            .show(ui, |ui| {
+                let row = |ui: &mut Ui, name: &str, value: Option<f64>, unit: &str| {
+                    if let Some(v) = value {
+                        ui.label(name);
+                        value_with_unit(ui, format!("{v:.0}"), unit);
+                        ui.end_row();
+                    }
+                };
+                row(ui, "Position 6064h", sample.position, "0.1°");
+                row(ui, "Velocity 606Ch", sample.velocity, "rpm");
+                row(ui, "Torque 6077h", sample.torque, "‰");
+                row(ui, "Following error 60F4h", sample.following_error, "0.1°");
+                if let Some(inputs) = sample.digital_inputs {
+                    ui.label("Digital inputs 60FDh");
+                    ui.monospace(format!("{inputs:08X}h")).on_hover_text(
+                        "bit 0 negative limit, bit 1 positive limit, bit 2 home switch",
+                    );
+                    ui.end_row();
+                }
+            });
+    }
+
+    if state.link_info().is_some_and(|i| i.can_inject) {
+        ui.add_space(8.0);
+        ui.collapsing("Simulator: inject faults", |ui| {
+            for injection in Injection::ALL {
+                let mut active = state.injected.contains(&injection);
+                if ui
+                    .checkbox(&mut active, injection.name())
+                    .on_hover_text(injection.describe())
+                    .changed()
+                {
+                    if active {
+                        state.injected.push(injection);
+                    } else {
+                        state.injected.retain(|i| *i != injection);
+                    }
+                    state.request(Request::Inject { injection, active });
+                }
+            }
+            ui.small("A fault stays latched after you withdraw it, until Clear Error.");
+        });
+    }
+}

@@ -1,0 +1,61 @@
+//! Small widgets shared by the panels.
+
+use eframe::egui::{self, Color32, Response, RichText, Sense, Ui, Vec2, WidgetInfo};
+
+pub const GREEN: Color32 = Color32::from_rgb(60, 200, 90);
+pub const AMBER: Color32 = Color32::from_rgb(240, 180, 40);
+pub const RED: Color32 = Color32::from_rgb(230, 60, 50);
+pub const BLUE: Color32 = Color32::from_rgb(70, 150, 240);
+pub const OFF: Color32 = Color32::from_gray(70);
+
+/// A status lamp: a coloured dot and a label. Screen readers (and UI tests) see it as a
+/// read-only checkbox named by its label, checked when lit.
+pub fn lamp(ui: &mut Ui, on: bool, color: Color32, label: &str, tooltip: &str) -> Response {
+    ui.horizontal(|ui| {
+        let size = Vec2::splat(ui.text_style_height(&egui::TextStyle::Body));
+        let (rect, response) = ui.allocate_exact_size(size, Sense::hover());
+        let fill = if on { color } else { OFF };
+        ui.painter()
+            .circle_filled(rect.center(), rect.height() * 0.38, fill);
+        if on {
+            ui.painter().circle_stroke(
+                rect.center(),
+                rect.height() * 0.45,
+                egui::Stroke::new(1.0, color.gamma_multiply(0.5)),
+            );
+        }
+        let text = if on {
+            RichText::new(label).strong()
+        } else {
+            RichText::new(label).weak()
+        };
+        let label_response = ui.label(text);
+        let response = response.union(label_response);
+        response
+            .widget_info(|| WidgetInfo::selected(egui::accesskit::Role::CheckBox, true, on, label));
+        response.on_hover_text(tooltip)
+    })
+    .inner
+}
+
+/// A number with its unit, right-aligned in a grid cell.
+pub fn value_with_unit(ui: &mut Ui, value: String, unit: &str) {
+    ui.horizontal(|ui| {
+        ui.monospace(value);
+        if !unit.is_empty() {
+            ui.weak(unit);
+        }
+    });
+}
+
+/// Give a widget its accessible name (screen readers and UI tests find it by this).
+pub fn name_widget(response: &Response, role: egui::accesskit::Role, name: &str) {
+    response.widget_info(|| WidgetInfo::labeled(role, response.enabled(), name));
+}
+
+/// A single-line text box with an accessible name.
+pub fn named_text_edit(ui: &mut Ui, text: &mut String, width: f32, name: &str) -> Response {
+    let response = ui.add(egui::TextEdit::singleline(text).desired_width(width));
+    name_widget(&response, egui::accesskit::Role::TextInput, name);
+    response
+}

@@ -1,0 +1,281 @@
+//! The window, headless: egui_kittest clicks by label, the real worker drives the
+//! simulated drive.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use drivedeck::link::{LinkInfo, LinkSpec};
+use drivedeck::pdi::{Action, StatusBit};
+use drivedeck::ui::state::Connection;
+use drivedeck::ui::{App, AppState, Settings, commands};
+use drivedeck::worker::Request;
+use eframe::egui;
+use egui::accesskit::Toggled;
+use egui_kittest::Harness;
+use egui_kittest::kittest::{NodeT, Queryable};
+
+fn app_harness() -> Harness<'static, App> {
+    let app = App::new(Settings::default(), Arc::new(|| {}), true);
+    Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
+}
+
+/// Step the window in real time until `done` holds.
+fn step_until(
+    harness: &mut Harness<'_, App>,
+    what: &str,
+    timeout: Duration,
+    done: impl Fn(&Harness<'_, App>) -> bool,
+) {
+    let deadline = Instant::now() + timeout;
+    while !done(harness) {
+        assert!(
+            Instant::now() < deadline,
+            "{what} did not happen within {timeout:?}; log: {:#?}",
+            harness.state().state.log
+        );
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+/// Whether a status lamp is lit (lamps are read-only checkboxes to accessibility).
+fn lamp(harness: &Harness<'_, App>, label: &str) -> bool {
+    harness
+        .get_by_role_and_label(egui::accesskit::Role::CheckBox, label)
+        .accesskit_node()
+        .toggled()
+        == Some(Toggled::True)
+}
+
+#[test]
+fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
+    let mut harness = app_harness();
+    step_until(
+        &mut harness,
+        "connecting to the simulator",
+        Duration::from_secs(5),
+        |h| h.state().state.is_connected() && h.state().state.latest.is_some(),
+    );
+    assert!(!lamp(&harness, "Operation enabled"));
+    assert!(!lamp(&harness, "Target reached"));
+
+    // The default inputs are the spec's example: 2000 at 200.
+    harness.get_by_label("Move absolute").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the move to be accepted",
+        Duration::from_secs(3),
+        |h| lamp(h, "Operation enabled"),
+    );
+    step_until(
+        &mut harness,
+        "the target to be reached",
+        Duration::from_secs(5),
+        |h| {
+            lamp(h, "Target reached")
+                && h.state().state.latest.and_then(|s| s.position) == Some(2000.0)
+        },
+    );
+    let state = &harness.state().state;
+    let entry = state
+        .log
+        .iter()
+        .find(|e| e.what.starts_with("Profile Position absolute"))
+        .expect("the move is logged");
+    let image = entry.image.expect("the image written is logged");
+    assert_eq!(image.to_bytes(), [0xD0, 0x07, 0, 0, 0xC8, 0, 0, 20]);
+    assert!(
+        matches!(&entry.outcome, drivedeck::ui::state::Outcome::Succeeded(text) if text.contains("2000")),
+        "{:?}",
+        entry.outcome
+    );
+    // The plot history follows the motor.
+    assert!(state.history.position.len() > 10);
+}
+
+#[test]
+fn halt_toggle_stops_and_resumes_the_move() {
+    let mut harness = app_harness();
+    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    harness
+        .get_by_label("Move absolute: Target position")
+        .set_text_value_accesskit("30000");
+    harness.step();
+    harness.get_by_label("Move absolute").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the motor to move",
+        Duration::from_secs(3),
+        |h| {
+            h.state()
+                .state
+                .latest
+                .and_then(|s| s.velocity)
+                .is_some_and(|v| v > 100.0)
+        },
+    );
+    harness.get_by_label("Halt").click();
+    harness.step();
+    step_until(&mut harness, "the halt", Duration::from_secs(5), |h| {
+        lamp(h, "Quick stop / halt")
+            && lamp(h, "Target reached")
+            && h.state().state.latest.and_then(|s| s.velocity) == Some(0.0)
+    });
+    assert_eq!(
+        harness.get_by_label("Halt").accesskit_node().toggled(),
+        Some(Toggled::True)
+    );
+    harness.get_by_label("Halt").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the move to continue",
+        Duration::from_secs(3),
+        |h| {
+            !lamp(h, "Quick stop / halt")
+                && h.state()
+                    .state
+                    .latest
+                    .and_then(|s| s.velocity)
+                    .is_some_and(|v| v > 50.0)
+        },
+    );
+}
+
+/// A command panel that believes it is connected, so only the inputs decide.
+fn commands_harness() -> Harness<'static, AppState> {
+    let mut state = AppState::new(Settings::default());
+    state.connection = Connection::Connected(LinkInfo {
+        spec: LinkSpec::Sim,
+        description: "test".into(),
+        native_objects: true,
+        can_inject: true,
+    });
+    state.torque_slope = Some(1000);
+    Harness::builder()
+        .with_size(egui::vec2(600.0, 800.0))
+        .build_ui_state(
+            |ui, state: &mut AppState| commands::commands_ui(ui, state),
+            state,
+        )
+}
+
+#[test]
+fn an_out_of_range_set_value2_disables_the_button_and_sends_nothing() {
+    let mut harness = commands_harness();
+    harness.run();
+    assert!(
+        !harness
+            .get_by_label("Move absolute")
+            .accesskit_node()
+            .is_disabled()
+    );
+
+    harness
+        .get_by_label("Move absolute: Max speed")
+        .set_text_value_accesskit("40000");
+    harness.run();
+    assert_eq!(
+        harness.state().settings.inputs["Profile Position absolute"],
+        vec!["2000".to_owned(), "40000".to_owned()]
+    );
+    let button = harness.get_by_label("Move absolute");
+    assert!(button.accesskit_node().is_disabled());
+    button.click();
+    harness.run();
+    assert!(
+        harness.state().outbox.is_empty(),
+        "{:?}",
+        harness.state().outbox
+    );
+    // The reason is on screen: field, value and range.
+    harness.get_by_label_contains("40000 does not fit PDI-SetValue2");
+
+    // Back in range, the same click sends exactly that command.
+    harness
+        .get_by_label("Move absolute: Max speed")
+        .set_text_value_accesskit("32767");
+    harness.run();
+    harness.get_by_label("Move absolute").click();
+    harness.run();
+    assert_eq!(
+        harness.state().outbox,
+        vec![Request::Command(Action::MoveAbsolute {
+            target: 2000,
+            speed: 32767
+        })]
+    );
+}
+
+#[test]
+fn a_torque_command_with_slope_zero_asks_first() {
+    let mut harness = commands_harness();
+    harness.state_mut().torque_slope = Some(0);
+    harness.run();
+    harness.get_by_label("Torque").click();
+    harness.run();
+    assert!(harness.state().outbox.is_empty());
+    harness.get_by_label_contains("torque never builds up");
+    harness.get_by_label("Set slope and send").click();
+    harness.run();
+    let outbox = &harness.state().outbox;
+    assert_eq!(outbox.len(), 2, "{outbox:?}");
+    assert!(matches!(&outbox[0], Request::WriteObject { address, .. } if address.index == 0x6087));
+    assert_eq!(
+        outbox[1],
+        Request::Command(Action::Torque {
+            torque: 500,
+            max_speed: 100
+        })
+    );
+}
+
+#[test]
+fn escape_sends_quickstop_from_anywhere() {
+    let mut harness = app_harness();
+    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    harness.get_by_label("Velocity").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the motor to turn",
+        Duration::from_secs(3),
+        |h| {
+            h.state()
+                .state
+                .latest
+                .and_then(|s| s.velocity)
+                .is_some_and(|v| v > 50.0)
+        },
+    );
+    // Focus sits in a text box; Esc still stops.
+    harness
+        .get_by_label("Move absolute: Target position")
+        .focus();
+    harness.step();
+    harness.key_press(egui::Key::Escape);
+    harness.step();
+    step_until(
+        &mut harness,
+        "the quick stop",
+        Duration::from_secs(3),
+        |h| !lamp(h, "Operation enabled"),
+    );
+    assert!(
+        harness
+            .state()
+            .state
+            .log
+            .iter()
+            .any(|e| e.what == "Quickstop")
+    );
+    assert!(!harness.state().state.bit(StatusBit::OperationEnabled));
+}
