@@ -15,7 +15,7 @@ pub enum AnyLink {
 /// Open the link a connection string names.
 pub async fn open(spec: &LinkSpec) -> Result<AnyLink, Error> {
     match spec {
-        LinkSpec::Sim => Ok(AnyLink::Sim(Box::new(SimLink::new()))),
+        LinkSpec::Sim => Ok(AnyLink::Sim(Box::default())),
         LinkSpec::ModbusTcp { .. } | LinkSpec::ModbusRtu { .. } => Err(Error::NotBuiltYet {
             scheme: spec.scheme(),
             issue: "issue #3",

@@ -538,7 +538,7 @@ impl PdiMaster {
                     Waiting::Bit(_) | Waiting::Stopped => self.timing.done_timeout,
                     _ => Some(self.timing.ack_timeout.max(self.timing.settle)),
                 };
-                if !limit.is_some_and(|limit| waited >= limit) {
+                if limit.is_none_or(|limit| waited < limit) {
                     return None;
                 }
                 Some(if p.goal == Waiting::FaultCleared {

@@ -885,8 +885,8 @@ impl Drive {
         if let Activity::Homing { run, found } = &mut self.activity {
             let leg_speed = if run.leg_is_fast() { fast } else { slow };
             let at_leg_speed = self.v.abs() <= leg_speed * 1.1 + STANDSTILL;
-            match found {
-                None => match run.step(&self.world, x_before, self.x, at_leg_speed) {
+            if found.is_none() {
+                match run.step(&self.world, x_before, self.x, at_leg_speed) {
                     HomingStep::Moving { .. } => {}
                     HomingStep::Found { world } => {
                         *found = Some(world);
@@ -897,8 +897,7 @@ impl Drive {
                         self.activity = Activity::Idle;
                         self.refuse(AbortCode::GENERAL_ERROR);
                     }
-                },
-                Some(_) => {}
+                }
             }
             if let Activity::Homing {
                 found: Some(world), ..
@@ -1074,20 +1073,14 @@ impl Drive {
             word |= 1 << 11;
         }
         match self.od.int(0x6061, 0) {
-            1 => {
-                if self.following_error {
-                    word |= 1 << 13;
-                }
+            1 if self.following_error => {
+                word |= 1 << 13;
             }
-            3 => {
-                if self.v.abs() < STANDSTILL {
-                    word |= 1 << 12;
-                }
+            3 if self.v.abs() < STANDSTILL => {
+                word |= 1 << 12;
             }
-            6 => {
-                if self.homing_done {
-                    word |= 1 << 12;
-                }
+            6 if self.homing_done => {
+                word |= 1 << 12;
             }
             _ => {}
         }

@@ -150,7 +150,7 @@ impl HomingRun {
         } else {
             match leg.until {
                 Until::Index => world.index_between(from, to),
-                Until::Home(want) => (before.home != want && after.home == want).then(|| {
+                Until::Home(want) => (before.home != want && after.home == want).then_some({
                     // The cam edge crossed, exactly.
                     if (to > from) == want {
                         world.home_start

@@ -353,7 +353,7 @@ fn quickstop_honours_every_605ah_option() {
         );
         let state = rig.drive.power_state();
         match option {
-            0 | 1 | 2 => {
+            0..=2 => {
                 assert_eq!(state, PowerState::SwitchOnDisabled, "option {option}");
                 assert!(!status.is_set(StatusBit::QsHaltBit));
             }
@@ -788,7 +788,7 @@ fn limit_switches_stop_travel_into_them() {
     assert!(!status.is_set(StatusBit::TargetReached));
     assert_eq!(rig.drive.velocity_rpm(), 0.0);
     let x = rig.drive.position();
-    assert!(x >= 36_000.0 && x < 38_000.0, "{x}");
+    assert!((36_000.0..38_000.0).contains(&x), "{x}");
     assert_ne!(rig.od_int(0x60FD, 0) & 0b10, 0, "positive limit input");
     // Moving away is allowed.
     rig.done(move_abs(0, 3000), 10_000);

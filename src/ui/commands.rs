@@ -319,7 +319,7 @@ fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
 /// Send a command, stopping first to warn about a torque command that cannot work.
 fn send(state: &mut AppState, request: Request) {
     if let Request::Command(action @ Action::Torque { .. }) = request
-        && !state.torque_slope.is_some_and(|slope| slope > 0)
+        && state.torque_slope.is_none_or(|slope| slope <= 0)
     {
         state.torque_warning = Some(TorqueWarning { action });
         return;

@@ -384,12 +384,11 @@ impl AppState {
     /// Queue a request for the worker.
     pub fn request(&mut self, request: Request) {
         match &request {
-            Request::Command(action) => {
-                if action.opcode().is_travel()
-                    || matches!(action, Action::Quickstop | Action::SwitchOff)
-                {
-                    self.halt_engaged = false;
-                }
+            Request::Command(action)
+                if (action.opcode().is_travel()
+                    || matches!(action, Action::Quickstop | Action::SwitchOff)) =>
+            {
+                self.halt_engaged = false;
             }
             Request::Halt => self.halt_engaged = true,
             Request::Resume => self.halt_engaged = false,
