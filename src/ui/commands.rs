@@ -261,28 +261,31 @@ fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
         send(state, request.clone());
     }
 
+    // The inputs beside the button, one per line: label, box, unit.
     ui.vertical(|ui| {
-        ui.horizontal_wrapped(|ui| {
-            let inputs = state
-                .settings
-                .inputs
-                .entry(opcode.name().to_owned())
-                .or_default();
-            inputs.resize(specs.len(), String::new());
-            for (spec, text) in specs.iter().zip(inputs.iter_mut()) {
-                ui.label(spec.label);
+        let inputs = state
+            .settings
+            .inputs
+            .entry(opcode.name().to_owned())
+            .or_default();
+        inputs.resize(specs.len(), String::new());
+        for (spec, text) in specs.iter().zip(inputs.iter_mut()) {
+            ui.horizontal(|ui| {
+                let height = ui.spacing().interact_size.y;
+                ui.add_sized(
+                    [104.0, height],
+                    egui::Label::new(spec.label).halign(egui::Align::LEFT),
+                );
                 let valid = spec.parse(text).is_ok();
-                let width = if spec.radix == crate::pdi::Radix::Hex {
-                    48.0
-                } else {
-                    72.0
-                };
                 let edit = TextEdit::singleline(text)
-                    .desired_width(width)
+                    .desired_width(86.0)
                     .text_color_opt((!valid).then_some(RED));
-                let name = field_label(opcode, spec);
                 let field = ui.add(edit);
-                name_widget(&field, egui::accesskit::Role::TextInput, &name);
+                name_widget(
+                    &field,
+                    egui::accesskit::Role::TextInput,
+                    &field_label(opcode, spec),
+                );
                 field.on_hover_text(format!(
                     "{} ({}): {} to {} {}{}",
                     spec.field.name(),
@@ -296,21 +299,16 @@ fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
                         format!("\n{}", spec.hint)
                     }
                 ));
-                if !spec.unit.is_empty() && spec.radix == crate::pdi::Radix::Decimal {
-                    ui.weak(spec.unit);
-                }
-            }
-        });
-        match &verdict {
-            Err(reason) if !specs.is_empty() => {
-                ui.colored_label(RED, reason);
-            }
-            Ok(request) => {
-                if let Some(text) = caution(state, request) {
-                    ui.colored_label(AMBER, text);
-                }
-            }
-            _ => {}
+                ui.weak(spec.unit);
+            });
+        }
+        let note = match &verdict {
+            Err(reason) if !specs.is_empty() => Some((RED, reason.clone())),
+            Ok(request) => caution(state, request).map(|text| (AMBER, text)),
+            _ => None,
+        };
+        if let Some((color, text)) = note {
+            ui.colored_label(color, text);
         }
     });
     ui.end_row();

@@ -2,7 +2,7 @@
 //! clear.
 
 use eframe::egui::{self, Ui};
-use egui_plot::{Legend, Line, Plot};
+use egui_plot::{Legend, Line, Plot, PlotBounds};
 
 use super::state::AppState;
 use super::widgets::{AMBER, BLUE, GREEN};
@@ -50,6 +50,7 @@ pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
         .or_else(|| state.history.latest_time())
         .unwrap_or(0.0);
     let from = f64::NEG_INFINITY;
+    let following = state.plot_paused_at.is_none();
     let group = egui::Id::unique("plots_time_axis");
     let height = ((ui.available_height() - 12.0) / 3.0).max(80.0);
     let traces: [(&str, &str, &Trace, egui::Color32); 3] = [
@@ -69,6 +70,7 @@ pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
     ];
     for (id, name, trace, color) in traces {
         let points = trace.window(from, until);
+        let bounds = following.then(|| follow_bounds(&points)).flatten();
         Plot::new(id)
             .height(height)
             .link_axis(group, [true, false])
@@ -76,7 +78,30 @@ pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
             .legend(Legend::default())
             .x_axis_label("time [s]")
             .show(ui, |plot_ui| {
+                if let Some(bounds) = bounds {
+                    // Follow the newest samples; a paused plot can be zoomed and panned.
+                    plot_ui.set_plot_bounds(bounds);
+                }
                 plot_ui.line(Line::new(name, points).color(color));
             });
     }
+}
+
+/// The whole recorded span on x, the data's range with a margin on y (never a flat line
+/// squeezed into nothing).
+fn follow_bounds(points: &[[f64; 2]]) -> Option<PlotBounds> {
+    let first = points.first()?;
+    let last = points.last()?;
+    let (low, high) = points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[1]), hi.max(p[1]))
+        });
+    let span = (high - low).max(2.0);
+    let margin = span * 0.08;
+    let x_end = last[0].max(first[0] + 1.0);
+    Some(PlotBounds::from_min_max(
+        [first[0], low - margin],
+        [x_end, low + span + margin],
+    ))
 }

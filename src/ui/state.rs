@@ -405,7 +405,14 @@ impl AppState {
             self.slope_reads.push(id);
             return;
         }
-        if matches!(request, Request::SetPollRate(_)) {
+        if matches!(
+            request,
+            Request::SetPollRate(_)
+                | Request::Connect(_)
+                | Request::Disconnect
+                | Request::Inject { .. }
+        ) {
+            // These report through their own events (connecting, connected, notices).
             return;
         }
         if matches!(request, Request::Halt) {
