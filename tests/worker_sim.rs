@@ -376,3 +376,93 @@ fn health_reports_the_cycle_rate() {
     );
     assert_eq!(health.errors, 0);
 }
+
+#[test]
+fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
+    let mut probe = Probe::connected();
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 20_000,
+        speed: 200,
+    }));
+    probe.wait(
+        "move accepted",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    let before = probe
+        .settle(Duration::from_millis(300))
+        .position
+        .expect("position");
+    assert!(before > 0.0);
+    probe.send(Request::Inject {
+        injection: Injection::LinkLoss,
+        active: true,
+    });
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(2)),
+        CommandProgress::LinkLost
+    );
+    let lost = probe.wait("the link loss", Duration::from_secs(2), |e| {
+        matches!(e, Event::Disconnected { reason: Some(_) })
+    });
+    assert!(
+        matches!(&lost, Event::Disconnected { reason: Some(r) } if r.contains("cable is pulled")),
+        "{lost:?}"
+    );
+    probe.wait("a retry", Duration::from_secs(2), |e| {
+        matches!(
+            e,
+            Event::ConnectFailed {
+                retry_in: Some(_),
+                ..
+            }
+        )
+    });
+    // Requests meanwhile get a reason, not a hang.
+    let id = probe.send(Request::Command(Action::Nop));
+    probe.wait("the rejection", Duration::from_secs(2), |e| {
+        matches!(e, Event::Rejected { id: i, reason, .. } if *i == id && reason.contains("not connected"))
+    });
+    probe.wait("the reconnection", Duration::from_secs(10), |e| {
+        matches!(e, Event::Connected(_))
+    });
+    // The same simulated drive: the move went on while the cable was out.
+    let after = probe.settle(Duration::from_millis(300));
+    assert_eq!(after.position, Some(20_000.0));
+    assert!(after.tx.status.is_set(StatusBit::TargetReached));
+}
+
+#[test]
+fn a_command_the_drive_never_acknowledges_times_out() {
+    let mut probe = Probe::connected();
+    // PDI-Ctrl off: the drive ignores 2291h, as a real one would.
+    let id = probe.send(Request::WriteObject {
+        address: Address::new(0x2290, 0),
+        dtype: DataType::Unsigned8,
+        value: Value::Uint(0),
+        path: ObjectPath::Native,
+    });
+    probe.wait(
+        "the write",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::ObjectWritten { id: i, result: Ok(()), .. } if *i == id),
+    );
+    let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
+    let outcome = probe.outcome(id, Duration::from_secs(3));
+    let text = outcome.to_string();
+    assert!(
+        matches!(outcome, CommandProgress::TimedOut { .. }),
+        "{outcome:?}"
+    );
+    assert!(
+        text.contains("PdiStatusToggleCmd") && text.contains("2290h"),
+        "{text}"
+    );
+    // The worker is still there and answers.
+    let value = probe.read(
+        Address::new(0x2290, 0),
+        DataType::Unsigned8,
+        ObjectPath::Native,
+    );
+    assert_eq!(value, Ok(Value::Uint(0)));
+}

@@ -77,6 +77,12 @@ pub trait Link {
         ))
     }
 
+    /// Bring a failed link back to the same device (the worker calls this with backoff
+    /// after a transient error).
+    async fn reconnect(&mut self) -> Result<(), Error> {
+        Ok(())
+    }
+
     /// Close the connection politely (release the one TCP connection a drive allows).
     async fn close(&mut self) -> Result<(), Error> {
         Ok(())

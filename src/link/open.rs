@@ -85,6 +85,12 @@ impl Link for AnyLink {
         }
     }
 
+    async fn reconnect(&mut self) -> Result<(), Error> {
+        match self {
+            AnyLink::Sim(l) => l.reconnect().await,
+        }
+    }
+
     async fn close(&mut self) -> Result<(), Error> {
         match self {
             AnyLink::Sim(l) => l.close().await,

@@ -9,9 +9,13 @@ use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
 use crate::sim::{Drive, Injection};
 
-/// The longest stretch the drive is advanced in one go: a worker that stalled for a minute
-/// does not make the motor jump a minute ahead in one call.
-const MAX_CATCH_UP: Duration = Duration::from_secs(1);
+/// The longest stretch the drive is advanced in one go. A real drive runs on whatever the
+/// master does, so the simulation keeps real time through stalls and link losses; only a
+/// machine that slept (a laptop lid) is not replayed in full.
+const MAX_CATCH_UP: Duration = Duration::from_secs(60);
+
+/// How long an injected link loss lasts before the "cable" is back.
+pub const LINK_LOSS_TIME: Duration = Duration::from_secs(3);
 
 /// How the drive's time advances.
 #[derive(Clone, Copy, Debug)]
@@ -27,6 +31,8 @@ pub enum Clock {
 pub struct SimLink {
     drive: Drive,
     clock: Clock,
+    /// A simulated cable pull: every call fails until then.
+    cut_until: Option<Instant>,
 }
 
 impl SimLink {
@@ -41,6 +47,7 @@ impl SimLink {
             clock: Clock::Real {
                 last: Instant::now(),
             },
+            cut_until: None,
         }
     }
 
@@ -49,6 +56,7 @@ impl SimLink {
         Self {
             drive,
             clock: Clock::Manual,
+            cut_until: None,
         }
     }
 
@@ -64,7 +72,27 @@ impl SimLink {
         &mut self.drive
     }
 
-    fn catch_up(&mut self) {
+    /// Bring the drive to the present; fails while the cable is "pulled".
+    fn catch_up(&mut self) -> Result<(), Error> {
+        // The drive runs on while the cable is out.
+        self.advance_clock();
+        self.check_cable()
+    }
+
+    fn check_cable(&mut self) -> Result<(), Error> {
+        match self.cut_until {
+            Some(until) if Instant::now() < until => Err(Error::Disconnected(
+                "no answer: the simulated cable is pulled (injected link loss)".into(),
+            )),
+            Some(_) => {
+                self.cut_until = None;
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+
+    fn advance_clock(&mut self) {
         if let Clock::Real { last } = &mut self.clock {
             let now = Instant::now();
             let elapsed = now.saturating_duration_since(*last).min(MAX_CATCH_UP);
@@ -91,7 +119,7 @@ impl Link for SimLink {
     }
 
     async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<TxImage, Error> {
-        self.catch_up();
+        self.catch_up()?;
         if let Some(rx) = rx {
             self.drive.write_rx(rx);
         }
@@ -99,6 +127,7 @@ impl Link for SimLink {
     }
 
     async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {
+        self.catch_up()?;
         Ok(Some(self.drive.rx_image()))
     }
 
@@ -107,7 +136,7 @@ impl Link for SimLink {
         address: Address,
         _dtype: DataType,
     ) -> Result<Result<Value, Refusal>, Error> {
-        self.catch_up();
+        self.catch_up()?;
         Ok(self.drive.read(address).map_err(Refusal::Abort))
     }
 
@@ -117,7 +146,7 @@ impl Link for SimLink {
         dtype: DataType,
         value: &Value,
     ) -> Result<Result<(), Refusal>, Error> {
-        self.catch_up();
+        self.catch_up()?;
         // The value travels in the caller's type, as it would on a bus: a mismatch with the
         // drive's own type is the drive's refusal, as an SDO server would answer.
         if let Some(entry) = self.drive.entry(address)
@@ -134,8 +163,16 @@ impl Link for SimLink {
             .map_err(Refusal::Abort))
     }
 
+    async fn reconnect(&mut self) -> Result<(), Error> {
+        self.catch_up()
+    }
+
     async fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
-        self.catch_up();
+        if injection.is_link() {
+            self.cut_until = active.then(|| Instant::now() + LINK_LOSS_TIME);
+            return Ok(());
+        }
+        self.catch_up()?;
         if active {
             self.drive.inject(injection);
         } else {

@@ -165,7 +165,9 @@ pub enum Waiting {
 impl fmt::Display for Waiting {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Waiting::Acknowledgement => f.write_str("the acknowledgement (PdiStatusToggleCmd)"),
+            Waiting::Acknowledgement => f.write_str(
+                "the acknowledgement (PdiStatusToggleCmd); is the PDI active (2290h bit 0)?",
+            ),
             Waiting::Bit(bit) => write!(f, "{}", bit.name()),
             Waiting::Stopped => {
                 f.write_str("standstill (PdiStatusQsHaltBit and PdiStatusTargetReached)")

@@ -209,7 +209,11 @@ impl Drive {
 
     // ---------------------------------------------------------------- faults
 
+    /// Inject a condition of the drive. (Link conditions belong to the link: ignored.)
     pub fn inject(&mut self, injection: Injection) {
+        if injection.is_link() {
+            return;
+        }
         self.injected.insert(injection);
         if injection.is_fault() {
             self.raise_fault(
@@ -365,7 +369,17 @@ impl Drive {
 
     // ---------------------------------------------------------------- PDI interpreter
 
+    /// Whether the PDI is active (2290h bit 0, on from the factory).
+    pub fn pdi_active(&self) -> bool {
+        self.od.int(0x2290, 0) & 1 != 0
+    }
+
     fn on_command_byte(&mut self, byte: u8) {
+        if !self.pdi_active() {
+            // PDI-Ctrl off: 2291h is a plain object, no command runs, nothing toggles.
+            self.last_cmd = byte;
+            return;
+        }
         let last = self.last_cmd;
         self.last_cmd = byte;
         let new_command = byte & !Command::HALT_BIT != last & !Command::HALT_BIT;

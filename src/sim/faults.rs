@@ -20,10 +20,22 @@ pub enum Injection {
     UnderVoltage,
     /// The controller is hot: 85 °C (warning 4200h, no fault).
     OverTemperature,
+    /// The cable is pulled for 3 s: the link to the simulated drive stops answering (the
+    /// drive itself carries on). Only the in-process link can simulate this.
+    LinkLoss,
 }
 
 impl Injection {
-    pub const ALL: [Injection; 4] = [
+    pub const ALL: [Injection; 5] = [
+        Injection::FollowingError,
+        Injection::OverCurrent,
+        Injection::UnderVoltage,
+        Injection::OverTemperature,
+        Injection::LinkLoss,
+    ];
+
+    /// The conditions of the drive itself (not of the link to it).
+    pub const DRIVE: [Injection; 4] = [
         Injection::FollowingError,
         Injection::OverCurrent,
         Injection::UnderVoltage,
@@ -37,6 +49,7 @@ impl Injection {
             Injection::OverCurrent => ErrorCode::OUTPUT_CURRENT,
             Injection::UnderVoltage => ErrorCode::VOLTAGE,
             Injection::OverTemperature => ErrorCode::TEMPERATURE,
+            Injection::LinkLoss => ErrorCode::NONE,
         }
     }
 
@@ -47,6 +60,7 @@ impl Injection {
             Injection::OverCurrent => 2,
             Injection::UnderVoltage => 3,
             Injection::OverTemperature => 12,
+            Injection::LinkLoss => 0,
         }
     }
 
@@ -57,11 +71,17 @@ impl Injection {
             Injection::OverCurrent => 0x02 | 0x01,
             Injection::UnderVoltage => 0x04 | 0x01,
             Injection::OverTemperature => 0x08 | 0x01,
+            Injection::LinkLoss => 0,
         }
     }
 
     pub fn is_fault(self) -> bool {
-        !matches!(self, Injection::OverTemperature)
+        !matches!(self, Injection::OverTemperature | Injection::LinkLoss)
+    }
+
+    /// Whether this is a condition of the link rather than of the drive.
+    pub fn is_link(self) -> bool {
+        self == Injection::LinkLoss
     }
 
     pub fn name(self) -> &'static str {
@@ -70,6 +90,7 @@ impl Injection {
             Injection::OverCurrent => "over-current",
             Injection::UnderVoltage => "under-voltage",
             Injection::OverTemperature => "over-temperature",
+            Injection::LinkLoss => "link-loss",
         }
     }
 
@@ -79,6 +100,9 @@ impl Injection {
             Injection::OverCurrent => "output current too large: fault (2300h)",
             Injection::UnderVoltage => "supply voltage at 9 V: fault (3100h)",
             Injection::OverTemperature => "controller at 85 °C: warning (4200h)",
+            Injection::LinkLoss => {
+                "cable pulled for 3 s: the link stops answering, the drive carries on"
+            }
         }
     }
 }

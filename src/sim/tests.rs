@@ -432,7 +432,7 @@ fn clear_error_only_clears_once_the_cause_is_gone() {
 
 #[test]
 fn every_injection_reports_its_code() {
-    for injection in Injection::ALL {
+    for injection in Injection::DRIVE {
         let mut rig = Rig::new();
         rig.drive.inject(injection);
         rig.run_ms(5);
@@ -838,4 +838,27 @@ fn pdi_objects_mirror_the_images() {
     assert_eq!(rig.od_int(0x2292, 2) as i32, tx.return_value);
     assert_eq!(rig.od_int(0x2291, 1), 100);
     assert_eq!(rig.od_int(0x2291, 4), 20);
+}
+
+#[test]
+fn with_the_pdi_off_commands_are_not_acknowledged() {
+    let mut rig = Rig::new();
+    rig.write(0x2290, 0, Value::Uint(0));
+    let tag = rig.send(move_abs(1000, 100));
+    let (verdict, ms) = rig.finish(tag, 3000);
+    assert!(
+        matches!(
+            verdict,
+            Progress::TimedOut {
+                waiting_for: crate::pdi::Waiting::Acknowledgement,
+                ..
+            }
+        ),
+        "{verdict:?}"
+    );
+    assert!((999..=1001).contains(&ms), "{ms}");
+    assert_eq!(rig.drive.position(), 0.0);
+    // Switched back on, the next command works.
+    rig.write(0x2290, 0, Value::Uint(1));
+    rig.done(move_abs(1000, 100), 5000);
 }

@@ -187,7 +187,7 @@ pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
     if state.link_info().is_some_and(|i| i.can_inject) {
         ui.add_space(8.0);
         ui.collapsing("Simulator: inject faults", |ui| {
-            for injection in Injection::ALL {
+            for injection in Injection::DRIVE {
                 let mut active = state.injected.contains(&injection);
                 if ui
                     .checkbox(&mut active, injection.name())
@@ -203,6 +203,17 @@ pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
                 }
             }
             ui.small("A fault stays latched after you withdraw it, until Clear Error.");
+            ui.separator();
+            if ui
+                .button("Pull the cable for 3 s")
+                .on_hover_text(Injection::LinkLoss.describe())
+                .clicked()
+            {
+                state.request(Request::Inject {
+                    injection: Injection::LinkLoss,
+                    active: true,
+                });
+            }
         });
     }
 }

@@ -67,6 +67,20 @@ struct Session {
     last_health: Instant,
 }
 
+/// The worker's state between requests.
+struct Worker {
+    config: Config,
+    /// The link the user asked for; kept while reconnecting.
+    wanted: Option<LinkSpec>,
+    session: Option<Session>,
+    /// A link that failed, kept so that reconnecting reaches the same device (and, for
+    /// the simulator, the same simulated drive).
+    broken: Option<AnyLink>,
+    retry_at: Option<Instant>,
+    backoff: Duration,
+    ticker: tokio::time::Interval,
+}
+
 /// The worker's whole life.
 pub async fn run(
     config: Config,
@@ -74,41 +88,27 @@ pub async fn run(
     mut urgent: mpsc::Receiver<Envelope>,
     sink: &mut EventSink,
 ) {
-    let mut config = config;
-    let mut wanted: Option<LinkSpec> = None;
-    let mut session: Option<Session> = None;
-    let mut retry_at: Option<Instant> = None;
-    let mut backoff = BACKOFF_FIRST;
-    let mut ticker = new_ticker(config.poll_rate);
+    let mut w = Worker {
+        config,
+        wanted: None,
+        session: None,
+        broken: None,
+        retry_at: None,
+        backoff: BACKOFF_FIRST,
+        ticker: new_ticker(config.poll_rate),
+    };
     loop {
         tokio::select! {
             biased;
             message = urgent.recv() => {
                 let Some((id, request)) = message else { break };
-                handle(id, request, &mut config, &mut wanted, &mut session, &mut retry_at, &mut backoff, &mut ticker, sink).await;
+                w.handle(id, request, sink).await;
             }
             message = requests.recv() => {
                 let Some((id, request)) = message else { break };
-                handle(id, request, &mut config, &mut wanted, &mut session, &mut retry_at, &mut backoff, &mut ticker, sink).await;
+                w.handle(id, request, sink).await;
             }
-            _ = ticker.tick() => {
-                if let Some(s) = session.as_mut() {
-                    if let Err(error) = s.cycle(&config, sink).await {
-                        let spec = s.link.info().spec;
-                        lose(&mut session, &error.to_string(), sink);
-                        if config.reconnect && error.is_transient() {
-                            retry_at = Some(Instant::now() + backoff);
-                            sink.emit(Event::ConnectFailed { spec, error: error.to_string(), retry_in: Some(backoff) });
-                        } else {
-                            wanted = None;
-                        }
-                    }
-                } else if let (Some(spec), Some(at)) = (wanted.clone(), retry_at)
-                    && Instant::now() >= at
-                {
-                    connect(&spec, &config, &mut session, &mut retry_at, &mut backoff, sink).await;
-                }
-            }
+            _ = w.ticker.tick() => w.tick(sink).await,
         }
         sink.flush();
         sink.wake();
@@ -116,7 +116,7 @@ pub async fn run(
             break;
         }
     }
-    if let Some(mut s) = session.take() {
+    if let Some(mut s) = w.session.take() {
         let _ = s.link.close().await;
     }
 }
@@ -128,87 +128,6 @@ fn new_ticker(rate: f64) -> tokio::time::Interval {
     ticker
 }
 
-#[allow(clippy::too_many_arguments)]
-async fn handle(
-    id: RequestId,
-    request: Request,
-    config: &mut Config,
-    wanted: &mut Option<LinkSpec>,
-    session: &mut Option<Session>,
-    retry_at: &mut Option<Instant>,
-    backoff: &mut Duration,
-    ticker: &mut tokio::time::Interval,
-    sink: &mut EventSink,
-) {
-    match request {
-        Request::Connect(spec) => {
-            if let Some(mut s) = session.take() {
-                let _ = s.link.close().await;
-                s.abandon_all("the link was closed for a new connection", sink);
-                sink.emit(Event::Disconnected { reason: None });
-            }
-            *wanted = Some(spec.clone());
-            *backoff = BACKOFF_FIRST;
-            connect(&spec, config, session, retry_at, backoff, sink).await;
-        }
-        Request::Disconnect => {
-            *wanted = None;
-            *retry_at = None;
-            if let Some(mut s) = session.take() {
-                let _ = s.link.close().await;
-                s.abandon_all("disconnected", sink);
-            }
-            sink.emit(Event::Disconnected { reason: None });
-        }
-        Request::SetPollRate(rate) => {
-            if rate.is_finite() && (1.0..=2000.0).contains(&rate) {
-                config.poll_rate = rate;
-                *ticker = new_ticker(rate);
-            } else {
-                sink.emit(Event::Rejected {
-                    id,
-                    request: request.to_string(),
-                    reason: format!("a poll rate of {rate} Hz is outside 1 to 2000 Hz"),
-                });
-            }
-        }
-        Request::Inject { injection, active } => match session.as_mut() {
-            Some(s) => {
-                if let Err(e) = s.link.inject(injection, active).await {
-                    sink.emit(Event::Rejected {
-                        id,
-                        request: request.to_string(),
-                        reason: e.to_string(),
-                    });
-                } else {
-                    sink.emit(Event::Notice(format!(
-                        "{request}: {}",
-                        injection.describe()
-                    )));
-                }
-            }
-            None => reject_unconnected(id, &request, sink),
-        },
-        _ => match session.as_mut() {
-            None => reject_unconnected(id, &request, sink),
-            Some(s) => {
-                if request.is_urgent() {
-                    // Stops go out now, ahead of everything queued.
-                    s.start_pdi(id, request, sink);
-                } else if s.queue.len() >= JOB_QUEUE {
-                    sink.emit(Event::Rejected {
-                        id,
-                        request: request.to_string(),
-                        reason: format!("{JOB_QUEUE} requests are already waiting for the drive"),
-                    });
-                } else {
-                    s.queue.push_back((id, request));
-                }
-            }
-        },
-    }
-}
-
 fn reject_unconnected(id: RequestId, request: &Request, sink: &mut EventSink) {
     sink.emit(Event::Rejected {
         id,
@@ -217,47 +136,161 @@ fn reject_unconnected(id: RequestId, request: &Request, sink: &mut EventSink) {
     });
 }
 
-async fn connect(
-    spec: &LinkSpec,
-    config: &Config,
-    session: &mut Option<Session>,
-    retry_at: &mut Option<Instant>,
-    backoff: &mut Duration,
-    sink: &mut EventSink,
-) {
-    sink.emit(Event::Connecting(spec.clone()));
-    match Session::open(spec, config).await {
-        Ok(s) => {
-            sink.emit(Event::Connected(s.link.info()));
-            *session = Some(s);
-            *retry_at = None;
-            *backoff = BACKOFF_FIRST;
-        }
-        Err(error) => {
-            let retry_in = (config.reconnect && error.is_transient()).then_some(*backoff);
-            sink.emit(Event::ConnectFailed {
-                spec: spec.clone(),
-                error: error.to_string(),
-                retry_in,
-            });
-            *retry_at = retry_in.map(|d| Instant::now() + d);
-            *backoff = (*backoff * 2).min(BACKOFF_MAX);
+impl Worker {
+    async fn tick(&mut self, sink: &mut EventSink) {
+        if let Some(s) = self.session.as_mut() {
+            if let Err(error) = s.cycle(&self.config, sink).await {
+                let Some(mut s) = self.session.take() else {
+                    return;
+                };
+                let spec = s.link.info().spec;
+                let reason = error.to_string();
+                s.abandon_all(&reason, sink);
+                sink.emit(Event::Disconnected {
+                    reason: Some(reason.clone()),
+                });
+                if self.config.reconnect && error.is_transient() {
+                    self.broken = Some(s.link);
+                    self.backoff = BACKOFF_FIRST;
+                    self.retry_at = Some(Instant::now() + self.backoff);
+                    sink.emit(Event::ConnectFailed {
+                        spec,
+                        error: reason,
+                        retry_in: Some(self.backoff),
+                    });
+                } else {
+                    let _ = s.link.close().await;
+                    self.wanted = None;
+                }
+            }
+        } else if let (Some(spec), Some(at)) = (self.wanted.clone(), self.retry_at)
+            && Instant::now() >= at
+        {
+            self.connect(&spec, sink).await;
         }
     }
-}
 
-fn lose(session: &mut Option<Session>, reason: &str, sink: &mut EventSink) {
-    if let Some(mut s) = session.take() {
-        s.abandon_all(reason, sink);
-        sink.emit(Event::Disconnected {
-            reason: Some(reason.to_owned()),
-        });
+    async fn handle(&mut self, id: RequestId, request: Request, sink: &mut EventSink) {
+        match request {
+            Request::Connect(spec) => {
+                self.close(Some("the link was closed for a new connection"), sink)
+                    .await;
+                self.wanted = Some(spec.clone());
+                self.backoff = BACKOFF_FIRST;
+                self.connect(&spec, sink).await;
+            }
+            Request::Disconnect => {
+                self.close(Some("disconnected"), sink).await;
+                self.wanted = None;
+                self.retry_at = None;
+                sink.emit(Event::Disconnected { reason: None });
+            }
+            Request::SetPollRate(rate) => {
+                if rate.is_finite() && (1.0..=2000.0).contains(&rate) {
+                    self.config.poll_rate = rate;
+                    self.ticker = new_ticker(rate);
+                } else {
+                    sink.emit(Event::Rejected {
+                        id,
+                        request: request.to_string(),
+                        reason: format!("a poll rate of {rate} Hz is outside 1 to 2000 Hz"),
+                    });
+                }
+            }
+            Request::Inject { injection, active } => match self.session.as_mut() {
+                Some(s) => match s.link.inject(injection, active).await {
+                    Ok(()) => sink.emit(Event::Notice(format!(
+                        "{request}: {}",
+                        injection.describe()
+                    ))),
+                    Err(e) => sink.emit(Event::Rejected {
+                        id,
+                        request: request.to_string(),
+                        reason: e.to_string(),
+                    }),
+                },
+                None => reject_unconnected(id, &request, sink),
+            },
+            _ => match self.session.as_mut() {
+                None => reject_unconnected(id, &request, sink),
+                Some(s) => {
+                    if request.is_urgent() {
+                        // Stops go out now, ahead of everything queued.
+                        s.start_pdi(id, request, sink);
+                    } else if s.queue.len() >= JOB_QUEUE {
+                        sink.emit(Event::Rejected {
+                            id,
+                            request: request.to_string(),
+                            reason: format!(
+                                "{JOB_QUEUE} requests are already waiting for the drive"
+                            ),
+                        });
+                    } else {
+                        s.queue.push_back((id, request));
+                    }
+                }
+            },
+        }
+    }
+
+    /// Close the session and forget a broken link.
+    async fn close(&mut self, reason: Option<&str>, sink: &mut EventSink) {
+        if let Some(mut s) = self.session.take() {
+            let _ = s.link.close().await;
+            s.abandon_all(reason.unwrap_or("closed"), sink);
+            if reason.is_some_and(|r| r != "disconnected") {
+                sink.emit(Event::Disconnected { reason: None });
+            }
+        }
+        if let Some(mut link) = self.broken.take() {
+            let _ = link.close().await;
+        }
+    }
+
+    /// Open the wanted link, or bring a broken one back.
+    async fn connect(&mut self, spec: &LinkSpec, sink: &mut EventSink) {
+        sink.emit(Event::Connecting(spec.clone()));
+        let result = match self.broken.take() {
+            Some(mut link) => match link.reconnect().await {
+                Ok(()) => Session::start(link, &self.config).await,
+                Err(e) => {
+                    self.broken = Some(link);
+                    Err(e)
+                }
+            },
+            None => match link::open(spec).await {
+                Ok(link) => Session::start(link, &self.config).await,
+                Err(e) => Err(e),
+            },
+        };
+        match result {
+            Ok(s) => {
+                sink.emit(Event::Connected(s.link.info()));
+                self.session = Some(s);
+                self.retry_at = None;
+                self.backoff = BACKOFF_FIRST;
+            }
+            Err(error) => {
+                let retry_in =
+                    (self.config.reconnect && error.is_transient()).then_some(self.backoff);
+                sink.emit(Event::ConnectFailed {
+                    spec: spec.clone(),
+                    error: error.to_string(),
+                    retry_in,
+                });
+                self.retry_at = retry_in.map(|d| Instant::now() + d);
+                if retry_in.is_none() {
+                    self.broken = None;
+                }
+                self.backoff = (self.backoff * 2).min(BACKOFF_MAX);
+            }
+        }
     }
 }
 
 impl Session {
-    async fn open(spec: &LinkSpec, config: &Config) -> Result<Session, link::Error> {
-        let mut link = link::open(spec).await?;
+    /// Start a session on an open link.
+    async fn start(mut link: AnyLink, config: &Config) -> Result<Session, link::Error> {
         let mut master = PdiMaster::new(config.timing);
         // Start from what the drive holds, so connecting replays no command.
         if let Some(rx) = link.read_rx().await? {

@@ -1,0 +1,154 @@
+//! Every one-shot command of the binary against `--link sim`: exit codes, text and JSON.
+
+use std::process::{Command, Output};
+
+fn drivedeck(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_drivedeck"))
+        .args(args)
+        .env("HOME", std::env::temp_dir())
+        .output()
+        .expect("the binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = drivedeck(args);
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "{args:?} failed with {:?}: {stdout}{stderr}",
+        out.status.code()
+    );
+    stdout
+}
+
+fn fails(args: &[&str], code: i32) -> String {
+    let out = drivedeck(args);
+    assert_eq!(out.status.code(), Some(code), "{args:?}: {out:?}");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn json(args: &[&str]) -> serde_json::Value {
+    let mut all = vec!["--json"];
+    all.extend_from_slice(args);
+    serde_json::from_str(&ok(&all)).expect("valid JSON")
+}
+
+#[test]
+fn status_in_text_and_json() {
+    let text = ok(&["--link", "sim", "status"]);
+    assert!(text.contains("Switch on disabled"), "{text}");
+    assert!(text.contains("603Fh       0000h no error"), "{text}");
+    let v = json(&["--link", "sim", "status"]);
+    assert_eq!(v["state"], "Switch on disabled");
+    assert_eq!(v["bits"].as_array().map(Vec::len), Some(11));
+    assert_eq!(v["error_code"], 0);
+}
+
+#[test]
+fn absolute_and_relative_moves_wait_for_the_target() {
+    let text = ok(&[
+        "--link", "sim", "move-abs", "2000", "--speed", "200", "--wait",
+    ]);
+    assert!(
+        text.contains("[D0 07 00 00 C8 00 00 14]: done (ReturnValue 2000)"),
+        "{text}"
+    );
+    let v = json(&[
+        "--link", "sim", "move-rel", "-900", "--speed", "300", "--wait",
+    ]);
+    assert_eq!(v["outcome"], "done");
+    assert_eq!(v["return_value"], -900);
+    assert_eq!(v["image"][7], 21);
+}
+
+#[test]
+fn velocity_torque_and_homing() {
+    let v = json(&["--link", "sim", "velocity", "300", "--wait"]);
+    assert_eq!(v["outcome"], "done");
+    // Without --wait a command returns once the drive accepted it.
+    let v = json(&["--link", "sim", "velocity", "-100"]);
+    assert_eq!(v["outcome"], "accepted");
+
+    let out = drivedeck(&["--link", "sim", "torque", "500", "--max-speed", "100"]);
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("torque slope 6087h is 0"), "{stderr}");
+    let v = json(&[
+        "--link",
+        "sim",
+        "torque",
+        "500",
+        "--max-speed",
+        "100",
+        "--slope",
+        "2000",
+        "--wait",
+    ]);
+    assert_eq!(v["outcome"], "done");
+    assert_eq!(v["return_value"], 500);
+
+    let v = json(&["--link", "sim", "home", "--method", "34", "--wait"]);
+    assert_eq!(v["outcome"], "done");
+    let v = json(&["--link", "sim", "home-here", "1234"]);
+    assert_eq!(v["outcome"], "done");
+    assert_eq!(v["return_value"], 1234);
+}
+
+#[test]
+fn auto_setup_waits() {
+    let v = json(&["--link", "sim", "auto-setup", "--wait"]);
+    assert_eq!(v["outcome"], "done");
+}
+
+#[test]
+fn stops_and_clear_error() {
+    for cmd in ["quickstop", "switch-off", "clear-error"] {
+        let v = json(&["--link", "sim", cmd]);
+        assert_eq!(v["outcome"], "done", "{cmd}");
+    }
+    // A fresh simulated drive has no travel command to halt: the reason is given.
+    let stderr = fails(&["--link", "sim", "halt"], 1);
+    assert!(stderr.contains("no travel command to halt"), "{stderr}");
+    let stderr = fails(&["--link", "sim", "resume"], 1);
+    assert!(stderr.contains("no travel command"), "{stderr}");
+}
+
+#[test]
+fn objects_read_and_write() {
+    let text = ok(&["--link", "sim", "read", "1018:01"]);
+    assert_eq!(
+        text.trim(),
+        "1018h:01h Identity Object / Vendor-ID = 620 (0000026Ch)"
+    );
+    let v = json(&["--link", "sim", "read", "1018:01", "--via", "pdi"]);
+    assert_eq!(v["hex"], "0000026Ch");
+    let v = json(&["--link", "sim", "read", "1008"]);
+    assert_eq!(v["text"], "\"drivedeck simulated drive\"");
+    let v = json(&["--link", "sim", "write", "203B:01", "1000", "--via", "pdi"]);
+    assert_eq!(v["written"], true);
+    let stderr = fails(&["--link", "sim", "read", "2FFF:00", "--via", "pdi"], 1);
+    assert!(
+        stderr.contains("06020000h: Object does not exist"),
+        "{stderr}"
+    );
+    let stderr = fails(&["--link", "sim", "write", "1018:01", "5"], 2);
+    assert!(stderr.contains("read-only"), "{stderr}");
+    let stderr = fails(&["--link", "sim", "write", "2290", "300"], 2);
+    assert!(stderr.contains("300 is out of range for U8"), "{stderr}");
+}
+
+#[test]
+fn bad_input_is_refused_before_connecting() {
+    let stderr = fails(
+        &["--link", "sim", "move-abs", "2000", "--speed", "40000"],
+        2,
+    );
+    assert!(stderr.contains("does not fit PDI-SetValue2"), "{stderr}");
+    let stderr = fails(&["--link", "modbus-tcp://127.0.0.1:1", "status"], 2);
+    assert!(stderr.contains("not built yet"), "{stderr}");
+    let stderr = fails(&["--link", "nonsense", "status"], 2);
+    assert!(stderr.contains("Forms: sim"), "{stderr}");
+    let stderr = fails(&["sim"], 2);
+    assert!(stderr.contains("no bus to serve yet"), "{stderr}");
+}
