@@ -279,3 +279,27 @@ fn escape_sends_quickstop_from_anywhere() {
     );
     assert!(!harness.state().state.bit(StatusBit::OperationEnabled));
 }
+
+#[test]
+fn the_poll_rate_box_changes_the_worker_rate() {
+    let mut harness = app_harness();
+    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    harness.get_by_label("Poll rate").set_value_accesskit(25.0);
+    harness.step();
+    assert_eq!(harness.state().state.settings.poll_rate, 25.0);
+    // Health comes once a second; the second report after the change shows the new rate.
+    std::thread::sleep(Duration::from_millis(2200));
+    step_until(
+        &mut harness,
+        "a health report at 25 Hz",
+        Duration::from_secs(3),
+        |h| {
+            h.state()
+                .state
+                .health
+                .is_some_and(|health| (15.0..32.0).contains(&health.cycles_per_second))
+        },
+    );
+}

@@ -105,6 +105,16 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
         }
 
         ui.separator();
+        ui.label("Poll");
+        let poll = ui.add(
+            egui::DragValue::new(&mut state.settings.poll_rate)
+                .range(1.0..=1000.0)
+                .speed(1.0)
+                .max_decimals(0)
+                .suffix(" Hz"),
+        );
+        name_widget(&poll, egui::accesskit::Role::SpinButton, "Poll rate");
+        poll.on_hover_text("Process-image exchanges per second (the plots sample at this rate)");
         match &state.connection {
             Connection::Disconnected => {
                 ui.weak("disconnected");
