@@ -3,6 +3,7 @@
 
 mod oneshot;
 mod report;
+mod serve;
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -173,7 +174,60 @@ pub struct HomeHereArgs {
 }
 
 #[derive(Args, Debug, Clone)]
-pub struct SimArgs {}
+pub struct SimArgs {
+    /// Serve Modbus TCP on ADDR:PORT (e.g. 127.0.0.1:1502; 0.0.0.0:502 for the network).
+    #[arg(long, value_name = "ADDR:PORT")]
+    pub modbus_tcp: Option<std::net::SocketAddr>,
+    /// Modbus TCP clients at a time; a Nanotec drive allows one.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub max_clients: usize,
+    /// Serve Modbus RTU on this serial port (e.g. one end of a socat pty pair).
+    #[arg(long, value_name = "PATH")]
+    pub modbus_rtu: Option<String>,
+    /// RTU baud rate (Nanotec factory: 19200).
+    #[arg(long, default_value_t = 19_200)]
+    pub baud: u32,
+    /// RTU parity (factory: even).
+    #[arg(long, value_enum, default_value_t = CliParity::Even)]
+    pub parity: CliParity,
+    /// RTU stop bits (factory: 1).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub stop_bits: u8,
+    /// RTU slave address (factory: 5).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(1..=247))]
+    pub slave: u8,
+    /// Word order of 32-bit register pairs: high (Nanotec) or low.
+    #[arg(long, value_enum, default_value_t = CliWords::High)]
+    pub words: CliWords,
+    /// Leave out function codes, to simulate a gateway or device without them.
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "FC,...")]
+    pub without: Vec<Missing>,
+    /// Print the drive's state once a second.
+    #[arg(long)]
+    pub verbose: bool,
+}
+
+/// Function codes the simulated drive can leave out.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Missing {
+    /// FC 23 Read/Write Multiple Registers (clients fall back to FC 16 + FC 4).
+    Fc23,
+    /// FC 43 CANopen object access and FC 101 (clients use PDI OD-Read/OD-Write).
+    Fc43,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CliParity {
+    None,
+    Even,
+    Odd,
+}
+
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CliWords {
+    High,
+    Low,
+}
 
 fn parse_type(text: &str) -> Result<DataType, String> {
     let t = text.trim().to_ascii_lowercase();
@@ -206,12 +260,7 @@ pub fn main() -> ExitCode {
                 ExitCode::from(EXIT_USAGE)
             }
         },
-        Some(Command::Sim(_)) => {
-            eprintln!(
-                "drivedeck sim: no bus to serve yet. The simulated drive gets its Modbus TCP/RTU server with issue #3, its CANopen node with issue #4 and its EtherNet/IP adapter with issue #5. The window and every one-shot command already use it in-process: --link sim."
-            );
-            ExitCode::from(EXIT_USAGE)
-        }
+        Some(Command::Sim(args)) => serve::run(&args),
         Some(command) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));

@@ -61,7 +61,6 @@ impl Session {
                 ..Timing::default()
             },
             reconnect: false,
-            sample_objects: true,
         };
         let worker = Worker::spawn(config, Arc::new(|| {}))
             .map_err(|e| usage(format!("cannot start the worker thread: {e}")))?;

@@ -48,6 +48,10 @@ pub enum Refusal {
     /// A CiA 301 abort code (SDO abort, the simulator, PDI-ReturnValue, FC 43 extended
     /// exception).
     Abort(AbortCode),
+    /// A Modbus exception (01 to 04 and others) to an object access.
+    Modbus { function: u8, code: u8 },
+    /// The answer did not fit the object's type.
+    Malformed(String),
     /// The link has no object access of its own; use the PDI.
     NotSupported,
 }
@@ -56,7 +60,29 @@ impl fmt::Display for Refusal {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Refusal::Abort(code) => write!(f, "abort {code}"),
+            Refusal::Modbus { function, code } => write!(
+                f,
+                "Modbus exception {code:02X}h ({}) to FC {function}",
+                modbus_exception_text(*code)
+            ),
+            Refusal::Malformed(text) => write!(f, "malformed answer: {text}"),
             Refusal::NotSupported => f.write_str("this link has no direct object access"),
         }
+    }
+}
+
+/// The standard text of a Modbus exception code.
+pub fn modbus_exception_text(code: u8) -> &'static str {
+    match code {
+        0x01 => "illegal function",
+        0x02 => "illegal data address",
+        0x03 => "illegal data value",
+        0x04 => "slave device failure",
+        0x05 => "acknowledge",
+        0x06 => "slave device busy",
+        0x08 => "memory parity error",
+        0x0A => "gateway path unavailable",
+        0x0B => "gateway target device failed to respond",
+        _ => "unknown exception",
     }
 }

@@ -6,13 +6,14 @@
 //! next to the object and a link error as a banner with a reconnect.
 
 mod error;
+pub mod modbus;
 mod open;
 pub mod sim;
 pub mod spec;
 
 use std::fmt;
 
-pub use error::{Error, Refusal};
+pub use error::{Error, Refusal, modbus_exception_text};
 pub use open::{AnyLink, open};
 pub use spec::{EnipIo, LinkSpec, Parity, SpecError};
 
@@ -39,6 +40,33 @@ impl fmt::Display for LinkInfo {
     }
 }
 
+/// The plot and status signals besides the PDI, each `None` when the link cannot get it
+/// cheaply (a link delivers what its process image or a direct read gives for free).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Signals {
+    /// 6064h, user units (0.1°)
+    pub position: Option<f64>,
+    /// 606Ch, user units (rpm)
+    pub velocity: Option<f64>,
+    /// 6077h, ‰ of rated torque
+    pub torque: Option<f64>,
+    /// 60F4h
+    pub following_error: Option<f64>,
+    /// 6041h
+    pub statusword: Option<u16>,
+    /// 60FDh
+    pub digital_inputs: Option<u32>,
+    /// 6061h
+    pub mode: Option<i8>,
+}
+
+/// What one process-image exchange brought back.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Exchange {
+    pub tx: TxImage,
+    pub signals: Signals,
+}
+
 /// One bus connection to one drive. The worker runs links on a current-thread runtime, so
 /// the futures need not be `Send`.
 #[allow(async_fn_in_trait)]
@@ -46,8 +74,8 @@ pub trait Link {
     fn info(&self) -> LinkInfo;
 
     /// Write the RX image (when `Some`) and read the TX image, as one exchange where the
-    /// bus allows (FC 23, a PDO pair, a Class 1 cycle).
-    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<TxImage, Error>;
+    /// bus allows (FC 23, a PDO pair, a Class 1 cycle), with whatever signals come along.
+    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<Exchange, Error>;
 
     /// The RX image the drive holds now (2291h), so that connecting replays nothing.
     /// `None` when the bus cannot read it back.
@@ -75,6 +103,12 @@ pub trait Link {
         Err(Error::Unsupported(
             "fault injection works only on the simulated drive".into(),
         ))
+    }
+
+    /// Things the link learned that the user should know (e.g. a missing function code
+    /// and the fallback chosen). The worker logs them and refreshes the link's description.
+    fn take_notices(&mut self) -> Vec<String> {
+        Vec::new()
     }
 
     /// Bring a failed link back to the same device (the worker calls this with backoff

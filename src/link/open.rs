@@ -1,25 +1,26 @@
 //! Opening a link from its connection string.
 
+use super::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
 use super::sim::SimLink;
-use super::{Error, Link, LinkInfo, LinkSpec, Refusal};
+use super::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal};
 use crate::od::{Address, DataType, Value};
-use crate::pdi::{RxImage, TxImage};
+use crate::pdi::RxImage;
 use crate::sim::Injection;
 
 /// Every link the tool can open, so the worker can hold whichever the user picked.
 #[derive(Debug)]
 pub enum AnyLink {
     Sim(Box<SimLink>),
+    Modbus(Box<ModbusLink>),
 }
 
 /// Open the link a connection string names.
 pub async fn open(spec: &LinkSpec) -> Result<AnyLink, Error> {
     match spec {
         LinkSpec::Sim => Ok(AnyLink::Sim(Box::default())),
-        LinkSpec::ModbusTcp { .. } | LinkSpec::ModbusRtu { .. } => Err(Error::NotBuiltYet {
-            scheme: spec.scheme(),
-            issue: "issue #3",
-        }),
+        LinkSpec::ModbusTcp { .. } | LinkSpec::ModbusRtu { .. } => Ok(AnyLink::Modbus(Box::new(
+            ModbusLink::connect(spec, DEFAULT_TIMEOUT).await?,
+        ))),
         LinkSpec::CanopenSocketcan { .. } | LinkSpec::CanopenSlcan { .. } => {
             Err(Error::NotBuiltYet {
                 scheme: spec.scheme(),
@@ -43,18 +44,21 @@ impl Link for AnyLink {
     fn info(&self) -> LinkInfo {
         match self {
             AnyLink::Sim(l) => l.info(),
+            AnyLink::Modbus(l) => l.info(),
         }
     }
 
-    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<TxImage, Error> {
+    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<Exchange, Error> {
         match self {
             AnyLink::Sim(l) => l.exchange(rx).await,
+            AnyLink::Modbus(l) => l.exchange(rx).await,
         }
     }
 
     async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {
         match self {
             AnyLink::Sim(l) => l.read_rx().await,
+            AnyLink::Modbus(l) => l.read_rx().await,
         }
     }
 
@@ -65,6 +69,7 @@ impl Link for AnyLink {
     ) -> Result<Result<Value, Refusal>, Error> {
         match self {
             AnyLink::Sim(l) => l.read_object(address, dtype).await,
+            AnyLink::Modbus(l) => l.read_object(address, dtype).await,
         }
     }
 
@@ -76,24 +81,35 @@ impl Link for AnyLink {
     ) -> Result<Result<(), Refusal>, Error> {
         match self {
             AnyLink::Sim(l) => l.write_object(address, dtype, value).await,
+            AnyLink::Modbus(l) => l.write_object(address, dtype, value).await,
         }
     }
 
     async fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
         match self {
             AnyLink::Sim(l) => l.inject(injection, active).await,
+            AnyLink::Modbus(l) => l.inject(injection, active).await,
+        }
+    }
+
+    fn take_notices(&mut self) -> Vec<String> {
+        match self {
+            AnyLink::Sim(l) => l.take_notices(),
+            AnyLink::Modbus(l) => l.take_notices(),
         }
     }
 
     async fn reconnect(&mut self) -> Result<(), Error> {
         match self {
             AnyLink::Sim(l) => l.reconnect().await,
+            AnyLink::Modbus(l) => l.reconnect().await,
         }
     }
 
     async fn close(&mut self) -> Result<(), Error> {
         match self {
             AnyLink::Sim(l) => l.close().await,
+            AnyLink::Modbus(l) => l.close().await,
         }
     }
 }

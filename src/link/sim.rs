@@ -4,9 +4,9 @@
 
 use std::time::{Duration, Instant};
 
-use super::{Error, Link, LinkInfo, LinkSpec, Refusal};
+use super::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals};
 use crate::od::{Address, DataType, Value};
-use crate::pdi::{RxImage, TxImage};
+use crate::pdi::RxImage;
 use crate::sim::{Drive, Injection};
 
 /// The longest stretch the drive is advanced in one go. A real drive runs on whatever the
@@ -118,12 +118,31 @@ impl Link for SimLink {
         }
     }
 
-    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<TxImage, Error> {
+    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<Exchange, Error> {
         self.catch_up()?;
         if let Some(rx) = rx {
             self.drive.write_rx(rx);
         }
-        Ok(self.drive.tx_image())
+        // In-process, every signal is a direct read.
+        let int = |index: u16| {
+            self.drive
+                .read(Address::new(index, 0))
+                .ok()
+                .and_then(|v| v.as_i128())
+        };
+        let signals = Signals {
+            position: int(0x6064).map(|v| v as f64),
+            velocity: int(0x606C).map(|v| v as f64),
+            torque: int(0x6077).map(|v| v as f64),
+            following_error: int(0x60F4).map(|v| v as f64),
+            statusword: int(0x6041).map(|v| v as u16),
+            digital_inputs: int(0x60FD).map(|v| v as u32),
+            mode: int(0x6061).map(|v| v as i8),
+        };
+        Ok(Exchange {
+            tx: self.drive.tx_image(),
+            signals,
+        })
     }
 
     async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {

@@ -14,8 +14,10 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
+pub use super::modbus::registers::WordOrder;
+
 /// Every form, for error messages and `--help`.
-pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0 | modbus-rtu://PATH?baud=19200&parity=even&stop=1&slave=5 | canopen+socketcan://IFACE?node=1 | canopen+slcan://PATH?bitrate=1000000&node=1 | enip://HOST:PORT?io=pdi&rpi=10";
+pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0[&words=low] | modbus-rtu://PATH?baud=19200&parity=even&stop=1&slave=5[&words=low] | canopen+socketcan://IFACE?node=1 | canopen+slcan://PATH?bitrate=1000000&node=1 | enip://HOST:PORT?io=pdi&rpi=10";
 
 /// Serial parity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -68,6 +70,9 @@ pub enum LinkSpec {
         host: String,
         port: u16,
         unit: u8,
+        /// Which half of 32-bit register pairs comes first (FACTS 1.1: high, [M]).
+        #[serde(default)]
+        words: WordOrder,
     },
     ModbusRtu {
         path: String,
@@ -75,6 +80,8 @@ pub enum LinkSpec {
         parity: Parity,
         stop_bits: u8,
         slave: u8,
+        #[serde(default)]
+        words: WordOrder,
     },
     CanopenSocketcan {
         iface: String,
@@ -139,6 +146,7 @@ impl LinkSpec {
                 host: "192.168.2.100".into(),
                 port: 502,
                 unit: 0,
+                words: WordOrder::High,
             },
             "modbus-rtu" => LinkSpec::ModbusRtu {
                 path: default_serial_port().into(),
@@ -146,6 +154,7 @@ impl LinkSpec {
                 parity: Parity::Even,
                 stop_bits: 1,
                 slave: 5,
+                words: WordOrder::High,
             },
             "canopen+socketcan" => LinkSpec::CanopenSocketcan {
                 iface: "can0".into(),
@@ -179,19 +188,29 @@ impl fmt::Display for LinkSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             LinkSpec::Sim => f.write_str("sim"),
-            LinkSpec::ModbusTcp { host, port, unit } => {
-                write!(f, "modbus-tcp://{}:{port}?unit={unit}", host_text(host))
-            }
+            LinkSpec::ModbusTcp {
+                host,
+                port,
+                unit,
+                words,
+            } => write!(
+                f,
+                "modbus-tcp://{}:{port}?unit={unit}{}",
+                host_text(host),
+                words_suffix(*words)
+            ),
             LinkSpec::ModbusRtu {
                 path,
                 baud,
                 parity,
                 stop_bits,
                 slave,
+                words,
             } => write!(
                 f,
-                "modbus-rtu://{path}?baud={baud}&parity={}&stop={stop_bits}&slave={slave}",
-                parity.name()
+                "modbus-rtu://{path}?baud={baud}&parity={}&stop={stop_bits}&slave={slave}{}",
+                parity.name(),
+                words_suffix(*words)
             ),
             LinkSpec::CanopenSocketcan { iface, node } => {
                 write!(f, "canopen+socketcan://{iface}?node={node}")
@@ -213,6 +232,24 @@ impl fmt::Display for LinkSpec {
                 io.name()
             ),
         }
+    }
+}
+
+/// `words=` only when it differs from the default, so the usual strings stay short.
+fn words_suffix(words: WordOrder) -> String {
+    match words {
+        WordOrder::High => String::new(),
+        WordOrder::Low => "&words=low".into(),
+    }
+}
+
+fn words(q: &mut Query) -> Result<WordOrder, String> {
+    match q.take("words").as_deref() {
+        None | Some("high") | Some("hi") => Ok(WordOrder::High),
+        Some("low") | Some("lo") => Ok(WordOrder::Low),
+        Some(other) => Err(format!(
+            "words='{other}': use high (high word first, Nanotec) or low"
+        )),
     }
 }
 
@@ -355,8 +392,14 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
         "modbus-tcp" => {
             let (host, port) = host_port(target, 502)?;
             let unit = q.number("unit", 0, 0, 255)? as u8;
-            q.finish(&["unit"])?;
-            LinkSpec::ModbusTcp { host, port, unit }
+            let words = words(&mut q)?;
+            q.finish(&["unit", "words"])?;
+            LinkSpec::ModbusTcp {
+                host,
+                port,
+                unit,
+                words,
+            }
         }
         "modbus-rtu" => {
             if target.is_empty() {
@@ -373,13 +416,15 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
             };
             let stop_bits = q.number("stop", 1, 1, 2)? as u8;
             let slave = q.number("slave", 5, 1, 247)? as u8;
-            q.finish(&["baud", "parity", "stop", "slave"])?;
+            let words = words(&mut q)?;
+            q.finish(&["baud", "parity", "stop", "slave", "words"])?;
             LinkSpec::ModbusRtu {
                 path: target.to_owned(),
                 baud,
                 parity,
                 stop_bits,
                 slave,
+                words,
             }
         }
         "canopen+socketcan" => {
@@ -462,7 +507,8 @@ mod tests {
             LinkSpec::ModbusTcp {
                 host: "192.168.2.10".into(),
                 port: 502,
-                unit: 0
+                unit: 0,
+                words: WordOrder::High
             }
         );
         assert_eq!(
@@ -470,7 +516,8 @@ mod tests {
             LinkSpec::ModbusTcp {
                 host: "localhost".into(),
                 port: 1502,
-                unit: 3
+                unit: 3,
+                words: WordOrder::High
             }
         );
         assert_eq!(
@@ -478,7 +525,8 @@ mod tests {
             LinkSpec::ModbusTcp {
                 host: "::1".into(),
                 port: 1502,
-                unit: 0
+                unit: 0,
+                words: WordOrder::High
             }
         );
         assert_eq!(
@@ -488,17 +536,19 @@ mod tests {
                 baud: 19_200,
                 parity: Parity::Even,
                 stop_bits: 1,
-                slave: 5
+                slave: 5,
+                words: WordOrder::High
             }
         );
         assert_eq!(
-            ok("modbus-rtu://COM3?baud=115200&parity=none&stop=2&slave=7"),
+            ok("modbus-rtu://COM3?baud=115200&parity=none&stop=2&slave=7&words=low"),
             LinkSpec::ModbusRtu {
                 path: "COM3".into(),
                 baud: 115_200,
                 parity: Parity::None,
                 stop_bits: 2,
-                slave: 7
+                slave: 7,
+                words: WordOrder::Low
             }
         );
         assert_eq!(
@@ -533,6 +583,7 @@ mod tests {
             "sim",
             "modbus-tcp://127.0.0.1:1502?unit=0",
             "modbus-tcp://[::1]:502?unit=9",
+            "modbus-tcp://10.0.0.1:502?unit=0&words=low",
             "modbus-rtu:///dev/ttyUSB0?baud=19200&parity=even&stop=1&slave=5",
             "canopen+socketcan://can0?node=1",
             "canopen+slcan://COM4?bitrate=1000000&node=1",
@@ -564,8 +615,10 @@ mod tests {
         assert!(err("modbus-tcp://h:99999").contains("port '99999'"));
         assert!(err("modbus-tcp://h?unit=300").contains("unit=300 is out of range 0..=255"));
         assert!(
-            err("modbus-tcp://h?unti=3").contains("unknown parameter 'unti' (this bus takes unit)")
+            err("modbus-tcp://h?unti=3")
+                .contains("unknown parameter 'unti' (this bus takes unit, words)")
         );
+        assert!(err("modbus-tcp://h?words=middle").contains("use high"));
         assert!(err("modbus-tcp://h?unit").contains("has no value"));
         assert!(err("modbus-tcp://h?unit=1&unit=2").contains("given twice"));
         assert!(err("modbus-tcp://::1:502").contains("brackets"));

@@ -7,12 +7,13 @@ mod drive;
 mod faults;
 mod homing;
 mod motion;
+pub mod server;
 mod world;
 
 #[cfg(test)]
 mod tests;
 
-pub use dictionary::Dictionary;
+pub use dictionary::{Dictionary, wrap_integer};
 pub use drive::{AUTO_SETUP_TIME, Drive, STEP};
 pub use faults::Injection;
 pub use homing::SUPPORTED_METHODS;

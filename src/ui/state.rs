@@ -156,7 +156,9 @@ impl ConnectionForm {
         let mut form = base;
         match spec.clone() {
             LinkSpec::Sim => form.bus = Bus::Sim,
-            LinkSpec::ModbusTcp { host, port, unit } => {
+            LinkSpec::ModbusTcp {
+                host, port, unit, ..
+            } => {
                 form.bus = Bus::ModbusTcp;
                 form.tcp_host = host;
                 form.tcp_port = port.to_string();
@@ -168,6 +170,7 @@ impl ConnectionForm {
                 parity,
                 stop_bits,
                 slave,
+                ..
             } => {
                 form.bus = Bus::ModbusRtu;
                 form.rtu_path = path;
@@ -478,6 +481,11 @@ impl AppState {
                     dtype: Some(DataType::Unsigned32),
                     path: ObjectPath::Auto,
                 });
+            }
+            Event::LinkChanged(info) => {
+                if self.is_connected() {
+                    self.connection = Connection::Connected(info);
+                }
             }
             Event::ConnectFailed {
                 spec,

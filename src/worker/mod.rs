@@ -37,9 +37,6 @@ pub struct Config {
     pub timing: Timing,
     /// Reconnect with backoff after a link error.
     pub reconnect: bool,
-    /// Read the plot signals (6064h, 606Ch, 6077h, 60F4h, 6041h, 60FDh, 6061h) each cycle
-    /// where the link has its own object access.
-    pub sample_objects: bool,
 }
 
 impl Default for Config {
@@ -48,7 +45,6 @@ impl Default for Config {
             poll_rate: 100.0,
             timing: Timing::default(),
             reconnect: true,
-            sample_objects: true,
         }
     }
 }

@@ -180,6 +180,8 @@ pub struct Health {
 pub enum Event {
     Connecting(LinkSpec),
     Connected(LinkInfo),
+    /// The link learned something about the device and describes itself anew.
+    LinkChanged(LinkInfo),
     /// Opening the link failed; `retrying` when the worker will try again.
     ConnectFailed {
         spec: LinkSpec,

@@ -25,17 +25,6 @@ const NATIVE_JOBS_PER_CYCLE: usize = 8;
 const BACKOFF_FIRST: Duration = Duration::from_millis(250);
 const BACKOFF_MAX: Duration = Duration::from_secs(5);
 
-/// The plot signals read each cycle where the link has its own object access.
-const SIGNALS: [(u16, DataType); 7] = [
-    (0x6064, DataType::Integer32),
-    (0x606C, DataType::Integer32),
-    (0x6077, DataType::Integer16),
-    (0x60F4, DataType::Integer32),
-    (0x6041, DataType::Unsigned16),
-    (0x60FD, DataType::Unsigned32),
-    (0x6061, DataType::Integer8),
-];
-
 /// What a PDI command in flight was for.
 #[derive(Clone, Debug)]
 enum Purpose {
@@ -139,7 +128,7 @@ fn reject_unconnected(id: RequestId, request: &Request, sink: &mut EventSink) {
 impl Worker {
     async fn tick(&mut self, sink: &mut EventSink) {
         if let Some(s) = self.session.as_mut() {
-            if let Err(error) = s.cycle(&self.config, sink).await {
+            if let Err(error) = s.cycle(sink).await {
                 let Some(mut s) = self.session.take() else {
                     return;
                 };
@@ -296,9 +285,9 @@ impl Session {
         if let Some(rx) = link.read_rx().await? {
             master.adopt(rx);
         }
-        let tx = link.exchange(None).await?;
+        let first = link.exchange(None).await?;
         let now = Instant::now();
-        master.on_tx(tx, now);
+        master.on_tx(first.tx, now);
         let native_objects = link.info().native_objects;
         Ok(Session {
             link,
@@ -318,16 +307,17 @@ impl Session {
     }
 
     /// One poll cycle. An error means the link is gone.
-    async fn cycle(&mut self, config: &Config, sink: &mut EventSink) -> Result<(), link::Error> {
+    async fn cycle(&mut self, sink: &mut EventSink) -> Result<(), link::Error> {
         let outgoing = self.master.outgoing();
         let sent = Instant::now();
-        let tx = match self.link.exchange(outgoing.as_ref()).await {
-            Ok(tx) => tx,
+        let exchange = match self.link.exchange(outgoing.as_ref()).await {
+            Ok(exchange) => exchange,
             Err(e) => {
                 self.errors += 1;
                 return Err(e);
             }
         };
+        let tx = exchange.tx;
         let now = Instant::now();
         let rtt = now - sent;
         self.cycles += 1;
@@ -337,21 +327,34 @@ impl Session {
         self.master.poll(now);
         self.report_progress(sink);
 
-        let mut sample = Sample {
+        let signals = exchange.signals;
+        self.samples.push(Sample {
             t: (now - self.started).as_secs_f64(),
             tx,
-            ..Sample::default()
-        };
-        if config.sample_objects && self.native_objects {
-            self.read_signals(&mut sample).await?;
-        }
-        self.samples.push(sample);
+            position: signals.position,
+            velocity: signals.velocity,
+            torque: signals.torque,
+            following_error: signals.following_error,
+            statusword: signals.statusword,
+            digital_inputs: signals.digital_inputs,
+            mode: signals.mode,
+        });
         if now - self.last_batch >= SAMPLE_BATCH {
             self.last_batch = now;
             sink.emit(Event::Samples(std::mem::take(&mut self.samples)));
         }
 
         self.run_jobs(sink).await?;
+
+        let notices = self.link.take_notices();
+        if !notices.is_empty() {
+            for notice in notices {
+                sink.emit(Event::Notice(notice));
+            }
+            let info = self.link.info();
+            self.native_objects = info.native_objects;
+            sink.emit(Event::LinkChanged(info));
+        }
 
         if now - self.last_health >= Duration::from_secs(1) {
             let span = (now - self.last_health).as_secs_f64();
@@ -367,32 +370,6 @@ impl Session {
             self.rtt_max = Duration::ZERO;
             self.last_health = now;
         }
-        Ok(())
-    }
-
-    async fn read_signals(&mut self, sample: &mut Sample) -> Result<(), link::Error> {
-        let mut values = [None; SIGNALS.len()];
-        for (slot, (index, dtype)) in values.iter_mut().zip(SIGNALS) {
-            if let Ok(value) = self.link.read_object(Address::new(index, 0), dtype).await? {
-                *slot = value.as_f64();
-            }
-        }
-        let [
-            position,
-            velocity,
-            torque,
-            following,
-            statusword,
-            inputs,
-            mode,
-        ] = values;
-        sample.position = position;
-        sample.velocity = velocity;
-        sample.torque = torque;
-        sample.following_error = following;
-        sample.statusword = statusword.map(|v| v as u16);
-        sample.digital_inputs = inputs.map(|v| v as u32);
-        sample.mode = mode.map(|v| v as i8);
         Ok(())
     }
 
@@ -433,35 +410,72 @@ impl Session {
         request: Request,
         sink: &mut EventSink,
     ) -> Result<(), link::Error> {
-        match request {
+        let refusal = match &request {
             Request::ReadObject { address, dtype, .. } => {
-                let dtype = dtype.unwrap_or(DataType::Integer32);
-                let result = self.link.read_object(address, dtype).await?;
-                sink.emit(Event::ObjectRead {
-                    id,
-                    address,
-                    result: result.map_err(|r| refusal_text(&r)),
-                });
+                let result = self
+                    .link
+                    .read_object(*address, dtype.unwrap_or(DataType::Integer32))
+                    .await?;
+                match result {
+                    Ok(value) => {
+                        sink.emit(Event::ObjectRead {
+                            id,
+                            address: *address,
+                            result: Ok(value),
+                        });
+                        return Ok(());
+                    }
+                    Err(refusal) => refusal,
+                }
             }
             Request::WriteObject {
                 address,
                 dtype,
                 value,
                 ..
-            } => {
-                let result = self.link.write_object(address, dtype, &value).await?;
-                sink.emit(Event::ObjectWritten {
+            } => match self.link.write_object(*address, *dtype, value).await? {
+                Ok(()) => {
+                    sink.emit(Event::ObjectWritten {
+                        id,
+                        address: *address,
+                        value: value.clone(),
+                        result: Ok(()),
+                    });
+                    return Ok(());
+                }
+                Err(refusal) => refusal,
+            },
+            other => {
+                sink.emit(Event::Rejected {
                     id,
-                    address,
-                    value,
-                    result: result.map_err(|r| refusal_text(&r)),
+                    request: other.to_string(),
+                    reason: "not an object access".into(),
                 });
+                return Ok(());
             }
-            other => sink.emit(Event::Rejected {
+        };
+        // The link has no object access of its own after all (e.g. a Modbus device without
+        // FC 43): an automatic request goes through the PDI instead.
+        if refusal == Refusal::NotSupported
+            && let Some(request) = via_pdi(&request)
+        {
+            self.native_objects = false;
+            self.queue.push_front((id, request));
+            return Ok(());
+        }
+        match request {
+            Request::ReadObject { address, .. } => sink.emit(Event::ObjectRead {
                 id,
-                request: other.to_string(),
-                reason: "not an object access".into(),
+                address,
+                result: Err(refusal_text(&refusal)),
             }),
+            Request::WriteObject { address, value, .. } => sink.emit(Event::ObjectWritten {
+                id,
+                address,
+                value,
+                result: Err(refusal_text(&refusal)),
+            }),
+            _ => {}
         }
         Ok(())
     }
@@ -617,6 +631,33 @@ impl Session {
         if !self.samples.is_empty() {
             sink.emit(Event::Samples(std::mem::take(&mut self.samples)));
         }
+    }
+}
+
+/// An automatic object access, redirected to the PDI.
+fn via_pdi(request: &Request) -> Option<Request> {
+    match request {
+        Request::ReadObject {
+            address,
+            dtype,
+            path: ObjectPath::Auto,
+        } => Some(Request::ReadObject {
+            address: *address,
+            dtype: *dtype,
+            path: ObjectPath::Pdi,
+        }),
+        Request::WriteObject {
+            address,
+            dtype,
+            value,
+            path: ObjectPath::Auto,
+        } => Some(Request::WriteObject {
+            address: *address,
+            dtype: *dtype,
+            value: value.clone(),
+            path: ObjectPath::Pdi,
+        }),
+        _ => None,
     }
 }
 

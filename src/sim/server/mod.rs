@@ -1,0 +1,152 @@
+//! The simulated drive on real sockets, for any client: ours, a PLC, pymodbus.
+//!
+//! One drive, shared by every server task of the process and advanced on real time by a
+//! ticker, so a client sees the motor move whether it polls or not.
+
+pub mod modbus;
+
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use super::Drive;
+
+/// How often the shared drive is advanced when nobody asks.
+const TICK: Duration = Duration::from_millis(2);
+
+/// The drive and the time it was last advanced to.
+#[derive(Debug)]
+struct Clocked {
+    drive: Drive,
+    last: Instant,
+}
+
+/// The simulated drive shared by the servers of one process.
+#[derive(Clone, Debug)]
+pub struct SharedDrive {
+    inner: Arc<Mutex<Clocked>>,
+}
+
+impl SharedDrive {
+    pub fn new(drive: Drive) -> Self {
+        Self {
+            inner: Arc::new(Mutex::new(Clocked {
+                drive,
+                last: Instant::now(),
+            })),
+        }
+    }
+
+    /// The drive, advanced to now. A poisoned lock (a panic elsewhere) still yields the
+    /// drive: a simulator keeps serving.
+    pub fn lock(&self) -> DriveGuard<'_> {
+        let mut guard = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+        let now = Instant::now();
+        let elapsed = now.saturating_duration_since(guard.last);
+        guard.last = now;
+        guard.drive.tick(elapsed.min(Duration::from_secs(60)));
+        DriveGuard { guard }
+    }
+
+    /// Advance the drive on real time until the returned future is dropped.
+    pub async fn run_clock(self) {
+        let mut ticker = tokio::time::interval(TICK);
+        ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        loop {
+            ticker.tick().await;
+            drop(self.lock());
+        }
+    }
+}
+
+/// A locked, up-to-date drive.
+pub struct DriveGuard<'a> {
+    guard: MutexGuard<'a, Clocked>,
+}
+
+impl std::ops::Deref for DriveGuard<'_> {
+    type Target = Drive;
+    fn deref(&self) -> &Drive {
+        &self.guard.drive
+    }
+}
+
+impl std::ops::DerefMut for DriveGuard<'_> {
+    fn deref_mut(&mut self) -> &mut Drive {
+        &mut self.guard.drive
+    }
+}
+
+/// A simulated drive served on its own thread and runtime (tests, and embedding in other
+/// tools). Dropping it stops the server and closes every connection, like pulling the
+/// drive's plug.
+pub struct ServerThread {
+    pub addr: std::net::SocketAddr,
+    drive: SharedDrive,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl ServerThread {
+    /// Serve Modbus TCP on `addr` (port 0 picks a free one) with a fresh drive.
+    pub fn modbus_tcp(
+        addr: std::net::SocketAddr,
+        options: modbus::Options,
+    ) -> std::io::Result<ServerThread> {
+        Self::modbus_tcp_with(addr, options, SharedDrive::new(Drive::new()))
+    }
+
+    /// Serve Modbus TCP for an existing shared drive.
+    pub fn modbus_tcp_with(
+        addr: std::net::SocketAddr,
+        options: modbus::Options,
+        drive: SharedDrive,
+    ) -> std::io::Result<ServerThread> {
+        let listener = std::net::TcpListener::bind(addr)?;
+        listener.set_nonblocking(true)?;
+        let addr = listener.local_addr()?;
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
+        let served = drive.clone();
+        let thread = std::thread::Builder::new()
+            .name(format!("sim-modbus-{addr}"))
+            .spawn(move || {
+                let Ok(runtime) = tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                else {
+                    return;
+                };
+                runtime.block_on(async move {
+                    let Ok(listener) = tokio::net::TcpListener::from_std(listener) else {
+                        return;
+                    };
+                    tokio::select! {
+                        _ = stop_rx => {}
+                        _ = served.clone().run_clock() => {}
+                        _ = modbus::serve_tcp(listener, served, options) => {}
+                    }
+                });
+            })?;
+        Ok(ServerThread {
+            addr,
+            drive,
+            stop: Some(stop_tx),
+            thread: Some(thread),
+        })
+    }
+
+    /// The drive behind the server.
+    pub fn drive(&self) -> &SharedDrive {
+        &self.drive
+    }
+}
+
+impl Drop for ServerThread {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}

@@ -1,0 +1,538 @@
+//! Our Modbus client against the simulated drive served on real loopback sockets, and the
+//! failures a technician meets: a gateway without FC 23, a device without FC 43, a second
+//! client, a drive that dies or goes silent mid-move, garbage on the wire.
+
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpListener};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use drivedeck::link::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
+use drivedeck::link::{Link, LinkSpec};
+use drivedeck::od::{Address, DataType, Value};
+use drivedeck::pdi::{Action, Failure, StatusBit};
+use drivedeck::sim::server::ServerThread;
+use drivedeck::sim::server::modbus::Options;
+use drivedeck::worker::{CommandProgress, Config, Event, ObjectPath, Request, Sample, Worker};
+
+fn local() -> SocketAddr {
+    "127.0.0.1:0".parse().expect("address")
+}
+
+fn spec(addr: SocketAddr) -> LinkSpec {
+    format!("modbus-tcp://{addr}").parse().expect("spec")
+}
+
+struct Probe {
+    worker: Worker,
+    seen: Vec<Event>,
+    last: Option<Sample>,
+}
+
+impl Probe {
+    fn new() -> Self {
+        Probe {
+            worker: Worker::spawn(Config::default(), Arc::new(|| {})).expect("worker"),
+            seen: vec![],
+            last: None,
+        }
+    }
+
+    fn connected(addr: SocketAddr) -> Self {
+        let mut probe = Probe::new();
+        probe.send(Request::Connect(spec(addr)));
+        probe.wait("connected", Duration::from_secs(5), |e| {
+            matches!(e, Event::Connected(_))
+        });
+        probe.wait(
+            "a sample",
+            Duration::from_secs(5),
+            |e| matches!(e, Event::Samples(s) if !s.is_empty()),
+        );
+        probe
+    }
+
+    fn send(&self, request: Request) -> u64 {
+        self.worker.send(request).expect("queued")
+    }
+
+    fn wait(&mut self, what: &str, timeout: Duration, want: impl Fn(&Event) -> bool) -> Event {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.worker.recv_timeout(left) {
+                Ok(event) => {
+                    if let Event::Samples(s) = &event
+                        && let Some(last) = s.last()
+                    {
+                        self.last = Some(*last);
+                    }
+                    self.seen.push(event.clone());
+                    if want(&event) {
+                        return event;
+                    }
+                }
+                Err(_) => panic!(
+                    "no {what} within {timeout:?}; seen: {:#?}",
+                    self.seen
+                        .iter()
+                        .filter(|e| !matches!(e, Event::Samples(_) | Event::Health(_)))
+                        .collect::<Vec<_>>()
+                ),
+            }
+        }
+    }
+
+    fn outcome(&mut self, id: u64, timeout: Duration) -> CommandProgress {
+        match self.wait(
+            "the outcome",
+            timeout,
+            |e| matches!(e, Event::Progress { id: i, progress } if *i == id && progress.is_final()),
+        ) {
+            Event::Progress { progress, .. } => progress,
+            _ => unreachable!(),
+        }
+    }
+
+    fn read(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        path: ObjectPath,
+    ) -> Result<Value, String> {
+        let id = self.send(Request::ReadObject {
+            address,
+            dtype: Some(dtype),
+            path,
+        });
+        match self.wait(
+            "the read",
+            Duration::from_secs(5),
+            |e| matches!(e, Event::ObjectRead { id: i, .. } if *i == id),
+        ) {
+            Event::ObjectRead { result, .. } => result,
+            _ => unreachable!(),
+        }
+    }
+
+    fn settle(&mut self, time: Duration) -> Sample {
+        let until = Instant::now() + time;
+        while Instant::now() < until {
+            if let Ok(event) = self.worker.recv_timeout(Duration::from_millis(20)) {
+                if let Event::Samples(s) = &event
+                    && let Some(last) = s.last()
+                {
+                    self.last = Some(*last);
+                }
+                self.seen.push(event);
+            }
+        }
+        self.last.expect("samples")
+    }
+
+    fn notices(&self) -> Vec<String> {
+        self.seen
+            .iter()
+            .filter_map(|e| match e {
+                Event::Notice(n) => Some(n.clone()),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+#[test]
+fn a_move_over_modbus_tcp_reaches_its_target() {
+    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let mut probe = Probe::connected(server.addr);
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 2000,
+        speed: 200,
+    }));
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(10)),
+        CommandProgress::Done { return_value: 2000 }
+    );
+    let sample = probe.settle(Duration::from_millis(100));
+    assert!(sample.tx.status.is_set(StatusBit::TargetReached));
+    // Statusword, mode and position come along in the process image at 5000.
+    assert_eq!(sample.position, Some(2000.0));
+    assert_eq!(sample.statusword.map(|w| w & 0x6F), Some(0x27));
+    assert_eq!(sample.mode, Some(1));
+    // The simulated drive agrees.
+    assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
+}
+
+#[test]
+fn objects_over_fc_43_and_over_the_pdi() {
+    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let mut probe = Probe::connected(server.addr);
+    let vendor = Address::new(0x1018, 1);
+    assert_eq!(
+        probe.read(vendor, DataType::Unsigned32, ObjectPath::Native),
+        Ok(Value::Uint(0x26C))
+    );
+    assert_eq!(
+        probe.read(vendor, DataType::Unsigned32, ObjectPath::Pdi),
+        Ok(Value::Uint(0x26C))
+    );
+    // Strings only over FC 43.
+    assert_eq!(
+        probe.read(
+            Address::new(0x1008, 0),
+            DataType::VisibleString,
+            ObjectPath::Auto
+        ),
+        Ok(Value::Text("drivedeck simulated drive".into()))
+    );
+    // Write, read back.
+    let id = probe.send(Request::WriteObject {
+        address: Address::new(0x6087, 0),
+        dtype: DataType::Unsigned32,
+        value: Value::Uint(1234),
+        path: ObjectPath::Native,
+    });
+    let written = probe.wait(
+        "the write",
+        Duration::from_secs(5),
+        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+    );
+    assert!(
+        matches!(written, Event::ObjectWritten { result: Ok(()), .. }),
+        "{written:?}"
+    );
+    assert_eq!(
+        probe.read(
+            Address::new(0x6087, 0),
+            DataType::Unsigned32,
+            ObjectPath::Pdi
+        ),
+        Ok(Value::Uint(1234))
+    );
+    // Refusals carry the abort code both ways.
+    let missing = probe.read(
+        Address::new(0x2FFF, 0),
+        DataType::Unsigned32,
+        ObjectPath::Native,
+    );
+    assert!(missing.expect_err("missing").contains("06020000h"));
+    let missing = probe.read(
+        Address::new(0x2FFF, 0),
+        DataType::Unsigned32,
+        ObjectPath::Pdi,
+    );
+    assert!(missing.expect_err("missing").contains("06020000h"));
+    let read_only = {
+        let id = probe.send(Request::WriteObject {
+            address: vendor,
+            dtype: DataType::Unsigned32,
+            value: Value::Uint(1),
+            path: ObjectPath::Native,
+        });
+        match probe.wait(
+            "the refusal",
+            Duration::from_secs(5),
+            |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+        ) {
+            Event::ObjectWritten { result, .. } => result,
+            _ => unreachable!(),
+        }
+    };
+    assert!(read_only.expect_err("read only").contains("06010002h"));
+}
+
+#[test]
+fn a_gateway_without_fc_23_gets_fc_16_and_fc_4() {
+    let options = Options {
+        fc23: false,
+        ..Options::default()
+    };
+    let server = ServerThread::modbus_tcp(local(), options).expect("server");
+    let mut probe = Probe::connected(server.addr);
+    let id = probe.send(Request::Command(Action::MoveRelative {
+        distance: 900,
+        speed: 300,
+    }));
+    assert!(matches!(
+        probe.outcome(id, Duration::from_secs(10)),
+        CommandProgress::Done { .. }
+    ));
+    assert!(
+        probe
+            .notices()
+            .iter()
+            .any(|n| n.contains("does not support FC 23") && n.contains("FC 16 then FC 4")),
+        "{:?}",
+        probe.notices()
+    );
+    let changed = probe.seen.iter().find_map(|e| match e {
+        Event::LinkChanged(info) => Some(info.description.clone()),
+        _ => None,
+    });
+    assert!(
+        changed
+            .expect("the link describes itself anew")
+            .contains("FC 16 + FC 4")
+    );
+}
+
+#[test]
+fn a_device_without_fc_43_reads_objects_through_the_pdi() {
+    let options = Options {
+        fc43: false,
+        ..Options::default()
+    };
+    let server = ServerThread::modbus_tcp(local(), options).expect("server");
+    let mut probe = Probe::connected(server.addr);
+    assert_eq!(
+        probe.read(
+            Address::new(0x1018, 1),
+            DataType::Unsigned32,
+            ObjectPath::Auto
+        ),
+        Ok(Value::Uint(0x26C))
+    );
+    assert!(
+        probe
+            .notices()
+            .iter()
+            .any(|n| n.contains("does not support FC 43"))
+    );
+    // Asked for FC 43 explicitly, the refusal says so.
+    let native = probe.read(
+        Address::new(0x1018, 1),
+        DataType::Unsigned32,
+        ObjectPath::Native,
+    );
+    assert!(
+        native
+            .expect_err("no FC 43")
+            .contains("no direct object access")
+    );
+}
+
+#[test]
+fn a_second_client_is_told_the_one_connection_is_taken() {
+    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let _first = Probe::connected(server.addr);
+    let mut second = Probe::new();
+    second.send(Request::Connect(spec(server.addr)));
+    let failed = second.wait("the refusal", Duration::from_secs(5), |e| {
+        matches!(e, Event::ConnectFailed { .. })
+    });
+    let Event::ConnectFailed { error, .. } = failed else {
+        unreachable!()
+    };
+    assert!(
+        error.contains("allows one Modbus TCP connection"),
+        "{error}"
+    );
+}
+
+#[test]
+fn max_clients_lets_more_in() {
+    let options = Options {
+        max_clients: 2,
+        ..Options::default()
+    };
+    let server = ServerThread::modbus_tcp(local(), options).expect("server");
+    let _first = Probe::connected(server.addr);
+    let _second = Probe::connected(server.addr);
+}
+
+#[test]
+fn a_drive_that_dies_mid_move_shows_disconnected_within_a_second_and_comes_back() {
+    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let addr = server.addr;
+    let mut probe = Probe::connected(addr);
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 30_000,
+        speed: 100,
+    }));
+    probe.wait(
+        "accepted",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    let killed = Instant::now();
+    drop(server);
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(2)),
+        CommandProgress::LinkLost
+    );
+    probe.wait("the disconnection", Duration::from_secs(2), |e| {
+        matches!(e, Event::Disconnected { reason: Some(_) })
+    });
+    assert!(
+        killed.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        killed.elapsed()
+    );
+    // The worker keeps trying and reconnects once the drive is back on the same port.
+    probe.wait("a retry", Duration::from_secs(2), |e| {
+        matches!(
+            e,
+            Event::ConnectFailed {
+                retry_in: Some(_),
+                ..
+            }
+        )
+    });
+    let _back = ServerThread::modbus_tcp(addr, Options::default()).expect("the same port again");
+    probe.wait("the reconnection", Duration::from_secs(10), |e| {
+        matches!(e, Event::Connected(_))
+    });
+    // Nothing from before is replayed: the fresh drive stands still, switched off.
+    let sample = probe.settle(Duration::from_millis(300));
+    assert!(!sample.tx.status.is_set(StatusBit::OperationEnabled));
+}
+
+/// A TCP server that accepts and then answers with `reply` to everything (None = silence).
+fn fake_server(reply: Option<Vec<u8>>) -> SocketAddr {
+    let listener = TcpListener::bind(local()).expect("bind");
+    let addr = listener.local_addr().expect("addr");
+    std::thread::spawn(move || {
+        for stream in listener.incoming() {
+            let Ok(mut stream) = stream else { continue };
+            let reply = reply.clone();
+            std::thread::spawn(move || {
+                let mut buf = [0u8; 512];
+                while let Ok(n) = stream.read(&mut buf) {
+                    if n == 0 {
+                        break;
+                    }
+                    if let Some(reply) = &reply {
+                        let _ = stream.write_all(reply);
+                    }
+                }
+            });
+        }
+    });
+    addr
+}
+
+#[test]
+fn a_silent_device_times_out_naming_the_request() {
+    let addr = fake_server(None);
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("rt");
+    let error = runtime
+        .block_on(ModbusLink::connect(&spec(addr), Duration::from_millis(200)))
+        .expect_err("no answer");
+    let text = error.to_string();
+    assert!(text.contains("no answer within 200 ms"), "{text}");
+    assert!(text.contains("FC 43"), "{text}");
+}
+
+#[test]
+fn garbage_replies_are_reported_not_panicked_on() {
+    // Protocol id 1234h: not Modbus TCP.
+    let addr = fake_server(Some(vec![
+        0x00, 0x01, 0x12, 0x34, 0x00, 0x03, 0x00, 0x83, 0x02,
+    ]));
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("rt");
+    let error = runtime
+        .block_on(ModbusLink::connect(&spec(addr), DEFAULT_TIMEOUT))
+        .expect_err("garbage");
+    assert!(error.to_string().contains("garbage"), "{error}");
+    // Arbitrary bytes in every shape: an error each time, never a panic.
+    for seed in 0u8..40 {
+        let junk: Vec<u8> = (0..(seed as usize % 17 + 1))
+            .map(|i| seed.wrapping_mul(31).wrapping_add(i as u8 * 7))
+            .collect();
+        let addr = fake_server(Some(junk));
+        let result = runtime.block_on(ModbusLink::connect(&spec(addr), Duration::from_millis(150)));
+        let error = result
+            .expect_err("junk never makes a working link")
+            .to_string();
+        assert!(
+            error.contains("garbage") || error.contains("no answer") || error.contains("malformed"),
+            "{error}"
+        );
+    }
+}
+
+#[test]
+fn fc_101_reads_the_whole_dictionary() {
+    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("rt");
+    let entries = runtime.block_on(async {
+        let mut link = ModbusLink::connect(&spec(server.addr), DEFAULT_TIMEOUT)
+            .await
+            .expect("link");
+        link.read_dictionary().await.expect("no link error")
+    });
+    let entries = entries.expect("FC 101 is supported");
+    let count = server.drive().lock().addresses().count();
+    // Every readable object arrives (only write-only ones are left out).
+    assert!(
+        entries.len() > 300 && entries.len() <= count,
+        "{} of {count}",
+        entries.len()
+    );
+    let vendor = entries
+        .iter()
+        .find(|(a, _)| *a == Address::new(0x1018, 1))
+        .map(|(_, data)| data.clone());
+    assert_eq!(vendor, Some(vec![0x6C, 0x02, 0, 0]));
+}
+
+#[test]
+fn a_failed_move_over_modbus_reports_the_fault() {
+    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let mut probe = Probe::connected(server.addr);
+    let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
+    probe.wait(
+        "accepted",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    server
+        .drive()
+        .lock()
+        .inject(drivedeck::sim::Injection::UnderVoltage);
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(5)),
+        CommandProgress::Failed(Failure::DriveFault { error_code: 0x3100 })
+    );
+    // The link itself is fine: the drive's refusal is data.
+    let link_open = Instant::now();
+    let sample = probe.settle(Duration::from_millis(200));
+    assert!(sample.tx.status.is_set(StatusBit::Fault));
+    assert!(link_open.elapsed() < Duration::from_secs(1));
+}
+
+#[test]
+fn one_link_directly_exchanges_and_reads_back_the_rx_image() {
+    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("rt");
+    runtime.block_on(async {
+        let mut link = ModbusLink::connect(&spec(server.addr), DEFAULT_TIMEOUT)
+            .await
+            .expect("link");
+        let rx = drivedeck::pdi::RxImage {
+            values: drivedeck::pdi::SetValues {
+                value1: 0x1018,
+                value2: 0x1018,
+                value3: 1,
+            },
+            cmd: 14,
+        };
+        let first = link.exchange(Some(&rx)).await.expect("exchange");
+        // FC 23 writes before it reads: the OD-Read is already answered.
+        assert_eq!(first.tx.return_value, 0x26C);
+        assert_eq!(link.read_rx().await.expect("read back"), Some(rx));
+        assert!(link.info().description.contains("FC 23"));
+    });
+}
