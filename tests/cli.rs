@@ -146,9 +146,11 @@ fn bad_input_is_refused_before_connecting() {
     );
     assert!(stderr.contains("does not fit PDI-SetValue2"), "{stderr}");
     let stderr = fails(&["--link", "modbus-tcp://127.0.0.1:1", "status"], 2);
+    assert!(stderr.contains("refused the connection"), "{stderr}");
+    let stderr = fails(&["--link", "canopen+socketcan://can0", "status"], 2);
     assert!(stderr.contains("not built yet"), "{stderr}");
     let stderr = fails(&["--link", "nonsense", "status"], 2);
     assert!(stderr.contains("Forms: sim"), "{stderr}");
     let stderr = fails(&["sim"], 2);
-    assert!(stderr.contains("no bus to serve yet"), "{stderr}");
+    assert!(stderr.contains("nothing to serve"), "{stderr}");
 }
