@@ -341,7 +341,7 @@ fn requests_without_a_link_are_rejected_with_a_reason() {
     );
     let id = worker
         .send(Request::Connect(
-            "modbus-tcp://127.0.0.1:1502".parse().expect("spec"),
+            "canopen+socketcan://can0".parse().expect("spec"),
         ))
         .expect("queued");
     let _ = id;

@@ -26,6 +26,9 @@ pub enum Error {
     Disconnected(String),
 
     #[error("{0}")]
+    Refused(String),
+
+    #[error("{0}")]
     Unsupported(String),
 
     #[error("malformed reply: {0}")]
@@ -37,7 +40,11 @@ impl Error {
     pub fn is_transient(&self) -> bool {
         matches!(
             self,
-            Error::Io { .. } | Error::Timeout { .. } | Error::Disconnected(_) | Error::Protocol(_)
+            Error::Io { .. }
+                | Error::Timeout { .. }
+                | Error::Disconnected(_)
+                | Error::Refused(_)
+                | Error::Protocol(_)
         )
     }
 }

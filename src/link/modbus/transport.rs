@@ -372,7 +372,7 @@ async fn open(endpoint: &Endpoint, timeout: Duration) -> Result<Io, Error> {
                     after: timeout,
                 }),
                 Ok(Err(e)) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
-                    Err(Error::Disconnected(format!(
+                    Err(Error::Refused(format!(
                         "{target} refused the connection: nothing listens there, or the drive's one Modbus TCP connection is taken by another client (Plug & Drive Studio, a PLC)"
                     )))
                 }
