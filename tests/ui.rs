@@ -303,3 +303,66 @@ fn the_poll_rate_box_changes_the_worker_rate() {
         },
     );
 }
+
+#[test]
+fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor() {
+    use drivedeck::sim::server::ServerThread;
+    use drivedeck::sim::server::modbus::Options;
+    let server = ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
+        .expect("server");
+    // A window that starts disconnected, as after a fresh install on a machine with a drive.
+    let app = App::new(Settings::default(), Arc::new(|| {}), false);
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    harness.run();
+    harness.get_by_label("Bus").click();
+    harness.run();
+    harness.get_by_label("Modbus TCP").click();
+    harness.run();
+    harness
+        .get_by_label("Connection: Host")
+        .set_text_value_accesskit("127.0.0.1");
+    harness
+        .get_by_label("Connection: Port")
+        .set_text_value_accesskit(&server.addr.port().to_string());
+    harness.run();
+    harness.get_by_label("Connect").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the Modbus connection",
+        Duration::from_secs(5),
+        |h| {
+            h.state().state.latest.is_some()
+                && h.state()
+                    .state
+                    .link_info()
+                    .is_some_and(|i| i.description.contains("Modbus TCP"))
+        },
+    );
+    harness.get_by_label("Move absolute").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the target over Modbus",
+        Duration::from_secs(5),
+        |h| {
+            lamp(h, "Target reached")
+                && lamp(h, "Operation enabled")
+                && h.state().state.latest.and_then(|s| s.position) == Some(2000.0)
+        },
+    );
+    assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
+    // The connection persists in the settings for the next start.
+    assert_eq!(
+        harness
+            .state()
+            .state
+            .settings
+            .connection
+            .spec()
+            .map(|s| s.scheme()),
+        Ok("modbus-tcp")
+    );
+}

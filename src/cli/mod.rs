@@ -1,6 +1,7 @@
 //! The command line: `drivedeck` opens the window; `drivedeck --link URL COMMAND` runs one
 //! action and exits; `drivedeck sim …` serves the simulated drive on real sockets.
 
+mod bench;
 mod oneshot;
 mod report;
 mod serve;
@@ -76,6 +77,18 @@ pub enum Command {
     AutoSetup(WaitArg),
     /// Serve the simulated drive on real sockets for any client (PLCs, pymodbus, …).
     Sim(SimArgs),
+    /// Measure PDI exchanges and object reads per second on --link (or --serve-sim).
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Seconds per measurement.
+    #[arg(long, default_value_t = 3.0)]
+    pub seconds: f64,
+    /// Bench the simulated drive's Modbus TCP server, started on loopback in this process.
+    #[arg(long)]
+    pub serve_sim: bool,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -261,6 +274,7 @@ pub fn main() -> ExitCode {
             }
         },
         Some(Command::Sim(args)) => serve::run(&args),
+        Some(Command::Bench(args)) => bench::run(cli.link.clone(), &args, cli.json),
         Some(command) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));

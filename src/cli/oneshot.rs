@@ -256,7 +256,11 @@ fn execute(link: &LinkSpec, command: &Command, timeout: Duration) -> Result<Repo
             true,
         )),
         Command::AutoSetup(w) => Some((Request::Command(Action::AutoSetup), w.wait)),
-        Command::Status | Command::Read(_) | Command::Write(_) | Command::Sim(_) => None,
+        Command::Status
+        | Command::Read(_)
+        | Command::Write(_)
+        | Command::Sim(_)
+        | Command::Bench(_) => None,
     };
     let write_value = match command {
         Command::Write(w) => {

@@ -80,16 +80,5 @@ impl fmt::Display for Refusal {
 
 /// The standard text of a Modbus exception code.
 pub fn modbus_exception_text(code: u8) -> &'static str {
-    match code {
-        0x01 => "illegal function",
-        0x02 => "illegal data address",
-        0x03 => "illegal data value",
-        0x04 => "slave device failure",
-        0x05 => "acknowledge",
-        0x06 => "slave device busy",
-        0x08 => "memory parity error",
-        0x0A => "gateway path unavailable",
-        0x0B => "gateway target device failed to respond",
-        _ => "unknown exception",
-    }
+    super::modbus::pdu::Exception::Standard { function: 0, code }.text()
 }

@@ -122,3 +122,12 @@ pub trait Link {
         Ok(())
     }
 }
+
+/// The serial ports this machine has (for Modbus RTU and slcan adapters), by name.
+pub fn serial_ports() -> Vec<String> {
+    let mut ports: Vec<String> = tokio_serial::available_ports()
+        .map(|ports| ports.into_iter().map(|p| p.port_name).collect())
+        .unwrap_or_default();
+    ports.sort();
+    ports
+}

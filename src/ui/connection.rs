@@ -18,6 +18,33 @@ fn combo_name(response: &egui::Response, name: &str) {
     name_widget(response, egui::accesskit::Role::ComboBox, name);
 }
 
+/// A serial port: typed, or picked from the ports this machine has.
+fn port_field(ui: &mut Ui, path: &mut String, ports: &mut Option<Vec<String>>) {
+    ui.label("Port");
+    named_text_edit(ui, path, 110.0, "Connection: Port");
+    let found = ports.get_or_insert_with(crate::link::serial_ports);
+    let picked = egui::ComboBox::from_id_salt("serial_ports")
+        .selected_text(if found.is_empty() {
+            "none found"
+        } else {
+            "pick"
+        })
+        .width(80.0)
+        .show_ui(ui, |ui| {
+            for port in found.iter() {
+                ui.selectable_value(path, port.clone(), port);
+            }
+        });
+    combo_name(&picked.response, "Serial ports");
+    if ui
+        .small_button("Scan")
+        .on_hover_text("Look for serial ports again (USB adapters plugged in since)")
+        .clicked()
+    {
+        *ports = Some(crate::link::serial_ports());
+    }
+}
+
 pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
     ui.horizontal_wrapped(|ui| {
         let form = &mut state.settings.connection;
@@ -39,7 +66,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
                 field(ui, "Unit", &mut form.unit, 28.0);
             }
             Bus::ModbusRtu => {
-                field(ui, "Port", &mut form.rtu_path, 110.0);
+                port_field(ui, &mut form.rtu_path, &mut state.serial_ports);
                 field(ui, "Baud", &mut form.baud, 56.0);
                 let parity = egui::ComboBox::from_id_salt("parity")
                     .selected_text(form.parity.name())
@@ -58,7 +85,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
                 field(ui, "Node", &mut form.node, 32.0);
             }
             Bus::CanopenSlcan => {
-                field(ui, "Port", &mut form.slcan_path, 110.0);
+                port_field(ui, &mut form.slcan_path, &mut state.serial_ports);
                 field(ui, "Bit rate", &mut form.bitrate, 70.0);
                 field(ui, "Node", &mut form.node, 32.0);
             }

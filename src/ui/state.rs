@@ -340,6 +340,8 @@ pub struct AppState {
     pub injected: Vec<Injection>,
     /// Seconds since the window opened, advanced by the app.
     pub clock: f64,
+    /// Serial ports found by the last scan (for Modbus RTU and slcan).
+    pub serial_ports: Option<Vec<String>>,
     /// Reads of 6087h the window asked for itself (not logged).
     slope_reads: Vec<RequestId>,
     /// The halt request still running.
@@ -363,6 +365,7 @@ impl AppState {
             last_object: None,
             injected: Vec::new(),
             clock: 0.0,
+            serial_ports: None,
             slope_reads: Vec::new(),
             halt_request: None,
         }

@@ -416,10 +416,3 @@ async fn open(endpoint: &Endpoint, timeout: Duration) -> Result<Io, Error> {
         }
     }
 }
-
-/// The serial ports this machine has, for the connection bar.
-pub fn serial_ports() -> Vec<String> {
-    tokio_serial::available_ports()
-        .map(|ports| ports.into_iter().map(|p| p.port_name).collect())
-        .unwrap_or_default()
-}
