@@ -161,6 +161,24 @@ fn a_move_over_modbus_tcp_reaches_its_target() {
     assert_eq!(sample.mode, Some(1));
     // The simulated drive agrees.
     assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
+    // Velocity and torque are not in the factory image: they come over FC 43, in turn,
+    // each sample holding only what was measured in its cycle.
+    let samples: Vec<Sample> = probe
+        .seen
+        .iter()
+        .filter_map(|e| match e {
+            Event::Samples(s) => Some(s.clone()),
+            _ => None,
+        })
+        .flatten()
+        .collect();
+    let with = |f: fn(&Sample) -> bool| samples.iter().filter(|s| f(s)).count();
+    assert!(
+        with(|s| s.velocity.is_some_and(|v| v > 10.0)) > 5,
+        "velocity during the move"
+    );
+    assert!(with(|s| s.torque.is_some()) > 5, "torque");
+    assert!(with(|s| s.velocity.is_none()) > 5, "not every cycle");
 }
 
 #[test]

@@ -54,6 +54,50 @@ struct Session {
     rtt_max: Duration,
     errors: u64,
     last_health: Instant,
+    /// The next plot signal to read when the exchange did not bring it.
+    next_extra: usize,
+    /// Signals the device refused to read: never asked again this session.
+    unreadable: Vec<u16>,
+}
+
+/// Plot signals a link may not bring with its exchange; one of those it lacks is read per
+/// cycle, round robin, where the link has object access of its own. (A sample holds only
+/// what was measured in its cycle: no value is repeated with a new time.)
+const EXTRA_SIGNALS: [(u16, DataType); 7] = [
+    (0x606C, DataType::Integer32),
+    (0x6077, DataType::Integer16),
+    (0x60F4, DataType::Integer32),
+    (0x6064, DataType::Integer32),
+    (0x6041, DataType::Unsigned16),
+    (0x6061, DataType::Integer8),
+    (0x60FD, DataType::Unsigned32),
+];
+
+/// Whether a signal is missing from an exchange.
+fn lacks(signals: &crate::link::Signals, index: u16) -> bool {
+    match index {
+        0x606C => signals.velocity.is_none(),
+        0x6077 => signals.torque.is_none(),
+        0x60F4 => signals.following_error.is_none(),
+        0x6064 => signals.position.is_none(),
+        0x6041 => signals.statusword.is_none(),
+        0x6061 => signals.mode.is_none(),
+        0x60FD => signals.digital_inputs.is_none(),
+        _ => false,
+    }
+}
+
+fn put(signals: &mut crate::link::Signals, index: u16, value: f64) {
+    match index {
+        0x606C => signals.velocity = Some(value),
+        0x6077 => signals.torque = Some(value),
+        0x60F4 => signals.following_error = Some(value),
+        0x6064 => signals.position = Some(value),
+        0x6041 => signals.statusword = Some(value as u16),
+        0x6061 => signals.mode = Some(value as i8),
+        0x60FD => signals.digital_inputs = Some(value as u32),
+        _ => {}
+    }
 }
 
 /// The worker's state between requests.
@@ -303,6 +347,8 @@ impl Session {
             rtt_max: Duration::ZERO,
             errors: 0,
             last_health: now,
+            next_extra: 0,
+            unreadable: Vec::new(),
         })
     }
 
@@ -327,7 +373,8 @@ impl Session {
         self.master.poll(now);
         self.report_progress(sink);
 
-        let signals = exchange.signals;
+        let mut signals = exchange.signals;
+        self.fill_one_missing(&mut signals).await?;
         self.samples.push(Sample {
             t: (now - self.started).as_secs_f64(),
             tx,
@@ -369,6 +416,34 @@ impl Session {
             self.rtt_sum = Duration::ZERO;
             self.rtt_max = Duration::ZERO;
             self.last_health = now;
+        }
+        Ok(())
+    }
+
+    /// Read one plot signal the exchange lacked (round robin), where the link can.
+    async fn fill_one_missing(
+        &mut self,
+        signals: &mut crate::link::Signals,
+    ) -> Result<(), link::Error> {
+        if !self.native_objects {
+            return Ok(());
+        }
+        for step in 0..EXTRA_SIGNALS.len() {
+            let (index, dtype) = EXTRA_SIGNALS[(self.next_extra + step) % EXTRA_SIGNALS.len()];
+            if !lacks(signals, index) || self.unreadable.contains(&index) {
+                continue;
+            }
+            self.next_extra = (self.next_extra + step + 1) % EXTRA_SIGNALS.len();
+            match self.link.read_object(Address::new(index, 0), dtype).await? {
+                Ok(value) => {
+                    if let Some(v) = value.as_f64() {
+                        put(signals, index, v);
+                    }
+                }
+                Err(Refusal::NotSupported) => self.native_objects = false,
+                Err(_) => self.unreadable.push(index),
+            }
+            return Ok(());
         }
         Ok(())
     }
