@@ -341,7 +341,7 @@ fn requests_without_a_link_are_rejected_with_a_reason() {
     );
     let id = worker
         .send(Request::Connect(
-            "canopen+socketcan://can0".parse().expect("spec"),
+            "enip://127.0.0.1:1".parse().expect("spec"),
         ))
         .expect("queued");
     let _ = id;

@@ -49,6 +49,7 @@ struct Session {
     worker: Worker,
     latest: Option<Sample>,
     warnings: Vec<String>,
+    notes: Vec<String>,
 }
 
 impl Session {
@@ -68,6 +69,7 @@ impl Session {
             worker,
             latest: None,
             warnings: vec![],
+            notes: vec![],
         };
         session.send(Request::Connect(link.clone()))?;
         let deadline = Instant::now() + timeout;
@@ -102,8 +104,11 @@ impl Session {
             .map_err(|_| failed("no answer from the drive in time (raise --timeout?)"))?;
         match &event {
             Event::Samples(samples) => {
-                if let Some(last) = samples.last() {
-                    self.latest = Some(*last);
+                for sample in samples {
+                    self.latest = Some(match &self.latest {
+                        Some(older) => sample.merged_over(older),
+                        None => *sample,
+                    });
                 }
             }
             Event::Disconnected {
@@ -111,7 +116,7 @@ impl Session {
             } => {
                 return Err(failed(format!("the link was lost: {reason}")));
             }
-            Event::Notice(text) => self.warnings.push(text.clone()),
+            Event::Notice(text) => self.notes.push(text.clone()),
             _ => {}
         }
         Ok(event)
@@ -338,5 +343,6 @@ fn execute(link: &LinkSpec, command: &Command, timeout: Duration) -> Result<Repo
         (_, None) => return Err(usage("nothing to do")),
     };
     report.set_warnings(std::mem::take(&mut session.warnings));
+    report.set_notes(std::mem::take(&mut session.notes));
     Ok(report)
 }

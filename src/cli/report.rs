@@ -25,6 +25,22 @@ impl Report {
         }
     }
 
+    pub fn set_notes(&mut self, notes: Vec<String>) {
+        match self {
+            Report::Status(r) => r.notes = notes,
+            Report::Object(r) => r.notes = notes,
+            Report::Command(r) => r.notes = notes,
+        }
+    }
+
+    fn notes(&self) -> &[String] {
+        match self {
+            Report::Status(r) => &r.notes,
+            Report::Object(r) => &r.notes,
+            Report::Command(r) => &r.notes,
+        }
+    }
+
     fn warnings(&self) -> &[String] {
         match self {
             Report::Status(r) => &r.warnings,
@@ -61,6 +77,8 @@ pub struct StatusReport {
     pub following_error: Option<f64>,
     pub digital_inputs: Option<u32>,
     pub warnings: Vec<String>,
+    /// What the link reported on the way (fallbacks chosen, mappings changed).
+    pub notes: Vec<String>,
 }
 
 #[derive(Serialize, Debug)]
@@ -75,6 +93,7 @@ pub struct ObjectReport {
     pub unit: Option<String>,
     pub written: bool,
     pub warnings: Vec<String>,
+    pub notes: Vec<String>,
 }
 
 #[derive(Serialize, Debug)]
@@ -85,6 +104,7 @@ pub struct CommandReport {
     pub outcome: &'static str,
     pub return_value: Option<i32>,
     pub warnings: Vec<String>,
+    pub notes: Vec<String>,
 }
 
 pub fn status(link: &LinkSpec, sample: Option<Sample>) -> StatusReport {
@@ -121,6 +141,7 @@ pub fn status(link: &LinkSpec, sample: Option<Sample>) -> StatusReport {
         following_error: sample.following_error,
         digital_inputs: sample.digital_inputs,
         warnings: vec![],
+        notes: vec![],
     }
 }
 
@@ -141,6 +162,7 @@ pub fn object(
         unit: entry.and_then(|e| e.unit.clone()),
         written,
         warnings: vec![],
+        notes: vec![],
     }
 }
 
@@ -156,10 +178,14 @@ pub fn command(what: String, image: Option<[u8; 8]>, progress: &CommandProgress)
         outcome,
         return_value,
         warnings: vec![],
+        notes: vec![],
     }
 }
 
 pub fn print(report: &Report, json: bool) {
+    for note in report.notes() {
+        eprintln!("note: {note}");
+    }
     for warning in report.warnings() {
         eprintln!("warning: {warning}");
     }

@@ -5,6 +5,7 @@
 //! `Result<Result<T, Refusal>, Error>` the way tokio-modbus does, so the UI shows a refusal
 //! next to the object and a link error as a banner with a reconnect.
 
+pub mod canopen;
 mod error;
 pub mod modbus;
 mod open;
@@ -15,7 +16,7 @@ use std::fmt;
 
 pub use error::{Error, Refusal, modbus_exception_text};
 pub use open::{AnyLink, open};
-pub use spec::{EnipIo, LinkSpec, Parity, SpecError};
+pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
 
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};

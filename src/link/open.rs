@@ -1,5 +1,8 @@
 //! Opening a link from its connection string.
 
+use super::canopen::client::CanopenLink;
+use super::canopen::simbus::SimCanBus;
+use super::canopen::slcan::SlcanBus;
 use super::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
 use super::sim::SimLink;
 use super::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal};
@@ -12,6 +15,10 @@ use crate::sim::Injection;
 pub enum AnyLink {
     Sim(Box<SimLink>),
     Modbus(Box<ModbusLink>),
+    CanopenSim(Box<CanopenLink<SimCanBus>>),
+    CanopenSlcan(Box<CanopenLink<SlcanBus<tokio_serial::SerialStream>>>),
+    #[cfg(target_os = "linux")]
+    CanopenSocketcan(Box<CanopenLink<super::canopen::socketcan::SocketCanBus>>),
 }
 
 /// Open the link a connection string names.
@@ -21,12 +28,30 @@ pub async fn open(spec: &LinkSpec) -> Result<AnyLink, Error> {
         LinkSpec::ModbusTcp { .. } | LinkSpec::ModbusRtu { .. } => Ok(AnyLink::Modbus(Box::new(
             ModbusLink::connect(spec, DEFAULT_TIMEOUT).await?,
         ))),
-        LinkSpec::CanopenSocketcan { .. } | LinkSpec::CanopenSlcan { .. } => {
-            Err(Error::NotBuiltYet {
-                scheme: spec.scheme(),
-                issue: "issue #4",
-            })
+        LinkSpec::CanopenSim { can } => {
+            let bus = SimCanBus::start(can.node);
+            Ok(AnyLink::CanopenSim(Box::new(
+                CanopenLink::connect(spec.clone(), bus, *can).await?,
+            )))
         }
+        LinkSpec::CanopenSlcan { path, bitrate, can } => {
+            let bus = SlcanBus::open(path, *bitrate).await?;
+            Ok(AnyLink::CanopenSlcan(Box::new(
+                CanopenLink::connect(spec.clone(), bus, *can).await?,
+            )))
+        }
+        #[cfg(target_os = "linux")]
+        LinkSpec::CanopenSocketcan { iface, can } => {
+            let bus = super::canopen::socketcan::SocketCanBus::open(iface)?;
+            Ok(AnyLink::CanopenSocketcan(Box::new(
+                CanopenLink::connect(spec.clone(), bus, *can).await?,
+            )))
+        }
+        #[cfg(not(target_os = "linux"))]
+        LinkSpec::CanopenSocketcan { .. } => Err(Error::Unsupported(
+            "SocketCAN exists only on Linux: use an slcan adapter (canopen+slcan://COM5?node=1)"
+                .into(),
+        )),
         LinkSpec::Enip { .. } => Err(Error::NotBuiltYet {
             scheme: spec.scheme(),
             issue: "issue #5",
@@ -45,6 +70,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.info(),
             AnyLink::Modbus(l) => l.info(),
+            AnyLink::CanopenSim(l) => l.info(),
+            AnyLink::CanopenSlcan(l) => l.info(),
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.info(),
         }
     }
 
@@ -52,6 +81,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.exchange(rx).await,
             AnyLink::Modbus(l) => l.exchange(rx).await,
+            AnyLink::CanopenSim(l) => l.exchange(rx).await,
+            AnyLink::CanopenSlcan(l) => l.exchange(rx).await,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.exchange(rx).await,
         }
     }
 
@@ -59,6 +92,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.read_rx().await,
             AnyLink::Modbus(l) => l.read_rx().await,
+            AnyLink::CanopenSim(l) => l.read_rx().await,
+            AnyLink::CanopenSlcan(l) => l.read_rx().await,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.read_rx().await,
         }
     }
 
@@ -70,6 +107,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.read_object(address, dtype).await,
             AnyLink::Modbus(l) => l.read_object(address, dtype).await,
+            AnyLink::CanopenSim(l) => l.read_object(address, dtype).await,
+            AnyLink::CanopenSlcan(l) => l.read_object(address, dtype).await,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.read_object(address, dtype).await,
         }
     }
 
@@ -82,6 +123,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.write_object(address, dtype, value).await,
             AnyLink::Modbus(l) => l.write_object(address, dtype, value).await,
+            AnyLink::CanopenSim(l) => l.write_object(address, dtype, value).await,
+            AnyLink::CanopenSlcan(l) => l.write_object(address, dtype, value).await,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.write_object(address, dtype, value).await,
         }
     }
 
@@ -89,6 +134,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.inject(injection, active).await,
             AnyLink::Modbus(l) => l.inject(injection, active).await,
+            AnyLink::CanopenSim(l) => l.inject(injection, active).await,
+            AnyLink::CanopenSlcan(l) => l.inject(injection, active).await,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.inject(injection, active).await,
         }
     }
 
@@ -96,6 +145,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.take_notices(),
             AnyLink::Modbus(l) => l.take_notices(),
+            AnyLink::CanopenSim(l) => l.take_notices(),
+            AnyLink::CanopenSlcan(l) => l.take_notices(),
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.take_notices(),
         }
     }
 
@@ -103,6 +156,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.reconnect().await,
             AnyLink::Modbus(l) => l.reconnect().await,
+            AnyLink::CanopenSim(l) => l.reconnect().await,
+            AnyLink::CanopenSlcan(l) => l.reconnect().await,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.reconnect().await,
         }
     }
 
@@ -110,6 +167,10 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.close().await,
             AnyLink::Modbus(l) => l.close().await,
+            AnyLink::CanopenSim(l) => l.close().await,
+            AnyLink::CanopenSlcan(l) => l.close().await,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.close().await,
         }
     }
 }

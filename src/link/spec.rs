@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 pub use super::modbus::registers::WordOrder;
 
 /// Every form, for error messages and `--help`.
-pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0[&words=low] | modbus-rtu://PATH?baud=19200&parity=even&stop=1&slave=5[&words=low] | canopen+socketcan://IFACE?node=1 | canopen+slcan://PATH?bitrate=1000000&node=1 | enip://HOST:PORT?io=pdi&rpi=10";
+pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0[&words=low] | modbus-rtu://PATH?baud=19200&parity=even&stop=1&slave=5[&words=low] | canopen+socketcan://IFACE?node=1[&pdo=1&keep_pdo=1] | canopen+slcan://PATH?bitrate=1000000&node=1 | canopen+sim://?node=1 | enip://HOST:PORT?io=pdi&rpi=10";
 
 /// Serial parity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -60,6 +60,57 @@ impl EnipIo {
     }
 }
 
+/// What every CANopen connection string carries besides the bus.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct CanopenOptions {
+    /// The drive's node id, 1 to 127.
+    pub node: u8,
+    /// Which RPDO/TPDO pair carries the PDI (1 to 4).
+    #[serde(default = "default_pdo")]
+    pub pdo: u8,
+    /// Leave the PDO mapping as drivedeck set it when disconnecting (default: restore).
+    #[serde(default)]
+    pub keep_pdo: bool,
+}
+
+fn default_pdo() -> u8 {
+    1
+}
+
+impl Default for CanopenOptions {
+    fn default() -> Self {
+        Self {
+            node: 1,
+            pdo: 1,
+            keep_pdo: false,
+        }
+    }
+}
+
+impl CanopenOptions {
+    fn query(&self) -> String {
+        let mut q = format!("node={}", self.node);
+        if self.pdo != 1 {
+            q.push_str(&format!("&pdo={}", self.pdo));
+        }
+        if self.keep_pdo {
+            q.push_str("&keep_pdo=1");
+        }
+        q
+    }
+
+    fn parse(q: &mut Query) -> Result<Self, String> {
+        let node = q.number("node", 1, 1, 127)? as u8;
+        let pdo = q.number("pdo", 1, 1, 4)? as u8;
+        let keep_pdo = q.number("keep_pdo", 0, 0, 1)? == 1;
+        Ok(Self {
+            node,
+            pdo,
+            keep_pdo,
+        })
+    }
+}
+
 /// A parsed connection string.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(tag = "bus", rename_all = "kebab-case")]
@@ -85,12 +136,19 @@ pub enum LinkSpec {
     },
     CanopenSocketcan {
         iface: String,
-        node: u8,
+        #[serde(flatten)]
+        can: CanopenOptions,
     },
     CanopenSlcan {
         path: String,
         bitrate: u32,
-        node: u8,
+        #[serde(flatten)]
+        can: CanopenOptions,
+    },
+    /// The built-in simulated drive as a CANopen node on an in-memory CAN bus.
+    CanopenSim {
+        #[serde(flatten)]
+        can: CanopenOptions,
     },
     Enip {
         host: String,
@@ -122,6 +180,7 @@ impl LinkSpec {
             LinkSpec::ModbusRtu { .. } => "modbus-rtu",
             LinkSpec::CanopenSocketcan { .. } => "canopen+socketcan",
             LinkSpec::CanopenSlcan { .. } => "canopen+slcan",
+            LinkSpec::CanopenSim { .. } => "canopen+sim",
             LinkSpec::Enip { .. } => "enip",
         }
     }
@@ -134,6 +193,7 @@ impl LinkSpec {
             LinkSpec::ModbusRtu { .. } => "Modbus RTU",
             LinkSpec::CanopenSocketcan { .. } => "CANopen (SocketCAN)",
             LinkSpec::CanopenSlcan { .. } => "CANopen (slcan)",
+            LinkSpec::CanopenSim { .. } => "CANopen (simulated bus)",
             LinkSpec::Enip { .. } => "EtherNet/IP",
         }
     }
@@ -158,12 +218,15 @@ impl LinkSpec {
             },
             "canopen+socketcan" => LinkSpec::CanopenSocketcan {
                 iface: "can0".into(),
-                node: 1,
+                can: CanopenOptions::default(),
             },
             "canopen+slcan" => LinkSpec::CanopenSlcan {
                 path: default_serial_port().into(),
                 bitrate: 1_000_000,
-                node: 1,
+                can: CanopenOptions::default(),
+            },
+            "canopen+sim" => LinkSpec::CanopenSim {
+                can: CanopenOptions::default(),
             },
             "enip" => LinkSpec::Enip {
                 host: "192.168.2.100".into(),
@@ -212,14 +275,17 @@ impl fmt::Display for LinkSpec {
                 parity.name(),
                 words_suffix(*words)
             ),
-            LinkSpec::CanopenSocketcan { iface, node } => {
-                write!(f, "canopen+socketcan://{iface}?node={node}")
+            LinkSpec::CanopenSocketcan { iface, can } => {
+                write!(f, "canopen+socketcan://{iface}?{}", can.query())
             }
-            LinkSpec::CanopenSlcan {
-                path,
-                bitrate,
-                node,
-            } => write!(f, "canopen+slcan://{path}?bitrate={bitrate}&node={node}"),
+            LinkSpec::CanopenSlcan { path, bitrate, can } => {
+                write!(
+                    f,
+                    "canopen+slcan://{path}?bitrate={bitrate}&{}",
+                    can.query()
+                )
+            }
+            LinkSpec::CanopenSim { can } => write!(f, "canopen+sim://?{}", can.query()),
             LinkSpec::Enip {
                 host,
                 port,
@@ -433,11 +499,11 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
                     "the CAN interface name is missing (e.g. canopen+socketcan://can0)".into(),
                 );
             }
-            let node = q.number("node", 1, 1, 127)? as u8;
-            q.finish(&["node"])?;
+            let can = CanopenOptions::parse(&mut q)?;
+            q.finish(&["node", "pdo", "keep_pdo"])?;
             LinkSpec::CanopenSocketcan {
                 iface: target.to_owned(),
-                node,
+                can,
             }
         }
         "canopen+slcan" => {
@@ -453,13 +519,21 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
                     CAN_BITRATES.map(|b| b.to_string()).join(", ")
                 ));
             }
-            let node = q.number("node", 1, 1, 127)? as u8;
-            q.finish(&["bitrate", "node"])?;
+            let can = CanopenOptions::parse(&mut q)?;
+            q.finish(&["bitrate", "node", "pdo", "keep_pdo"])?;
             LinkSpec::CanopenSlcan {
                 path: target.to_owned(),
                 bitrate,
-                node,
+                can,
             }
+        }
+        "canopen+sim" => {
+            if !target.is_empty() {
+                return Err("the simulated CAN bus takes no target (canopen+sim://?node=1)".into());
+            }
+            let can = CanopenOptions::parse(&mut q)?;
+            q.finish(&["node", "pdo", "keep_pdo"])?;
+            LinkSpec::CanopenSim { can }
         }
         "enip" => {
             let (host, port) = host_port(target, 44818)?;
@@ -555,7 +629,7 @@ mod tests {
             ok("canopen+socketcan://can0?node=1"),
             LinkSpec::CanopenSocketcan {
                 iface: "can0".into(),
-                node: 1
+                can: CanopenOptions::default()
             }
         );
         assert_eq!(
@@ -563,7 +637,10 @@ mod tests {
             LinkSpec::CanopenSlcan {
                 path: "/dev/ttyACM0".into(),
                 bitrate: 500_000,
-                node: 127
+                can: CanopenOptions {
+                    node: 127,
+                    ..CanopenOptions::default()
+                }
             }
         );
         assert_eq!(
@@ -587,12 +664,15 @@ mod tests {
             "modbus-rtu:///dev/ttyUSB0?baud=19200&parity=even&stop=1&slave=5",
             "canopen+socketcan://can0?node=1",
             "canopen+slcan://COM4?bitrate=1000000&node=1",
+            "canopen+slcan:///dev/ttyACM0?bitrate=500000&node=3&pdo=4&keep_pdo=1",
+            "canopen+sim://?node=1",
             "enip://127.0.0.1:44818?io=pdi&rpi=10",
         ] {
             assert_eq!(ok(text).to_string(), text);
             assert_eq!(ok(&ok(text).to_string()), ok(text));
         }
         for scheme in [
+            "canopen+sim",
             "sim",
             "modbus-tcp",
             "modbus-rtu",
@@ -626,6 +706,7 @@ mod tests {
         assert!(err("modbus-rtu://COM1?parity=mark").contains("use none, even or odd"));
         assert!(err("modbus-rtu://COM1?slave=0").contains("slave=0 is out of range 1..=247"));
         assert!(err("canopen+socketcan://can0?node=128").contains("node=128"));
+        assert!(err("canopen+sim://?pdo=5").contains("pdo=5 is out of range 1..=4"));
         assert!(err("canopen+slcan://COM1?bitrate=300000").contains("not a CAN bit rate"));
         assert!(err("enip://h?io=both").contains("use pdi, common or explicit"));
         assert!(err("sim://x").contains("no target"));

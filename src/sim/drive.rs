@@ -293,6 +293,12 @@ impl Drive {
         self.od.addresses()
     }
 
+    /// Set an object as the drive itself would (no access check, no side effects): for the
+    /// servers that configure communication objects, e.g. PDO COB-IDs from the node id.
+    pub fn set_raw(&mut self, address: Address, value: Value) {
+        self.od.set(address, value);
+    }
+
     /// Write an object as a master would. Writes to 2291h:04h run the PDI command.
     pub fn write(&mut self, address: Address, value: Value) -> Result<(), AbortCode> {
         self.od.check_write(address, &value)?;

@@ -83,11 +83,18 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
             Bus::CanopenSocketcan => {
                 field(ui, "Interface", &mut form.can_iface, 70.0);
                 field(ui, "Node", &mut form.node, 32.0);
+                field(ui, "PDO", &mut form.pdo, 20.0);
+            }
+            Bus::CanopenSim => {
+                field(ui, "Node", &mut form.node, 32.0);
+                field(ui, "PDO", &mut form.pdo, 20.0);
+                ui.weak("simulated drive on an in-memory CAN bus");
             }
             Bus::CanopenSlcan => {
                 port_field(ui, &mut form.slcan_path, &mut state.serial_ports);
                 field(ui, "Bit rate", &mut form.bitrate, 70.0);
                 field(ui, "Node", &mut form.node, 32.0);
+                field(ui, "PDO", &mut form.pdo, 20.0);
             }
             Bus::Enip => {
                 field(ui, "Host", &mut form.enip_host, 110.0);

@@ -26,16 +26,18 @@ pub enum Bus {
     ModbusRtu,
     CanopenSocketcan,
     CanopenSlcan,
+    CanopenSim,
     Enip,
 }
 
 impl Bus {
-    pub const ALL: [Bus; 6] = [
+    pub const ALL: [Bus; 7] = [
         Bus::Sim,
         Bus::ModbusTcp,
         Bus::ModbusRtu,
         Bus::CanopenSocketcan,
         Bus::CanopenSlcan,
+        Bus::CanopenSim,
         Bus::Enip,
     ];
 
@@ -46,6 +48,7 @@ impl Bus {
             Bus::ModbusRtu => "Modbus RTU",
             Bus::CanopenSocketcan => "CANopen (SocketCAN)",
             Bus::CanopenSlcan => "CANopen (slcan)",
+            Bus::CanopenSim => "CANopen (simulated bus)",
             Bus::Enip => "EtherNet/IP",
         }
     }
@@ -68,6 +71,7 @@ pub struct ConnectionForm {
     pub slcan_path: String,
     pub bitrate: String,
     pub node: String,
+    pub pdo: String,
     pub enip_host: String,
     pub enip_port: String,
     pub enip_io: EnipIo,
@@ -100,6 +104,7 @@ impl Default for ConnectionForm {
             .into(),
             bitrate: "1000000".into(),
             node: "1".into(),
+            pdo: "1".into(),
             enip_host: "192.168.2.100".into(),
             enip_port: "44818".into(),
             enip_io: EnipIo::Pdi,
@@ -128,15 +133,22 @@ impl ConnectionForm {
                 self.slave.trim()
             ),
             Bus::CanopenSocketcan => format!(
-                "canopen+socketcan://{}?node={}",
+                "canopen+socketcan://{}?node={}&pdo={}",
                 self.can_iface.trim(),
-                self.node.trim()
+                self.node.trim(),
+                self.pdo.trim()
             ),
             Bus::CanopenSlcan => format!(
-                "canopen+slcan://{}?bitrate={}&node={}",
+                "canopen+slcan://{}?bitrate={}&node={}&pdo={}",
                 self.slcan_path.trim(),
                 self.bitrate.trim(),
-                self.node.trim()
+                self.node.trim(),
+                self.pdo.trim()
+            ),
+            Bus::CanopenSim => format!(
+                "canopen+sim://?node={}&pdo={}",
+                self.node.trim(),
+                self.pdo.trim()
             ),
             Bus::Enip => format!(
                 "enip://{}:{}?io={}&rpi={}",
@@ -179,20 +191,23 @@ impl ConnectionForm {
                 form.stop_bits = stop_bits.to_string();
                 form.slave = slave.to_string();
             }
-            LinkSpec::CanopenSocketcan { iface, node } => {
+            LinkSpec::CanopenSocketcan { iface, can } => {
                 form.bus = Bus::CanopenSocketcan;
                 form.can_iface = iface;
-                form.node = node.to_string();
+                form.node = can.node.to_string();
+                form.pdo = can.pdo.to_string();
             }
-            LinkSpec::CanopenSlcan {
-                path,
-                bitrate,
-                node,
-            } => {
+            LinkSpec::CanopenSim { can } => {
+                form.bus = Bus::CanopenSim;
+                form.node = can.node.to_string();
+                form.pdo = can.pdo.to_string();
+            }
+            LinkSpec::CanopenSlcan { path, bitrate, can } => {
                 form.bus = Bus::CanopenSlcan;
                 form.slcan_path = path;
                 form.bitrate = bitrate.to_string();
-                form.node = node.to_string();
+                form.node = can.node.to_string();
+                form.pdo = can.pdo.to_string();
             }
             LinkSpec::Enip {
                 host,
@@ -322,6 +337,7 @@ pub struct TorqueWarning {
 pub struct AppState {
     pub settings: Settings,
     pub connection: Connection,
+    /// The newest known value of every signal (merged over recent samples).
     pub latest: Option<Sample>,
     pub health: Option<Health>,
     pub history: History,
@@ -614,8 +630,13 @@ impl AppState {
                     self.history
                         .push(sample.t, sample.position, sample.velocity, sample.torque);
                 }
+                for sample in &samples {
+                    self.latest = Some(match &self.latest {
+                        Some(older) if sample.t >= older.t => sample.merged_over(older),
+                        _ => *sample,
+                    });
+                }
                 if let Some(last) = samples.last() {
-                    self.latest = Some(*last);
                     // A finished halt the drive no longer shows (a new command, a quick
                     // stop, a fault) releases the toggle.
                     if self.halt_engaged

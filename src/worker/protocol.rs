@@ -162,6 +162,25 @@ pub struct Sample {
     pub mode: Option<i8>,
 }
 
+impl Sample {
+    /// This sample with the gaps filled from an older one: the newest known value of every
+    /// signal (a link may bring some signals only every few cycles). Time and PDI image are
+    /// this sample's.
+    pub fn merged_over(&self, older: &Sample) -> Sample {
+        Sample {
+            t: self.t,
+            tx: self.tx,
+            position: self.position.or(older.position),
+            velocity: self.velocity.or(older.velocity),
+            torque: self.torque.or(older.torque),
+            following_error: self.following_error.or(older.following_error),
+            statusword: self.statusword.or(older.statusword),
+            digital_inputs: self.digital_inputs.or(older.digital_inputs),
+            mode: self.mode.or(older.mode),
+        }
+    }
+}
+
 /// The link's health, once a second.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Health {

@@ -3,6 +3,7 @@
 //! One drive, shared by every server task of the process and advanced on real time by a
 //! ticker, so a client sees the motor move whether it polls or not.
 
+pub mod canopen;
 pub mod modbus;
 
 use std::sync::{Arc, Mutex, MutexGuard};

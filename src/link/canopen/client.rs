@@ -1,0 +1,610 @@
+//! `CanopenLink`: a drive on a CAN bus. The PDI runs through an RPDO/TPDO pair mapped as
+//! spec section 3 prescribes; objects go over SDO (expedited and segmented), one transfer
+//! at a time. If the drive refuses the mapping, the PDI runs over SDO instead, and the link
+//! says so.
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+use super::emcy::Emcy;
+use super::nmt::{self, NmtCommand};
+use super::pdo::{self, PdoComm, PdoKind, SdoWrite};
+use super::sdo::{SdoClient, SdoEvent};
+use super::{CanBus, CanFrame};
+use crate::cia::{AbortCode, ErrorCode};
+use crate::link::{CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals};
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{RxImage, TxImage};
+
+/// How long one SDO request may wait for its answer.
+pub const SDO_TIMEOUT: Duration = Duration::from_millis(500);
+/// TPDO event timer: the drive sends its image at least this often, which is also how the
+/// link knows the drive is alive.
+const EVENT_TIMER_MS: u16 = 100;
+/// Inhibit time of the PDI TPDO: 2 ms (20 × 100 µs) keeps a busy drive from flooding the bus.
+const INHIBIT_100US: u16 = 20;
+/// No TPDO for this long: the drive is gone.
+const SILENCE: Duration = Duration::from_millis(3 * EVENT_TIMER_MS as u64 + 200);
+
+/// How the PDI travels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PdiPath {
+    Pdo,
+    Sdo,
+}
+
+/// What drivedeck changed on the drive, to put back on disconnect.
+#[derive(Clone, Debug, Default)]
+struct Saved {
+    writes: Vec<SdoWrite>,
+}
+
+/// A frame seen or sent, for the frame log.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Traced {
+    pub at: Instant,
+    pub sent: bool,
+    pub frame: CanFrame,
+}
+
+/// A drive on a CAN bus.
+pub struct CanopenLink<B: CanBus> {
+    spec: LinkSpec,
+    bus: B,
+    options: CanopenOptions,
+    path: PdiPath,
+    sdo: SdoClient,
+    tx: Option<TxImage>,
+    last_tpdo: Option<Instant>,
+    last_rx: Option<RxImage>,
+    saved: Saved,
+    notices: Vec<String>,
+    trace: VecDeque<Traced>,
+}
+
+impl<B: CanBus> std::fmt::Debug for CanopenLink<B> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CanopenLink")
+            .field("spec", &self.spec)
+            .field("path", &self.path)
+            .finish_non_exhaustive()
+    }
+}
+
+const TRACE_LIMIT: usize = 4096;
+
+impl<B: CanBus> CanopenLink<B> {
+    /// Connect to node `options.node` on `bus`: check it answers, map the PDI PDOs (or fall
+    /// back to SDO), start it.
+    pub async fn connect(spec: LinkSpec, bus: B, options: CanopenOptions) -> Result<Self, Error> {
+        let mut link = CanopenLink {
+            spec,
+            sdo: SdoClient::new(options.node),
+            bus,
+            options,
+            path: PdiPath::Sdo,
+            tx: None,
+            last_tpdo: None,
+            last_rx: None,
+            saved: Saved::default(),
+            notices: vec![],
+            trace: VecDeque::new(),
+        };
+        // Is anybody there?
+        match link.sdo_upload(0x1018, 1).await? {
+            Ok(_) => {}
+            Err(code) => {
+                return Err(Error::Protocol(format!(
+                    "node {} answered the identity read with abort {code}",
+                    options.node
+                )));
+            }
+        }
+        match link.map_pdi().await? {
+            Ok(()) => link.path = PdiPath::Pdo,
+            Err(reason) => {
+                link.restore().await?;
+                link.notices.push(format!(
+                    "node {} refused the PDI mapping ({reason}): the PDI runs over SDO (2291h/2292h), slower",
+                    options.node
+                ));
+            }
+        }
+        link.send(&nmt::command_frame(NmtCommand::Start, options.node))
+            .await?;
+        // The image as it is now, before the first TPDO arrives.
+        link.tx = Some(link.read_tx_by_sdo().await?);
+        Ok(link)
+    }
+
+    fn trace(&mut self, sent: bool, frame: &CanFrame) {
+        if self.trace.len() >= TRACE_LIMIT {
+            self.trace.pop_front();
+        }
+        self.trace.push_back(Traced {
+            at: Instant::now(),
+            sent,
+            frame: *frame,
+        });
+    }
+
+    /// Frames sent and received since the last call, oldest first.
+    pub fn take_trace(&mut self) -> Vec<Traced> {
+        self.trace.drain(..).collect()
+    }
+
+    async fn send(&mut self, frame: &CanFrame) -> Result<(), Error> {
+        self.trace(true, frame);
+        self.bus.send(frame).await
+    }
+
+    /// Handle a frame that is not the answer being waited for: TPDOs, EMCY, heartbeat.
+    fn unsolicited(&mut self, frame: &CanFrame) {
+        let node = u16::from(self.options.node);
+        let Some(cob) = frame.cob_id() else {
+            return;
+        };
+        let tpdo = 0x180 + 0x100 * u16::from(self.options.pdo - 1) + node;
+        if self.path == PdiPath::Pdo && cob == tpdo && frame.len() == 8 {
+            if let Ok(tx) = TxImage::from_bytes(frame.data()) {
+                self.tx = Some(tx);
+                self.last_tpdo = Some(Instant::now());
+            }
+        } else if cob == 0x80 + node {
+            if let Ok((_, emcy)) = Emcy::decode(frame) {
+                let code = ErrorCode(emcy.error_code);
+                self.notices.push(if emcy.error_code == 0 {
+                    format!("EMCY node {node}: error reset")
+                } else {
+                    format!(
+                        "EMCY node {node}: {code}, error register {:02X}h",
+                        emcy.error_register
+                    )
+                });
+            }
+        }
+    }
+
+    /// Receive until `want` accepts a frame or the timeout passes; everything else is
+    /// handled as unsolicited.
+    async fn await_frame<T>(
+        &mut self,
+        timeout: Duration,
+        what: &str,
+        mut want: impl FnMut(&mut Self, &CanFrame) -> Option<T>,
+    ) -> Result<T, Error> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let frame = match tokio::time::timeout(left, self.bus.recv()).await {
+                Err(_) => {
+                    return Err(Error::Timeout {
+                        what: format!(
+                            "{what} from node {} on {}",
+                            self.options.node,
+                            self.bus.describe()
+                        ),
+                        after: timeout,
+                    });
+                }
+                Ok(frame) => frame?,
+            };
+            self.trace(false, &frame);
+            if let Some(result) = want(self, &frame) {
+                return Ok(result);
+            }
+            self.unsolicited(&frame);
+        }
+    }
+
+    /// Run one SDO transfer to its end.
+    async fn sdo_transfer(
+        &mut self,
+        first: CanFrame,
+        what: &str,
+    ) -> Result<Result<Vec<u8>, AbortCode>, Error> {
+        self.send(&first).await?;
+        loop {
+            let event = self
+                .await_frame(SDO_TIMEOUT, what, |link, frame| {
+                    match link.sdo.on_frame(frame) {
+                        SdoEvent::Ignored => None,
+                        event => Some(event),
+                    }
+                })
+                .await;
+            let event = match event {
+                Ok(event) => event,
+                Err(e) => {
+                    // Tell the drive we gave up, so its server is free again.
+                    if let Some(abort) = self.sdo.abort(AbortCode::SDO_TIMEOUT) {
+                        let _ = self.send(&abort).await;
+                    }
+                    return Err(e);
+                }
+            };
+            match event {
+                SdoEvent::Send(next) => self.send(&next).await?,
+                SdoEvent::Uploaded(data) => return Ok(Ok(data)),
+                SdoEvent::Downloaded => return Ok(Ok(vec![])),
+                SdoEvent::Aborted(code) => return Ok(Err(code)),
+                SdoEvent::Protocol(problem) => {
+                    if let Some(abort) = self.sdo.take_abort() {
+                        let _ = self.send(&abort).await;
+                    }
+                    return Err(Error::Protocol(format!("{what}: {problem}")));
+                }
+                SdoEvent::Ignored => {}
+            }
+        }
+    }
+
+    async fn sdo_upload(
+        &mut self,
+        index: u16,
+        sub: u8,
+    ) -> Result<Result<Vec<u8>, AbortCode>, Error> {
+        let first = self.sdo.upload(index, sub);
+        self.sdo_transfer(
+            first,
+            &format!("SDO upload of {}", Address::new(index, sub)),
+        )
+        .await
+    }
+
+    async fn sdo_download(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+    ) -> Result<Result<(), AbortCode>, Error> {
+        let first = self.sdo.download(index, sub, data);
+        Ok(self
+            .sdo_transfer(
+                first,
+                &format!("SDO download to {}", Address::new(index, sub)),
+            )
+            .await?
+            .map(|_| ()))
+    }
+
+    /// Read the current values of what the mapping will change, for the restore.
+    async fn save(&mut self, writes: &[SdoWrite]) -> Result<(), Error> {
+        let mut saved = vec![];
+        for w in writes {
+            if saved
+                .iter()
+                .any(|s: &SdoWrite| s.index == w.index && s.sub == w.sub)
+            {
+                continue;
+            }
+            if let Ok(data) = self.sdo_upload(w.index, w.sub).await? {
+                saved.push(SdoWrite {
+                    index: w.index,
+                    sub: w.sub,
+                    data,
+                });
+            }
+        }
+        self.saved = Saved {
+            writes: restore_order(saved),
+        };
+        Ok(())
+    }
+
+    /// Map the PDI RPDO and TPDO. `Ok(Err(reason))` when the drive refuses.
+    async fn map_pdi(&mut self) -> Result<Result<(), String>, Error> {
+        let n = self.options.pdo;
+        let node = self.options.node;
+        let rx_comm = PdoComm {
+            cob_id: u32::from(0x200 + 0x100 * u16::from(n - 1) + u16::from(node)),
+            transmission: 255,
+            inhibit_100us: 0,
+            event_ms: 0,
+        };
+        let tx_comm = PdoComm {
+            cob_id: u32::from(0x180 + 0x100 * u16::from(n - 1) + u16::from(node)),
+            transmission: 255,
+            inhibit_100us: INHIBIT_100US,
+            event_ms: EVENT_TIMER_MS,
+        };
+        let configured =
+            pdo::configure(PdoKind::Receive, u16::from(n), node, &rx_comm, &pdo::PDI_RX).and_then(
+                |mut writes| {
+                    writes.extend(pdo::configure(
+                        PdoKind::Transmit,
+                        u16::from(n),
+                        node,
+                        &tx_comm,
+                        &pdo::PDI_TX,
+                    )?);
+                    Ok(writes)
+                },
+            );
+        let writes = match configured {
+            Ok(writes) => writes,
+            Err(e) => return Ok(Err(e.to_string())),
+        };
+        self.save(&writes).await?;
+        for w in writes {
+            if let Err(code) = self.sdo_download(w.index, w.sub, &w.data).await? {
+                return Ok(Err(format!(
+                    "{} refused with {code}",
+                    Address::new(w.index, w.sub)
+                )));
+            }
+        }
+        let rx = 0x1400 + u16::from(n - 1);
+        let tx = 0x1800 + u16::from(n - 1);
+        let keep = if self.options.keep_pdo {
+            "kept after disconnecting (keep_pdo=1)"
+        } else {
+            "restored on disconnect"
+        };
+        self.notices.push(format!(
+            "mapped the PDI: RPDO{n} ({rx:04X}h/{:04X}h, COB-ID {:03X}h) and TPDO{n} ({tx:04X}h/{:04X}h, COB-ID {:03X}h, event-driven, inhibit 2 ms, event timer {EVENT_TIMER_MS} ms); the previous mapping is {keep}",
+            rx + 0x200,
+            rx_comm.cob_id,
+            tx + 0x200,
+            tx_comm.cob_id
+        ));
+        Ok(Ok(()))
+    }
+
+    /// Put back what `map_pdi` changed.
+    async fn restore(&mut self) -> Result<(), Error> {
+        let writes = std::mem::take(&mut self.saved.writes);
+        for w in writes {
+            let _ = self.sdo_download(w.index, w.sub, &w.data).await?;
+        }
+        Ok(())
+    }
+
+    async fn read_tx_by_sdo(&mut self) -> Result<TxImage, Error> {
+        let read = |data: Result<Vec<u8>, AbortCode>| -> Result<Vec<u8>, Error> {
+            data.map_err(|code| {
+                Error::Protocol(format!("the PDI status could not be read: {code}"))
+            })
+        };
+        let status = read(self.sdo_upload(0x2292, 1).await?)?;
+        let code = read(self.sdo_upload(0x603F, 0).await?)?;
+        let value = read(self.sdo_upload(0x2292, 2).await?)?;
+        let mut bytes = [0u8; 8];
+        bytes[..2].copy_from_slice(status.get(..2).unwrap_or(&[0, 0]));
+        bytes[2..4].copy_from_slice(code.get(..2).unwrap_or(&[0, 0]));
+        bytes[4..].copy_from_slice(value.get(..4).unwrap_or(&[0, 0, 0, 0]));
+        TxImage::from_bytes(&bytes).map_err(|e| Error::Protocol(e.to_string()))
+    }
+
+    /// Take what has arrived without waiting.
+    async fn drain(&mut self, window: Duration) -> Result<(), Error> {
+        let deadline = Instant::now() + window;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match tokio::time::timeout(left, self.bus.recv()).await {
+                Err(_) => return Ok(()),
+                Ok(frame) => {
+                    let frame = frame?;
+                    self.trace(false, &frame);
+                    self.unsolicited(&frame);
+                }
+            }
+        }
+    }
+}
+
+impl<B: CanBus> Link for CanopenLink<B> {
+    fn info(&self) -> LinkInfo {
+        let path = match self.path {
+            PdiPath::Pdo => format!("PDI on RPDO{0}/TPDO{0}", self.options.pdo),
+            PdiPath::Sdo => "PDI over SDO".to_owned(),
+        };
+        LinkInfo {
+            spec: self.spec.clone(),
+            description: format!(
+                "CANopen node {} on {} ({path})",
+                self.options.node,
+                self.bus.describe()
+            ),
+            native_objects: true,
+            can_inject: false,
+        }
+    }
+
+    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<Exchange, Error> {
+        match self.path {
+            PdiPath::Pdo => {
+                if let Some(rx) = rx {
+                    let cob = 0x200
+                        + 0x100 * u16::from(self.options.pdo - 1)
+                        + u16::from(self.options.node);
+                    let frame = CanFrame::new(cob, &rx.to_bytes())
+                        .map_err(|e| Error::Protocol(e.to_string()))?;
+                    self.send(&frame).await?;
+                    self.last_rx = Some(*rx);
+                }
+                self.drain(Duration::from_millis(1)).await?;
+                if self.last_tpdo.is_some_and(|t| t.elapsed() > SILENCE)
+                    || (self.last_tpdo.is_none() && self.tx.is_none())
+                {
+                    return Err(Error::Timeout {
+                        what: format!(
+                            "TPDO{} from node {} (it comes every {EVENT_TIMER_MS} ms at least)",
+                            self.options.pdo, self.options.node
+                        ),
+                        after: SILENCE,
+                    });
+                }
+            }
+            PdiPath::Sdo => {
+                if let Some(rx) = rx
+                    && self.last_rx != Some(*rx)
+                {
+                    // Set values first, the command byte last: it starts the command.
+                    let bytes = rx.to_bytes();
+                    for (sub, data) in [
+                        (1u8, &bytes[0..4]),
+                        (2, &bytes[4..6]),
+                        (3, &bytes[6..7]),
+                        (4, &bytes[7..8]),
+                    ] {
+                        if let Err(code) = self.sdo_download(0x2291, sub, data).await? {
+                            return Err(Error::Protocol(format!(
+                                "writing 2291h:{sub:02X}h: {code}"
+                            )));
+                        }
+                    }
+                    self.last_rx = Some(*rx);
+                }
+                self.drain(Duration::ZERO).await?;
+                self.tx = Some(self.read_tx_by_sdo().await?);
+            }
+        }
+        let tx = self.tx.unwrap_or_default();
+        Ok(Exchange {
+            tx,
+            signals: Signals::default(),
+        })
+    }
+
+    async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {
+        let mut bytes = [0u8; 8];
+        for (sub, range) in [(1u8, 0..4), (2, 4..6), (3, 6..7), (4, 7..8)] {
+            match self.sdo_upload(0x2291, sub).await? {
+                Ok(data) if data.len() == range.len() => bytes[range].copy_from_slice(&data),
+                _ => return Ok(None),
+            }
+        }
+        Ok(RxImage::from_bytes(&bytes).ok())
+    }
+
+    async fn read_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+    ) -> Result<Result<Value, Refusal>, Error> {
+        Ok(match self.sdo_upload(address.index, address.sub).await? {
+            Ok(data) => {
+                Value::from_le_bytes(dtype, &data).map_err(|e| Refusal::Malformed(e.to_string()))
+            }
+            Err(code) => Err(Refusal::Abort(code)),
+        })
+    }
+
+    async fn write_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: &Value,
+    ) -> Result<Result<(), Refusal>, Error> {
+        let data = match value.to_le_bytes(dtype) {
+            Ok(data) => data,
+            Err(e) => return Ok(Err(Refusal::Malformed(e.to_string()))),
+        };
+        Ok(self
+            .sdo_download(address.index, address.sub, &data)
+            .await?
+            .map_err(Refusal::Abort))
+    }
+
+    fn take_notices(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notices)
+    }
+
+    async fn close(&mut self) -> Result<(), Error> {
+        if !self.options.keep_pdo && !self.saved.writes.is_empty() {
+            self.restore().await?;
+            self.notices.push(format!(
+                "restored the PDO mapping of node {}",
+                self.options.node
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The saved communication and mapping values, in the order that puts them back safely:
+/// each PDO invalid first, its mapping count 0, the entries, the count, the parameters, and
+/// its original COB-ID last (CiA 301, FACTS 2.3).
+fn restore_order(saved: Vec<SdoWrite>) -> Vec<SdoWrite> {
+    let mut out = vec![];
+    let comm_indices: Vec<u16> = {
+        let mut v: Vec<u16> = saved
+            .iter()
+            .filter(|w| (0x1400..0x1600).contains(&w.index) || (0x1800..0x1A00).contains(&w.index))
+            .map(|w| w.index)
+            .collect();
+        v.dedup();
+        v
+    };
+    let find = |index: u16, sub: u8| {
+        saved
+            .iter()
+            .find(|w| w.index == index && w.sub == sub)
+            .cloned()
+    };
+    for comm in comm_indices {
+        let mapping = comm + 0x200;
+        let cob = find(comm, 1);
+        if let Some(cob) = &cob {
+            let raw = u32::from_le_bytes(
+                cob.data
+                    .get(..4)
+                    .and_then(|b| b.try_into().ok())
+                    .unwrap_or([0; 4]),
+            );
+            out.push(SdoWrite::u32(comm, 1, raw | pdo::COB_INVALID));
+        }
+        out.push(SdoWrite::u8(mapping, 0, 0));
+        let count = find(mapping, 0)
+            .and_then(|w| w.data.first().copied())
+            .unwrap_or(0);
+        for sub in 1..=count.min(8) {
+            if let Some(entry) = find(mapping, sub) {
+                out.push(entry);
+            }
+        }
+        if let Some(count) = find(mapping, 0) {
+            out.push(count);
+        }
+        for sub in [2u8, 3, 5] {
+            if let Some(parameter) = find(comm, sub) {
+                out.push(parameter);
+            }
+        }
+        if let Some(cob) = cob {
+            out.push(cob);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn restore_puts_the_cob_id_back_last_and_invalidates_first() {
+        let saved = vec![
+            SdoWrite::u32(0x1400, 1, 0x0000_0201),
+            SdoWrite::u8(0x1600, 0, 2),
+            SdoWrite::u32(0x1600, 1, 0x6040_0010),
+            SdoWrite::u32(0x1600, 2, 0x6060_0008),
+            SdoWrite::u8(0x1400, 2, 255),
+        ];
+        let order = restore_order(saved);
+        let shown: Vec<String> = order.iter().map(|w| w.to_string()).collect();
+        assert_eq!(
+            shown,
+            [
+                "1400h:01h = 80000201h",
+                "1600h:00h = 00h",
+                "1600h:01h = 60400010h",
+                "1600h:02h = 60600008h",
+                "1600h:00h = 02h",
+                "1400h:02h = FFh",
+                "1400h:01h = 00000201h",
+            ]
+        );
+    }
+}
