@@ -150,18 +150,18 @@ impl<B: CanBus> CanopenLink<B> {
                 self.tx = Some(tx);
                 self.last_tpdo = Some(Instant::now());
             }
-        } else if cob == 0x80 + node {
-            if let Ok((_, emcy)) = Emcy::decode(frame) {
-                let code = ErrorCode(emcy.error_code);
-                self.notices.push(if emcy.error_code == 0 {
-                    format!("EMCY node {node}: error reset")
-                } else {
-                    format!(
-                        "EMCY node {node}: {code}, error register {:02X}h",
-                        emcy.error_register
-                    )
-                });
-            }
+        } else if cob == 0x80 + node
+            && let Ok((_, emcy)) = Emcy::decode(frame)
+        {
+            let code = ErrorCode(emcy.error_code);
+            self.notices.push(if emcy.error_code == 0 {
+                format!("EMCY node {node}: error reset")
+            } else {
+                format!(
+                    "EMCY node {node}: {code}, error register {:02X}h",
+                    emcy.error_register
+                )
+            });
         }
     }
 
