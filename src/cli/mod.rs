@@ -35,6 +35,10 @@ pub struct Cli {
     #[arg(long, global = true)]
     pub json: bool,
 
+    /// Print every bus frame sent and received to stderr, decoded.
+    #[arg(long, global = true)]
+    pub trace: bool,
+
     /// How long to wait for the drive, in seconds (acknowledgement, and completion with --wait).
     #[arg(long, global = true, default_value_t = 30.0, value_name = "SECONDS")]
     pub timeout: f64,
@@ -75,6 +79,8 @@ pub enum Command {
     HomeHere(HomeHereArgs),
     /// Auto setup (PDI-Cmd 16).
     AutoSetup(WaitArg),
+    /// Find the CANopen nodes on the --link bus: node id, vendor, product, revision, name.
+    Scan,
     /// Serve the simulated drive on real sockets for any client (PLCs, pymodbus, …).
     Sim(SimArgs),
     /// Measure PDI exchanges and object reads per second on --link (or --serve-sim).
@@ -212,6 +218,16 @@ pub struct SimArgs {
     /// Word order of 32-bit register pairs: high (Nanotec) or low.
     #[arg(long, value_enum, default_value_t = CliWords::High)]
     pub words: CliWords,
+    /// Serve a CANopen node on this SocketCAN interface (e.g. vcan0).
+    #[arg(long, value_name = "IFACE")]
+    pub can: Option<String>,
+    /// Serve a CANopen node behind an emulated slcan adapter on this serial port (one end of
+    /// a pty pair: the other end is the host's slcan device).
+    #[arg(long, value_name = "PATH")]
+    pub slcan: Option<String>,
+    /// The simulated node's CANopen node id.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=127))]
+    pub node: u8,
     /// Leave out function codes, to simulate a gateway or device without them.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "FC,...")]
     pub without: Vec<Missing>,
@@ -278,7 +294,7 @@ pub fn main() -> ExitCode {
         Some(command) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));
-            oneshot::run(&link, &command, cli.json, timeout)
+            oneshot::run(&link, &command, cli.json, timeout, cli.trace)
         }
     }
 }

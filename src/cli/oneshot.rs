@@ -31,8 +31,14 @@ fn failed(message: impl Into<String>) -> Failure {
     }
 }
 
-pub fn run(link: &LinkSpec, command: &Command, json: bool, timeout: Duration) -> ExitCode {
-    match execute(link, command, timeout) {
+pub fn run(
+    link: &LinkSpec,
+    command: &Command,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+) -> ExitCode {
+    match execute(link, command, timeout, trace) {
         Ok(report) => {
             report::print(&report, json);
             ExitCode::SUCCESS
@@ -53,7 +59,7 @@ struct Session {
 }
 
 impl Session {
-    fn open(link: &LinkSpec, timeout: Duration) -> Result<Session, Failure> {
+    fn open(link: &LinkSpec, timeout: Duration, trace: bool) -> Result<Session, Failure> {
         let config = worker::Config {
             poll_rate: 200.0,
             timing: Timing {
@@ -62,6 +68,7 @@ impl Session {
                 ..Timing::default()
             },
             reconnect: false,
+            trace,
         };
         let worker = Worker::spawn(config, Arc::new(|| {}))
             .map_err(|e| usage(format!("cannot start the worker thread: {e}")))?;
@@ -117,6 +124,16 @@ impl Session {
                 return Err(failed(format!("the link was lost: {reason}")));
             }
             Event::Notice(text) => self.notes.push(text.clone()),
+            Event::Frames(frames) => {
+                for f in frames {
+                    eprintln!(
+                        "{} {:<24} {}",
+                        if f.sent { "tx" } else { "rx" },
+                        f.raw,
+                        f.text
+                    );
+                }
+            }
             _ => {}
         }
         Ok(event)
@@ -228,7 +245,12 @@ fn action(opcode: Opcode, inputs: &[i64]) -> Result<Action, Failure> {
     Action::from_inputs(opcode, inputs).map_err(|e| usage(e.to_string()))
 }
 
-fn execute(link: &LinkSpec, command: &Command, timeout: Duration) -> Result<Report, Failure> {
+fn execute(
+    link: &LinkSpec,
+    command: &Command,
+    timeout: Duration,
+    trace: bool,
+) -> Result<Report, Failure> {
     // Check the inputs before connecting: a typo never touches the drive.
     let planned: Option<(Request, bool)> = match command {
         Command::MoveAbs(a) => Some((
@@ -264,6 +286,7 @@ fn execute(link: &LinkSpec, command: &Command, timeout: Duration) -> Result<Repo
         Command::Status
         | Command::Read(_)
         | Command::Write(_)
+        | Command::Scan
         | Command::Sim(_)
         | Command::Bench(_) => None,
     };
@@ -297,7 +320,10 @@ fn execute(link: &LinkSpec, command: &Command, timeout: Duration) -> Result<Repo
         _ => None,
     };
 
-    let mut session = Session::open(link, timeout)?;
+    if let Command::Scan = command {
+        return scan(link, timeout);
+    }
+    let mut session = Session::open(link, timeout, trace)?;
     let mut report = match (command, planned) {
         (Command::Status, _) => {
             session.refresh();
@@ -345,4 +371,32 @@ fn execute(link: &LinkSpec, command: &Command, timeout: Duration) -> Result<Repo
     report.set_warnings(std::mem::take(&mut session.warnings));
     report.set_notes(std::mem::take(&mut session.notes));
     Ok(report)
+}
+
+/// A bus scan through the worker, without connecting to a node.
+fn scan(link: &LinkSpec, timeout: Duration) -> Result<Report, Failure> {
+    let worker = Worker::spawn(
+        worker::Config {
+            reconnect: false,
+            ..worker::Config::default()
+        },
+        Arc::new(|| {}),
+    )
+    .map_err(|e| usage(format!("cannot start the worker thread: {e}")))?;
+    let id = worker
+        .send(Request::Scan(link.clone()))
+        .map_err(|e| usage(e.to_string()))?;
+    let deadline = Instant::now() + timeout;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        match worker.recv_timeout(left) {
+            Ok(Event::Scanned { id: i, result }) if i == id => {
+                return result
+                    .map(|devices| Report::Scan(report::scan(link, devices)))
+                    .map_err(usage);
+            }
+            Ok(_) => {}
+            Err(_) => return Err(failed("the scan did not finish in time")),
+        }
+    }
 }

@@ -14,6 +14,7 @@ pub enum Report {
     Status(StatusReport),
     Object(ObjectReport),
     Command(CommandReport),
+    Scan(ScanReport),
 }
 
 impl Report {
@@ -22,6 +23,7 @@ impl Report {
             Report::Status(r) => r.warnings = warnings,
             Report::Object(r) => r.warnings = warnings,
             Report::Command(r) => r.warnings = warnings,
+            Report::Scan(r) => r.warnings = warnings,
         }
     }
 
@@ -30,6 +32,7 @@ impl Report {
             Report::Status(r) => r.notes = notes,
             Report::Object(r) => r.notes = notes,
             Report::Command(r) => r.notes = notes,
+            Report::Scan(r) => r.notes = notes,
         }
     }
 
@@ -38,6 +41,7 @@ impl Report {
             Report::Status(r) => &r.notes,
             Report::Object(r) => &r.notes,
             Report::Command(r) => &r.notes,
+            Report::Scan(r) => &r.notes,
         }
     }
 
@@ -46,6 +50,7 @@ impl Report {
             Report::Status(r) => &r.warnings,
             Report::Object(r) => &r.warnings,
             Report::Command(r) => &r.warnings,
+            Report::Scan(r) => &r.warnings,
         }
     }
 }
@@ -94,6 +99,45 @@ pub struct ObjectReport {
     pub written: bool,
     pub warnings: Vec<String>,
     pub notes: Vec<String>,
+}
+
+#[derive(Serialize, Debug)]
+pub struct ScanNode {
+    pub node: Option<u8>,
+    pub vendor: Option<u32>,
+    pub product: Option<u32>,
+    pub revision: Option<u32>,
+    pub serial: Option<u32>,
+    pub name: Option<String>,
+    pub state: Option<String>,
+}
+
+#[derive(Serialize, Debug)]
+pub struct ScanReport {
+    pub bus: String,
+    pub nodes: Vec<ScanNode>,
+    pub warnings: Vec<String>,
+    pub notes: Vec<String>,
+}
+
+pub fn scan(link: &LinkSpec, devices: Vec<crate::link::FoundDevice>) -> ScanReport {
+    ScanReport {
+        bus: link.to_string(),
+        nodes: devices
+            .into_iter()
+            .map(|d| ScanNode {
+                node: d.node,
+                vendor: d.vendor,
+                product: d.product,
+                revision: d.revision,
+                serial: d.serial,
+                name: d.name,
+                state: d.state,
+            })
+            .collect(),
+        warnings: vec![],
+        notes: vec![],
+    }
 }
 
 #[derive(Serialize, Debug)]
@@ -198,6 +242,24 @@ pub fn print(report: &Report, json: bool) {
     }
     match report {
         Report::Status(s) => print_status(s),
+        Report::Scan(r) => {
+            if r.nodes.is_empty() {
+                println!("no node answered on {}", r.bus);
+            }
+            let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
+            for n in &r.nodes {
+                println!(
+                    "node {:>3}  vendor {}  product {}  revision {}  serial {}  {:<15} {}",
+                    n.node.map_or("?".into(), |n| n.to_string()),
+                    hex(n.vendor),
+                    hex(n.product),
+                    hex(n.revision),
+                    hex(n.serial),
+                    n.state.clone().unwrap_or_default(),
+                    n.name.clone().unwrap_or_default()
+                );
+            }
+        }
         Report::Object(o) => {
             let name = o
                 .name

@@ -12,9 +12,13 @@ use crate::sim::server::SharedDrive;
 use crate::sim::server::modbus::{self, Options, RtuOptions};
 
 pub fn run(args: &SimArgs) -> ExitCode {
-    if args.modbus_tcp.is_none() && args.modbus_rtu.is_none() {
+    if args.modbus_tcp.is_none()
+        && args.modbus_rtu.is_none()
+        && args.can.is_none()
+        && args.slcan.is_none()
+    {
         eprintln!(
-            "drivedeck sim: nothing to serve. Give --modbus-tcp ADDR:PORT and/or --modbus-rtu PATH. (CANopen arrives with issue #4, EtherNet/IP with issue #5.)"
+            "drivedeck sim: nothing to serve. Give --modbus-tcp ADDR:PORT, --modbus-rtu PATH, --can IFACE and/or --slcan PATH. (EtherNet/IP arrives with issue #5.)"
         );
         return ExitCode::from(EXIT_USAGE);
     }
@@ -102,6 +106,43 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
                 eprintln!("drivedeck sim: Modbus RTU server stopped: {e}");
             }
         });
+    }
+    if let Some(path) = &args.slcan {
+        let device =
+            crate::link::canopen::slcan::SlcanDevice::open(path).map_err(|e| e.to_string())?;
+        println!(
+            "serving the simulated drive as CANopen node {} behind an emulated slcan adapter on {path}",
+            args.node
+        );
+        let shared = shared.clone();
+        let node = args.node;
+        tasks.spawn(async move {
+            if let Err(e) = crate::sim::server::canopen::run(device, node, shared).await {
+                eprintln!("drivedeck sim: CANopen node on slcan stopped: {e}");
+            }
+        });
+    }
+    if let Some(iface) = &args.can {
+        #[cfg(target_os = "linux")]
+        {
+            let bus = crate::link::canopen::socketcan::SocketCanBus::open(iface)
+                .map_err(|e| e.to_string())?;
+            println!(
+                "serving the simulated drive as CANopen node {} on {iface}",
+                args.node
+            );
+            let shared = shared.clone();
+            let node = args.node;
+            tasks.spawn(async move {
+                if let Err(e) = crate::sim::server::canopen::run(bus, node, shared).await {
+                    eprintln!("drivedeck sim: CANopen node on SocketCAN stopped: {e}");
+                }
+            });
+        }
+        #[cfg(not(target_os = "linux"))]
+        return Err(format!(
+            "SocketCAN ({iface}) exists only on Linux: use --slcan PATH"
+        ));
     }
     if args.verbose {
         let shared = shared.clone();

@@ -15,7 +15,7 @@ pub mod spec;
 use std::fmt;
 
 pub use error::{Error, Refusal, modbus_exception_text};
-pub use open::{AnyLink, open};
+pub use open::{AnyLink, open, scan};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
 
 use crate::od::{Address, DataType, Value};
@@ -33,11 +33,83 @@ pub struct LinkInfo {
     pub native_objects: bool,
     /// Whether the simulator's faults can be injected through this link.
     pub can_inject: bool,
+    /// Whether the device has the Plug & Drive interface (2291h/2292h). Without it (a
+    /// generic CANopen node, say) the link gives object access only.
+    pub pdi: bool,
 }
 
 impl fmt::Display for LinkInfo {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.description)
+    }
+}
+
+/// One frame a link sent or received, for the frame log and its export.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TraceRecord {
+    /// When, as wall-clock time (for candump logs and timelines).
+    pub at: std::time::SystemTime,
+    pub sent: bool,
+    /// The frame as the bus's tools write it: `601#4018100100000000` on CAN, hex on Modbus.
+    pub raw: String,
+    /// What it means: "SDO request node 1: upload 1018h:01h".
+    pub text: String,
+    /// The CAN frame and its interface name (`can0`, `slcan0`), for candump logs.
+    pub can: Option<(canopen::CanFrame, String)>,
+}
+
+impl TraceRecord {
+    /// Seconds since the Unix epoch.
+    pub fn unix_seconds(&self) -> f64 {
+        self.at
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs_f64())
+            .unwrap_or(0.0)
+    }
+
+    /// One line of a log file: candump's format for CAN frames, the same shape otherwise.
+    pub fn log_line(&self) -> String {
+        match &self.can {
+            Some((frame, interface)) => {
+                canopen::describe::candump_line(self.unix_seconds(), interface, frame)
+            }
+            None => format!(
+                "({:.6}) {} {}  {}",
+                self.unix_seconds(),
+                if self.sent { "tx" } else { "rx" },
+                self.raw,
+                self.text
+            ),
+        }
+    }
+}
+
+/// A device found on a bus by a scan (CANopen) or a discovery (EtherNet/IP).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct FoundDevice {
+    /// Where it is, for people: `node 5`, `192.168.2.100`.
+    pub address: String,
+    /// The CANopen node id, where there is one.
+    pub node: Option<u8>,
+    /// 1018h:01 (Nanotec: 26Ch)
+    pub vendor: Option<u32>,
+    pub product: Option<u32>,
+    pub revision: Option<u32>,
+    pub serial: Option<u32>,
+    /// 1008h, the device name.
+    pub name: Option<String>,
+    /// NMT state or similar, as last heard.
+    pub state: Option<String>,
+}
+
+impl FoundDevice {
+    /// The vendor in words where drivedeck knows it.
+    pub fn vendor_name(&self) -> String {
+        match self.vendor {
+            Some(0x26C) => "Nanotec (26Ch)".into(),
+            Some(v) => format!("{v:08X}h"),
+            None => "?".into(),
+        }
     }
 }
 
@@ -104,6 +176,17 @@ pub trait Link {
         Err(Error::Unsupported(
             "fault injection works only on the simulated drive".into(),
         ))
+    }
+
+    /// Find the devices on this link's bus (CANopen node scan).
+    async fn scan(&mut self) -> Result<Vec<FoundDevice>, Error> {
+        Err(Error::Unsupported("scanning works on CANopen buses".into()))
+    }
+
+    /// The frames sent and received since the last call, oldest first (bounded: the oldest
+    /// are dropped when nobody asks).
+    fn take_trace(&mut self) -> Vec<TraceRecord> {
+        Vec::new()
     }
 
     /// Things the link learned that the user should know (e.g. a missing function code

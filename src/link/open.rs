@@ -59,6 +59,31 @@ pub async fn open(spec: &LinkSpec) -> Result<AnyLink, Error> {
     }
 }
 
+/// Scan the bus a connection string names, without connecting to a node.
+pub async fn scan(spec: &LinkSpec) -> Result<Vec<super::FoundDevice>, Error> {
+    match spec {
+        LinkSpec::CanopenSim { can } => {
+            let mut bus = SimCanBus::start(can.node);
+            // Let the simulated node boot.
+            tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+            super::canopen::scan::scan(&mut bus).await
+        }
+        LinkSpec::CanopenSlcan { path, bitrate, .. } => {
+            let mut bus = SlcanBus::open(path, *bitrate).await?;
+            super::canopen::scan::scan(&mut bus).await
+        }
+        #[cfg(target_os = "linux")]
+        LinkSpec::CanopenSocketcan { iface, .. } => {
+            let mut bus = super::canopen::socketcan::SocketCanBus::open(iface)?;
+            super::canopen::scan::scan(&mut bus).await
+        }
+        _ => Err(Error::Unsupported(format!(
+            "{} has no bus scan: scanning works on CANopen buses (EtherNet/IP discovery arrives with issue #5)",
+            spec.bus_name()
+        ))),
+    }
+}
+
 impl From<SimLink> for AnyLink {
     fn from(link: SimLink) -> Self {
         AnyLink::Sim(Box::new(link))
@@ -138,6 +163,28 @@ impl Link for AnyLink {
             AnyLink::CanopenSlcan(l) => l.inject(injection, active).await,
             #[cfg(target_os = "linux")]
             AnyLink::CanopenSocketcan(l) => l.inject(injection, active).await,
+        }
+    }
+
+    async fn scan(&mut self) -> Result<Vec<super::FoundDevice>, Error> {
+        match self {
+            AnyLink::Sim(l) => l.scan().await,
+            AnyLink::Modbus(l) => l.scan().await,
+            AnyLink::CanopenSim(l) => l.scan().await,
+            AnyLink::CanopenSlcan(l) => l.scan().await,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.scan().await,
+        }
+    }
+
+    fn take_trace(&mut self) -> Vec<super::TraceRecord> {
+        match self {
+            AnyLink::Sim(l) => l.take_trace(),
+            AnyLink::Modbus(l) => l.take_trace(),
+            AnyLink::CanopenSim(l) => l.take_trace(),
+            AnyLink::CanopenSlcan(l) => l.take_trace(),
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.take_trace(),
         }
     }
 

@@ -115,6 +115,7 @@ impl Link for SimLink {
             description: "Simulated drive (in-process)".into(),
             native_objects: true,
             can_inject: true,
+            pdi: true,
         }
     }
 

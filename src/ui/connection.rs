@@ -113,6 +113,19 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
         }
 
         let spec = form.spec();
+        let is_can = matches!(
+            form.bus,
+            Bus::CanopenSim | Bus::CanopenSlcan | Bus::CanopenSocketcan
+        );
+        if is_can
+            && ui
+                .add_enabled(spec.is_ok(), egui::Button::new("Scan bus"))
+                .on_hover_text("Find the CANopen nodes on this bus: heartbeats, and 1018h read from every node id")
+                .clicked()
+            && let Ok(spec) = spec.clone()
+        {
+            state.request(Request::Scan(spec));
+        }
         let busy = matches!(state.connection, Connection::Connecting(_));
         match &state.connection {
             Connection::Connected(_)
@@ -243,4 +256,62 @@ pub fn stop_keys(ctx: &egui::Context, state: &mut AppState) {
     } else if quickstop {
         state.request(Request::Command(Action::Quickstop));
     }
+}
+
+/// The last bus scan: the nodes found, each with a button to connect to it.
+pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
+    let Some(result) = state.scan.clone() else {
+        return;
+    };
+    ui.horizontal(|ui| {
+        ui.label(RichText::new("Bus scan").strong());
+        if ui.small_button("Close").clicked() {
+            state.scan = None;
+        }
+    });
+    let found = match result {
+        Ok(found) => found,
+        Err(e) => {
+            ui.colored_label(RED, e);
+            return;
+        }
+    };
+    if found.is_empty() {
+        ui.label("No node answered: check the bit rate, the wiring and the termination (120 Ω at both ends).");
+        return;
+    }
+    egui::Grid::new("scan_results")
+        .num_columns(8)
+        .striped(true)
+        .show(ui, |ui| {
+            for title in [
+                "Node", "Vendor", "Product", "Revision", "Serial", "Name", "State", "",
+            ] {
+                ui.label(RichText::new(title).strong());
+            }
+            ui.end_row();
+            for device in &found {
+                let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
+                ui.label(&device.address);
+                ui.label(device.vendor_name());
+                ui.monospace(hex(device.product));
+                ui.monospace(hex(device.revision));
+                ui.monospace(hex(device.serial));
+                ui.label(device.name.clone().unwrap_or_default());
+                ui.label(device.state.clone().unwrap_or_default());
+                if let Some(node) = device.node {
+                    let use_it = ui.button(format!("Use node {node}"));
+                    if use_it.clicked() {
+                        state.settings.connection.node = node.to_string();
+                        if let Ok(spec) = state.settings.connection.spec() {
+                            state.request(Request::Connect(spec));
+                        }
+                        state.scan = None;
+                    }
+                } else {
+                    ui.label("");
+                }
+                ui.end_row();
+            }
+        });
 }

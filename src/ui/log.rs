@@ -8,10 +8,20 @@ use super::widgets::{AMBER, GREEN, RED};
 pub fn log_ui(ui: &mut Ui, state: &mut AppState) {
     ui.horizontal(|ui| {
         ui.heading("Log");
+        ui.selectable_value(&mut state.show_frames, false, "Commands");
+        ui.selectable_value(&mut state.show_frames, true, "Bus frames");
         if ui.small_button("Clear").clicked() {
-            state.log.clear();
+            if state.show_frames {
+                state.frames.clear();
+            } else {
+                state.log.clear();
+            }
         }
     });
+    if state.show_frames {
+        frames_ui(ui, state);
+        return;
+    }
     egui::ScrollArea::vertical()
         .stick_to_bottom(true)
         .auto_shrink([false, false])
@@ -47,4 +57,45 @@ pub fn log_ui(ui: &mut Ui, state: &mut AppState) {
                     }
                 });
         });
+}
+
+/// The bus frames, decoded, with the export to a candump-style log.
+fn frames_ui(ui: &mut Ui, state: &mut AppState) {
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut state.settings.record_frames, "Record frames")
+            .on_hover_text("Every frame sent and received, decoded (NMT, SDO, PDO, EMCY, heartbeat; Modbus function codes)");
+        ui.label(format!("{} kept", state.frames.len()));
+        ui.separator();
+        super::widgets::named_text_edit(ui, &mut state.settings.frame_log_path, 220.0, "Frame log file");
+        if ui
+            .add_enabled(!state.frames.is_empty(), egui::Button::new("Export"))
+            .on_hover_text("Write the frames kept to this file: candump's log format for CAN, one line per frame")
+            .clicked()
+        {
+            let text: String = state.frames.iter().map(|f| f.log_line() + "\n").collect();
+            let path = state.settings.frame_log_path.clone();
+            match std::fs::write(&path, text) {
+                Ok(()) => state.info(format!("{} frames written to {path}", state.frames.len())),
+                Err(e) => state.info(format!("could not write {path}: {e}")),
+            }
+        }
+    });
+    egui::ScrollArea::vertical()
+        .id_salt("frames_scroll")
+        .stick_to_bottom(true)
+        .auto_shrink([false, false])
+        .show_rows(
+            ui,
+            ui.text_style_height(&egui::TextStyle::Monospace),
+            state.frames.len(),
+            |ui, rows| {
+                for frame in state.frames.range(rows) {
+                    ui.horizontal(|ui| {
+                        ui.monospace(if frame.sent { "tx" } else { "rx" });
+                        ui.monospace(&frame.raw);
+                        ui.label(&frame.text);
+                    });
+                }
+            },
+        );
 }

@@ -27,6 +27,7 @@ pub struct App {
     worker: Option<Worker>,
     started: Instant,
     last_poll_rate: f64,
+    last_record_frames: bool,
 }
 
 impl App {
@@ -51,6 +52,7 @@ impl App {
             worker,
             started: Instant::now(),
             last_poll_rate,
+            last_record_frames: false,
         };
         if connect {
             match app.state.settings.connection.spec() {
@@ -75,6 +77,12 @@ impl App {
     /// Hand the user's requests to the worker. The worker never blocks the window: a full
     /// queue is reported, not waited for.
     pub fn flush_outbox(&mut self) {
+        if self.state.settings.record_frames != self.last_record_frames {
+            self.last_record_frames = self.state.settings.record_frames;
+            self.state
+                .outbox
+                .push(Request::SetTrace(self.last_record_frames));
+        }
         if self.state.settings.poll_rate != self.last_poll_rate {
             self.last_poll_rate = self.state.settings.poll_rate;
             self.state
@@ -111,6 +119,10 @@ impl App {
                     });
                 });
             });
+            if state.scan.is_some() {
+                ui.separator();
+                connection::scan_results_ui(ui, state);
+            }
             ui.add_space(4.0);
         });
         egui::Panel::bottom("log")

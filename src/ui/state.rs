@@ -15,6 +15,8 @@ use crate::worker::{CommandProgress, Event, Health, ObjectPath, Request, Request
 
 /// Log entries kept in the window.
 pub const LOG_LIMIT: usize = 2000;
+/// Bus frames kept in the window (the export writes what is kept).
+pub const FRAME_LIMIT: usize = 20_000;
 /// Plot history per signal: 60 s at the default 100 Hz.
 pub const HISTORY_SAMPLES: usize = 6000;
 
@@ -246,6 +248,10 @@ pub struct Settings {
     /// Torque slope suggested when 6087h is 0, ‰/s.
     pub torque_slope: String,
     pub show_log: bool,
+    /// Record every bus frame in the frame log.
+    pub record_frames: bool,
+    /// Where "Export" writes the frame log (candump format for CAN).
+    pub frame_log_path: String,
 }
 
 impl Default for Settings {
@@ -271,6 +277,8 @@ impl Default for Settings {
             poll_rate: 100.0,
             torque_slope: "1000".into(),
             show_log: true,
+            record_frames: false,
+            frame_log_path: "drivedeck-frames.log".into(),
         }
     }
 }
@@ -358,6 +366,12 @@ pub struct AppState {
     pub clock: f64,
     /// Serial ports found by the last scan (for Modbus RTU and slcan).
     pub serial_ports: Option<Vec<String>>,
+    /// Bus frames recorded (when `settings.record_frames`).
+    pub frames: VecDeque<crate::link::TraceRecord>,
+    /// Which log the bottom panel shows.
+    pub show_frames: bool,
+    /// The last bus scan's result.
+    pub scan: Option<Result<Vec<crate::link::FoundDevice>, String>>,
     /// Reads of 6087h the window asked for itself (not logged).
     slope_reads: Vec<RequestId>,
     /// The halt request still running.
@@ -382,6 +396,9 @@ impl AppState {
             injected: Vec::new(),
             clock: 0.0,
             serial_ports: None,
+            scan: None,
+            frames: VecDeque::new(),
+            show_frames: false,
             slope_reads: Vec::new(),
             halt_request: None,
         }
@@ -648,6 +665,21 @@ impl AppState {
                 }
             }
             Event::Health(health) => self.health = Some(health),
+            Event::Frames(frames) => {
+                for frame in frames {
+                    if self.frames.len() >= FRAME_LIMIT {
+                        self.frames.pop_front();
+                    }
+                    self.frames.push_back(frame);
+                }
+            }
+            Event::Scanned { result, .. } => {
+                match &result {
+                    Ok(found) => self.info(format!("bus scan: {} device(s) found", found.len())),
+                    Err(e) => self.info(format!("bus scan failed: {e}")),
+                }
+                self.scan = Some(result);
+            }
             Event::Notice(text) => self.info(text),
         }
     }

@@ -49,6 +49,12 @@ fn mode_name(mode: i8) -> &'static str {
 
 pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
     ui.heading("Drive status");
+    if state.link_info().is_some_and(|i| !i.pdi) {
+        ui.colored_label(
+            AMBER,
+            "This device has no Plug & Drive interface (2291h/2292h): object access only, no PDI commands.",
+        );
+    }
     let Some(sample) = state.latest else {
         ui.label("No status yet: connect to a drive.");
         return;

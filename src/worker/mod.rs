@@ -37,6 +37,8 @@ pub struct Config {
     pub timing: Timing,
     /// Reconnect with backoff after a link error.
     pub reconnect: bool,
+    /// Report every frame (`Event::Frames`) from the start.
+    pub trace: bool,
 }
 
 impl Default for Config {
@@ -45,6 +47,7 @@ impl Default for Config {
             poll_rate: 100.0,
             timing: Timing::default(),
             reconnect: true,
+            trace: false,
         }
     }
 }

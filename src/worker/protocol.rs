@@ -3,7 +3,7 @@
 use std::fmt;
 use std::time::Duration;
 
-use crate::link::{LinkInfo, LinkSpec};
+use crate::link::{FoundDevice, LinkInfo, LinkSpec, TraceRecord};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Failure, RxImage, TxImage, Waiting};
 use crate::sim::Injection;
@@ -53,6 +53,11 @@ pub enum Request {
     },
     /// Change the poll rate (cycles per second).
     SetPollRate(f64),
+    /// Report every frame the link sends and receives (`Event::Frames`), or stop.
+    SetTrace(bool),
+    /// Find the devices on a bus: through the open link when it is on that bus, otherwise
+    /// by opening the bus for the scan.
+    Scan(LinkSpec),
 }
 
 impl Request {
@@ -85,6 +90,8 @@ impl fmt::Display for Request {
                 }
             }
             Request::SetPollRate(hz) => write!(f, "poll at {hz} Hz"),
+            Request::Scan(spec) => write!(f, "scan {}", spec.bus_name()),
+            Request::SetTrace(on) => write!(f, "frame trace {}", if *on { "on" } else { "off" }),
         }
     }
 }
@@ -243,4 +250,12 @@ pub enum Event {
     Health(Health),
     /// Something the user should know that is not tied to a request.
     Notice(String),
+    /// Frames the link sent and received, when the trace is on (dropped, never queued
+    /// without bound, when the UI is slow).
+    Frames(Vec<TraceRecord>),
+    /// What a bus scan found.
+    Scanned {
+        id: RequestId,
+        result: Result<Vec<FoundDevice>, String>,
+    },
 }

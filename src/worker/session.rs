@@ -42,6 +42,8 @@ enum Purpose {
 struct Session {
     link: AnyLink,
     native_objects: bool,
+    /// Whether the device has the PDI at all.
+    pdi: bool,
     master: PdiMaster,
     started: Instant,
     queue: VecDeque<Envelope>,
@@ -161,6 +163,19 @@ fn new_ticker(rate: f64) -> tokio::time::Interval {
     ticker
 }
 
+/// Whether two connection strings name the same physical bus (the node may differ).
+fn same_bus(a: &LinkSpec, b: &LinkSpec) -> bool {
+    match (a, b) {
+        (LinkSpec::CanopenSlcan { path: x, .. }, LinkSpec::CanopenSlcan { path: y, .. }) => x == y,
+        (
+            LinkSpec::CanopenSocketcan { iface: x, .. },
+            LinkSpec::CanopenSocketcan { iface: y, .. },
+        ) => x == y,
+        (LinkSpec::CanopenSim { .. }, LinkSpec::CanopenSim { .. }) => true,
+        _ => false,
+    }
+}
+
 fn reject_unconnected(id: RequestId, request: &Request, sink: &mut EventSink) {
     sink.emit(Event::Rejected {
         id,
@@ -172,7 +187,7 @@ fn reject_unconnected(id: RequestId, request: &Request, sink: &mut EventSink) {
 impl Worker {
     async fn tick(&mut self, sink: &mut EventSink) {
         if let Some(s) = self.session.as_mut() {
-            if let Err(error) = s.cycle(sink).await {
+            if let Err(error) = s.cycle(sink, self.config.trace).await {
                 let Some(mut s) = self.session.take() else {
                     return;
                 };
@@ -218,6 +233,13 @@ impl Worker {
                 self.retry_at = None;
                 sink.emit(Event::Disconnected { reason: None });
             }
+            Request::SetTrace(on) => {
+                self.config.trace = on;
+                if let Some(s) = self.session.as_mut() {
+                    // Start from now: older frames are not news.
+                    let _ = s.link.take_trace();
+                }
+            }
             Request::SetPollRate(rate) => {
                 if rate.is_finite() && (1.0..=2000.0).contains(&rate) {
                     self.config.poll_rate = rate;
@@ -229,6 +251,20 @@ impl Worker {
                         reason: format!("a poll rate of {rate} Hz is outside 1 to 2000 Hz"),
                     });
                 }
+            }
+            Request::Scan(spec) => {
+                let same_bus = self
+                    .session
+                    .as_ref()
+                    .is_some_and(|s| same_bus(&s.link.info().spec, &spec));
+                let result = match self.session.as_mut() {
+                    Some(s) if same_bus => s.link.scan().await,
+                    _ => link::scan(&spec).await,
+                };
+                sink.emit(Event::Scanned {
+                    id,
+                    result: result.map_err(|e| e.to_string()),
+                });
             }
             Request::Inject { injection, active } => match self.session.as_mut() {
                 Some(s) => match s.link.inject(injection, active).await {
@@ -297,8 +333,16 @@ impl Worker {
             },
         };
         match result {
-            Ok(s) => {
+            Ok(mut s) => {
                 sink.emit(Event::Connected(s.link.info()));
+                // What connecting took (PDO mapping, for one), and what the link learned.
+                let frames = s.link.take_trace();
+                if self.config.trace && !frames.is_empty() {
+                    sink.emit(Event::Frames(frames));
+                }
+                for notice in s.link.take_notices() {
+                    sink.emit(Event::Notice(notice));
+                }
                 self.session = Some(s);
                 self.retry_at = None;
                 self.backoff = BACKOFF_FIRST;
@@ -332,10 +376,12 @@ impl Session {
         let first = link.exchange(None).await?;
         let now = Instant::now();
         master.on_tx(first.tx, now);
-        let native_objects = link.info().native_objects;
+        let info = link.info();
+        let native_objects = info.native_objects;
         Ok(Session {
             link,
             native_objects,
+            pdi: info.pdi,
             master,
             started: now,
             queue: VecDeque::new(),
@@ -353,7 +399,7 @@ impl Session {
     }
 
     /// One poll cycle. An error means the link is gone.
-    async fn cycle(&mut self, sink: &mut EventSink) -> Result<(), link::Error> {
+    async fn cycle(&mut self, sink: &mut EventSink, trace: bool) -> Result<(), link::Error> {
         let outgoing = self.master.outgoing();
         let sent = Instant::now();
         let exchange = match self.link.exchange(outgoing.as_ref()).await {
@@ -392,6 +438,11 @@ impl Session {
         }
 
         self.run_jobs(sink).await?;
+
+        let frames = self.link.take_trace();
+        if trace && !frames.is_empty() {
+            sink.emit(Event::Frames(frames));
+        }
 
         let notices = self.link.take_notices();
         if !notices.is_empty() {
@@ -557,6 +608,16 @@ impl Session {
 
     /// Hand a request to the PDI master and write its image with the next exchange.
     fn start_pdi(&mut self, id: RequestId, request: Request, sink: &mut EventSink) {
+        if !self.pdi {
+            sink.emit(Event::Rejected {
+                id,
+                request: request.to_string(),
+                reason:
+                    "this device has no Plug & Drive interface (2291h/2292h): object access only"
+                        .into(),
+            });
+            return;
+        }
         let now = Instant::now();
         let described = request.to_string();
         let (result, purpose) = match &request {

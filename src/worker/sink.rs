@@ -47,9 +47,13 @@ impl EventSink {
     }
 
     fn hold(&mut self, event: Event) {
-        if let Event::Samples(samples) = &event {
-            self.dropped_samples += samples.len() as u64;
-            return;
+        match &event {
+            Event::Samples(samples) => {
+                self.dropped_samples += samples.len() as u64;
+                return;
+            }
+            Event::Frames(_) => return,
+            _ => {}
         }
         if self.backlog.len() >= BACKLOG_LIMIT {
             self.backlog.pop_front();

@@ -12,7 +12,9 @@ use super::pdo::{self, PdoComm, PdoKind, SdoWrite};
 use super::sdo::{SdoClient, SdoEvent};
 use super::{CanBus, CanFrame};
 use crate::cia::{AbortCode, ErrorCode};
-use crate::link::{CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals};
+use crate::link::{
+    CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals, TraceRecord,
+};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
 
@@ -23,6 +25,8 @@ pub const SDO_TIMEOUT: Duration = Duration::from_millis(500);
 const EVENT_TIMER_MS: u16 = 100;
 /// Inhibit time of the PDI TPDO: 2 ms (20 × 100 µs) keeps a busy drive from flooding the bus.
 const INHIBIT_100US: u16 = 20;
+/// The RPDO is repeated at least this often while it does not change.
+const RPDO_REFRESH: Duration = Duration::from_millis(50);
 /// No TPDO for this long: the drive is gone.
 const SILENCE: Duration = Duration::from_millis(3 * EVENT_TIMER_MS as u64 + 200);
 
@@ -31,6 +35,8 @@ const SILENCE: Duration = Duration::from_millis(3 * EVENT_TIMER_MS as u64 + 200)
 enum PdiPath {
     Pdo,
     Sdo,
+    /// The node has no 2291h/2292h: object access only.
+    Absent,
 }
 
 /// What drivedeck changed on the drive, to put back on disconnect.
@@ -39,17 +45,11 @@ struct Saved {
     writes: Vec<SdoWrite>,
 }
 
-/// A frame seen or sent, for the frame log.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Traced {
-    pub at: Instant,
-    pub sent: bool,
-    pub frame: CanFrame,
-}
-
 /// A drive on a CAN bus.
 pub struct CanopenLink<B: CanBus> {
     spec: LinkSpec,
+    /// The interface name candump logs use.
+    interface: String,
     bus: B,
     options: CanopenOptions,
     path: PdiPath,
@@ -57,9 +57,10 @@ pub struct CanopenLink<B: CanBus> {
     tx: Option<TxImage>,
     last_tpdo: Option<Instant>,
     last_rx: Option<RxImage>,
+    last_rpdo: Option<Instant>,
     saved: Saved,
     notices: Vec<String>,
-    trace: VecDeque<Traced>,
+    trace: VecDeque<TraceRecord>,
 }
 
 impl<B: CanBus> std::fmt::Debug for CanopenLink<B> {
@@ -77,7 +78,13 @@ impl<B: CanBus> CanopenLink<B> {
     /// Connect to node `options.node` on `bus`: check it answers, map the PDI PDOs (or fall
     /// back to SDO), start it.
     pub async fn connect(spec: LinkSpec, bus: B, options: CanopenOptions) -> Result<Self, Error> {
+        let interface = match &spec {
+            LinkSpec::CanopenSocketcan { iface, .. } => iface.clone(),
+            LinkSpec::CanopenSlcan { .. } => "slcan0".into(),
+            _ => "vcan0".into(),
+        };
         let mut link = CanopenLink {
+            interface,
             spec,
             sdo: SdoClient::new(options.node),
             bus,
@@ -86,6 +93,7 @@ impl<B: CanBus> CanopenLink<B> {
             tx: None,
             last_tpdo: None,
             last_rx: None,
+            last_rpdo: None,
             saved: Saved::default(),
             notices: vec![],
             trace: VecDeque::new(),
@@ -99,6 +107,16 @@ impl<B: CanBus> CanopenLink<B> {
                     options.node
                 )));
             }
+        }
+        // A node without the Plug & Drive interface (any CANopen device) still gets
+        // object access.
+        if let Err(code) = link.sdo_upload(0x2292, 1).await? {
+            link.path = PdiPath::Absent;
+            link.notices.push(format!(
+                "node {} has no Plug & Drive interface (reading 2292h:01h: {code}): object access only",
+                options.node
+            ));
+            return Ok(link);
         }
         match link.map_pdi().await? {
             Ok(()) => link.path = PdiPath::Pdo,
@@ -121,16 +139,13 @@ impl<B: CanBus> CanopenLink<B> {
         if self.trace.len() >= TRACE_LIMIT {
             self.trace.pop_front();
         }
-        self.trace.push_back(Traced {
-            at: Instant::now(),
+        self.trace.push_back(TraceRecord {
+            at: std::time::SystemTime::now(),
             sent,
-            frame: *frame,
+            raw: frame.to_string(),
+            text: super::describe::describe(frame),
+            can: Some((*frame, self.interface.clone())),
         });
-    }
-
-    /// Frames sent and received since the last call, oldest first.
-    pub fn take_trace(&mut self) -> Vec<Traced> {
-        self.trace.drain(..).collect()
     }
 
     async fn send(&mut self, frame: &CanFrame) -> Result<(), Error> {
@@ -398,6 +413,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
         let path = match self.path {
             PdiPath::Pdo => format!("PDI on RPDO{0}/TPDO{0}", self.options.pdo),
             PdiPath::Sdo => "PDI over SDO".to_owned(),
+            PdiPath::Absent => "objects only: no PDI".to_owned(),
         };
         LinkInfo {
             spec: self.spec.clone(),
@@ -408,13 +424,18 @@ impl<B: CanBus> Link for CanopenLink<B> {
             ),
             native_objects: true,
             can_inject: false,
+            pdi: self.path != PdiPath::Absent,
         }
     }
 
     async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<Exchange, Error> {
         match self.path {
             PdiPath::Pdo => {
-                if let Some(rx) = rx {
+                // The RPDO goes out when the image changes, and every RPDO_REFRESH anyway (a
+                // drive may watch its arrival); not every cycle, to spare the bus.
+                let due = self.last_rpdo.is_none_or(|t| t.elapsed() >= RPDO_REFRESH);
+                if let Some(rx) = rx.filter(|rx| due || self.last_rx != Some(**rx)) {
+                    self.last_rpdo = Some(Instant::now());
                     let cob = 0x200
                         + 0x100 * u16::from(self.options.pdo - 1)
                         + u16::from(self.options.node);
@@ -435,6 +456,10 @@ impl<B: CanBus> Link for CanopenLink<B> {
                         after: SILENCE,
                     });
                 }
+            }
+            PdiPath::Absent => {
+                // Nothing to exchange; keep the bus read so EMCY and heartbeats are seen.
+                self.drain(Duration::from_millis(1)).await?;
             }
             PdiPath::Sdo => {
                 if let Some(rx) = rx
@@ -468,6 +493,9 @@ impl<B: CanBus> Link for CanopenLink<B> {
     }
 
     async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {
+        if self.path == PdiPath::Absent {
+            return Ok(None);
+        }
         let mut bytes = [0u8; 8];
         for (sub, range) in [(1u8, 0..4), (2, 4..6), (3, 6..7), (4, 7..8)] {
             match self.sdo_upload(0x2291, sub).await? {
@@ -509,6 +537,14 @@ impl<B: CanBus> Link for CanopenLink<B> {
 
     fn take_notices(&mut self) -> Vec<String> {
         std::mem::take(&mut self.notices)
+    }
+
+    fn take_trace(&mut self) -> Vec<TraceRecord> {
+        self.trace.drain(..).collect()
+    }
+
+    async fn scan(&mut self) -> Result<Vec<crate::link::FoundDevice>, Error> {
+        super::scan::scan(&mut self.bus).await
     }
 
     async fn close(&mut self) -> Result<(), Error> {

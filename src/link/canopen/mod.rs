@@ -9,6 +9,7 @@ pub mod emcy;
 mod frame;
 pub mod nmt;
 pub mod pdo;
+pub mod scan;
 pub mod sdo;
 pub mod simbus;
 pub mod slcan;

@@ -309,6 +309,7 @@ impl Link for ModbusLink {
             ),
             native_objects: self.fc43 != Support::No,
             can_inject: false,
+            pdi: true,
         }
     }
 
@@ -404,6 +405,10 @@ impl Link for ModbusLink {
 
     fn take_notices(&mut self) -> Vec<String> {
         std::mem::take(&mut self.notices)
+    }
+
+    fn take_trace(&mut self) -> Vec<crate::link::TraceRecord> {
+        self.transport.take_trace()
     }
 
     async fn reconnect(&mut self) -> Result<(), Error> {

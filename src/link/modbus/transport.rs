@@ -11,10 +11,10 @@ use tokio_serial::{SerialPort, SerialPortBuilderExt, SerialStream};
 
 use super::frame::{self, Direction};
 use super::pdu::{Exception, Request, Response};
-use crate::link::{Error, LinkSpec, Parity};
+use crate::link::{Error, LinkSpec, Parity, TraceRecord};
 
 /// Frames kept for diagnostics (the log panel and error messages).
-const TRACE_LIMIT: usize = 64;
+const TRACE_LIMIT: usize = 4096;
 
 /// Where a Modbus connection goes.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -66,14 +66,6 @@ impl Endpoint {
     }
 }
 
-/// One frame as it went over the wire, for the log.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct TracedFrame {
-    pub at: Instant,
-    pub sent: bool,
-    pub bytes: Vec<u8>,
-}
-
 enum Io {
     Tcp(TcpStream),
     Rtu(Box<SerialStream>),
@@ -87,7 +79,7 @@ pub struct Transport {
     transaction: u16,
     buffer: Vec<u8>,
     last_answer: Option<Instant>,
-    trace: VecDeque<TracedFrame>,
+    trace: VecDeque<TraceRecord>,
 }
 
 impl std::fmt::Debug for Transport {
@@ -136,9 +128,9 @@ impl Transport {
         &self.endpoint
     }
 
-    /// The last frames sent and received, oldest first.
-    pub fn trace(&self) -> impl Iterator<Item = &TracedFrame> {
-        self.trace.iter()
+    /// The frames sent and received since the last call, oldest first.
+    pub fn take_trace(&mut self) -> Vec<TraceRecord> {
+        self.trace.drain(..).collect()
     }
 
     /// Open the connection again after a failure.
@@ -159,10 +151,21 @@ impl Transport {
         if self.trace.len() >= TRACE_LIMIT {
             self.trace.pop_front();
         }
-        self.trace.push_back(TracedFrame {
-            at: Instant::now(),
+        let function = match self.io {
+            Io::Tcp(_) => bytes.get(7),
+            Io::Rtu(_) => bytes.get(1),
+        };
+        let text = match function {
+            Some(f) if f & 0x80 != 0 => format!("FC {} exception", f & 0x7F),
+            Some(f) => format!("FC {f} {}", if sent { "request" } else { "response" }),
+            None => "short frame".into(),
+        };
+        self.trace.push_back(TraceRecord {
+            at: std::time::SystemTime::now(),
             sent,
-            bytes: bytes.to_vec(),
+            raw: hex(bytes),
+            text,
+            can: None,
         });
     }
 
