@@ -218,6 +218,9 @@ impl<B: CanBus> CanopenLink<B> {
         first: CanFrame,
         what: &str,
     ) -> Result<Result<Vec<u8>, AbortCode>, Error> {
+        // Frames that arrived before this transfer (a stale answer to someone else's
+        // request, a TPDO) are not its answer.
+        self.drain(Duration::ZERO).await?;
         self.send(&first).await?;
         loop {
             let event = self
@@ -541,6 +544,14 @@ impl<B: CanBus> Link for CanopenLink<B> {
 
     fn take_trace(&mut self) -> Vec<TraceRecord> {
         self.trace.drain(..).collect()
+    }
+
+    async fn inject(
+        &mut self,
+        injection: crate::sim::Injection,
+        active: bool,
+    ) -> Result<(), Error> {
+        self.bus.inject(injection, active).await
     }
 
     async fn scan(&mut self) -> Result<Vec<crate::link::FoundDevice>, Error> {

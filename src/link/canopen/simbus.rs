@@ -57,4 +57,23 @@ impl CanBus for SimCanBus {
     fn describe(&self) -> String {
         "the simulated CAN bus".into()
     }
+
+    async fn inject(
+        &mut self,
+        injection: crate::sim::Injection,
+        active: bool,
+    ) -> Result<(), Error> {
+        if injection.is_link() {
+            return Err(Error::Unsupported(
+                "a link loss is simulated on the in-process simulator link (sim), not on the CAN bus".into(),
+            ));
+        }
+        let mut drive = self.drive.lock();
+        if active {
+            drive.inject(injection);
+        } else {
+            drive.withdraw(injection);
+        }
+        Ok(())
+    }
 }

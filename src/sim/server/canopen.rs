@@ -38,11 +38,14 @@ pub struct Node {
     last_heartbeat: Option<Instant>,
     last_error_code: u16,
     booted: bool,
+    /// Refuse PDO mapping changes, like a device with fixed mappings.
+    fixed_mapping: bool,
 }
 
 /// The drive's object dictionary as seen by the SDO server: bytes in the objects' types.
 struct DriveAccess<'a> {
     drive: &'a mut Drive,
+    fixed_mapping: bool,
 }
 
 impl ObjectAccess for DriveAccess<'_> {
@@ -60,6 +63,11 @@ impl ObjectAccess for DriveAccess<'_> {
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let address = Address::new(index, sub);
+        if self.fixed_mapping
+            && ((0x1600..0x1800).contains(&index) || (0x1A00..0x1C00).contains(&index))
+        {
+            return Err(AbortCode::READ_ONLY);
+        }
         let Some(entry) = self.drive.entry(address).cloned() else {
             // Let the drive say whether the object or only the subindex is missing.
             return Err(self
@@ -130,7 +138,15 @@ impl Node {
             last_heartbeat: None,
             last_error_code: 0,
             booted: false,
+            fixed_mapping: false,
         }
+    }
+
+    /// A node whose PDO mappings cannot be changed (writes to 1600h-17FFh and 1A00h-1BFFh
+    /// are refused with 06010002h), so a master must run the PDI over SDO.
+    pub fn with_fixed_mapping(mut self, fixed: bool) -> Node {
+        self.fixed_mapping = fixed;
+        self
     }
 
     pub fn id(&self) -> u8 {
@@ -157,7 +173,10 @@ impl Node {
         }
         if cob == 0x600 + u16::from(self.id) {
             if self.state != NmtState::Stopped {
-                let mut access = DriveAccess { drive };
+                let mut access = DriveAccess {
+                    drive,
+                    fixed_mapping: self.fixed_mapping,
+                };
                 if let Some(answer) = self.sdo.on_request(frame, &mut access) {
                     out.push(answer);
                 }
@@ -349,15 +368,20 @@ impl Node {
 }
 
 /// Serve the shared drive as node `id` on `bus` until the bus fails.
-pub async fn run<B: CanBus>(
-    mut bus: B,
-    id: u8,
-    shared: SharedDrive,
-) -> Result<(), crate::link::Error> {
-    let mut node = {
+pub async fn run<B: CanBus>(bus: B, id: u8, shared: SharedDrive) -> Result<(), crate::link::Error> {
+    let node = {
         let mut drive = shared.lock();
         Node::new(id, &mut drive)
     };
+    run_node(bus, node, shared).await
+}
+
+/// Serve `node` (built by the caller, e.g. with a fixed mapping) on `bus`.
+pub async fn run_node<B: CanBus>(
+    mut bus: B,
+    mut node: Node,
+    shared: SharedDrive,
+) -> Result<(), crate::link::Error> {
     let mut ticker = tokio::time::interval(Duration::from_millis(1));
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     loop {
