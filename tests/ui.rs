@@ -156,6 +156,7 @@ fn commands_harness() -> Harness<'static, AppState> {
         description: "test".into(),
         native_objects: true,
         can_inject: true,
+        pdi: true,
     });
     state.torque_slope = Some(1000);
     Harness::builder()
@@ -365,4 +366,75 @@ fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor()
             .map(|s| s.scheme()),
         Ok("modbus-tcp")
     );
+}
+
+#[test]
+fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
+    let app = App::new(Settings::default(), Arc::new(|| {}), false);
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    harness.run();
+    harness.get_by_label("Bus").click();
+    harness.run();
+    harness.get_by_label("CANopen (simulated bus)").click();
+    harness.run();
+    harness
+        .get_by_label("Connection: Node")
+        .set_text_value_accesskit("6");
+    harness.run();
+    harness.get_by_label("Scan bus").click();
+    harness.step();
+    step_until(&mut harness, "the scan", Duration::from_secs(5), |h| {
+        h.state().state.scan.is_some()
+    });
+    let found = harness
+        .state()
+        .state
+        .scan
+        .clone()
+        .expect("scan")
+        .expect("no error");
+    assert_eq!(found.len(), 1);
+    assert_eq!(found[0].node, Some(6));
+    assert_eq!(found[0].name.as_deref(), Some("drivedeck simulated drive"));
+    harness.run();
+    harness.get_by_label("Use node 6").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the CANopen connection",
+        Duration::from_secs(5),
+        |h| {
+            h.state().state.link_info().is_some_and(|i| {
+                i.description.contains("CANopen node 6") && i.description.contains("RPDO1/TPDO1")
+            }) && h.state().state.latest.is_some()
+        },
+    );
+    harness.get_by_label("Move absolute").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the target over PDOs",
+        Duration::from_secs(5),
+        |h| {
+            lamp(h, "Target reached")
+                && h.state().state.latest.map(|s| s.tx.return_value) == Some(2000)
+        },
+    );
+    // Any object, read the way the link does it best: 1008h over a segmented SDO upload.
+    harness
+        .get_by_label("Object address")
+        .set_text_value_accesskit("1008");
+    harness.run();
+    harness.get_by_label("Read").click();
+    harness.step();
+    step_until(&mut harness, "the string", Duration::from_secs(3), |h| {
+        h.state().state.last_object.as_ref().is_some_and(|r| {
+            r.result
+                == Ok(drivedeck::od::Value::Text(
+                    "drivedeck simulated drive".into(),
+                ))
+        })
+    });
 }

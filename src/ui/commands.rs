@@ -185,6 +185,7 @@ pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
             });
         ui.add_space(6.0);
     }
+    object_ui(ui, state);
     if let Some(read) = &state.last_object {
         let text = match &read.result {
             Ok(value) => {
@@ -379,4 +380,76 @@ fn torque_warning_ui(ui: &mut Ui, state: &mut AppState) {
     if modal.should_close() {
         state.torque_warning = None;
     }
+}
+
+/// Read or write any object the way the link does it best (SDO, FC 43, directly on the
+/// simulator; the PDI where nothing else exists): strings and 64-bit values included.
+fn object_ui(ui: &mut Ui, state: &mut AppState) {
+    ui.label(RichText::new("Any object").strong())
+        .on_hover_text("Read or write through the link's own object access (SDO, FC 43, direct), any type and length");
+    let connected = state.is_connected();
+    ui.horizontal(|ui| {
+        let address_text = &mut state.settings.object_address;
+        named_text_edit(ui, address_text, 70.0, "Object address");
+        let address = address_text.parse::<Address>();
+        let entry = address
+            .as_ref()
+            .ok()
+            .and_then(|a| od::builtin().get(*a))
+            .cloned();
+        let name = match (&address, &entry) {
+            (Err(e), _) => e.to_string(),
+            (Ok(_), Some(entry)) => {
+                format!("{} ({}, {})", entry.full_name(), entry.dtype, entry.access)
+            }
+            (Ok(_), None) => "not in the catalog: read as a 32-bit integer".to_owned(),
+        };
+        let read = ui
+            .add_enabled(connected && address.is_ok(), egui::Button::new("Read"))
+            .on_disabled_hover_text(if connected {
+                name.clone()
+            } else {
+                "not connected".to_owned()
+            });
+        if read.clicked()
+            && let Ok(address) = address.clone()
+        {
+            state.request(Request::ReadObject {
+                address,
+                dtype: entry.as_ref().map(|e| e.dtype),
+                path: ObjectPath::Auto,
+            });
+        }
+        named_text_edit(ui, &mut state.settings.object_value, 120.0, "Object value");
+        let parsed = match (&address, &entry) {
+            (Ok(_), Some(entry)) if !entry.access.writable() => {
+                Err(format!("{} is read-only", entry.full_name()))
+            }
+            (Ok(_), Some(entry)) => Value::parse(entry.dtype, &state.settings.object_value)
+                .and_then(|v| entry.check(&v).map(|()| v))
+                .map(|v| (entry.dtype, v))
+                .map_err(|e| e.to_string()),
+            (Ok(_), None) => Value::parse(DataType::Integer32, &state.settings.object_value)
+                .map(|v| (DataType::Integer32, v))
+                .map_err(|e| e.to_string()),
+            (Err(e), _) => Err(e.to_string()),
+        };
+        let write = ui
+            .add_enabled(connected && parsed.is_ok(), egui::Button::new("Write"))
+            .on_disabled_hover_text(match &parsed {
+                Err(reason) => reason.clone(),
+                Ok(_) => "not connected".to_owned(),
+            });
+        if write.clicked()
+            && let (Ok(address), Ok((dtype, value))) = (address, parsed.clone())
+        {
+            state.request(Request::WriteObject {
+                address,
+                dtype,
+                value,
+                path: ObjectPath::Auto,
+            });
+        }
+        ui.weak(name);
+    });
 }

@@ -250,6 +250,9 @@ pub struct Settings {
     pub show_log: bool,
     /// Record every bus frame in the frame log.
     pub record_frames: bool,
+    /// The "any object" row: address and value as typed.
+    pub object_address: String,
+    pub object_value: String,
     /// Where "Export" writes the frame log (candump format for CAN).
     pub frame_log_path: String,
 }
@@ -278,6 +281,8 @@ impl Default for Settings {
             torque_slope: "1000".into(),
             show_log: true,
             record_frames: false,
+            object_address: "1008".into(),
+            object_value: String::new(),
             frame_log_path: "drivedeck-frames.log".into(),
         }
     }
