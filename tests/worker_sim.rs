@@ -117,6 +117,38 @@ impl Probe {
         }
         self.last_sample.expect("samples")
     }
+
+    /// Wait for a sample that satisfies `want`, keeping everything seen on the way; a
+    /// loaded machine may need a few cycles more than a quiet one.
+    fn sample_where(
+        &mut self,
+        what: &str,
+        timeout: Duration,
+        want: impl Fn(&Sample) -> bool,
+    ) -> Sample {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if let Ok(event) = self.worker.recv_timeout(Duration::from_millis(20)) {
+                let hit = match &event {
+                    Event::Samples(samples) => samples.iter().rev().find(|s| want(s)).copied(),
+                    _ => None,
+                };
+                if let Event::Samples(samples) = &event
+                    && let Some(last) = samples.last()
+                {
+                    self.last_sample = Some(*last);
+                }
+                self.seen.push(event);
+                if let Some(sample) = hit {
+                    return sample;
+                }
+            }
+        }
+        panic!(
+            "no sample with {what} within {timeout:?}; last: {:#?}",
+            self.last_sample
+        )
+    }
 }
 
 #[test]
@@ -138,10 +170,11 @@ fn a_move_reaches_its_target_and_raises_target_reached() {
     );
     let outcome = probe.outcome(id, Duration::from_secs(10));
     assert_eq!(outcome, CommandProgress::Done { return_value: 2000 });
-    let sample = probe.settle(Duration::from_millis(100));
+    let sample = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
+        s.position == Some(2000.0)
+    });
     assert!(sample.tx.status.is_set(StatusBit::TargetReached));
     assert!(sample.tx.status.is_set(StatusBit::OperationEnabled));
-    assert_eq!(sample.position, Some(2000.0));
     assert_eq!(sample.statusword.map(|w| w & 0x6F), Some(0x27));
 }
 
@@ -161,9 +194,10 @@ fn halt_stops_and_resume_continues() {
     let halt = probe.send(Request::Halt);
     let halted = probe.outcome(halt, Duration::from_secs(5));
     assert!(matches!(halted, CommandProgress::Done { .. }), "{halted:?}");
-    let stopped = probe.settle(Duration::from_millis(200));
+    let stopped = probe.sample_where("the motor at rest", Duration::from_secs(5), |s| {
+        s.velocity == Some(0.0)
+    });
     assert!(stopped.tx.status.is_set(StatusBit::QsHaltBit));
-    assert_eq!(stopped.velocity, Some(0.0));
     let at = stopped.position.expect("position");
     assert!(at > 0.0 && at < 20_000.0, "{at}");
     // The halt reported where the motor came to rest.
@@ -284,8 +318,9 @@ fn quickstop_jumps_the_queue() {
         probe.outcome(stop, Duration::from_secs(2)),
         CommandProgress::Done { .. }
     ));
-    let sample = probe.settle(Duration::from_millis(800));
-    assert!(!sample.tx.status.is_set(StatusBit::OperationEnabled));
+    probe.sample_where("the power stage off", Duration::from_secs(5), |s| {
+        !s.tx.status.is_set(StatusBit::OperationEnabled)
+    });
 }
 
 #[test]
@@ -427,8 +462,9 @@ fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
         matches!(e, Event::Connected(_))
     });
     // The same simulated drive: the move went on while the cable was out.
-    let after = probe.settle(Duration::from_millis(300));
-    assert_eq!(after.position, Some(20_000.0));
+    let after = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
+        s.position == Some(20_000.0)
+    });
     assert!(after.tx.status.is_set(StatusBit::TargetReached));
 }
 

@@ -69,6 +69,9 @@ impl Endpoint {
 enum Io {
     Tcp(TcpStream),
     Rtu(Box<SerialStream>),
+    /// Released before reopening, so that a serial port is free to open again and a
+    /// drive that allows one TCP connection sees the old one go first.
+    Closed,
 }
 
 /// A live Modbus connection.
@@ -135,6 +138,8 @@ impl Transport {
 
     /// Open the connection again after a failure.
     pub async fn reconnect(&mut self) -> Result<(), Error> {
+        self.close().await;
+        self.io = Io::Closed;
         self.io = open(&self.endpoint, self.timeout).await?;
         self.buffer.clear();
         Ok(())
@@ -154,6 +159,7 @@ impl Transport {
         let function = match self.io {
             Io::Tcp(_) => bytes.get(7),
             Io::Rtu(_) => bytes.get(1),
+            Io::Closed => None,
         };
         let text = match function {
             Some(f) if f & 0x80 != 0 => format!("FC {} exception", f & 0x7F),
@@ -181,6 +187,11 @@ impl Transport {
         let answer = match self.io {
             Io::Tcp(_) => self.transact_tcp(&pdu, &what, deadline).await?,
             Io::Rtu(_) => self.transact_rtu(&pdu, &what, deadline).await?,
+            Io::Closed => {
+                return Err(Error::Disconnected(format!(
+                    "{what}: the connection is closed (reopening failed)"
+                )));
+            }
         };
         Response::decode(request, &answer)
             .map_err(|e| Error::Protocol(format!("{what}: {e}; reply {}", hex(&answer))))

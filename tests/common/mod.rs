@@ -1,0 +1,430 @@
+//! Helpers shared by the tests that talk to independent peers over real sockets and
+//! pseudo-terminals: the Python peer (pymodbus), socat pty pairs, and `drivedeck sim` run
+//! as its own process. Each test file takes what it needs (`mod common;`).
+//!
+//! Peers are optional on a developer's machine (a test without its peer prints
+//! `skipped: …` and passes) and required in CI, where `.ci/run` installs them and sets
+//! `DRIVEDECK_REQUIRE_PEERS=1`, so a missing peer fails there instead of passing silently.
+
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader, Read};
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{self, Receiver};
+use std::sync::{Arc, Mutex};
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// Whether a missing peer fails the test (CI) instead of skipping it.
+pub fn peers_required() -> bool {
+    std::env::var("DRIVEDECK_REQUIRE_PEERS").is_ok_and(|v| v == "1")
+}
+
+/// A test without its peer: skip it here, fail it in CI.
+pub fn skip_or_fail(reason: &str) {
+    if peers_required() {
+        panic!("DRIVEDECK_REQUIRE_PEERS=1 and {reason}");
+    }
+    println!("skipped: {reason}");
+}
+
+fn manifest_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A Python interpreter that imports pymodbus (and pyserial when asked).
+#[derive(Clone, Debug)]
+pub struct Python {
+    pub path: PathBuf,
+    pub pymodbus: String,
+}
+
+/// The Python peer: `DRIVEDECK_PYTHON`, else `.venv/bin/python` of this crate, else
+/// `python3`. `None` (after `skip_or_fail`) when it cannot import the modules.
+pub fn python(modules: &[&str]) -> Option<Python> {
+    let path = match std::env::var_os("DRIVEDECK_PYTHON") {
+        Some(p) if !p.is_empty() => PathBuf::from(p),
+        _ => {
+            let venv = manifest_dir().join(".venv/bin/python");
+            if venv.exists() {
+                venv
+            } else {
+                PathBuf::from("python3")
+            }
+        }
+    };
+    let imports = std::iter::once("pymodbus")
+        .chain(modules.iter().copied())
+        .collect::<Vec<_>>()
+        .join(", ");
+    let check = format!("import {imports}; print(pymodbus.__version__)");
+    match Command::new(&path).args(["-c", &check]).output() {
+        Ok(out) if out.status.success() => {
+            let pymodbus = String::from_utf8_lossy(&out.stdout).trim().to_owned();
+            // The peers are written against pymodbus 3 (`device_id=`, SimDevice).
+            if !pymodbus.starts_with("3.") {
+                skip_or_fail(&format!(
+                    "{} has pymodbus {pymodbus}; the peers need 3.x (`bash .ci/run` installs 3.16.1)",
+                    path.display()
+                ));
+                return None;
+            }
+            Some(Python { path, pymodbus })
+        }
+        Ok(out) => {
+            skip_or_fail(&format!(
+                "{} cannot `import {imports}` ({}); `bash .ci/run` makes .venv with them, or set DRIVEDECK_PYTHON",
+                path.display(),
+                String::from_utf8_lossy(&out.stderr)
+                    .lines()
+                    .last()
+                    .unwrap_or("")
+            ));
+            None
+        }
+        Err(e) => {
+            skip_or_fail(&format!("no Python at {}: {e}", path.display()));
+            None
+        }
+    }
+}
+
+/// A peer script in tests/peers/.
+pub fn peer_script(name: &str) -> PathBuf {
+    manifest_dir().join("tests/peers").join(name)
+}
+
+/// `socat`, or `None` (after `skip_or_fail`).
+pub fn socat() -> Option<PathBuf> {
+    match Command::new("socat").arg("-V").output() {
+        Ok(out) if out.status.success() => Some(PathBuf::from("socat")),
+        _ => {
+            skip_or_fail("socat is not installed (apt-get install socat)");
+            None
+        }
+    }
+}
+
+/// A fresh, empty directory under the system's temp dir, removed on drop.
+#[derive(Debug)]
+pub struct TempDir {
+    pub path: PathBuf,
+}
+
+impl TempDir {
+    pub fn new(what: &str) -> TempDir {
+        static SEQ: AtomicUsize = AtomicUsize::new(0);
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        let path = std::env::temp_dir().join(format!(
+            "drivedeck-{what}-{}-{}-{nanos}",
+            std::process::id(),
+            SEQ.fetch_add(1, Ordering::SeqCst)
+        ));
+        std::fs::create_dir_all(&path).expect("temp dir");
+        TempDir { path }
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.path);
+    }
+}
+
+/// Collect a child's stream on a thread: every line goes to the shared text and, when
+/// asked, down a channel.
+fn pump(
+    stream: impl Read + Send + 'static,
+    text: Arc<Mutex<String>>,
+    lines: Option<mpsc::Sender<String>>,
+) -> thread::JoinHandle<()> {
+    thread::spawn(move || {
+        for line in BufReader::new(stream).lines() {
+            let Ok(line) = line else { break };
+            if let Ok(mut all) = text.lock() {
+                all.push_str(&line);
+                all.push('\n');
+            }
+            if let Some(lines) = &lines {
+                let _ = lines.send(line);
+            }
+        }
+    })
+}
+
+/// A child process of a test, killed (by its own pid) and reaped on drop. Its stdout
+/// arrives line by line; stdout and stderr are kept for failure messages.
+pub struct Process {
+    pub name: String,
+    child: Child,
+    stdin: Option<ChildStdin>,
+    lines: Receiver<String>,
+    stdout: Arc<Mutex<String>>,
+    stderr: Arc<Mutex<String>>,
+    pumps: Vec<thread::JoinHandle<()>>,
+}
+
+impl Process {
+    /// Start `command` with piped stdio. Its stdin stays open until drop, so a peer can
+    /// end itself when the test goes away.
+    pub fn spawn(name: &str, command: &mut Command) -> Process {
+        let mut child = command
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
+        let stdout = Arc::new(Mutex::new(String::new()));
+        let stderr = Arc::new(Mutex::new(String::new()));
+        let (tx, lines) = mpsc::channel();
+        let pumps = vec![
+            pump(
+                child.stdout.take().expect("stdout"),
+                stdout.clone(),
+                Some(tx),
+            ),
+            pump(child.stderr.take().expect("stderr"), stderr.clone(), None),
+        ];
+        Process {
+            name: name.to_owned(),
+            stdin: child.stdin.take(),
+            child,
+            lines,
+            stdout,
+            stderr,
+            pumps,
+        }
+    }
+
+    /// The next line on stdout, or `None` at its end or after `timeout`.
+    pub fn line(&self, timeout: Duration) -> Option<String> {
+        self.lines.recv_timeout(timeout).ok()
+    }
+
+    /// The next line, or a panic that shows what the process said.
+    pub fn expect_line(&mut self, what: &str, timeout: Duration) -> String {
+        match self.line(timeout) {
+            Some(line) => line,
+            None => panic!("no {what} within {timeout:?}: {}", self.report()),
+        }
+    }
+
+    /// Whether the process is still running.
+    pub fn running(&mut self) -> bool {
+        matches!(self.child.try_wait(), Ok(None))
+    }
+
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Everything it printed so far, for failure messages.
+    pub fn report(&mut self) -> String {
+        let status = match self.child.try_wait() {
+            Ok(Some(status)) => format!("exited with {status}"),
+            _ => "still running".to_owned(),
+        };
+        format!(
+            "{} {status}; stdout:\n{}\nstderr:\n{}",
+            self.name,
+            self.stdout.lock().map(|s| s.clone()).unwrap_or_default(),
+            self.stderr.lock().map(|s| s.clone()).unwrap_or_default()
+        )
+    }
+
+    /// Wait for the process to end by itself, and for everything it printed.
+    pub fn wait(&mut self, timeout: Duration) -> Option<ExitStatus> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                // Its pipes are closed: the pumps finish with the last lines.
+                for pump in self.pumps.drain(..) {
+                    let _ = pump.join();
+                }
+                return Some(status);
+            }
+            if Instant::now() >= deadline {
+                return None;
+            }
+            thread::sleep(Duration::from_millis(10));
+        }
+    }
+
+    pub fn stdout(&self) -> String {
+        self.stdout.lock().map(|s| s.clone()).unwrap_or_default()
+    }
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        drop(self.stdin.take());
+        // Child::kill signals this child's own pid only.
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Run a Python peer script to its end and parse the one JSON object it prints; a
+/// failure carries everything the script printed.
+pub fn try_run_peer(
+    python: &Python,
+    script: &str,
+    args: &[&str],
+    timeout: Duration,
+) -> Result<serde_json::Value, String> {
+    let mut command = Command::new(&python.path);
+    command.arg(peer_script(script)).args(args);
+    let started = Instant::now();
+    let mut process = Process::spawn(script, &mut command);
+    let Some(status) = process.wait(timeout) else {
+        return Err(format!(
+            "{script} {args:?} did not finish within {timeout:?}; {}",
+            process.report()
+        ));
+    };
+    let stdout = process.stdout();
+    let last = stdout.lines().last().unwrap_or("");
+    match serde_json::from_str::<serde_json::Value>(last) {
+        Ok(value) if status.success() && value.get("failed").is_none() => Ok(value),
+        Ok(_) => Err(format!(
+            "{script} {args:?} failed after {:?}: {}",
+            started.elapsed(),
+            process.report()
+        )),
+        Err(e) => Err(format!(
+            "{script} {args:?} printed no JSON ({e}): {}",
+            process.report()
+        )),
+    }
+}
+
+/// `try_run_peer`, panicking on a failure.
+pub fn run_peer(
+    python: &Python,
+    script: &str,
+    args: &[&str],
+    timeout: Duration,
+) -> serde_json::Value {
+    try_run_peer(python, script, args, timeout).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// `drivedeck sim` as its own process, as a user would start it.
+pub struct Sim {
+    pub process: Process,
+    /// The first line it printed ("serving the simulated drive on …").
+    pub banner: String,
+}
+
+impl Sim {
+    fn start(args: &[&str], what: &str) -> Sim {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_drivedeck"));
+        command.arg("sim").args(args);
+        let mut process = Process::spawn("drivedeck sim", &mut command);
+        let banner = process.expect_line(what, Duration::from_secs(10));
+        assert!(
+            banner.starts_with("serving the simulated drive on"),
+            "{banner}; {}",
+            process.report()
+        );
+        Sim { process, banner }
+    }
+
+    /// `drivedeck sim --modbus-tcp 127.0.0.1:0 ARGS…`: a free port, read from its banner.
+    pub fn tcp(args: &[&str]) -> (Sim, SocketAddr) {
+        let mut all = vec!["--modbus-tcp", "127.0.0.1:0"];
+        all.extend_from_slice(args);
+        let sim = Sim::start(&all, "Modbus TCP banner");
+        // "serving the simulated drive on Modbus TCP 127.0.0.1:PORT (…)"
+        let addr = sim
+            .banner
+            .split("Modbus TCP ")
+            .nth(1)
+            .and_then(|rest| rest.split_whitespace().next())
+            .and_then(|a| a.parse().ok())
+            .unwrap_or_else(|| panic!("no address in {:?}", sim.banner));
+        (sim, addr)
+    }
+
+    /// `drivedeck sim --modbus-rtu PATH ARGS…` (factory settings unless ARGS say otherwise).
+    pub fn rtu(path: &Path, args: &[&str]) -> Sim {
+        let path = path.to_str().expect("utf-8 path");
+        let mut all = vec!["--modbus-rtu", path];
+        all.extend_from_slice(args);
+        let sim = Sim::start(&all, "Modbus RTU banner");
+        assert!(sim.banner.contains("Modbus RTU"), "{}", sim.banner);
+        sim
+    }
+}
+
+/// Two connected pseudo-terminals from socat, `a` and `b`, in a temp dir of their own.
+pub struct PtyPair {
+    pub a: PathBuf,
+    pub b: PathBuf,
+    process: Process,
+    _dir: TempDir,
+}
+
+impl PtyPair {
+    /// `None` (after `skip_or_fail`) without socat.
+    pub fn new() -> Option<PtyPair> {
+        let socat = socat()?;
+        let dir = TempDir::new("pty");
+        let a = dir.path.join("A");
+        let b = dir.path.join("B");
+        let mut command = Command::new(socat);
+        command.args([
+            "-d",
+            "-d",
+            &format!("pty,raw,echo=0,link={}", a.display()),
+            &format!("pty,raw,echo=0,link={}", b.display()),
+        ]);
+        let mut process = Process::spawn("socat", &mut command);
+        // Ready when both links exist and socat says it moves data.
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            let ready = a.exists()
+                && b.exists()
+                && process
+                    .stderr
+                    .lock()
+                    .is_ok_and(|s| s.contains("starting data transfer loop"));
+            if ready {
+                break;
+            }
+            assert!(
+                process.running() && Instant::now() < deadline,
+                "socat made no pty pair in {}; {}",
+                dir.path.display(),
+                process.report()
+            );
+            thread::sleep(Duration::from_millis(10));
+        }
+        Some(PtyPair {
+            a,
+            b,
+            process,
+            _dir: dir,
+        })
+    }
+
+    pub fn running(&mut self) -> bool {
+        self.process.running()
+    }
+}
+
+/// Poll `check` until it gives `Some`, or panic with `what` after `timeout`.
+pub fn eventually<T>(what: &str, timeout: Duration, mut check: impl FnMut() -> Option<T>) -> T {
+    let deadline = Instant::now() + timeout;
+    loop {
+        if let Some(value) = check() {
+            return value;
+        }
+        assert!(Instant::now() < deadline, "no {what} within {timeout:?}");
+        thread::sleep(Duration::from_millis(10));
+    }
+}
