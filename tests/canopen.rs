@@ -1,8 +1,8 @@
 //! CANopen end to end over the in-memory bus: our master against the simulated node, the
 //! PDI on PDOs (and over SDO where the mapping is refused), SDO object access, the scan,
 //! EMCY, the mapping put back on disconnect.
+mod probe;
 
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use drivedeck::cia::AbortCode;
@@ -16,7 +16,8 @@ use drivedeck::sim::Drive;
 use drivedeck::sim::Injection;
 use drivedeck::sim::server::SharedDrive;
 use drivedeck::sim::server::canopen::{Node, run_node};
-use drivedeck::worker::{CommandProgress, Config, Event, ObjectPath, Request, Sample, Worker};
+use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
+use probe::Probe;
 
 fn runtime() -> tokio::runtime::Runtime {
     tokio::runtime::Builder::new_current_thread()
@@ -298,111 +299,15 @@ fn the_scan_finds_every_node_with_its_identity() {
 
 // --- through the worker, as the window and the CLI use it -------------------------------
 
-struct Probe {
-    worker: Worker,
-    seen: Vec<Event>,
-    last: Option<Sample>,
-}
-
-impl Probe {
-    fn connected(node: u8) -> Probe {
-        let worker = Worker::spawn(Config::default(), Arc::new(|| {})).expect("worker");
-        let mut probe = Probe {
-            worker,
-            seen: vec![],
-            last: None,
-        };
-        probe
-            .worker
-            .send(Request::Connect(spec(node)))
-            .expect("queued");
-        probe.wait("connected", Duration::from_secs(5), |e| {
-            matches!(e, Event::Connected(_))
-        });
-        probe.wait(
-            "a sample",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::Samples(s) if !s.is_empty()),
-        );
-        probe
-    }
-
-    fn send(&self, request: Request) -> u64 {
-        self.worker.send(request).expect("queued")
-    }
-
-    fn wait(&mut self, what: &str, timeout: Duration, want: impl Fn(&Event) -> bool) -> Event {
-        let deadline = Instant::now() + timeout;
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.worker.recv_timeout(left) {
-                Ok(event) => {
-                    if let Event::Samples(s) = &event {
-                        for sample in s {
-                            self.last = Some(match &self.last {
-                                Some(older) => sample.merged_over(older),
-                                None => *sample,
-                            });
-                        }
-                    }
-                    self.seen.push(event.clone());
-                    if want(&event) {
-                        return event;
-                    }
-                }
-                Err(_) => panic!(
-                    "no {what} within {timeout:?}; seen {:#?}",
-                    self.seen
-                        .iter()
-                        .filter(|e| !matches!(e, Event::Samples(_) | Event::Health(_)))
-                        .collect::<Vec<_>>()
-                ),
-            }
-        }
-    }
-
-    fn outcome(&mut self, id: u64) -> CommandProgress {
-        match self.wait(
-            "the outcome",
-            Duration::from_secs(10),
-            |e| matches!(e, Event::Progress { id: i, progress } if *i == id && progress.is_final()),
-        ) {
-            Event::Progress { progress, .. } => progress,
-            _ => unreachable!(),
-        }
-    }
-
-    fn read(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-        path: ObjectPath,
-    ) -> Result<Value, String> {
-        let id = self.send(Request::ReadObject {
-            address,
-            dtype: Some(dtype),
-            path,
-        });
-        match self.wait(
-            "the read",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::ObjectRead { id: i, .. } if *i == id),
-        ) {
-            Event::ObjectRead { result, .. } => result,
-            _ => unreachable!(),
-        }
-    }
-}
-
 #[test]
 fn the_worker_moves_the_motor_over_canopen_and_reads_strings() {
-    let mut probe = Probe::connected(1);
+    let mut probe = Probe::connected(spec(1));
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 2000,
         speed: 200,
     }));
     assert_eq!(
-        probe.outcome(id),
+        probe.outcome(id, Duration::from_secs(10)),
         CommandProgress::Done { return_value: 2000 }
     );
     assert_eq!(
@@ -446,7 +351,7 @@ fn the_worker_moves_the_motor_over_canopen_and_reads_strings() {
 
 #[test]
 fn a_fault_on_the_node_arrives_as_emcy_and_fails_the_move() {
-    let mut probe = Probe::connected(5);
+    let mut probe = Probe::connected(spec(5));
     let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
     probe.wait(
         "accepted",
@@ -458,7 +363,7 @@ fn a_fault_on_the_node_arrives_as_emcy_and_fails_the_move() {
         active: true,
     });
     assert_eq!(
-        probe.outcome(id),
+        probe.outcome(id, Duration::from_secs(10)),
         CommandProgress::Failed(Failure::DriveFault { error_code: 0x2300 })
     );
     let emcy = probe.wait(
@@ -474,7 +379,7 @@ fn a_fault_on_the_node_arrives_as_emcy_and_fails_the_move() {
 
 #[test]
 fn frames_are_traced_when_asked() {
-    let mut probe = Probe::connected(1);
+    let mut probe = Probe::connected(spec(1));
     probe.send(Request::SetTrace(true));
     probe.send(Request::ReadObject {
         address: Address::new(0x1018, 1),

@@ -6,9 +6,9 @@
 //! `skipped: …`) and required in CI (`DRIVEDECK_REQUIRE_PEERS=1`, set by `.ci/run`).
 
 mod common;
+mod probe;
 
 use std::path::Path;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use serde_json::json;
@@ -17,7 +17,8 @@ use common::{PtyPair, Sim};
 use drivedeck::link::LinkSpec;
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, StatusBit};
-use drivedeck::worker::{CommandProgress, Config, Event, ObjectPath, Request, Sample, Worker};
+use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
+use probe::Probe;
 
 fn rtu_spec(path: &Path, slave: u8) -> LinkSpec {
     format!(
@@ -26,95 +27,6 @@ fn rtu_spec(path: &Path, slave: u8) -> LinkSpec {
     )
     .parse()
     .expect("spec")
-}
-
-struct Probe {
-    worker: Worker,
-    seen: Vec<Event>,
-}
-
-impl Probe {
-    fn new() -> Self {
-        Probe {
-            worker: Worker::spawn(Config::default(), Arc::new(|| {})).expect("worker"),
-            seen: vec![],
-        }
-    }
-
-    fn send(&self, request: Request) -> u64 {
-        self.worker.send(request).expect("queued")
-    }
-
-    fn wait(&mut self, what: &str, timeout: Duration, want: impl Fn(&Event) -> bool) -> Event {
-        let deadline = Instant::now() + timeout;
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.worker.recv_timeout(left) {
-                Ok(event) => {
-                    self.seen.push(event.clone());
-                    if want(&event) {
-                        return event;
-                    }
-                }
-                Err(_) => panic!(
-                    "no {what} within {timeout:?}; seen: {:#?}",
-                    self.seen
-                        .iter()
-                        .filter(|e| !matches!(e, Event::Samples(_) | Event::Health(_)))
-                        .collect::<Vec<_>>()
-                ),
-            }
-        }
-    }
-
-    fn outcome(&mut self, id: u64, timeout: Duration) -> CommandProgress {
-        match self.wait(
-            "the outcome",
-            timeout,
-            |e| matches!(e, Event::Progress { id: i, progress } if *i == id && progress.is_final()),
-        ) {
-            Event::Progress { progress, .. } => progress,
-            _ => unreachable!(),
-        }
-    }
-
-    fn read(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-        path: ObjectPath,
-    ) -> Result<Value, String> {
-        let id = self.send(Request::ReadObject {
-            address,
-            dtype: Some(dtype),
-            path,
-        });
-        match self.wait(
-            "the read",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::ObjectRead { id: i, .. } if *i == id),
-        ) {
-            Event::ObjectRead { result, .. } => result,
-            _ => unreachable!(),
-        }
-    }
-
-    /// The first sample that satisfies `want`, from the samples arriving from now on.
-    fn sample_where(
-        &mut self,
-        what: &str,
-        timeout: Duration,
-        want: impl Fn(&Sample) -> bool,
-    ) -> Sample {
-        match self.wait(
-            what,
-            timeout,
-            |e| matches!(e, Event::Samples(s) if s.iter().any(&want)),
-        ) {
-            Event::Samples(s) => *s.iter().find(|x| want(x)).expect("matched"),
-            _ => unreachable!(),
-        }
-    }
 }
 
 #[test]

@@ -1,10 +1,10 @@
 //! Our Modbus client against the simulated drive served on real loopback sockets, and the
 //! failures a technician meets: a gateway without FC 23, a device without FC 43, a second
 //! client, a drive that dies or goes silent mid-move, garbage on the wire.
+mod probe;
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpListener};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use drivedeck::link::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
@@ -13,7 +13,8 @@ use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, StatusBit};
 use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::Options;
-use drivedeck::worker::{CommandProgress, Config, Event, ObjectPath, Request, Sample, Worker};
+use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request, Sample};
+use probe::Probe;
 
 fn local() -> SocketAddr {
     "127.0.0.1:0".parse().expect("address")
@@ -23,160 +24,10 @@ fn spec(addr: SocketAddr) -> LinkSpec {
     format!("modbus-tcp://{addr}").parse().expect("spec")
 }
 
-struct Probe {
-    worker: Worker,
-    seen: Vec<Event>,
-    last: Option<Sample>,
-}
-
-impl Probe {
-    fn new() -> Self {
-        Probe {
-            worker: Worker::spawn(Config::default(), Arc::new(|| {})).expect("worker"),
-            seen: vec![],
-            last: None,
-        }
-    }
-
-    fn connected(addr: SocketAddr) -> Self {
-        let mut probe = Probe::new();
-        probe.send(Request::Connect(spec(addr)));
-        probe.wait("connected", Duration::from_secs(5), |e| {
-            matches!(e, Event::Connected(_))
-        });
-        probe.wait(
-            "a sample",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::Samples(s) if !s.is_empty()),
-        );
-        probe
-    }
-
-    fn send(&self, request: Request) -> u64 {
-        self.worker.send(request).expect("queued")
-    }
-
-    fn wait(&mut self, what: &str, timeout: Duration, want: impl Fn(&Event) -> bool) -> Event {
-        let deadline = Instant::now() + timeout;
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.worker.recv_timeout(left) {
-                Ok(event) => {
-                    if let Event::Samples(s) = &event
-                        && let Some(last) = s.last()
-                    {
-                        self.last = Some(*last);
-                    }
-                    self.seen.push(event.clone());
-                    if want(&event) {
-                        return event;
-                    }
-                }
-                Err(_) => panic!(
-                    "no {what} within {timeout:?}; seen: {:#?}",
-                    self.seen
-                        .iter()
-                        .filter(|e| !matches!(e, Event::Samples(_) | Event::Health(_)))
-                        .collect::<Vec<_>>()
-                ),
-            }
-        }
-    }
-
-    fn outcome(&mut self, id: u64, timeout: Duration) -> CommandProgress {
-        match self.wait(
-            "the outcome",
-            timeout,
-            |e| matches!(e, Event::Progress { id: i, progress } if *i == id && progress.is_final()),
-        ) {
-            Event::Progress { progress, .. } => progress,
-            _ => unreachable!(),
-        }
-    }
-
-    fn read(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-        path: ObjectPath,
-    ) -> Result<Value, String> {
-        let id = self.send(Request::ReadObject {
-            address,
-            dtype: Some(dtype),
-            path,
-        });
-        match self.wait(
-            "the read",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::ObjectRead { id: i, .. } if *i == id),
-        ) {
-            Event::ObjectRead { result, .. } => result,
-            _ => unreachable!(),
-        }
-    }
-
-    fn settle(&mut self, time: Duration) -> Sample {
-        let until = Instant::now() + time;
-        while Instant::now() < until {
-            if let Ok(event) = self.worker.recv_timeout(Duration::from_millis(20)) {
-                if let Event::Samples(s) = &event
-                    && let Some(last) = s.last()
-                {
-                    self.last = Some(*last);
-                }
-                self.seen.push(event);
-            }
-        }
-        self.last.expect("samples")
-    }
-
-    /// Wait for a sample that satisfies `want`, keeping everything seen on the way; a
-    /// loaded machine may need a few cycles more than a quiet one.
-    fn sample_where(
-        &mut self,
-        what: &str,
-        timeout: Duration,
-        want: impl Fn(&Sample) -> bool,
-    ) -> Sample {
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline {
-            if let Ok(event) = self.worker.recv_timeout(Duration::from_millis(20)) {
-                let hit = match &event {
-                    Event::Samples(samples) => samples.iter().rev().find(|s| want(s)).copied(),
-                    _ => None,
-                };
-                if let Event::Samples(samples) = &event
-                    && let Some(last) = samples.last()
-                {
-                    self.last = Some(*last);
-                }
-                self.seen.push(event);
-                if let Some(sample) = hit {
-                    return sample;
-                }
-            }
-        }
-        panic!(
-            "no sample with {what} within {timeout:?}; last: {:#?}",
-            self.last
-        )
-    }
-
-    fn notices(&self) -> Vec<String> {
-        self.seen
-            .iter()
-            .filter_map(|e| match e {
-                Event::Notice(n) => Some(n.clone()),
-                _ => None,
-            })
-            .collect()
-    }
-}
-
 #[test]
 fn a_move_over_modbus_tcp_reaches_its_target() {
     let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
-    let mut probe = Probe::connected(server.addr);
+    let mut probe = Probe::connected(spec(server.addr));
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 2000,
         speed: 200,
@@ -217,7 +68,7 @@ fn a_move_over_modbus_tcp_reaches_its_target() {
 #[test]
 fn objects_over_fc_43_and_over_the_pdi() {
     let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
-    let mut probe = Probe::connected(server.addr);
+    let mut probe = Probe::connected(spec(server.addr));
     let vendor = Address::new(0x1018, 1);
     assert_eq!(
         probe.read(vendor, DataType::Unsigned32, ObjectPath::Native),
@@ -299,7 +150,7 @@ fn a_gateway_without_fc_23_gets_fc_16_and_fc_4() {
         ..Options::default()
     };
     let server = ServerThread::modbus_tcp(local(), options).expect("server");
-    let mut probe = Probe::connected(server.addr);
+    let mut probe = Probe::connected(spec(server.addr));
     let id = probe.send(Request::Command(Action::MoveRelative {
         distance: 900,
         speed: 300,
@@ -334,7 +185,7 @@ fn a_device_without_fc_43_reads_objects_through_the_pdi() {
         ..Options::default()
     };
     let server = ServerThread::modbus_tcp(local(), options).expect("server");
-    let mut probe = Probe::connected(server.addr);
+    let mut probe = Probe::connected(spec(server.addr));
     assert_eq!(
         probe.read(
             Address::new(0x1018, 1),
@@ -365,7 +216,7 @@ fn a_device_without_fc_43_reads_objects_through_the_pdi() {
 #[test]
 fn a_second_client_is_told_the_one_connection_is_taken() {
     let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
-    let _first = Probe::connected(server.addr);
+    let _first = Probe::connected(spec(server.addr));
     let mut second = Probe::new();
     second.send(Request::Connect(spec(server.addr)));
     let failed = second.wait("the refusal", Duration::from_secs(5), |e| {
@@ -387,15 +238,15 @@ fn max_clients_lets_more_in() {
         ..Options::default()
     };
     let server = ServerThread::modbus_tcp(local(), options).expect("server");
-    let _first = Probe::connected(server.addr);
-    let _second = Probe::connected(server.addr);
+    let _first = Probe::connected(spec(server.addr));
+    let _second = Probe::connected(spec(server.addr));
 }
 
 #[test]
 fn a_drive_that_dies_mid_move_shows_disconnected_within_a_second_and_comes_back() {
     let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
     let addr = server.addr;
-    let mut probe = Probe::connected(addr);
+    let mut probe = Probe::connected(spec(addr));
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 30_000,
         speed: 100,
@@ -539,7 +390,7 @@ fn fc_101_reads_the_whole_dictionary() {
 #[test]
 fn a_failed_move_over_modbus_reports_the_fault() {
     let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
-    let mut probe = Probe::connected(server.addr);
+    let mut probe = Probe::connected(spec(server.addr));
     let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
     probe.wait(
         "accepted",

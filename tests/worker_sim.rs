@@ -1,159 +1,22 @@
 //! The worker thread driving the simulated drive on real time: what a user of the window
 //! or the CLI sees happen.
 
+mod probe;
+
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use drivedeck::cia::AbortCode;
 use drivedeck::link::LinkSpec;
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, StatusBit};
 use drivedeck::sim::Injection;
-use drivedeck::worker::{CommandProgress, Config, Event, ObjectPath, Request, Sample, Worker};
-
-struct Probe {
-    worker: Worker,
-    seen: Vec<Event>,
-    last_sample: Option<Sample>,
-}
-
-impl Probe {
-    fn connected() -> Self {
-        let worker = Worker::spawn(Config::default(), Arc::new(|| {})).expect("worker thread");
-        let mut probe = Probe {
-            worker,
-            seen: vec![],
-            last_sample: None,
-        };
-        probe.send(Request::Connect(LinkSpec::Sim));
-        probe.wait("connected", Duration::from_secs(5), |e| {
-            matches!(e, Event::Connected(_))
-        });
-        probe.wait(
-            "a sample",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::Samples(s) if !s.is_empty()),
-        );
-        probe
-    }
-
-    fn send(&self, request: Request) -> u64 {
-        self.worker.send(request).expect("request queued")
-    }
-
-    /// Wait for an event matching `want`, keeping every event seen.
-    fn wait(&mut self, what: &str, timeout: Duration, want: impl Fn(&Event) -> bool) -> Event {
-        let deadline = Instant::now() + timeout;
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.worker.recv_timeout(left) {
-                Ok(event) => {
-                    if let Event::Samples(samples) = &event
-                        && let Some(last) = samples.last()
-                    {
-                        self.last_sample = Some(*last);
-                    }
-                    self.seen.push(event.clone());
-                    if want(&event) {
-                        return event;
-                    }
-                }
-                Err(_) => panic!("no {what} within {timeout:?}; seen: {:#?}", self.tail()),
-            }
-        }
-    }
-
-    fn tail(&self) -> Vec<&Event> {
-        self.seen
-            .iter()
-            .filter(|e| !matches!(e, Event::Samples(_) | Event::Health(_)))
-            .collect()
-    }
-
-    fn outcome(&mut self, id: u64, timeout: Duration) -> CommandProgress {
-        match self.wait(
-            "the command's outcome",
-            timeout,
-            |e| matches!(e, Event::Progress { id: i, progress } if *i == id && progress.is_final()),
-        ) {
-            Event::Progress { progress, .. } => progress,
-            _ => unreachable!(),
-        }
-    }
-
-    fn read(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-        path: ObjectPath,
-    ) -> Result<Value, String> {
-        let id = self.send(Request::ReadObject {
-            address,
-            dtype: Some(dtype),
-            path,
-        });
-        match self.wait(
-            "the object read",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::ObjectRead { id: i, .. } if *i == id),
-        ) {
-            Event::ObjectRead { result, .. } => result,
-            _ => unreachable!(),
-        }
-    }
-
-    /// Let samples arrive for a while.
-    fn settle(&mut self, time: Duration) -> Sample {
-        let until = Instant::now() + time;
-        while Instant::now() < until {
-            if let Ok(event) = self.worker.recv_timeout(Duration::from_millis(20)) {
-                if let Event::Samples(samples) = &event
-                    && let Some(last) = samples.last()
-                {
-                    self.last_sample = Some(*last);
-                }
-                self.seen.push(event);
-            }
-        }
-        self.last_sample.expect("samples")
-    }
-
-    /// Wait for a sample that satisfies `want`, keeping everything seen on the way; a
-    /// loaded machine may need a few cycles more than a quiet one.
-    fn sample_where(
-        &mut self,
-        what: &str,
-        timeout: Duration,
-        want: impl Fn(&Sample) -> bool,
-    ) -> Sample {
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline {
-            if let Ok(event) = self.worker.recv_timeout(Duration::from_millis(20)) {
-                let hit = match &event {
-                    Event::Samples(samples) => samples.iter().rev().find(|s| want(s)).copied(),
-                    _ => None,
-                };
-                if let Event::Samples(samples) = &event
-                    && let Some(last) = samples.last()
-                {
-                    self.last_sample = Some(*last);
-                }
-                self.seen.push(event);
-                if let Some(sample) = hit {
-                    return sample;
-                }
-            }
-        }
-        panic!(
-            "no sample with {what} within {timeout:?}; last: {:#?}",
-            self.last_sample
-        )
-    }
-}
+use drivedeck::worker::{CommandProgress, Config, Event, ObjectPath, Request, Worker};
+use probe::Probe;
 
 #[test]
 fn a_move_reaches_its_target_and_raises_target_reached() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 2000,
         speed: 200,
@@ -180,7 +43,7 @@ fn a_move_reaches_its_target_and_raises_target_reached() {
 
 #[test]
 fn halt_stops_and_resume_continues() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 20_000,
         speed: 300,
@@ -215,7 +78,7 @@ fn halt_stops_and_resume_continues() {
 
 #[test]
 fn od_write_then_read_through_the_pdi() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     let address = Address::new(0x203B, 1);
     let id = probe.send(Request::WriteObject {
         address,
@@ -260,7 +123,7 @@ fn od_write_then_read_through_the_pdi() {
 
 #[test]
 fn a_missing_object_comes_back_as_pdi_status_error_06020000h() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     let result = probe.read(
         Address::new(0x2FFF, 0),
         DataType::Unsigned32,
@@ -284,7 +147,7 @@ fn a_missing_object_comes_back_as_pdi_status_error_06020000h() {
 
 #[test]
 fn quickstop_jumps_the_queue() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     let velocity = probe.send(Request::Command(Action::Velocity { speed: 500 }));
     probe.wait("velocity accepted", Duration::from_secs(2), |e| {
         matches!(e, Event::Progress { id, progress: CommandProgress::Accepted } if *id == velocity)
@@ -325,7 +188,7 @@ fn quickstop_jumps_the_queue() {
 
 #[test]
 fn an_injected_fault_fails_the_move_and_clear_error_needs_the_cause_gone() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 50_000,
         speed: 100,
@@ -397,7 +260,7 @@ fn requests_without_a_link_are_rejected_with_a_reason() {
 
 #[test]
 fn health_reports_the_cycle_rate() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     let health = probe.wait("health", Duration::from_secs(3), |e| {
         matches!(e, Event::Health(_))
     });
@@ -414,7 +277,7 @@ fn health_reports_the_cycle_rate() {
 
 #[test]
 fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 20_000,
         speed: 200,
@@ -470,7 +333,7 @@ fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
 
 #[test]
 fn a_command_the_drive_never_acknowledges_times_out() {
-    let mut probe = Probe::connected();
+    let mut probe = Probe::connected(LinkSpec::Sim);
     // PDI-Ctrl off: the drive ignores 2291h, as a real one would.
     let id = probe.send(Request::WriteObject {
         address: Address::new(0x2290, 0),
