@@ -6,6 +6,7 @@
 //! next to the object and a link error as a banner with a reconnect.
 
 pub mod canopen;
+pub mod enip;
 mod error;
 pub mod modbus;
 mod open;

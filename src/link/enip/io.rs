@@ -1,0 +1,154 @@
+//! Class 1 I/O datagrams (FACTS 3.5): UDP packets of two CPF items, the sequenced
+//! address (connection id, encapsulation sequence number) and the connected data (CIP
+//! sequence count, the 32-bit run/idle header where the direction has one, the assembly).
+
+use super::cpf::{self, Item};
+use super::wire::{DecodeError, Put, Reader};
+
+/// Bytes a class 1 packet adds to the assembly: the 16-bit sequence count.
+pub const SEQUENCE_COUNT_LEN: u16 = 2;
+/// Bytes of the run/idle header.
+pub const RUN_IDLE_LEN: u16 = 4;
+
+/// The connection size to ask for in Forward_Open: assembly, sequence count, header.
+pub fn connection_size(assembly: u16, run_idle: bool) -> u16 {
+    assembly + SEQUENCE_COUNT_LEN + if run_idle { RUN_IDLE_LEN } else { 0 }
+}
+
+/// One class 1 packet.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct IoPacket {
+    pub connection: u32,
+    /// Encapsulation sequence number: +1 per packet sent.
+    pub sequence: u32,
+    /// CIP sequence count: +1 when the data is new.
+    pub count: u16,
+    /// The run/idle header: `Some(true)` run, `Some(false)` idle, `None` without header
+    /// (modeless, as the T→O direction of Nanotec drives).
+    pub run: Option<bool>,
+    pub data: Vec<u8>,
+}
+
+impl IoPacket {
+    pub fn encode(&self) -> Vec<u8> {
+        let mut payload = Vec::with_capacity(6 + self.data.len());
+        payload.put_u16(self.count);
+        if let Some(run) = self.run {
+            payload.put_u32(u32::from(run));
+        }
+        payload.extend_from_slice(&self.data);
+        let mut out = Vec::with_capacity(24 + payload.len());
+        cpf::encode(
+            &[
+                Item::SequencedAddress {
+                    connection: self.connection,
+                    sequence: self.sequence,
+                },
+                Item::ConnectedData(payload),
+            ],
+            &mut out,
+        );
+        out
+    }
+
+    /// A datagram of a connection whose packets do (`run_idle`) or do not carry the header.
+    pub fn decode(bytes: &[u8], run_idle: bool) -> Result<IoPacket, DecodeError> {
+        let items = cpf::decode(bytes)?;
+        let (connection, sequence) = items
+            .iter()
+            .find_map(|i| match i {
+                Item::SequencedAddress {
+                    connection,
+                    sequence,
+                } => Some((*connection, *sequence)),
+                _ => None,
+            })
+            .ok_or_else(|| DecodeError::invalid("class 1 packet", "no sequenced address item"))?;
+        let payload = items
+            .iter()
+            .find_map(|i| match i {
+                Item::ConnectedData(d) => Some(d.as_slice()),
+                _ => None,
+            })
+            .ok_or_else(|| DecodeError::invalid("class 1 packet", "no connected data item"))?;
+        let mut r = Reader::new("class 1 data", payload);
+        let count = r.u16("sequence count")?;
+        let run = if run_idle {
+            Some(r.u32("run/idle header")? & 1 == 1)
+        } else {
+            None
+        };
+        Ok(IoPacket {
+            connection,
+            sequence,
+            count,
+            run,
+            data: r.rest().to_vec(),
+        })
+    }
+
+    /// The connection id alone, to route a datagram before decoding it in full.
+    pub fn connection_of(bytes: &[u8]) -> Option<u32> {
+        cpf::decode(bytes).ok()?.iter().find_map(|i| match i {
+            Item::SequencedAddress { connection, .. } => Some(*connection),
+            _ => None,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_ot_packet_of_the_pdi_set_byte_for_byte() {
+        let packet = IoPacket {
+            connection: 0x1000_0001,
+            sequence: 5,
+            count: 3,
+            run: Some(true),
+            data: vec![0xD0, 0x07, 0, 0, 0xC8, 0x00, 0x00, 0x14],
+        };
+        let bytes = packet.encode();
+        assert_eq!(
+            bytes,
+            [
+                0x02, 0x00, // item count
+                0x02, 0x80, 0x08, 0x00, 0x01, 0x00, 0x00, 0x10, 0x05, 0x00, 0x00,
+                0x00, // sequenced address
+                0xB1, 0x00, 0x0E, 0x00, // connected data, 2 + 4 + 8 bytes
+                0x03, 0x00, // sequence count
+                0x01, 0x00, 0x00, 0x00, // run
+                0xD0, 0x07, 0x00, 0x00, 0xC8, 0x00, 0x00, 0x14,
+            ]
+        );
+        assert_eq!(IoPacket::decode(&bytes, true), Ok(packet));
+        assert_eq!(IoPacket::connection_of(&bytes), Some(0x1000_0001));
+        assert_eq!(connection_size(8, true), 14);
+        assert_eq!(connection_size(8, false), 10);
+    }
+
+    #[test]
+    fn modeless_and_idle_packets() {
+        let to = IoPacket {
+            connection: 7,
+            sequence: 1,
+            count: 1,
+            run: None,
+            data: vec![0x37, 0x16, 0, 0, 0xD0, 0x07, 0, 0],
+        };
+        let bytes = to.encode();
+        assert_eq!(bytes.len(), 2 + 12 + 4 + 2 + 8);
+        assert_eq!(IoPacket::decode(&bytes, false), Ok(to));
+        let idle = IoPacket {
+            connection: 7,
+            sequence: 2,
+            count: 2,
+            run: Some(false),
+            data: vec![],
+        };
+        assert_eq!(IoPacket::decode(&idle.encode(), true), Ok(idle));
+        assert!(IoPacket::decode(&[0x01, 0x00, 0xB1, 0x00, 0x00, 0x00], false).is_err());
+        assert!(IoPacket::decode(&[], false).is_err());
+    }
+}
