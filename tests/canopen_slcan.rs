@@ -220,14 +220,19 @@ fn the_window_connects_over_slcan_and_moves_the_motor() {
     harness.get_by_label("Read").click();
     harness.step();
     step_until(&mut harness, "the string", Duration::from_secs(5), |h| {
-        h.state().state.last_object.as_ref().is_some_and(|r| {
-            r.result == Ok(Value::Text("drivedeck simulated drive".into()))
-        })
+        h.state()
+            .state
+            .last_object
+            .as_ref()
+            .is_some_and(|r| r.result == Ok(Value::Text("drivedeck simulated drive".into())))
     });
     // Disconnect releases the port and puts the node's mapping back.
     harness.get_by_label("Disconnect").click();
     harness.step();
-    step_until(&mut harness, "the disconnection", Duration::from_secs(5), |h| {
-        h.state().state.link_info().is_none()
-    });
+    step_until(
+        &mut harness,
+        "the disconnection",
+        Duration::from_secs(5),
+        |h| h.state().state.link_info().is_none(),
+    );
 }

@@ -1,6 +1,7 @@
 //! Helpers shared by the tests that talk to independent peers over real sockets and
-//! pseudo-terminals: the Python peer (pymodbus), socat pty pairs, and `drivedeck sim` run
-//! as its own process. Each test file takes what it needs (`mod common;`).
+//! pseudo-terminals: the Python peers (pymodbus, python-canopen), socat pty pairs, and
+//! `drivedeck sim` run as its own process. Each test file takes what it needs
+//! (`mod common;`).
 //!
 //! Peers are optional on a developer's machine (a test without its peer prints
 //! `skipped: …` and passes) and required in CI, where `.ci/run` installs them and sets
@@ -35,17 +36,28 @@ fn manifest_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A Python interpreter that imports pymodbus (and pyserial when asked).
+/// A Python interpreter that imports the peers' modules, with the version of each.
 #[derive(Clone, Debug)]
 pub struct Python {
     pub path: PathBuf,
-    pub pymodbus: String,
+    /// `(module, its __version__)` for every module asked for, in the order asked.
+    pub versions: Vec<(String, String)>,
 }
 
-/// The Python peer: `DRIVEDECK_PYTHON`, else `.venv/bin/python` of this crate, else
-/// `python3`. `None` (after `skip_or_fail`) when it cannot import the modules.
-pub fn python(modules: &[&str]) -> Option<Python> {
-    let path = match std::env::var_os("DRIVEDECK_PYTHON") {
+impl Python {
+    /// The version `module` reported (`?` where it has no `__version__`).
+    pub fn version(&self, module: &str) -> Option<&str> {
+        self.versions
+            .iter()
+            .find(|(m, _)| m == module)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+/// The interpreter for the peers: `DRIVEDECK_PYTHON`, else `.venv/bin/python` of this
+/// crate, else `python3`.
+fn python_path() -> PathBuf {
+    match std::env::var_os("DRIVEDECK_PYTHON") {
         Some(p) if !p.is_empty() => PathBuf::from(p),
         _ => {
             let venv = manifest_dir().join(".venv/bin/python");
@@ -55,41 +67,88 @@ pub fn python(modules: &[&str]) -> Option<Python> {
                 PathBuf::from("python3")
             }
         }
-    };
-    let imports = std::iter::once("pymodbus")
-        .chain(modules.iter().copied())
-        .collect::<Vec<_>>()
-        .join(", ");
-    let check = format!("import {imports}; print(pymodbus.__version__)");
-    match Command::new(&path).args(["-c", &check]).output() {
-        Ok(out) if out.status.success() => {
-            let pymodbus = String::from_utf8_lossy(&out.stdout).trim().to_owned();
-            // The peers are written against pymodbus 3 (`device_id=`, SimDevice).
-            if !pymodbus.starts_with("3.") {
-                skip_or_fail(&format!(
-                    "{} has pymodbus {pymodbus}; the peers need 3.x (`bash .ci/run` installs 3.16.1)",
-                    path.display()
-                ));
-                return None;
-            }
-            Some(Python { path, pymodbus })
-        }
-        Ok(out) => {
-            skip_or_fail(&format!(
-                "{} cannot `import {imports}` ({}); `bash .ci/run` makes .venv with them, or set DRIVEDECK_PYTHON",
-                path.display(),
-                String::from_utf8_lossy(&out.stderr)
-                    .lines()
-                    .last()
-                    .unwrap_or("")
-            ));
-            None
-        }
+    }
+}
+
+/// Imports every module named on the command line and prints `{module: version}`.
+const IMPORT_CHECK: &str = "\
+import importlib, json, sys
+out = {}
+for name in sys.argv[1:]:
+    module = importlib.import_module(name)
+    out[name] = str(getattr(module, '__version__', '?'))
+print(json.dumps(out))
+";
+
+/// The Python peer with `modules`, each `(import name, version prefix)`: an empty prefix
+/// takes any version, `"3."` only 3.x. `None` (after `skip_or_fail`) when the
+/// interpreter is missing, cannot import one of them, or has a version the peers were not
+/// written against (`bash .ci/run` makes .venv with the pinned versions).
+pub fn python_with(modules: &[(&str, &str)]) -> Option<Python> {
+    let path = python_path();
+    let names: Vec<&str> = modules.iter().map(|(m, _)| *m).collect();
+    let out = match Command::new(&path)
+        .arg("-c")
+        .arg(IMPORT_CHECK)
+        .args(&names)
+        .output()
+    {
+        Ok(out) => out,
         Err(e) => {
             skip_or_fail(&format!("no Python at {}: {e}", path.display()));
-            None
+            return None;
         }
+    };
+    if !out.status.success() {
+        skip_or_fail(&format!(
+            "{} cannot import {} ({}); `bash .ci/run` makes .venv with them, or set DRIVEDECK_PYTHON",
+            path.display(),
+            names.join(", "),
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
+        ));
+        return None;
     }
+    let reported: serde_json::Value = match serde_json::from_slice(&out.stdout) {
+        Ok(v) => v,
+        Err(e) => {
+            skip_or_fail(&format!(
+                "{} printed no versions ({e}): {}",
+                path.display(),
+                String::from_utf8_lossy(&out.stdout)
+            ));
+            return None;
+        }
+    };
+    let mut versions = vec![];
+    for (module, prefix) in modules {
+        let version = reported[*module].as_str().unwrap_or("?").to_owned();
+        if !version.starts_with(prefix) {
+            skip_or_fail(&format!(
+                "{} has {module} {version}; the peers need {prefix}x (`bash .ci/run` installs the pinned versions)",
+                path.display()
+            ));
+            return None;
+        }
+        versions.push(((*module).to_owned(), version));
+    }
+    Some(Python { path, versions })
+}
+
+/// The pymodbus peer: pymodbus 3.x (`device_id=`, SimDevice) and any other `modules`
+/// (e.g. `serial` for RTU).
+pub fn python(modules: &[&str]) -> Option<Python> {
+    let mut all = vec![("pymodbus", "3.")];
+    all.extend(modules.iter().map(|m| (*m, "")));
+    python_with(&all)
+}
+
+/// The python-canopen peer: canopen 2.x on python-can 4.x (the slcan interface needs
+/// pyserial).
+pub fn python_canopen() -> Option<Python> {
+    python_with(&[("canopen", "2."), ("can", "4."), ("serial", "")])
 }
 
 /// A peer script in tests/peers/.
@@ -316,7 +375,8 @@ pub fn run_peer(
 /// `drivedeck sim` as its own process, as a user would start it.
 pub struct Sim {
     pub process: Process,
-    /// The first line it printed ("serving the simulated drive on …").
+    /// The first line it printed ("serving the simulated drive on …" or "… as CANopen
+    /// node …").
     pub banner: String,
 }
 
@@ -327,7 +387,7 @@ impl Sim {
         let mut process = Process::spawn("drivedeck sim", &mut command);
         let banner = process.expect_line(what, Duration::from_secs(10));
         assert!(
-            banner.starts_with("serving the simulated drive on"),
+            banner.starts_with("serving the simulated drive "),
             "{banner}; {}",
             process.report()
         );
@@ -357,6 +417,24 @@ impl Sim {
         all.extend_from_slice(args);
         let sim = Sim::start(&all, "Modbus RTU banner");
         assert!(sim.banner.contains("Modbus RTU"), "{}", sim.banner);
+        sim
+    }
+
+    /// `drivedeck sim --slcan PATH --node NODE ARGS…`: a CANopen node behind an emulated
+    /// slcan adapter on one end of a pty pair.
+    pub fn slcan(path: &Path, node: u8, args: &[&str]) -> Sim {
+        let path = path.to_str().expect("utf-8 path");
+        let node = node.to_string();
+        let mut all = vec!["--slcan", path, "--node", &node];
+        all.extend_from_slice(args);
+        let sim = Sim::start(&all, "slcan banner");
+        assert!(
+            sim.banner.contains(&format!(
+                "CANopen node {node} behind an emulated slcan adapter"
+            )),
+            "{}",
+            sim.banner
+        );
         sim
     }
 }

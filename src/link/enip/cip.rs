@@ -292,11 +292,11 @@ impl Path {
                 }
             };
             let segment = match kind {
-                0x20 | 0x21 | 0x22 => Segment::Class(logical(&mut r, kind)?),
-                0x24 | 0x25 | 0x26 => Segment::Instance(logical(&mut r, kind)?),
-                0x28 | 0x29 | 0x2A => Segment::Member(logical(&mut r, kind)?),
-                0x2C | 0x2D | 0x2E => Segment::ConnectionPoint(logical(&mut r, kind)?),
-                0x30 | 0x31 | 0x32 => Segment::Attribute(logical(&mut r, kind)?),
+                0x20..=0x22 => Segment::Class(logical(&mut r, kind)?),
+                0x24..=0x26 => Segment::Instance(logical(&mut r, kind)?),
+                0x28..=0x2A => Segment::Member(logical(&mut r, kind)?),
+                0x2C..=0x2E => Segment::ConnectionPoint(logical(&mut r, kind)?),
+                0x30..=0x32 => Segment::Attribute(logical(&mut r, kind)?),
                 0x34 => {
                     let format = r.u8("key format")?;
                     if format != 4 {
