@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 pub use super::modbus::registers::WordOrder;
 
 /// Every form, for error messages and `--help`.
-pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0[&words=low] | modbus-rtu://PATH?baud=19200&parity=even&stop=1&slave=5[&words=low] | canopen+socketcan://IFACE?node=1[&pdo=1&keep_pdo=1] | canopen+slcan://PATH?bitrate=1000000&node=1 | canopen+sim://?node=1 | enip://HOST:PORT?io=pdi&rpi=10";
+pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0[&words=low] | modbus-rtu://PATH?baud=19200&parity=even&stop=1&slave=5[&words=low] | canopen+socketcan://IFACE?node=1[&pdo=1&keep_pdo=1] | canopen+slcan://PATH?bitrate=1000000&node=1 | canopen+sim://?node=1 | enip://HOST:PORT?io=pdi&rpi=10[&cmd_at=8&config=100&udp=2222]";
 
 /// Serial parity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -57,6 +57,93 @@ impl EnipIo {
             EnipIo::Common => "common",
             EnipIo::Explicit => "explicit",
         }
+    }
+}
+
+/// What an EtherNet/IP connection string carries besides the host.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct EnipOptions {
+    /// Which I/O connection carries the PDI.
+    pub io: EnipIo,
+    /// Requested packet interval of the I/O connection, ms.
+    pub rpi_ms: u32,
+    /// Where the PDI set's O→T assembly has PDI-Cmd: 7 (8 bytes, default) or 8 (9 bytes,
+    /// as the spec's table is printed; FACTS 7.1).
+    #[serde(default = "default_cmd_at")]
+    pub cmd_at: u8,
+    /// The configuration instance in the Forward_Open path (the drive has none; public
+    /// code sends 64h).
+    #[serde(default = "default_config")]
+    pub config: u16,
+    /// The local UDP port for the drive's I/O packets. `None`: 2222 when free, else any
+    /// free port, announced to the adapter in a T→O sockaddr item. `Some(0)`: always any
+    /// port with the item; `Some(n)`: exactly n, no item.
+    #[serde(default)]
+    pub udp: Option<u16>,
+}
+
+fn default_cmd_at() -> u8 {
+    7
+}
+
+fn default_config() -> u16 {
+    0x64
+}
+
+impl Default for EnipOptions {
+    fn default() -> Self {
+        Self {
+            io: EnipIo::Pdi,
+            rpi_ms: 10,
+            cmd_at: default_cmd_at(),
+            config: default_config(),
+            udp: None,
+        }
+    }
+}
+
+impl EnipOptions {
+    fn query(&self) -> String {
+        let mut q = format!("io={}&rpi={}", self.io.name(), self.rpi_ms);
+        if self.cmd_at != default_cmd_at() {
+            q.push_str(&format!("&cmd_at={}", self.cmd_at));
+        }
+        if self.config != default_config() {
+            q.push_str(&format!("&config={}", self.config));
+        }
+        if let Some(udp) = self.udp {
+            q.push_str(&format!("&udp={udp}"));
+        }
+        q
+    }
+
+    fn parse(q: &mut Query) -> Result<Self, String> {
+        let io = match q.take("io").as_deref() {
+            None | Some("pdi") => EnipIo::Pdi,
+            Some("common") => EnipIo::Common,
+            Some("explicit") | Some("none") => EnipIo::Explicit,
+            Some(other) => return Err(format!("io='{other}': use pdi, common or explicit")),
+        };
+        let rpi_ms = q.number("rpi", 10, 1, 10_000)? as u32;
+        let cmd_at = q.number("cmd_at", 7, 7, 8)? as u8;
+        let config = q.number("config", 0x64, 0, 0xFFFF)? as u16;
+        let udp = match q.take("udp").as_deref() {
+            None | Some("auto") => None,
+            Some(text) => Some(
+                crate::number::parse_integer(text, false)
+                    .and_then(|v| u16::try_from(v).ok())
+                    .ok_or_else(|| {
+                        format!("udp='{text}': give a port from 0 (any) to 65535, or auto")
+                    })?,
+            ),
+        };
+        Ok(Self {
+            io,
+            rpi_ms,
+            cmd_at,
+            config,
+            udp,
+        })
     }
 }
 
@@ -153,8 +240,8 @@ pub enum LinkSpec {
     Enip {
         host: String,
         port: u16,
-        io: EnipIo,
-        rpi_ms: u32,
+        #[serde(flatten)]
+        enip: EnipOptions,
     },
 }
 
@@ -231,8 +318,7 @@ impl LinkSpec {
             "enip" => LinkSpec::Enip {
                 host: "192.168.2.100".into(),
                 port: 44818,
-                io: EnipIo::Pdi,
-                rpi_ms: 10,
+                enip: EnipOptions::default(),
             },
             _ => return None,
         })
@@ -286,17 +372,9 @@ impl fmt::Display for LinkSpec {
                 )
             }
             LinkSpec::CanopenSim { can } => write!(f, "canopen+sim://?{}", can.query()),
-            LinkSpec::Enip {
-                host,
-                port,
-                io,
-                rpi_ms,
-            } => write!(
-                f,
-                "enip://{}:{port}?io={}&rpi={rpi_ms}",
-                host_text(host),
-                io.name()
-            ),
+            LinkSpec::Enip { host, port, enip } => {
+                write!(f, "enip://{}:{port}?{}", host_text(host), enip.query())
+            }
         }
     }
 }
@@ -537,20 +615,9 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
         }
         "enip" => {
             let (host, port) = host_port(target, 44818)?;
-            let io = match q.take("io").as_deref() {
-                None | Some("pdi") => EnipIo::Pdi,
-                Some("common") => EnipIo::Common,
-                Some("explicit") | Some("none") => EnipIo::Explicit,
-                Some(other) => return Err(format!("io='{other}': use pdi, common or explicit")),
-            };
-            let rpi_ms = q.number("rpi", 10, 1, 10_000)? as u32;
-            q.finish(&["io", "rpi"])?;
-            LinkSpec::Enip {
-                host,
-                port,
-                io,
-                rpi_ms,
-            }
+            let enip = EnipOptions::parse(&mut q)?;
+            q.finish(&["io", "rpi", "cmd_at", "config", "udp"])?;
+            LinkSpec::Enip { host, port, enip }
         }
         other => return Err(format!("unknown scheme '{other}'")),
     };
@@ -648,8 +715,11 @@ mod tests {
             LinkSpec::Enip {
                 host: "10.0.0.5".into(),
                 port: 44818,
-                io: EnipIo::Common,
-                rpi_ms: 20
+                enip: EnipOptions {
+                    io: EnipIo::Common,
+                    rpi_ms: 20,
+                    ..EnipOptions::default()
+                }
             }
         );
     }
@@ -667,6 +737,8 @@ mod tests {
             "canopen+slcan:///dev/ttyACM0?bitrate=500000&node=3&pdo=4&keep_pdo=1",
             "canopen+sim://?node=1",
             "enip://127.0.0.1:44818?io=pdi&rpi=10",
+            "enip://127.0.0.1:44818?io=pdi&rpi=4&cmd_at=8&config=0&udp=0",
+            "enip://[::1]:2000?io=explicit&rpi=10&udp=2222",
         ] {
             assert_eq!(ok(text).to_string(), text);
             assert_eq!(ok(&ok(text).to_string()), ok(text));
@@ -709,6 +781,8 @@ mod tests {
         assert!(err("canopen+sim://?pdo=5").contains("pdo=5 is out of range 1..=4"));
         assert!(err("canopen+slcan://COM1?bitrate=300000").contains("not a CAN bit rate"));
         assert!(err("enip://h?io=both").contains("use pdi, common or explicit"));
+        assert!(err("enip://h?cmd_at=9").contains("cmd_at=9 is out of range 7..=8"));
+        assert!(err("enip://h?udp=x").contains("udp='x'"));
         assert!(err("sim://x").contains("no target"));
         let full = "x".parse::<LinkSpec>().unwrap_err().to_string();
         assert!(

@@ -78,6 +78,13 @@ pub struct ConnectionForm {
     pub enip_port: String,
     pub enip_io: EnipIo,
     pub rpi: String,
+    /// Query parameters of the Modbus string the bar has no field for (`&words=low`),
+    /// kept as they came.
+    pub modbus_more: String,
+    /// The same for CANopen (`&keep_pdo=1`).
+    pub can_more: String,
+    /// The same for EtherNet/IP (`&cmd_at=8&udp=0`).
+    pub enip_more: String,
 }
 
 impl Default for ConnectionForm {
@@ -111,6 +118,9 @@ impl Default for ConnectionForm {
             enip_port: "44818".into(),
             enip_io: EnipIo::Pdi,
             rpi: "10".into(),
+            modbus_more: String::new(),
+            can_more: String::new(),
+            enip_more: String::new(),
         }
     }
 }
@@ -121,46 +131,72 @@ impl ConnectionForm {
         let text = match self.bus {
             Bus::Sim => "sim".to_owned(),
             Bus::ModbusTcp => format!(
-                "modbus-tcp://{}:{}?unit={}",
+                "modbus-tcp://{}:{}?unit={}{}",
                 bracket(&self.tcp_host),
                 self.tcp_port.trim(),
-                self.unit.trim()
+                self.unit.trim(),
+                self.modbus_more
             ),
             Bus::ModbusRtu => format!(
-                "modbus-rtu://{}?baud={}&parity={}&stop={}&slave={}",
+                "modbus-rtu://{}?baud={}&parity={}&stop={}&slave={}{}",
                 self.rtu_path.trim(),
                 self.baud.trim(),
                 self.parity.name(),
                 self.stop_bits.trim(),
-                self.slave.trim()
+                self.slave.trim(),
+                self.modbus_more
             ),
             Bus::CanopenSocketcan => format!(
-                "canopen+socketcan://{}?node={}&pdo={}",
+                "canopen+socketcan://{}?node={}&pdo={}{}",
                 self.can_iface.trim(),
                 self.node.trim(),
-                self.pdo.trim()
+                self.pdo.trim(),
+                self.can_more
             ),
             Bus::CanopenSlcan => format!(
-                "canopen+slcan://{}?bitrate={}&node={}&pdo={}",
+                "canopen+slcan://{}?bitrate={}&node={}&pdo={}{}",
                 self.slcan_path.trim(),
                 self.bitrate.trim(),
                 self.node.trim(),
-                self.pdo.trim()
+                self.pdo.trim(),
+                self.can_more
             ),
             Bus::CanopenSim => format!(
-                "canopen+sim://?node={}&pdo={}",
+                "canopen+sim://?node={}&pdo={}{}",
                 self.node.trim(),
-                self.pdo.trim()
+                self.pdo.trim(),
+                self.can_more
             ),
             Bus::Enip => format!(
-                "enip://{}:{}?io={}&rpi={}",
+                "enip://{}:{}?io={}&rpi={}{}",
                 bracket(&self.enip_host),
                 self.enip_port.trim(),
                 self.enip_io.name(),
-                self.rpi.trim()
+                self.rpi.trim(),
+                self.enip_more
             ),
         };
         text.parse::<LinkSpec>().map_err(|e| e.reason)
+    }
+}
+
+/// `&words=low` when the string has it.
+fn words_more(spec: &LinkSpec) -> String {
+    match spec {
+        LinkSpec::ModbusTcp { words, .. } | LinkSpec::ModbusRtu { words, .. }
+            if *words == crate::link::spec::WordOrder::Low =>
+        {
+            "&words=low".into()
+        }
+        _ => String::new(),
+    }
+}
+
+fn keep_more(keep_pdo: bool) -> String {
+    if keep_pdo {
+        "&keep_pdo=1".into()
+    } else {
+        String::new()
     }
 }
 
@@ -177,6 +213,7 @@ impl ConnectionForm {
                 form.tcp_host = host;
                 form.tcp_port = port.to_string();
                 form.unit = unit.to_string();
+                form.modbus_more = words_more(spec);
             }
             LinkSpec::ModbusRtu {
                 path,
@@ -192,17 +229,20 @@ impl ConnectionForm {
                 form.parity = parity;
                 form.stop_bits = stop_bits.to_string();
                 form.slave = slave.to_string();
+                form.modbus_more = words_more(spec);
             }
             LinkSpec::CanopenSocketcan { iface, can } => {
                 form.bus = Bus::CanopenSocketcan;
                 form.can_iface = iface;
                 form.node = can.node.to_string();
                 form.pdo = can.pdo.to_string();
+                form.can_more = keep_more(can.keep_pdo);
             }
             LinkSpec::CanopenSim { can } => {
                 form.bus = Bus::CanopenSim;
                 form.node = can.node.to_string();
                 form.pdo = can.pdo.to_string();
+                form.can_more = keep_more(can.keep_pdo);
             }
             LinkSpec::CanopenSlcan { path, bitrate, can } => {
                 form.bus = Bus::CanopenSlcan;
@@ -210,18 +250,20 @@ impl ConnectionForm {
                 form.bitrate = bitrate.to_string();
                 form.node = can.node.to_string();
                 form.pdo = can.pdo.to_string();
+                form.can_more = keep_more(can.keep_pdo);
             }
-            LinkSpec::Enip {
-                host,
-                port,
-                io,
-                rpi_ms,
-            } => {
+            LinkSpec::Enip { host, port, enip } => {
                 form.bus = Bus::Enip;
                 form.enip_host = host;
                 form.enip_port = port.to_string();
-                form.enip_io = io;
-                form.rpi = rpi_ms.to_string();
+                form.enip_io = enip.io;
+                form.rpi = enip.rpi_ms.to_string();
+                // Options the bar has no field for ride along unchanged.
+                form.enip_more = spec
+                    .to_string()
+                    .split_once(&format!("&rpi={}", enip.rpi_ms))
+                    .map(|(_, more)| more.to_owned())
+                    .unwrap_or_default();
             }
         }
         form
@@ -693,3 +735,26 @@ impl AppState {
 /// 6087h, Torque Slope: read on connect, so a torque command with slope 0 can be warned
 /// about before it is sent.
 pub const TORQUE_SLOPE: Address = Address::new(0x6087, 0);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_connection_string_survives_the_connection_bar() {
+        for text in [
+            "sim",
+            "modbus-tcp://10.0.0.1:502?unit=3&words=low",
+            "modbus-rtu:///dev/ttyUSB1?baud=115200&parity=none&stop=2&slave=7&words=low",
+            "canopen+socketcan://can1?node=4&pdo=2&keep_pdo=1",
+            "canopen+slcan://COM5?bitrate=500000&node=9",
+            "canopen+sim://?node=6&keep_pdo=1",
+            "enip://192.168.2.100:44818?io=common&rpi=4&cmd_at=8&config=0&udp=0",
+            "enip://[::1]:2000?io=explicit&rpi=10",
+        ] {
+            let spec: LinkSpec = text.parse().expect(text);
+            let form = ConnectionForm::from_spec(&spec, ConnectionForm::default());
+            assert_eq!(form.spec(), Ok(spec), "{text}");
+        }
+    }
+}
