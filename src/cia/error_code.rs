@@ -14,6 +14,8 @@ impl ErrorCode {
     pub const OUTPUT_CURRENT: Self = Self(0x2300);
     pub const VOLTAGE: Self = Self(0x3100);
     pub const TEMPERATURE: Self = Self(0x4200);
+    /// The fieldbus master went silent (e.g. an EtherNet/IP I/O connection timed out).
+    pub const FIELDBUS_MONITORING: Self = Self(0x8000);
     pub const FOLLOWING_ERROR: Self = Self(0x8611);
     pub const LIMIT_SWITCH: Self = Self(0x8612);
 

@@ -81,6 +81,7 @@ pub struct StatusReport {
     pub torque: Option<f64>,
     pub following_error: Option<f64>,
     pub digital_inputs: Option<u32>,
+    pub analog_input: Option<f64>,
     pub warnings: Vec<String>,
     /// What the link reported on the way (fallbacks chosen, mappings changed).
     pub notes: Vec<String>,
@@ -184,6 +185,7 @@ pub fn status(link: &LinkSpec, sample: Option<Sample>) -> StatusReport {
         torque: sample.torque,
         following_error: sample.following_error,
         digital_inputs: sample.digital_inputs,
+        analog_input: sample.analog_input,
         warnings: vec![],
         notes: vec![],
     }

@@ -57,6 +57,13 @@ pub enum Refusal {
     Abort(AbortCode),
     /// A Modbus exception (01 to 04 and others) to an object access.
     Modbus { function: u8, code: u8 },
+    /// A CIP error status to an EtherNet/IP object service, with the service and the
+    /// object it named.
+    Cip {
+        what: String,
+        status: u8,
+        additional: Vec<u16>,
+    },
     /// The answer did not fit the object's type.
     Malformed(String),
     /// The link has no object access of its own; use the PDI.
@@ -72,6 +79,25 @@ impl fmt::Display for Refusal {
                 "Modbus exception {code:02X}h ({}) to FC {function}",
                 modbus_exception_text(*code)
             ),
+            Refusal::Cip {
+                what,
+                status,
+                additional,
+            } => {
+                let general = super::enip::cip::GeneralStatus(*status);
+                write!(f, "{what}: {general}")?;
+                if !additional.is_empty() {
+                    let words: Vec<String> =
+                        additional.iter().map(|w| format!("{w:04X}h")).collect();
+                    write!(f, ", additional status {}", words.join(" "))?;
+                }
+                // Two words after a vendor-specific error: the adapter's SDO abort code.
+                if let (0x1F, [low, high]) = (*status, additional.as_slice()) {
+                    let code = AbortCode(u32::from(*high) << 16 | u32::from(*low));
+                    write!(f, " = SDO abort {code}")?;
+                }
+                Ok(())
+            }
             Refusal::Malformed(text) => write!(f, "malformed answer: {text}"),
             Refusal::NotSupported => f.write_str("this link has no direct object access"),
         }

@@ -130,6 +130,8 @@ pub struct Signals {
     pub statusword: Option<u16>,
     /// 60FDh
     pub digital_inputs: Option<u32>,
+    /// 3220h:01, analog input 1 (raw, as the drive reports it)
+    pub analog_input: Option<f64>,
     /// 6061h
     pub mode: Option<i8>,
 }

@@ -3,6 +3,7 @@
 use super::canopen::client::CanopenLink;
 use super::canopen::simbus::SimCanBus;
 use super::canopen::slcan::SlcanBus;
+use super::enip::client::EnipLink;
 use super::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
 use super::sim::SimLink;
 use super::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal};
@@ -15,6 +16,7 @@ use crate::sim::Injection;
 pub enum AnyLink {
     Sim(Box<SimLink>),
     Modbus(Box<ModbusLink>),
+    Enip(Box<EnipLink>),
     CanopenSim(Box<CanopenLink<SimCanBus>>),
     CanopenSlcan(Box<CanopenLink<SlcanBus<tokio_serial::SerialStream>>>),
     #[cfg(target_os = "linux")]
@@ -52,10 +54,7 @@ pub async fn open(spec: &LinkSpec) -> Result<AnyLink, Error> {
             "SocketCAN exists only on Linux: use an slcan adapter (canopen+slcan://COM5?node=1)"
                 .into(),
         )),
-        LinkSpec::Enip { .. } => Err(Error::NotBuiltYet {
-            scheme: spec.scheme(),
-            issue: "issue #5",
-        }),
+        LinkSpec::Enip { .. } => Ok(AnyLink::Enip(Box::new(EnipLink::connect(spec).await?))),
     }
 }
 
@@ -77,8 +76,16 @@ pub async fn scan(spec: &LinkSpec) -> Result<Vec<super::FoundDevice>, Error> {
             let mut bus = super::canopen::socketcan::SocketCanBus::open(iface)?;
             super::canopen::scan::scan(&mut bus).await
         }
+        LinkSpec::Enip { host, port, .. } => {
+            super::enip::discovery::discover(&super::enip::discovery::Discovery {
+                port: *port,
+                unicast: vec![host.clone()],
+                ..Default::default()
+            })
+            .await
+        }
         _ => Err(Error::Unsupported(format!(
-            "{} has no bus scan: scanning works on CANopen buses (EtherNet/IP discovery arrives with issue #5)",
+            "{} has no bus scan: scanning works on CANopen buses and EtherNet/IP networks",
             spec.bus_name()
         ))),
     }
@@ -95,6 +102,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.info(),
             AnyLink::Modbus(l) => l.info(),
+            AnyLink::Enip(l) => l.info(),
             AnyLink::CanopenSim(l) => l.info(),
             AnyLink::CanopenSlcan(l) => l.info(),
             #[cfg(target_os = "linux")]
@@ -106,6 +114,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.exchange(rx).await,
             AnyLink::Modbus(l) => l.exchange(rx).await,
+            AnyLink::Enip(l) => l.exchange(rx).await,
             AnyLink::CanopenSim(l) => l.exchange(rx).await,
             AnyLink::CanopenSlcan(l) => l.exchange(rx).await,
             #[cfg(target_os = "linux")]
@@ -117,6 +126,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.read_rx().await,
             AnyLink::Modbus(l) => l.read_rx().await,
+            AnyLink::Enip(l) => l.read_rx().await,
             AnyLink::CanopenSim(l) => l.read_rx().await,
             AnyLink::CanopenSlcan(l) => l.read_rx().await,
             #[cfg(target_os = "linux")]
@@ -132,6 +142,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.read_object(address, dtype).await,
             AnyLink::Modbus(l) => l.read_object(address, dtype).await,
+            AnyLink::Enip(l) => l.read_object(address, dtype).await,
             AnyLink::CanopenSim(l) => l.read_object(address, dtype).await,
             AnyLink::CanopenSlcan(l) => l.read_object(address, dtype).await,
             #[cfg(target_os = "linux")]
@@ -148,6 +159,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.write_object(address, dtype, value).await,
             AnyLink::Modbus(l) => l.write_object(address, dtype, value).await,
+            AnyLink::Enip(l) => l.write_object(address, dtype, value).await,
             AnyLink::CanopenSim(l) => l.write_object(address, dtype, value).await,
             AnyLink::CanopenSlcan(l) => l.write_object(address, dtype, value).await,
             #[cfg(target_os = "linux")]
@@ -159,6 +171,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.inject(injection, active).await,
             AnyLink::Modbus(l) => l.inject(injection, active).await,
+            AnyLink::Enip(l) => l.inject(injection, active).await,
             AnyLink::CanopenSim(l) => l.inject(injection, active).await,
             AnyLink::CanopenSlcan(l) => l.inject(injection, active).await,
             #[cfg(target_os = "linux")]
@@ -170,6 +183,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.scan().await,
             AnyLink::Modbus(l) => l.scan().await,
+            AnyLink::Enip(l) => l.scan().await,
             AnyLink::CanopenSim(l) => l.scan().await,
             AnyLink::CanopenSlcan(l) => l.scan().await,
             #[cfg(target_os = "linux")]
@@ -181,6 +195,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.take_trace(),
             AnyLink::Modbus(l) => l.take_trace(),
+            AnyLink::Enip(l) => l.take_trace(),
             AnyLink::CanopenSim(l) => l.take_trace(),
             AnyLink::CanopenSlcan(l) => l.take_trace(),
             #[cfg(target_os = "linux")]
@@ -192,6 +207,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.take_notices(),
             AnyLink::Modbus(l) => l.take_notices(),
+            AnyLink::Enip(l) => l.take_notices(),
             AnyLink::CanopenSim(l) => l.take_notices(),
             AnyLink::CanopenSlcan(l) => l.take_notices(),
             #[cfg(target_os = "linux")]
@@ -203,6 +219,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.reconnect().await,
             AnyLink::Modbus(l) => l.reconnect().await,
+            AnyLink::Enip(l) => l.reconnect().await,
             AnyLink::CanopenSim(l) => l.reconnect().await,
             AnyLink::CanopenSlcan(l) => l.reconnect().await,
             #[cfg(target_os = "linux")]
@@ -214,6 +231,7 @@ impl Link for AnyLink {
         match self {
             AnyLink::Sim(l) => l.close().await,
             AnyLink::Modbus(l) => l.close().await,
+            AnyLink::Enip(l) => l.close().await,
             AnyLink::CanopenSim(l) => l.close().await,
             AnyLink::CanopenSlcan(l) => l.close().await,
             #[cfg(target_os = "linux")]

@@ -139,6 +139,11 @@ impl Link for SimLink {
             statusword: int(0x6041).map(|v| v as u16),
             digital_inputs: int(0x60FD).map(|v| v as u32),
             mode: int(0x6061).map(|v| v as i8),
+            analog_input: self
+                .drive
+                .read(Address::new(0x3220, 1))
+                .ok()
+                .and_then(|v| v.as_f64()),
         };
         Ok(Exchange {
             tx: self.drive.tx_image(),

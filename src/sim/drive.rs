@@ -241,6 +241,14 @@ impl Drive {
         self.publish();
     }
 
+    /// The fieldbus master stopped talking (an EtherNet/IP I/O connection timed out): the
+    /// drive stops and latches fault 8000h (fieldbus monitoring) with the communication
+    /// bit in 1001h, until Clear Error.
+    pub fn fieldbus_lost(&mut self) {
+        self.raise_fault(ErrorCode::FIELDBUS_MONITORING, 0, 0x11);
+        self.publish();
+    }
+
     pub fn injected(&self) -> impl Iterator<Item = Injection> + '_ {
         self.injected.iter().copied()
     }

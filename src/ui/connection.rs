@@ -111,6 +111,10 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
                 field(ui, "RPI ms", &mut form.rpi, 32.0);
             }
         }
+        if form.bus == Bus::Enip {
+            discover_ui(ui, state);
+        }
+        let form = &mut state.settings.connection;
 
         let spec = form.spec();
         let is_can = matches!(
@@ -258,13 +262,66 @@ pub fn stop_keys(ctx: &egui::Context, state: &mut AppState) {
     }
 }
 
+/// EtherNet/IP discovery: the interface to broadcast on, and the button.
+fn discover_ui(ui: &mut Ui, state: &mut AppState) {
+    let interfaces = state
+        .interfaces
+        .get_or_insert_with(crate::link::enip::discovery::interfaces)
+        .clone();
+    let form = &mut state.settings.connection;
+    let shown = if form.discover_interface.is_empty() {
+        "all interfaces".to_owned()
+    } else {
+        form.discover_interface.clone()
+    };
+    let picked = egui::ComboBox::from_id_salt("discover_interface")
+        .selected_text(shown)
+        .width(150.0)
+        .show_ui(ui, |ui| {
+            ui.selectable_value(
+                &mut form.discover_interface,
+                String::new(),
+                "all interfaces",
+            );
+            for interface in &interfaces {
+                ui.selectable_value(
+                    &mut form.discover_interface,
+                    interface.name.clone(),
+                    interface.label(),
+                );
+            }
+        });
+    combo_name(&picked.response, "Discover on");
+    let port = form.enip_port.trim().parse::<u16>().unwrap_or(44818);
+    let host = Some(form.enip_host.trim().to_owned()).filter(|h| !h.is_empty());
+    let interface = Some(form.discover_interface.clone()).filter(|i| !i.is_empty());
+    if ui
+        .button("Discover")
+        .on_hover_text(
+            "Find the EtherNet/IP adapters: ListIdentity broadcast on the chosen interface, and asked of the host directly",
+        )
+        .clicked()
+    {
+        state.request(Request::Discover {
+            interface,
+            host,
+            port,
+        });
+    }
+}
+
 /// The last bus scan: the nodes found, each with a button to connect to it.
 pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
     let Some(result) = state.scan.clone() else {
         return;
     };
+    let title = if state.settings.connection.bus == Bus::Enip {
+        "EtherNet/IP discovery"
+    } else {
+        "Bus scan"
+    };
     ui.horizontal(|ui| {
-        ui.label(RichText::new("Bus scan").strong());
+        ui.label(RichText::new(title).strong());
         if ui.small_button("Close").clicked() {
             state.scan = None;
         }
@@ -276,8 +333,13 @@ pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
             return;
         }
     };
+    let enip = state.settings.connection.bus == Bus::Enip;
     if found.is_empty() {
-        ui.label("No node answered: check the bit rate, the wiring and the termination (120 Ω at both ends).");
+        ui.label(if enip {
+            "No adapter answered: check the cable, that this computer is in the drive's IP subnet, and that no firewall blocks UDP 44818."
+        } else {
+            "No node answered: check the bit rate, the wiring and the termination (120 Ω at both ends)."
+        });
         return;
     }
     egui::Grid::new("scan_results")
@@ -295,7 +357,11 @@ pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
                 ui.label(&device.address);
                 ui.label(device.vendor_name());
                 ui.monospace(hex(device.product));
-                ui.monospace(hex(device.revision));
+                match (device.node, device.revision) {
+                    // EtherNet/IP: major.minor.
+                    (None, Some(r)) => ui.monospace(format!("{}.{}", r >> 16, r & 0xFFFF)),
+                    _ => ui.monospace(hex(device.revision)),
+                };
                 ui.monospace(hex(device.serial));
                 ui.label(device.name.clone().unwrap_or_default());
                 ui.label(device.state.clone().unwrap_or_default());
@@ -304,6 +370,17 @@ pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
                     if use_it.clicked() {
                         state.settings.connection.node = node.to_string();
                         if let Ok(spec) = state.settings.connection.spec() {
+                            state.request(Request::Connect(spec));
+                        }
+                        state.scan = None;
+                    }
+                } else if let Ok(address) = device.address.parse::<std::net::SocketAddr>() {
+                    if ui.button(format!("Use {}", address.ip())).clicked() {
+                        let form = &mut state.settings.connection;
+                        form.bus = Bus::Enip;
+                        form.enip_host = address.ip().to_string();
+                        form.enip_port = address.port().to_string();
+                        if let Ok(spec) = form.spec() {
                             state.request(Request::Connect(spec));
                         }
                         state.scan = None;

@@ -85,6 +85,8 @@ pub struct ConnectionForm {
     pub can_more: String,
     /// The same for EtherNet/IP (`&cmd_at=8&udp=0`).
     pub enip_more: String,
+    /// The interface EtherNet/IP discovery broadcasts on (name or IP; empty: all).
+    pub discover_interface: String,
 }
 
 impl Default for ConnectionForm {
@@ -121,6 +123,7 @@ impl Default for ConnectionForm {
             modbus_more: String::new(),
             can_more: String::new(),
             enip_more: String::new(),
+            discover_interface: String::new(),
         }
     }
 }
@@ -417,6 +420,8 @@ pub struct AppState {
     pub frames: VecDeque<crate::link::TraceRecord>,
     /// Which log the bottom panel shows.
     pub show_frames: bool,
+    /// The IPv4 interfaces, for EtherNet/IP discovery (found once, on first use).
+    pub interfaces: Option<Vec<crate::link::enip::discovery::Interface>>,
     /// The last bus scan's result.
     pub scan: Option<Result<Vec<crate::link::FoundDevice>, String>>,
     /// Reads of 6087h the window asked for itself (not logged).
@@ -444,6 +449,7 @@ impl AppState {
             clock: 0.0,
             serial_ports: None,
             scan: None,
+            interfaces: None,
             frames: VecDeque::new(),
             show_frames: false,
             slope_reads: Vec::new(),

@@ -180,6 +180,7 @@ pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
                 row(ui, "Velocity 606Ch", sample.velocity, "rpm");
                 row(ui, "Torque 6077h", sample.torque, "‰");
                 row(ui, "Following error 60F4h", sample.following_error, "0.1°");
+                row(ui, "Analog input 3220h:01", sample.analog_input, "");
                 if let Some(inputs) = sample.digital_inputs {
                     ui.label("Digital inputs 60FDh");
                     ui.monospace(format!("{inputs:08X}h")).on_hover_text(

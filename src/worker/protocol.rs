@@ -58,6 +58,13 @@ pub enum Request {
     /// Find the devices on a bus: through the open link when it is on that bus, otherwise
     /// by opening the bus for the scan.
     Scan(LinkSpec),
+    /// Find EtherNet/IP adapters: ListIdentity broadcast on `interface` (a name or IPv4
+    /// address; `None`: every interface) and asked directly at `host`.
+    Discover {
+        interface: Option<String>,
+        host: Option<String>,
+        port: u16,
+    },
 }
 
 impl Request {
@@ -91,6 +98,11 @@ impl fmt::Display for Request {
             }
             Request::SetPollRate(hz) => write!(f, "poll at {hz} Hz"),
             Request::Scan(spec) => write!(f, "scan {}", spec.bus_name()),
+            Request::Discover { interface, .. } => write!(
+                f,
+                "discover EtherNet/IP adapters on {}",
+                interface.as_deref().unwrap_or("every interface")
+            ),
             Request::SetTrace(on) => write!(f, "frame trace {}", if *on { "on" } else { "off" }),
         }
     }
@@ -165,6 +177,8 @@ pub struct Sample {
     pub statusword: Option<u16>,
     /// 60FDh
     pub digital_inputs: Option<u32>,
+    /// 3220h:01, analog input 1
+    pub analog_input: Option<f64>,
     /// 6061h
     pub mode: Option<i8>,
 }
@@ -183,6 +197,7 @@ impl Sample {
             following_error: self.following_error.or(older.following_error),
             statusword: self.statusword.or(older.statusword),
             digital_inputs: self.digital_inputs.or(older.digital_inputs),
+            analog_input: self.analog_input.or(older.analog_input),
             mode: self.mode.or(older.mode),
         }
     }

@@ -266,6 +266,23 @@ impl Worker {
                     result: result.map_err(|e| e.to_string()),
                 });
             }
+            Request::Discover {
+                interface,
+                host,
+                port,
+            } => {
+                let discovery = link::enip::discovery::Discovery {
+                    port,
+                    interface,
+                    unicast: host.into_iter().collect(),
+                    ..Default::default()
+                };
+                let result = link::enip::discovery::discover(&discovery).await;
+                sink.emit(Event::Scanned {
+                    id,
+                    result: result.map_err(|e| e.to_string()),
+                });
+            }
             Request::Inject { injection, active } => match self.session.as_mut() {
                 Some(s) => match s.link.inject(injection, active).await {
                     Ok(()) => sink.emit(Event::Notice(format!(
@@ -430,6 +447,7 @@ impl Session {
             following_error: signals.following_error,
             statusword: signals.statusword,
             digital_inputs: signals.digital_inputs,
+            analog_input: signals.analog_input,
             mode: signals.mode,
         });
         if now - self.last_batch >= SAMPLE_BATCH {

@@ -12,12 +12,16 @@
 
 pub mod assembly;
 pub mod cip;
+pub mod client;
 pub mod connection;
 pub mod cpf;
+pub mod discovery;
 pub mod encap;
 pub mod identity;
+mod implicit;
 pub mod io;
 pub mod nanotec;
+pub mod session;
 pub mod wire;
 
 pub use wire::{DecodeError, hex};

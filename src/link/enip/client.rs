@@ -1,0 +1,745 @@
+//! `EnipLink`: a Nanotec drive over EtherNet/IP.
+//!
+//! * Objects go over Nanotec's explicit services on class 64h: GetOD (32h), SetOD (33h),
+//!   and GetOD Rockwell (34h) where the type is not known beforehand.
+//! * The PDI runs through a class 1 I/O connection (the PDI set 105/104, or the Common set
+//!   101/100 with position, velocity, inputs, torque, analog input and following error
+//!   along), opened with Forward_Open and produced at the RPI by a task of its own; and
+//!   through explicit 2291h/2292h access when the user asks for that or the drive refuses
+//!   the I/O connection (the link says why).
+//! * Connecting replays nothing: the first O→T assembly is what the drive holds already.
+
+use std::net::{IpAddr, Ipv4Addr, SocketAddr, SocketAddrV4};
+use std::sync::atomic::{AtomicU16, Ordering};
+use std::time::{Duration, SystemTime};
+
+use tokio::net::UdpSocket;
+
+use super::assembly::{self, AssemblySet, CmdOffset, CommonIn, CommonOut};
+use super::cip::{self, Path, Segment, class, service};
+use super::connection::{
+    self, ForwardClose, ForwardOpen, ForwardOpenReply, NetworkParams, TRANSPORT_CLASS1_CYCLIC,
+    Triad,
+};
+use super::cpf::{Item, SockAddr};
+use super::encap::UDP_IO_PORT;
+use super::identity::{Identity, NANOTEC_VENDOR};
+use super::implicit::{IoConfig, IoHandle};
+use super::io;
+use super::nanotec::{self, Typed};
+use super::session::Session;
+use crate::link::spec::{EnipIo, EnipOptions};
+use crate::link::{Error, Exchange, FoundDevice, Link, LinkInfo, LinkSpec, Refusal, Signals};
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{RxImage, TxImage};
+
+/// How long an explicit request may take.
+pub const EXPLICIT_TIMEOUT: Duration = Duration::from_millis(1000);
+/// drivedeck has no ODVA vendor id; adapters use the originator vendor only to tell
+/// connections apart.
+pub const ORIGINATOR_VENDOR: u16 = 0xFFFE;
+/// The I/O connection's timeout is at least this long: a laptop's scheduler and Wi-Fi
+/// hiccups must not drop a commissioning session.
+const MIN_IO_TIMEOUT: Duration = Duration::from_millis(500);
+
+static SERIAL: AtomicU16 = AtomicU16::new(0);
+
+/// Numbers that differ between runs and processes (connection serials and ids).
+fn entropy() -> u32 {
+    let nanos = SystemTime::now()
+        .duration_since(SystemTime::UNIX_EPOCH)
+        .map(|d| d.subsec_nanos() ^ (d.as_secs() as u32).rotate_left(13))
+        .unwrap_or(0);
+    nanos ^ std::process::id().rotate_left(7)
+}
+
+/// The timeout multiplier that gives at least [`MIN_IO_TIMEOUT`] at this RPI.
+fn multiplier_for(rpi_us: u32) -> u8 {
+    (0..=7u8)
+        .find(|m| connection::timeout(rpi_us, *m) >= MIN_IO_TIMEOUT)
+        .unwrap_or(7)
+}
+
+/// An open class 1 connection and what closing it needs.
+#[derive(Debug)]
+struct Opened {
+    set: AssemblySet,
+    cmd: CmdOffset,
+    triad: Triad,
+    path: Vec<u8>,
+    handle: IoHandle,
+    /// The Common set's outputs besides the PDI (kept as read at connect).
+    common_out: CommonOut,
+}
+
+/// A drive over EtherNet/IP.
+#[derive(Debug)]
+pub struct EnipLink {
+    spec: LinkSpec,
+    host: String,
+    port: u16,
+    options: EnipOptions,
+    session: Session,
+    identity: Option<Identity>,
+    io: Option<Opened>,
+    /// The device has the PDI objects (2291h/2292h).
+    pdi: bool,
+    /// The RX image last written over explicit messages.
+    explicit_rx: Option<RxImage>,
+    notices: Vec<String>,
+}
+
+impl EnipLink {
+    pub async fn connect(spec: &LinkSpec) -> Result<EnipLink, Error> {
+        let LinkSpec::Enip { host, port, enip } = spec else {
+            return Err(Error::Unsupported(format!(
+                "{spec} is not an EtherNet/IP connection string"
+            )));
+        };
+        let session = Session::open(host, *port, EXPLICIT_TIMEOUT).await?;
+        let mut link = EnipLink {
+            spec: spec.clone(),
+            host: host.clone(),
+            port: *port,
+            options: *enip,
+            session,
+            identity: None,
+            io: None,
+            pdi: false,
+            explicit_rx: None,
+            notices: vec![],
+        };
+        link.start().await?;
+        Ok(link)
+    }
+
+    /// Learn the device and open the I/O connection the user asked for.
+    async fn start(&mut self) -> Result<(), Error> {
+        match self.session.list_identity().await {
+            Ok(identity) => {
+                if identity.vendor != NANOTEC_VENDOR {
+                    self.notices.push(format!(
+                        "the adapter at {} is not a Nanotec device (vendor {:04X}h, {}): its object services may differ",
+                        self.session.peer(),
+                        identity.vendor,
+                        identity.product_name
+                    ));
+                }
+                self.identity = Some(identity);
+            }
+            Err(e) => self
+                .notices
+                .push(format!("no identity from the adapter ({e})")),
+        }
+        self.pdi = match self
+            .get(Address::new(0x2292, 1), DataType::Unsigned16)
+            .await?
+        {
+            Ok(_) => true,
+            Err(refusal) => {
+                self.notices.push(format!(
+                    "the device has no Plug & Drive interface ({refusal}): object access only"
+                ));
+                false
+            }
+        };
+        if self.pdi {
+            let set = match self.options.io {
+                EnipIo::Pdi => Some(AssemblySet::Pdi),
+                EnipIo::Common => Some(AssemblySet::Common),
+                EnipIo::Explicit => None,
+            };
+            if let Some(set) = set {
+                match self.open_io(set).await {
+                    Ok(opened) => self.io = Some(opened),
+                    Err(Error::Refused(reason)) => self.notices.push(format!(
+                        "{reason}: running the PDI over explicit messages (SetOD 2291h, GetOD 2292h) instead"
+                    )),
+                    Err(other) => return Err(other),
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Read one entry with GetOD; a CIP error status is the device's refusal.
+    async fn get(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+    ) -> Result<Result<Value, Refusal>, Error> {
+        let (reply, _) = self
+            .session
+            .request(&nanotec::get_od(address), vec![])
+            .await?;
+        if !reply.status.is_success() {
+            return Ok(Err(Refusal::Cip {
+                what: format!("GetOD {address}"),
+                status: reply.status.0,
+                additional: reply.additional,
+            }));
+        }
+        Ok(decode_value(address, dtype, &reply.data))
+    }
+
+    /// Read one entry with GetOD Rockwell: its type comes with it.
+    pub async fn get_typed(
+        &mut self,
+        address: Address,
+    ) -> Result<Result<(DataType, Value), Refusal>, Error> {
+        let (reply, _) = self
+            .session
+            .request(&nanotec::get_od_rockwell(address), vec![])
+            .await?;
+        if !reply.status.is_success() {
+            return Ok(Err(Refusal::Cip {
+                what: format!("GetOD Rockwell {address}"),
+                status: reply.status.0,
+                additional: reply.additional,
+            }));
+        }
+        let typed = match Typed::decode(&reply.data) {
+            Ok(t) => t,
+            Err(e) => return Ok(Err(Refusal::Malformed(format!("{address}: {e}")))),
+        };
+        let Some(dtype) = DataType::from_code(typed.dtype_code) else {
+            return Ok(Err(Refusal::Malformed(format!(
+                "{address}: unknown data type {:04X}h",
+                typed.dtype_code
+            ))));
+        };
+        Ok(decode_value(address, dtype, &typed.data).map(|v| (dtype, v)))
+    }
+
+    async fn set(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: &Value,
+    ) -> Result<Result<(), Refusal>, Error> {
+        let bytes = match value.to_le_bytes(dtype) {
+            Ok(b) => b,
+            Err(e) => return Ok(Err(Refusal::Malformed(format!("{address}: {e}")))),
+        };
+        let request = match nanotec::set_od(address, &bytes) {
+            Ok(r) => r,
+            // Wider than SetOD carries: nothing on EtherNet/IP can write it.
+            Err(e) => return Ok(Err(Refusal::Malformed(e.to_string()))),
+        };
+        let (reply, _) = self.session.request(&request, vec![]).await?;
+        if !reply.status.is_success() {
+            return Ok(Err(Refusal::Cip {
+                what: format!("SetOD {address}"),
+                status: reply.status.0,
+                additional: reply.additional,
+            }));
+        }
+        Ok(Ok(()))
+    }
+
+    /// A PDI object that must be there once the PDI was found.
+    async fn get_int(&mut self, address: Address, dtype: DataType) -> Result<i128, Error> {
+        match self.get(address, dtype).await? {
+            Ok(value) => value
+                .as_i128()
+                .ok_or_else(|| Error::Protocol(format!("{address} is not a number"))),
+            Err(refusal) => Err(Error::Protocol(format!(
+                "the drive stopped answering its PDI objects: {refusal}"
+            ))),
+        }
+    }
+
+    /// 2291h:01..04 as the drive holds them.
+    async fn read_rx_explicit(&mut self) -> Result<RxImage, Error> {
+        let value1 = self
+            .get_int(Address::new(0x2291, 1), DataType::Integer32)
+            .await? as i32;
+        let value2 = self
+            .get_int(Address::new(0x2291, 2), DataType::Integer16)
+            .await? as i16;
+        let value3 = self
+            .get_int(Address::new(0x2291, 3), DataType::Integer8)
+            .await? as i8;
+        let cmd = self
+            .get_int(Address::new(0x2291, 4), DataType::Integer8)
+            .await? as i8 as u8;
+        Ok(RxImage {
+            values: crate::pdi::SetValues {
+                value1,
+                value2,
+                value3,
+            },
+            cmd,
+        })
+    }
+
+    /// An object read for the Common set's outputs: 0 where the drive lacks it.
+    async fn get_or_zero(&mut self, address: Address, dtype: DataType) -> Result<i128, Error> {
+        Ok(self
+            .get(address, dtype)
+            .await?
+            .ok()
+            .and_then(|v| v.as_i128())
+            .unwrap_or(0))
+    }
+
+    /// The local UDP socket for T→O packets, and the sockaddr item to announce it with.
+    async fn bind_udp(&mut self) -> Result<(UdpSocket, Option<Item>), Error> {
+        let any = |port| SocketAddr::from((Ipv4Addr::UNSPECIFIED, port));
+        let announce = |socket: &UdpSocket| {
+            socket.local_addr().ok().map(|a| {
+                Item::SockaddrTo(SockAddr::new(SocketAddrV4::new(
+                    Ipv4Addr::UNSPECIFIED,
+                    a.port(),
+                )))
+            })
+        };
+        let io_error = |port: u16, e: std::io::Error| Error::Io {
+            context: format!("binding UDP port {port} for the drive's I/O packets"),
+            source: e,
+        };
+        match self.options.udp {
+            Some(0) => {
+                let socket = UdpSocket::bind(any(0)).await.map_err(|e| io_error(0, e))?;
+                let item = announce(&socket);
+                Ok((socket, item))
+            }
+            Some(port) => {
+                let socket = UdpSocket::bind(any(port))
+                    .await
+                    .map_err(|e| io_error(port, e))?;
+                Ok((socket, None))
+            }
+            None => match UdpSocket::bind(any(UDP_IO_PORT)).await {
+                Ok(socket) => Ok((socket, None)),
+                Err(_) => {
+                    let socket = UdpSocket::bind(any(0)).await.map_err(|e| io_error(0, e))?;
+                    let item = announce(&socket);
+                    if let Ok(local) = socket.local_addr() {
+                        self.notices.push(format!(
+                            "UDP {UDP_IO_PORT} is taken on this computer (another scanner, or a simulated adapter): receiving I/O on UDP {} and asking the adapter to send there",
+                            local.port()
+                        ));
+                    }
+                    Ok((socket, item))
+                }
+            },
+        }
+    }
+
+    /// Forward_Open for `set`, and the I/O task. `Error::Refused` when the adapter says no.
+    async fn open_io(&mut self, set: AssemblySet) -> Result<Opened, Error> {
+        let cmd = match self.options.cmd_at {
+            8 => CmdOffset::Eight,
+            _ => CmdOffset::Seven,
+        };
+        // What the drive holds now: the first packets change nothing.
+        let rx = self.read_rx_explicit().await?;
+        let mut common_out = CommonOut {
+            rx,
+            ..CommonOut::default()
+        };
+        if set == AssemblySet::Common {
+            common_out.digital_outputs = self
+                .get_or_zero(Address::new(0x60FE, 1), DataType::Unsigned32)
+                .await? as u32;
+            for (i, slot) in common_out.nanoj_inputs.iter_mut().enumerate() {
+                *slot = self
+                    .get_or_zero(Address::new(0x2400, i as u8 + 1), DataType::Integer32)
+                    .await? as i32;
+            }
+        }
+        let output = match set {
+            AssemblySet::Pdi => assembly::encode_pdi_ot(&rx, cmd),
+            AssemblySet::Common => common_out.encode().to_vec(),
+        };
+        let (socket, announce) = self.bind_udp().await?;
+        let rpi_us = self.options.rpi_ms.saturating_mul(1000);
+        let serial = SERIAL
+            .fetch_add(1, Ordering::Relaxed)
+            .wrapping_add(entropy() as u16);
+        let to_connection = entropy() | 1;
+        let path = Path(vec![
+            Segment::Class(class::ASSEMBLY),
+            Segment::Instance(self.options.config),
+            Segment::ConnectionPoint(set.ot_instance()),
+            Segment::ConnectionPoint(set.to_instance()),
+        ])
+        .encode();
+        let open = ForwardOpen {
+            large: false,
+            tick: 0x0A,
+            timeout_ticks: 0x0E,
+            ot_connection: 0,
+            to_connection,
+            serial,
+            vendor: ORIGINATOR_VENDOR,
+            originator_serial: entropy(),
+            timeout_multiplier: multiplier_for(rpi_us),
+            ot_rpi_us: rpi_us,
+            ot_params: NetworkParams::point_to_point(io::connection_size(
+                output.len() as u16,
+                true,
+            )),
+            to_rpi_us: rpi_us,
+            to_params: NetworkParams::point_to_point(io::connection_size(
+                set.to_len() as u16,
+                false,
+            )),
+            transport: TRANSPORT_CLASS1_CYCLIC,
+            path: path.clone(),
+        };
+        let request = cip::Request::new(
+            service::FORWARD_OPEN,
+            &Path::object(class::CONNECTION_MANAGER, 1),
+            open.encode(),
+        );
+        let (reply, items) = self
+            .session
+            .request(&request, announce.into_iter().collect())
+            .await?;
+        if !reply.status.is_success() {
+            return Err(Error::Refused(format!(
+                "the adapter refused the I/O connection for the {}: {}{}",
+                set.name(),
+                reply.status_text(),
+                match reply.additional.first() {
+                    Some(&connection::extended::OWNERSHIP_CONFLICT) =>
+                        " (another scanner, a PLC perhaps, owns the drive's I/O)",
+                    Some(&connection::extended::INVALID_OT_SIZE) if cmd == CmdOffset::Eight =>
+                        " (try cmd_at=7)",
+                    Some(&connection::extended::INVALID_OT_SIZE) => " (try cmd_at=8)",
+                    _ => "",
+                }
+            )));
+        }
+        let accepted = ForwardOpenReply::decode(&reply.data)
+            .map_err(|e| Error::Protocol(format!("Forward_Open reply: {e}")))?;
+        // Where O→T packets go: the adapter's sockaddr item, else its IP and port 2222.
+        let peer_ip = self
+            .session
+            .addresses()
+            .1
+            .map(|a| a.ip())
+            .unwrap_or(IpAddr::V4(Ipv4Addr::LOCALHOST));
+        let target = items
+            .iter()
+            .find_map(|i| match i {
+                Item::SockaddrOt(s) => Some(SocketAddr::new(
+                    if s.ip.is_unspecified() {
+                        peer_ip
+                    } else {
+                        IpAddr::V4(s.ip)
+                    },
+                    s.port,
+                )),
+                _ => None,
+            })
+            .unwrap_or(SocketAddr::new(peer_ip, UDP_IO_PORT));
+        let to_timeout = open.to_timeout();
+        let config = IoConfig {
+            ot_connection: accepted.ot_connection,
+            to_connection: accepted.to_connection,
+            target,
+            ot_rpi: Duration::from_micros(u64::from(rpi_us.max(1000))),
+            to_timeout,
+            ot_header: true,
+            to_header: false,
+            output,
+            input_len: set.to_len(),
+        };
+        let handle = IoHandle::start(socket, config).map_err(|e| Error::Io {
+            context: "starting the I/O task".into(),
+            source: e,
+        })?;
+        let opened = Opened {
+            set,
+            cmd,
+            triad: open.triad(),
+            path,
+            handle,
+            common_out,
+        };
+        // The adapter must be producing before the link reports itself open.
+        let first = opened
+            .handle
+            .input_after(
+                0,
+                to_timeout.max(Duration::from_secs(1)) + Duration::from_millis(500),
+            )
+            .await;
+        if let Err(reason) = first {
+            let local = opened.handle.local;
+            self.forward_close(&opened).await;
+            return Err(Error::Refused(format!(
+                "the adapter accepted the I/O connection but no data reached UDP {} here ({reason})",
+                local.port()
+            )));
+        }
+        Ok(opened)
+    }
+
+    async fn forward_close(&mut self, opened: &Opened) {
+        opened.handle.stop();
+        let close = ForwardClose {
+            tick: 0x0A,
+            timeout_ticks: 0x0E,
+            triad: opened.triad,
+            path: opened.path.clone(),
+        };
+        let request = cip::Request::new(
+            service::FORWARD_CLOSE,
+            &Path::object(class::CONNECTION_MANAGER, 1),
+            close.encode(),
+        );
+        if let Ok((reply, _)) = self.session.request(&request, vec![]).await
+            && !reply.status.is_success()
+        {
+            self.notices.push(format!(
+                "Forward_Close was refused: {}",
+                reply.status_text()
+            ));
+        }
+    }
+
+    /// The PDI over explicit messages: changed set values, the command last; then the TX
+    /// image.
+    async fn exchange_explicit(&mut self, rx: Option<&RxImage>) -> Result<Exchange, Error> {
+        if let Some(rx) = rx
+            && self.explicit_rx.as_ref() != Some(rx)
+        {
+            let old = self.explicit_rx;
+            let writes = [
+                (
+                    1u8,
+                    DataType::Integer32,
+                    i64::from(rx.values.value1),
+                    old.map(|o| o.values.value1 != rx.values.value1),
+                ),
+                (
+                    2,
+                    DataType::Integer16,
+                    i64::from(rx.values.value2),
+                    old.map(|o| o.values.value2 != rx.values.value2),
+                ),
+                (
+                    3,
+                    DataType::Integer8,
+                    i64::from(rx.values.value3),
+                    old.map(|o| o.values.value3 != rx.values.value3),
+                ),
+                (
+                    4,
+                    DataType::Integer8,
+                    i64::from(rx.cmd as i8),
+                    old.map(|o| o.cmd != rx.cmd),
+                ),
+            ];
+            for (sub, dtype, value, changed) in writes {
+                if changed == Some(false) {
+                    continue;
+                }
+                let address = Address::new(0x2291, sub);
+                if let Err(refusal) = self.set(address, dtype, &Value::Int(value)).await? {
+                    return Err(Error::Protocol(format!(
+                        "the drive refused the PDI write: {refusal}"
+                    )));
+                }
+            }
+            self.explicit_rx = Some(*rx);
+        }
+        let status = self
+            .get_int(Address::new(0x2292, 1), DataType::Unsigned16)
+            .await? as u16;
+        let error_code = self
+            .get_int(Address::new(0x603F, 0), DataType::Unsigned16)
+            .await? as u16;
+        let return_value = self
+            .get_int(Address::new(0x2292, 2), DataType::Integer32)
+            .await? as i32;
+        Ok(Exchange {
+            tx: TxImage {
+                status: crate::pdi::Status(status),
+                error_code,
+                return_value,
+            },
+            signals: Signals::default(),
+        })
+    }
+
+    fn describe(&self) -> String {
+        let device = self
+            .identity
+            .as_ref()
+            .map(|i| i.product_name.clone())
+            .filter(|n| !n.is_empty())
+            .unwrap_or_else(|| "adapter".into());
+        let how = match (&self.io, self.pdi) {
+            (_, false) => "objects only (no PDI)".to_owned(),
+            (Some(o), true) => format!(
+                "PDI on the {}, class 1 I/O at {} ms",
+                o.set.name(),
+                self.options.rpi_ms
+            ),
+            (None, true) => "PDI over explicit messages (2291h/2292h)".to_owned(),
+        };
+        format!("EtherNet/IP {device} at {}: {how}", self.session.peer())
+    }
+
+    /// The identity the adapter announced.
+    pub fn identity(&self) -> Option<&Identity> {
+        self.identity.as_ref()
+    }
+
+    /// (sent, received, stray) I/O packets, when an I/O connection is open.
+    pub fn io_counts(&self) -> Option<(u64, u64, u64)> {
+        self.io.as_ref().map(|o| o.handle.counts())
+    }
+}
+
+/// A value from the bytes GetOD returned, strictly sized.
+fn decode_value(address: Address, dtype: DataType, data: &[u8]) -> Result<Value, Refusal> {
+    if let Some(size) = dtype.size()
+        && size != data.len()
+    {
+        return Err(Refusal::Malformed(format!(
+            "{address}: {} bytes for a {} ({size} expected)",
+            data.len(),
+            dtype.short_name()
+        )));
+    }
+    Value::from_le_bytes(dtype, data).map_err(|e| Refusal::Malformed(format!("{address}: {e}")))
+}
+
+impl Link for EnipLink {
+    fn info(&self) -> LinkInfo {
+        LinkInfo {
+            spec: self.spec.clone(),
+            description: self.describe(),
+            native_objects: true,
+            can_inject: false,
+            pdi: self.pdi,
+        }
+    }
+
+    async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<Exchange, Error> {
+        if !self.pdi {
+            return Err(Error::Unsupported(
+                "this device has no Plug & Drive interface".into(),
+            ));
+        }
+        let Some(opened) = self.io.as_mut() else {
+            return self.exchange_explicit(rx).await;
+        };
+        if let Some(rx) = rx {
+            let output = match opened.set {
+                AssemblySet::Pdi => assembly::encode_pdi_ot(rx, opened.cmd),
+                AssemblySet::Common => {
+                    opened.common_out.rx = *rx;
+                    opened.common_out.encode().to_vec()
+                }
+            };
+            opened.handle.set_output(output);
+        }
+        let after = opened.handle.received();
+        let wait = opened.handle.config.to_timeout + opened.handle.config.ot_rpi;
+        let input = opened
+            .handle
+            .input_after(after, wait)
+            .await
+            .map_err(|reason| Error::Disconnected(format!("{}: {reason}", self.session.peer())))?;
+        match opened.set {
+            AssemblySet::Pdi => {
+                let tx = TxImage::from_bytes(&input.data)
+                    .map_err(|e| Error::Protocol(format!("PDI T→O assembly: {e}")))?;
+                Ok(Exchange {
+                    tx,
+                    signals: Signals::default(),
+                })
+            }
+            AssemblySet::Common => {
+                let common =
+                    CommonIn::decode(&input.data).map_err(|e| Error::Protocol(e.to_string()))?;
+                Ok(Exchange {
+                    tx: common.tx,
+                    signals: Signals {
+                        position: Some(f64::from(common.position)),
+                        velocity: Some(f64::from(common.velocity)),
+                        torque: Some(f64::from(common.torque)),
+                        following_error: Some(f64::from(common.following_error)),
+                        digital_inputs: Some(common.digital_inputs),
+                        analog_input: Some(f64::from(common.analog_input)),
+                        statusword: None,
+                        mode: None,
+                    },
+                })
+            }
+        }
+    }
+
+    async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {
+        if !self.pdi {
+            return Ok(None);
+        }
+        Ok(Some(self.read_rx_explicit().await?))
+    }
+
+    async fn read_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+    ) -> Result<Result<Value, Refusal>, Error> {
+        if dtype == DataType::Domain {
+            return Ok(self.get_typed(address).await?.map(|(_, v)| v));
+        }
+        self.get(address, dtype).await
+    }
+
+    async fn write_object(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: &Value,
+    ) -> Result<Result<(), Refusal>, Error> {
+        self.set(address, dtype, value).await
+    }
+
+    async fn scan(&mut self) -> Result<Vec<FoundDevice>, Error> {
+        super::discovery::discover(&super::discovery::Discovery {
+            port: self.port,
+            unicast: vec![self.host.clone()],
+            ..super::discovery::Discovery::default()
+        })
+        .await
+    }
+
+    fn take_trace(&mut self) -> Vec<crate::link::TraceRecord> {
+        let mut all = self.session.take_trace();
+        if let Some(opened) = &self.io {
+            all.extend(opened.handle.take_trace());
+            all.sort_by_key(|r| r.at);
+        }
+        all
+    }
+
+    fn take_notices(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notices)
+    }
+
+    async fn reconnect(&mut self) -> Result<(), Error> {
+        if let Some(opened) = self.io.take() {
+            opened.handle.stop();
+        }
+        self.session = Session::open(&self.host, self.port, EXPLICIT_TIMEOUT).await?;
+        self.explicit_rx = None;
+        self.start().await
+    }
+
+    async fn close(&mut self) -> Result<(), Error> {
+        if let Some(opened) = self.io.take() {
+            self.forward_close(&opened).await;
+        }
+        self.session.close().await;
+        Ok(())
+    }
+}

@@ -1,0 +1,262 @@
+//! Discovery: ListIdentity by UDP broadcast on the chosen interfaces, and directly to the
+//! hosts the user names (UDP unicast and TCP), collected for a short while.
+
+use std::collections::BTreeMap;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr, SocketAddrV4};
+use std::time::Duration;
+
+use tokio::net::UdpSocket;
+use tokio::sync::mpsc;
+
+use super::cpf::{self, Item};
+use super::encap::{Command, Packet, TCP_PORT};
+use super::identity::{Identity, state_text};
+use super::session::Session;
+use crate::link::{Error, FoundDevice};
+
+/// An IPv4 interface of this computer.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Interface {
+    pub name: String,
+    pub ip: Ipv4Addr,
+    pub broadcast: Option<Ipv4Addr>,
+}
+
+impl Interface {
+    /// "eth0 192.168.2.10" for a picker.
+    pub fn label(&self) -> String {
+        format!("{} {}", self.name, self.ip)
+    }
+}
+
+/// The IPv4 interfaces, loopback last.
+pub fn interfaces() -> Vec<Interface> {
+    let mut out: Vec<Interface> = if_addrs::get_if_addrs()
+        .unwrap_or_default()
+        .into_iter()
+        .filter_map(|i| match i.addr {
+            if_addrs::IfAddr::V4(v4) => Some(Interface {
+                name: i.name,
+                ip: v4.ip,
+                broadcast: v4.broadcast,
+            }),
+            if_addrs::IfAddr::V6(_) => None,
+        })
+        .collect();
+    out.sort_by_key(|i| (i.ip.is_loopback(), i.name.clone()));
+    out
+}
+
+/// What to ask and for how long.
+#[derive(Clone, Debug)]
+pub struct Discovery {
+    /// The adapters' EtherNet/IP port (44818).
+    pub port: u16,
+    /// Broadcast on this interface only (its name or IPv4 address); `None`: on every
+    /// interface that has a broadcast address.
+    pub interface: Option<String>,
+    /// Broadcast at all.
+    pub broadcast: bool,
+    /// Hosts asked directly, by UDP and over TCP.
+    pub unicast: Vec<String>,
+    /// How long replies are collected.
+    pub wait: Duration,
+}
+
+impl Default for Discovery {
+    fn default() -> Self {
+        Discovery {
+            port: TCP_PORT,
+            interface: None,
+            broadcast: true,
+            unicast: vec![],
+            wait: Duration::from_millis(1000),
+        }
+    }
+}
+
+fn list_identity_request() -> Vec<u8> {
+    Packet::new(Command::LIST_IDENTITY, 0, *b"ddscan\0\0", vec![]).encode()
+}
+
+/// The identities in a ListIdentity reply datagram.
+pub fn decode_reply(bytes: &[u8]) -> Vec<Identity> {
+    let Ok(packet) = Packet::decode(bytes) else {
+        return vec![];
+    };
+    if packet.command != Command::LIST_IDENTITY {
+        return vec![];
+    }
+    cpf::decode(&packet.data)
+        .unwrap_or_default()
+        .into_iter()
+        .filter_map(|i| match i {
+            Item::Identity(identity) => Some(*identity),
+            _ => None,
+        })
+        .collect()
+}
+
+fn found(identity: &Identity, from: SocketAddr) -> (SocketAddrV4, FoundDevice) {
+    let from_ip = match from.ip() {
+        IpAddr::V4(ip) => Some(ip),
+        IpAddr::V6(_) => None,
+    };
+    let mut address = identity.address(from_ip);
+    if address.port() == 0 {
+        address.set_port(from.port());
+    }
+    let device = FoundDevice {
+        address: address.to_string(),
+        node: None,
+        vendor: Some(u32::from(identity.vendor)),
+        product: Some(u32::from(identity.product_code)),
+        revision: Some(u32::from(identity.revision.0) << 16 | u32::from(identity.revision.1)),
+        serial: Some(identity.serial),
+        name: Some(identity.product_name.clone()),
+        state: Some(state_text(identity.state).to_owned()),
+    };
+    (address, device)
+}
+
+/// Ask, collect for `wait`, and list each adapter once, by address.
+pub async fn discover(discovery: &Discovery) -> Result<Vec<FoundDevice>, Error> {
+    let (tx, mut rx) = mpsc::unbounded_channel::<(SocketAddr, Identity)>();
+    let mut sockets = vec![];
+    let mut problems = vec![];
+    if discovery.broadcast {
+        let chosen: Vec<Interface> = interfaces()
+            .into_iter()
+            .filter(|i| match &discovery.interface {
+                Some(pick) => i.name == *pick || i.ip.to_string() == *pick,
+                None => i.broadcast.is_some(),
+            })
+            .collect();
+        if let Some(pick) = &discovery.interface
+            && chosen.is_empty()
+        {
+            return Err(Error::Unsupported(format!(
+                "no IPv4 interface '{pick}' here; the interfaces are: {}",
+                interfaces()
+                    .iter()
+                    .map(Interface::label)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+        for interface in chosen {
+            let target = interface.broadcast.unwrap_or(Ipv4Addr::BROADCAST);
+            match UdpSocket::bind((interface.ip, 0)).await {
+                Ok(socket) => {
+                    let _ = socket.set_broadcast(true);
+                    match socket
+                        .send_to(&list_identity_request(), (target, discovery.port))
+                        .await
+                    {
+                        Ok(_) => sockets.push(socket),
+                        Err(e) => problems.push(format!("broadcast on {}: {e}", interface.label())),
+                    }
+                }
+                Err(e) => problems.push(format!("{}: {e}", interface.label())),
+            }
+        }
+    }
+    let mut tcp = tokio::task::JoinSet::new();
+    if !discovery.unicast.is_empty() {
+        let socket = UdpSocket::bind((Ipv4Addr::UNSPECIFIED, 0))
+            .await
+            .map_err(|e| Error::Io {
+                context: "binding a UDP socket for discovery".into(),
+                source: e,
+            })?;
+        for host in &discovery.unicast {
+            match tokio::net::lookup_host((host.as_str(), discovery.port)).await {
+                Ok(addresses) => {
+                    for address in addresses.filter(SocketAddr::is_ipv4) {
+                        let _ = socket.send_to(&list_identity_request(), address).await;
+                    }
+                }
+                Err(e) => problems.push(format!("{host}: {e}")),
+            }
+            let (host, port, wait, tx) = (host.clone(), discovery.port, discovery.wait, tx.clone());
+            tcp.spawn(async move {
+                if let Ok(mut session) = Session::open(&host, port, wait).await
+                    && let Ok(identity) = session.list_identity().await
+                    && let (_, Some(peer)) = session.addresses()
+                {
+                    let _ = tx.send((peer, identity));
+                    session.close().await;
+                }
+            });
+        }
+        sockets.push(socket);
+    }
+    for socket in sockets {
+        let tx = tx.clone();
+        tcp.spawn(async move {
+            let mut buffer = vec![0u8; 1500];
+            while let Ok((n, from)) = socket.recv_from(&mut buffer).await {
+                for identity in decode_reply(&buffer[..n]) {
+                    let _ = tx.send((from, identity));
+                }
+            }
+        });
+    }
+    drop(tx);
+    let mut devices: BTreeMap<SocketAddrV4, FoundDevice> = BTreeMap::new();
+    let deadline = tokio::time::Instant::now() + discovery.wait;
+    while let Ok(Some((from, identity))) = tokio::time::timeout_at(deadline, rx.recv()).await {
+        let (address, device) = found(&identity, from);
+        devices.entry(address).or_insert(device);
+    }
+    tcp.abort_all();
+    if devices.is_empty() && !problems.is_empty() {
+        return Err(Error::Unsupported(format!(
+            "discovery found nothing: {}",
+            problems.join("; ")
+        )));
+    }
+    Ok(devices.into_values().collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::enip::cpf::SockAddr;
+
+    #[test]
+    fn a_reply_datagram_lists_its_identities() {
+        let identity = Identity {
+            encap_version: 1,
+            socket: SockAddr::new("0.0.0.0:44818".parse().unwrap()),
+            vendor: 0x26C,
+            device_type: 0x2B,
+            product_code: 7,
+            revision: (2, 5),
+            status: 0,
+            serial: 99,
+            product_name: "PD4-E".into(),
+            state: 3,
+        };
+        let mut data = vec![];
+        cpf::encode(&[Item::Identity(Box::new(identity.clone()))], &mut data);
+        let bytes = Packet::new(Command::LIST_IDENTITY, 0, [0; 8], data).encode();
+        assert_eq!(decode_reply(&bytes), vec![identity.clone()]);
+        assert!(decode_reply(&bytes[..30]).is_empty());
+        let (address, device) = found(&identity, "10.1.2.3:44818".parse().unwrap());
+        assert_eq!(address.to_string(), "10.1.2.3:44818");
+        assert_eq!(device.vendor_name(), "Nanotec (26Ch)");
+        assert_eq!(device.revision, Some(0x0002_0005));
+        assert_eq!(device.state.as_deref(), Some("operational"));
+    }
+
+    #[test]
+    fn interfaces_are_listed_loopback_last() {
+        let all = interfaces();
+        if let (Some(first), Some(last)) = (all.first(), all.last())
+            && all.len() > 1
+        {
+            assert!(!first.ip.is_loopback() || last.ip.is_loopback());
+        }
+    }
+}

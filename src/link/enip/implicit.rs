@@ -1,0 +1,274 @@
+//! The scanner side of a class 1 I/O connection: a task that sends the O→T assembly at
+//! the RPI, takes in the adapter's T→O packets, and declares the connection dead when
+//! they stop for the connection timeout. The link hands it outputs and waits for inputs.
+
+use std::collections::VecDeque;
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant, SystemTime};
+
+use tokio::net::UdpSocket;
+use tokio::sync::Notify;
+
+use super::io::IoPacket;
+use super::session::TRACE_LIMIT;
+use super::wire::hex;
+use crate::link::TraceRecord;
+
+/// What the I/O task needs to know.
+#[derive(Clone, Debug)]
+pub struct IoConfig {
+    /// The O→T connection id the adapter chose.
+    pub ot_connection: u32,
+    /// The T→O connection id we proposed (the adapter's packets carry it).
+    pub to_connection: u32,
+    /// Where O→T packets go.
+    pub target: SocketAddr,
+    pub ot_rpi: Duration,
+    /// No T→O packet for this long: the connection is dead.
+    pub to_timeout: Duration,
+    /// Whether O→T packets carry the run/idle header (they do, in RUN).
+    pub ot_header: bool,
+    /// Whether T→O packets carry it (Nanotec: no, modeless).
+    pub to_header: bool,
+    /// The first O→T assembly: what the drive holds already, so opening moves nothing.
+    pub output: Vec<u8>,
+    /// The T→O assembly length the packets must have.
+    pub input_len: usize,
+}
+
+/// One T→O assembly as it arrived.
+#[derive(Clone, Debug)]
+pub struct Input {
+    pub data: Vec<u8>,
+    /// Packets received up to and including this one.
+    pub number: u64,
+}
+
+#[derive(Debug, Default)]
+struct Shared {
+    output: Vec<u8>,
+    input: Option<Input>,
+    received: u64,
+    sent: u64,
+    /// Packets for other connections, or with the wrong size.
+    stray: u64,
+    error: Option<String>,
+    trace: VecDeque<TraceRecord>,
+}
+
+impl Shared {
+    fn record(&mut self, sent: bool, bytes: &[u8], text: String) {
+        if self.trace.len() >= TRACE_LIMIT {
+            self.trace.pop_front();
+        }
+        self.trace.push_back(TraceRecord {
+            at: SystemTime::now(),
+            sent,
+            raw: hex(bytes),
+            text,
+            can: None,
+        });
+    }
+}
+
+/// A running I/O connection.
+#[derive(Debug)]
+pub struct IoHandle {
+    shared: Arc<Mutex<Shared>>,
+    notify: Arc<Notify>,
+    task: tokio::task::JoinHandle<()>,
+    pub local: SocketAddr,
+    pub config: IoConfig,
+}
+
+fn lock(shared: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
+    shared.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+impl IoHandle {
+    /// Start producing at once on `socket`.
+    pub fn start(socket: UdpSocket, config: IoConfig) -> std::io::Result<IoHandle> {
+        let local = socket.local_addr()?;
+        let shared = Arc::new(Mutex::new(Shared {
+            output: config.output.clone(),
+            ..Shared::default()
+        }));
+        let notify = Arc::new(Notify::new());
+        let task = tokio::spawn(run(socket, config.clone(), shared.clone(), notify.clone()));
+        Ok(IoHandle {
+            shared,
+            notify,
+            task,
+            local,
+            config,
+        })
+    }
+
+    /// The O→T assembly from the next packet on.
+    pub fn set_output(&self, output: Vec<u8>) {
+        lock(&self.shared).output = output;
+    }
+
+    /// Packets received so far.
+    pub fn received(&self) -> u64 {
+        lock(&self.shared).received
+    }
+
+    /// (sent, received, stray) packet counts.
+    pub fn counts(&self) -> (u64, u64, u64) {
+        let s = lock(&self.shared);
+        (s.sent, s.received, s.stray)
+    }
+
+    /// The first input after packet number `after`, waiting up to `timeout`. An error says
+    /// why the connection is dead.
+    pub async fn input_after(&self, after: u64, timeout: Duration) -> Result<Input, String> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        loop {
+            let notified = self.notify.notified();
+            tokio::pin!(notified);
+            notified.as_mut().enable();
+            {
+                let s = lock(&self.shared);
+                if let Some(error) = &s.error {
+                    return Err(error.clone());
+                }
+                if let Some(input) = &s.input
+                    && input.number > after
+                {
+                    return Ok(input.clone());
+                }
+            }
+            if tokio::time::timeout_at(deadline, notified).await.is_err() {
+                return Err(format!(
+                    "no I/O data from the adapter for {} ms",
+                    timeout.as_millis()
+                ));
+            }
+        }
+    }
+
+    pub fn take_trace(&self) -> Vec<TraceRecord> {
+        lock(&self.shared).trace.drain(..).collect()
+    }
+
+    pub fn stop(&self) {
+        self.task.abort();
+    }
+}
+
+impl Drop for IoHandle {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+async fn run(socket: UdpSocket, config: IoConfig, shared: Arc<Mutex<Shared>>, notify: Arc<Notify>) {
+    let mut ticker = tokio::time::interval(config.ot_rpi);
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let opened = Instant::now();
+    // The first packet may take a little longer than the steady-state timeout.
+    let first_grace = config.to_timeout.max(Duration::from_secs(1));
+    let mut last_input: Option<Instant> = None;
+    let mut sequence: u32 = 0;
+    let mut count: u16 = 0;
+    let mut last_sent: Option<Vec<u8>> = None;
+    let mut buffer = vec![0u8; 1500];
+    loop {
+        tokio::select! {
+            _ = ticker.tick() => {
+                let now = Instant::now();
+                let silent = match last_input {
+                    Some(at) => (now - at > config.to_timeout).then(|| now - at),
+                    None => (now - opened > first_grace).then(|| now - opened),
+                };
+                if let Some(silence) = silent {
+                    let mut s = lock(&shared);
+                    s.error = Some(format!(
+                        "the I/O connection timed out: no T→O packet for {} ms (timeout {} ms at RPI {} ms){}",
+                        silence.as_millis(),
+                        config.to_timeout.as_millis(),
+                        config.ot_rpi.as_millis(),
+                        if s.received == 0 {
+                            format!("; none ever reached UDP port {} here (a firewall, or another program on that port?)", socket.local_addr().map(|a| a.port()).unwrap_or(0))
+                        } else {
+                            String::new()
+                        }
+                    ));
+                    drop(s);
+                    notify.notify_waiters();
+                    return;
+                }
+                let output = lock(&shared).output.clone();
+                if last_sent.as_ref() != Some(&output) {
+                    count = count.wrapping_add(1);
+                }
+                sequence = sequence.wrapping_add(1);
+                let packet = IoPacket {
+                    connection: config.ot_connection,
+                    sequence,
+                    count,
+                    run: config.ot_header.then_some(true),
+                    data: output.clone(),
+                };
+                let bytes = packet.encode();
+                let sent = socket.send_to(&bytes, config.target).await;
+                let mut s = lock(&shared);
+                match sent {
+                    Ok(_) => {
+                        s.sent += 1;
+                        s.record(true, &bytes, format!("class 1 O→T #{sequence} count {count}: {}", hex(&output)));
+                        last_sent = Some(output);
+                    }
+                    Err(e) => {
+                        s.error = Some(format!("sending I/O to {}: {e}", config.target));
+                        drop(s);
+                        notify.notify_waiters();
+                        return;
+                    }
+                }
+            }
+            received = socket.recv_from(&mut buffer) => {
+                let Ok((n, _from)) = received else {
+                    // ICMP errors from an earlier send surface here on some systems: keep
+                    // listening; the timeout decides.
+                    continue;
+                };
+                let bytes = &buffer[..n];
+                let mut s = lock(&shared);
+                match IoPacket::decode(bytes, config.to_header) {
+                    Ok(packet)
+                        if packet.connection == config.to_connection
+                            && packet.data.len() == config.input_len =>
+                    {
+                        let now = Instant::now();
+                        last_input = Some(now);
+                        s.received += 1;
+                        let number = s.received;
+                        s.record(
+                            false,
+                            bytes,
+                            format!("class 1 T→O #{} count {}: {}", packet.sequence, packet.count, hex(&packet.data)),
+                        );
+                        s.input = Some(Input { data: packet.data, number });
+                        drop(s);
+                        notify.notify_waiters();
+                    }
+                    Ok(packet) => {
+                        s.stray += 1;
+                        s.record(false, bytes, format!(
+                            "class 1 packet for connection {:08X}h with {} bytes, ignored",
+                            packet.connection,
+                            packet.data.len()
+                        ));
+                    }
+                    Err(e) => {
+                        s.stray += 1;
+                        s.record(false, bytes, format!("not a class 1 packet: {e}"));
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,315 @@
+//! An encapsulation session over TCP: RegisterSession, request and reply matched by
+//! sender context, explicit Message Router requests in SendRRData, and a trace of every
+//! message for the frame log.
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant, SystemTime};
+
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+
+use super::cip::{self, Reply, Request};
+use super::cpf::Item;
+use super::encap::{self, Command, Framed, Packet, RrData, Status};
+use super::identity::Identity;
+use super::wire::hex;
+use crate::link::{Error, TraceRecord};
+
+/// Frames kept for the log between two `take_trace` calls.
+pub const TRACE_LIMIT: usize = 4096;
+
+/// A registered session with an adapter.
+#[derive(Debug)]
+pub struct Session {
+    stream: TcpStream,
+    handle: u32,
+    buffer: Vec<u8>,
+    context: u64,
+    timeout: Duration,
+    /// `host:port`, for messages.
+    peer: String,
+    trace: VecDeque<TraceRecord>,
+}
+
+/// Message for a failed TCP read or write.
+fn io_error(what: &str, e: std::io::Error) -> Error {
+    use std::io::ErrorKind::*;
+    match e.kind() {
+        ConnectionReset | ConnectionAborted | BrokenPipe | UnexpectedEof => {
+            Error::Disconnected(format!("{what}: the adapter closed the connection ({e})"))
+        }
+        _ => Error::Io {
+            context: what.to_owned(),
+            source: e,
+        },
+    }
+}
+
+impl Session {
+    /// Connect and register a session.
+    pub async fn open(host: &str, port: u16, timeout: Duration) -> Result<Session, Error> {
+        let peer = if host.contains(':') {
+            format!("[{host}]:{port}")
+        } else {
+            format!("{host}:{port}")
+        };
+        let what = format!("EtherNet/IP adapter at {peer}");
+        let stream = match tokio::time::timeout(timeout, TcpStream::connect((host, port))).await {
+            Err(_) => {
+                return Err(Error::Timeout {
+                    what: format!("connecting to the {what}"),
+                    after: timeout,
+                });
+            }
+            Ok(Err(e)) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
+                return Err(Error::Refused(format!(
+                    "the {what} refuses TCP connections: is it on, and is {port} its EtherNet/IP port (44818)?"
+                )));
+            }
+            Ok(Err(e)) => return Err(io_error(&format!("connecting to the {what}"), e)),
+            Ok(Ok(stream)) => stream,
+        };
+        let _ = stream.set_nodelay(true);
+        let mut session = Session {
+            stream,
+            handle: 0,
+            buffer: Vec::with_capacity(1024),
+            context: 0,
+            timeout,
+            peer,
+            trace: VecDeque::new(),
+        };
+        let reply = session
+            .exchange(Command::REGISTER_SESSION, encap::register_session_data())
+            .await?;
+        match reply.status {
+            Status::SUCCESS if reply.session != 0 => {
+                session.handle = reply.session;
+                Ok(session)
+            }
+            Status::SUCCESS => Err(Error::Protocol(format!(
+                "the adapter at {} registered session handle 0",
+                session.peer
+            ))),
+            Status::INSUFFICIENT_MEMORY => Err(Error::Refused(format!(
+                "the adapter at {} has no room for another session ({}): close other tools talking to it",
+                session.peer, reply.status
+            ))),
+            status => Err(Error::Refused(format!(
+                "the adapter at {} refused RegisterSession: {status}",
+                session.peer
+            ))),
+        }
+    }
+
+    pub fn peer(&self) -> &str {
+        &self.peer
+    }
+
+    pub fn handle(&self) -> u32 {
+        self.handle
+    }
+
+    /// The address the TCP connection came from (our side) and went to (the adapter).
+    pub fn addresses(&self) -> (Option<std::net::SocketAddr>, Option<std::net::SocketAddr>) {
+        (self.stream.local_addr().ok(), self.stream.peer_addr().ok())
+    }
+
+    pub fn take_trace(&mut self) -> Vec<TraceRecord> {
+        self.trace.drain(..).collect()
+    }
+
+    fn record(&mut self, sent: bool, bytes: &[u8], text: String) {
+        if self.trace.len() >= TRACE_LIMIT {
+            self.trace.pop_front();
+        }
+        self.trace.push_back(TraceRecord {
+            at: SystemTime::now(),
+            sent,
+            raw: hex(bytes),
+            text,
+            can: None,
+        });
+    }
+
+    /// Send one encapsulation message and wait for the reply with the same context.
+    pub async fn exchange(&mut self, command: Command, data: Vec<u8>) -> Result<Packet, Error> {
+        self.context = self.context.wrapping_add(1);
+        let context = self.context.to_le_bytes();
+        let packet = Packet::new(command, self.handle, context, data);
+        let bytes = packet.encode();
+        let what = format!("{} to {}", command.name(), self.peer);
+        self.record(true, &bytes, describe(&packet));
+        let deadline = Instant::now() + self.timeout;
+        match tokio::time::timeout_at(deadline.into(), self.stream.write_all(&bytes)).await {
+            Err(_) => {
+                return Err(Error::Timeout {
+                    what,
+                    after: self.timeout,
+                });
+            }
+            Ok(Err(e)) => return Err(io_error(&what, e)),
+            Ok(Ok(())) => {}
+        }
+        loop {
+            match encap::split(&self.buffer) {
+                Framed::Packet(reply, used) => {
+                    let raw = self.buffer[..used].to_vec();
+                    self.buffer.drain(..used);
+                    self.record(false, &raw, describe(&reply));
+                    if reply.context == context && reply.command == command {
+                        return Ok(reply);
+                    }
+                    // A stale reply to an earlier, timed-out request: skip it.
+                    continue;
+                }
+                Framed::TooLong(header) => {
+                    self.buffer.clear();
+                    return Err(Error::Protocol(format!(
+                        "{what}: the reply announces {} bytes, more than any adapter sends",
+                        header.length
+                    )));
+                }
+                Framed::Incomplete => {}
+            }
+            let mut chunk = [0u8; 2048];
+            let read = tokio::time::timeout_at(deadline.into(), self.stream.read(&mut chunk)).await;
+            match read {
+                Err(_) => {
+                    return Err(Error::Timeout {
+                        what,
+                        after: self.timeout,
+                    });
+                }
+                Ok(Err(e)) => return Err(io_error(&what, e)),
+                Ok(Ok(0)) => {
+                    return Err(Error::Disconnected(format!(
+                        "{what}: the adapter closed the connection"
+                    )));
+                }
+                Ok(Ok(n)) => self.buffer.extend_from_slice(&chunk[..n]),
+            }
+        }
+    }
+
+    /// An explicit request in SendRRData, with `items` after the data item (e.g. a T→O
+    /// sockaddr for Forward_Open). Returns the Message Router reply and the other items.
+    pub async fn request(
+        &mut self,
+        request: &Request,
+        items: Vec<Item>,
+    ) -> Result<(Reply, Vec<Item>), Error> {
+        let mut all = vec![Item::Null, Item::UnconnectedData(request.encode())];
+        all.extend(items);
+        let body = RrData::new(10, all).encode();
+        let reply = self.exchange(Command::SEND_RR_DATA, body).await?;
+        let what = format!(
+            "{} ({:02X}h) to {}",
+            cip::service::name(request.service),
+            request.service,
+            self.peer
+        );
+        if reply.status == Status::INVALID_SESSION {
+            return Err(Error::Disconnected(format!(
+                "{what}: the adapter no longer knows our session ({})",
+                reply.status
+            )));
+        }
+        if reply.status != Status::SUCCESS {
+            return Err(Error::Protocol(format!("{what}: {}", reply.status)));
+        }
+        let data = RrData::decode(&reply.data)
+            .map_err(|e| Error::Protocol(format!("{what}: {e}; reply {}", hex(&reply.data))))?;
+        let router = data.unconnected().ok_or_else(|| {
+            Error::Protocol(format!("{what}: the reply has no unconnected data item"))
+        })?;
+        let decoded = Reply::decode(router)
+            .and_then(|r| r.expect(request.service))
+            .map_err(|e| Error::Protocol(format!("{what}: {e}; reply {}", hex(router))))?;
+        let others = data
+            .items
+            .into_iter()
+            .filter(|i| !matches!(i, Item::Null | Item::UnconnectedData(_)))
+            .collect();
+        Ok((decoded, others))
+    }
+
+    /// ListIdentity over this TCP connection.
+    pub async fn list_identity(&mut self) -> Result<Identity, Error> {
+        let reply = self.exchange(Command::LIST_IDENTITY, vec![]).await?;
+        let items = super::cpf::decode(&reply.data)
+            .map_err(|e| Error::Protocol(format!("ListIdentity from {}: {e}", self.peer)))?;
+        items
+            .into_iter()
+            .find_map(|i| match i {
+                Item::Identity(identity) => Some(*identity),
+                _ => None,
+            })
+            .ok_or_else(|| {
+                Error::Protocol(format!(
+                    "ListIdentity from {}: no identity item in the reply",
+                    self.peer
+                ))
+            })
+    }
+
+    /// UnRegisterSession and close.
+    pub async fn close(&mut self) {
+        let packet = Packet::new(Command::UNREGISTER_SESSION, self.handle, [0; 8], vec![]);
+        let bytes = packet.encode();
+        self.record(true, &bytes, describe(&packet));
+        let _ = tokio::time::timeout(self.timeout, self.stream.write_all(&bytes)).await;
+        let _ = self.stream.shutdown().await;
+    }
+}
+
+/// One line for the frame log: the command, and the CIP service or reply inside.
+pub fn describe(packet: &Packet) -> String {
+    let mut text = packet.command.name().to_owned();
+    if packet.status != Status::SUCCESS {
+        text.push_str(&format!(": {}", packet.status));
+        return text;
+    }
+    if packet.command == Command::SEND_RR_DATA
+        && let Ok(data) = RrData::decode(&packet.data)
+        && let Some(router) = data.unconnected()
+    {
+        match router.first() {
+            Some(s) if s & cip::service::REPLY != 0 => {
+                if let Ok(reply) = Reply::decode(router) {
+                    text.push_str(&format!(
+                        " reply {}: {}",
+                        cip::service::name(reply.service),
+                        reply.status_text()
+                    ));
+                    if !reply.data.is_empty() {
+                        text.push_str(&format!(", data {}", hex(&reply.data)));
+                    }
+                }
+            }
+            Some(_) => {
+                if let Ok(request) = Request::decode(router) {
+                    text.push_str(&format!(
+                        " {} ({:02X}h)",
+                        cip::service::name(request.service),
+                        request.service
+                    ));
+                    if let Ok(path) = request.path() {
+                        text.push_str(&format!(" to {path}"));
+                    }
+                    if let (0x64, Ok((address, value))) = (
+                        request.path().ok().and_then(|p| p.class()).unwrap_or(0),
+                        super::nanotec::decode_request_data(&request.data),
+                    ) {
+                        text.push_str(&format!(" {address}"));
+                        if !value.is_empty() {
+                            text.push_str(&format!(" = {}", hex(value)));
+                        }
+                    }
+                }
+            }
+            None => {}
+        }
+    }
+    text
+}
