@@ -149,7 +149,8 @@ fn python_canopen_masters_the_simulated_node_over_slcan() {
 // ---------------------------------------------------------------------------------------
 // Our master against a python-canopen LocalNode
 
-/// The python-canopen LocalNode behind its emulated slcan adapter on one end of `pty`.
+/// The python-canopen LocalNode, built from tests/peers/canopen_local_node.eds, behind its
+/// emulated slcan adapter on one end of `pty`.
 struct LocalNode {
     process: Process,
 }
@@ -304,6 +305,11 @@ fn our_master_reads_and_writes_a_python_canopen_local_node() {
     assert_eq!(
         read(&mut probe, u32_at(0x1000), DataType::Unsigned32),
         Ok(Value::Uint(0x000F_0191))
+    );
+    // The EDS gives the EMCY COB-ID as `$NODEID+0x80`: python-canopen resolved it for node 7.
+    assert_eq!(
+        read(&mut probe, u32_at(0x1014), DataType::Unsigned32),
+        Ok(Value::Uint(0x87))
     );
     assert_eq!(
         read(&mut probe, u32_at(0x2000), DataType::Unsigned32),

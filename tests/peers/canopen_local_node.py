@@ -27,7 +27,6 @@ import threading
 import can
 import canopen
 import serial
-from canopen import objectdictionary as odm
 
 CHANNEL = "drivedeck-local-node"
 BITRATES = [10000, 20000, 50000, 100000, 125000, 250000, 500000, 800000, 1000000]
@@ -40,41 +39,14 @@ def say(**fields):
         print(json.dumps(fields), flush=True)
 
 
-def variable(name, index, sub, dtype, access, default=None):
-    var = odm.ODVariable(name, index, sub)
-    var.data_type = dtype
-    var.access_type = access
-    var.default = default
-    return var
+EDS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "canopen_local_node.eds")
 
 
-def dictionary():
-    """A small generic device: CiA 301 mandatory objects, a name, an identity record, and
-    a few manufacturer objects of different types and access."""
-    od = odm.ObjectDictionary()
-    for index, name, dtype, access, default in [
-        (0x1000, "Device type", odm.UNSIGNED32, "ro", 0x000F0191),
-        (0x1001, "Error register", odm.UNSIGNED8, "ro", 0),
-        (0x1008, "Device name", odm.VISIBLE_STRING, "const", "python-canopen LocalNode"),
-        (0x1017, "Producer heartbeat time", odm.UNSIGNED16, "rw", 100),
-        (0x2000, "Writable u32", odm.UNSIGNED32, "rw", 0x11223344),
-        (0x2001, "Writable i16", odm.INTEGER16, "rw", -1234),
-        (0x2002, "Read-only u32", odm.UNSIGNED32, "ro", 0xCAFEF00D),
-        (0x2003, "Writable string", odm.VISIBLE_STRING, "rw", "factory"),
-    ]:
-        od.add_object(variable(name, index, 0, dtype, access, default))
-    identity = odm.ODRecord("Identity", 0x1018)
-    for sub, name, default in [
-        (0, "Number of entries", 4),
-        (1, "Vendor-ID", 0x12345678),
-        (2, "Product code", 0x0000C0DE),
-        (3, "Revision number", 0x00010002),
-        (4, "Serial number", 0x0BADBEEF),
-    ]:
-        dtype = odm.UNSIGNED8 if sub == 0 else odm.UNSIGNED32
-        identity.add_member(variable(name, 0x1018, sub, dtype, "ro", default))
-    od.add_object(identity)
-    return od
+def dictionary(node_id):
+    """The device's dictionary from its EDS (canopen_local_node.eds): CiA 301 mandatory
+    objects, a name, an identity record, an EMCY COB-ID given as $NODEID+0x80, and a few
+    manufacturer objects of different types and access."""
+    return canopen.import_od(EDS, node_id)
 
 
 def encode(msg):
@@ -198,7 +170,7 @@ def main():
 
     network = canopen.Network()
     network.connect(interface="virtual", channel=CHANNEL)
-    node = canopen.LocalNode(node_id, dictionary())
+    node = canopen.LocalNode(node_id, dictionary(node_id))
 
     def on_write(index, subindex, od, data):
         say(
