@@ -150,7 +150,10 @@ fn bad_input_is_refused_before_connecting() {
     let stderr = fails(&["--link", "canopen+socketcan://can0", "status"], 2);
     assert!(stderr.contains("ip link set can0 up"), "{stderr}");
     let stderr = fails(&["--link", "enip://127.0.0.1:1", "status"], 2);
-    assert!(stderr.contains("not built yet"), "{stderr}");
+    assert!(
+        stderr.contains("refuses TCP connections") && stderr.contains("44818"),
+        "{stderr}"
+    );
     let stderr = fails(&["--link", "nonsense", "status"], 2);
     assert!(stderr.contains("Forms: sim"), "{stderr}");
     let stderr = fails(&["sim"], 2);

@@ -228,6 +228,16 @@ pub struct SimArgs {
     /// The simulated node's CANopen node id.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=127))]
     pub node: u8,
+    /// Serve EtherNet/IP on ADDR:PORT (e.g. 127.0.0.1:44818; 0.0.0.0:44818 for the network,
+    /// where ListIdentity also answers broadcasts). IPv4 only.
+    #[arg(long, value_name = "ADDR:PORT")]
+    pub enip: Option<std::net::SocketAddr>,
+    /// The UDP port of class 1 I/O on the --enip address (0: any free port).
+    #[arg(long, default_value_t = 2222, value_name = "PORT")]
+    pub enip_io_port: u16,
+    /// EtherNet/IP sessions at a time (RegisterSession beyond them gets status 0002h).
+    #[arg(long, default_value_t = 8, value_name = "N")]
+    pub max_sessions: usize,
     /// Leave out function codes, to simulate a gateway or device without them.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "FC,...")]
     pub without: Vec<Missing>,

@@ -9,6 +9,7 @@ use crate::link::Parity;
 use crate::link::modbus::registers::WordOrder;
 use crate::sim::Drive;
 use crate::sim::server::SharedDrive;
+use crate::sim::server::enip;
 use crate::sim::server::modbus::{self, Options, RtuOptions};
 
 pub fn run(args: &SimArgs) -> ExitCode {
@@ -16,9 +17,10 @@ pub fn run(args: &SimArgs) -> ExitCode {
         && args.modbus_rtu.is_none()
         && args.can.is_none()
         && args.slcan.is_none()
+        && args.enip.is_none()
     {
         eprintln!(
-            "drivedeck sim: nothing to serve. Give --modbus-tcp ADDR:PORT, --modbus-rtu PATH, --can IFACE and/or --slcan PATH. (EtherNet/IP arrives with issue #5.)"
+            "drivedeck sim: nothing to serve. Give --modbus-tcp ADDR:PORT, --modbus-rtu PATH, --can IFACE, --slcan PATH and/or --enip ADDR:PORT."
         );
         return ExitCode::from(EXIT_USAGE);
     }
@@ -104,6 +106,26 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
             };
             if let Err(e) = modbus::serve_rtu(port, options.slave, shared, served).await {
                 eprintln!("drivedeck sim: Modbus RTU server stopped: {e}");
+            }
+        });
+    }
+    if let Some(addr) = args.enip {
+        let sockets = enip::Sockets::bind(addr, args.enip_io_port)
+            .map_err(|e| format!("cannot serve EtherNet/IP on {addr}: {e}"))?;
+        let local = sockets.tcp_addr().map_err(|e| e.to_string())?;
+        let io = sockets.io_addr().map_err(|e| e.to_string())?;
+        println!(
+            "serving the simulated drive on EtherNet/IP {local} (class 1 I/O on UDP {io}, vendor {:X}h)",
+            crate::link::enip::identity::NANOTEC_VENDOR
+        );
+        let options = enip::Options {
+            max_sessions: args.max_sessions.max(1),
+            io_port: io.port(),
+        };
+        let shared = shared.clone();
+        tasks.spawn(async move {
+            if let Err(e) = enip::serve(sockets, shared, options).await {
+                eprintln!("drivedeck sim: EtherNet/IP adapter stopped: {e}");
             }
         });
     }

@@ -6,12 +6,6 @@ use crate::cia::AbortCode;
 /// A link that cannot do its job: the connection, not the drive's answer.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    #[error("{scheme} links are not built yet ({issue}); use 'sim' meanwhile")]
-    NotBuiltYet {
-        scheme: &'static str,
-        issue: &'static str,
-    },
-
     #[error("{context}: {source}")]
     Io {
         context: String,

@@ -4,6 +4,7 @@
 //! ticker, so a client sees the motor move whether it polls or not.
 
 pub mod canopen;
+pub mod enip;
 pub mod modbus;
 
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -82,6 +83,8 @@ impl std::ops::DerefMut for DriveGuard<'_> {
 /// drive's plug.
 pub struct ServerThread {
     pub addr: std::net::SocketAddr,
+    /// The class 1 I/O UDP address (EtherNet/IP only).
+    pub io: Option<std::net::SocketAddr>,
     drive: SharedDrive,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
@@ -129,6 +132,57 @@ impl ServerThread {
             })?;
         Ok(ServerThread {
             addr,
+            io: None,
+            drive,
+            stop: Some(stop_tx),
+            thread: Some(thread),
+        })
+    }
+
+    /// Serve EtherNet/IP on `addr` (port 0 picks a free one, for TCP and the ListIdentity
+    /// UDP socket alike) with a fresh drive; class 1 I/O on `options.io_port` (0: any).
+    pub fn enip(
+        addr: std::net::SocketAddr,
+        options: enip::Options,
+    ) -> std::io::Result<ServerThread> {
+        Self::enip_with(addr, options, SharedDrive::new(Drive::new()))
+    }
+
+    /// Serve EtherNet/IP for an existing shared drive.
+    pub fn enip_with(
+        addr: std::net::SocketAddr,
+        options: enip::Options,
+        drive: SharedDrive,
+    ) -> std::io::Result<ServerThread> {
+        let sockets = enip::Sockets::bind(addr, options.io_port)?;
+        let addr = sockets.tcp_addr()?;
+        let io = sockets.io_addr()?;
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
+        let served = drive.clone();
+        let thread = std::thread::Builder::new()
+            .name(format!("sim-enip-{addr}"))
+            .spawn(move || {
+                let Ok(runtime) = tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                else {
+                    return;
+                };
+                runtime.block_on(async move {
+                    tokio::select! {
+                        _ = stop_rx => {}
+                        _ = served.clone().run_clock() => {}
+                        r = enip::serve(sockets, served, options) => {
+                            if let Err(e) = r {
+                                tracing::warn!("EtherNet/IP adapter stopped: {e}");
+                            }
+                        }
+                    }
+                });
+            })?;
+        Ok(ServerThread {
+            addr,
+            io: Some(io),
             drive,
             stop: Some(stop_tx),
             thread: Some(thread),
