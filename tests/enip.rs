@@ -1,0 +1,677 @@
+//! EtherNet/IP end to end: our link (through the worker, the CLI and the window) against
+//! the simulated adapter on real loopback sockets: class 1 I/O with the PDI and Common
+//! sets, explicit messages, CIP errors, discovery, and the failures a technician meets
+//! (a drive that vanishes, a scanner that stops, a second scanner).
+
+mod common;
+mod probe;
+
+use std::net::SocketAddr;
+use std::process::Command;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use common::Process;
+use drivedeck::link::enip::client::EnipLink;
+use drivedeck::link::{Link, LinkSpec};
+use drivedeck::od::{Address, DataType, Value};
+use drivedeck::pdi::{Action, Command as PdiCommand, Opcode, RxImage, StatusBit};
+use drivedeck::sim::Drive;
+use drivedeck::sim::server::enip::Options;
+use drivedeck::sim::server::{ServerThread, SharedDrive};
+use drivedeck::ui::{App, Settings};
+use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
+use eframe::egui;
+use egui::accesskit::Toggled;
+use egui_kittest::Harness;
+use egui_kittest::kittest::{NodeT, Queryable};
+use probe::Probe;
+
+fn local() -> SocketAddr {
+    "127.0.0.1:0".parse().expect("address")
+}
+
+/// The adapter on loopback with its I/O on a free UDP port (the tests run in parallel).
+fn adapter() -> ServerThread {
+    ServerThread::enip(
+        local(),
+        Options {
+            io_port: 0,
+            ..Options::default()
+        },
+    )
+    .expect("adapter")
+}
+
+/// `udp=0`: receive I/O on any free port and tell the adapter (tests run in parallel).
+fn spec(addr: SocketAddr, query: &str) -> LinkSpec {
+    format!("enip://{addr}?udp=0&{query}")
+        .parse()
+        .expect("spec")
+}
+
+fn connected_info(probe: &Probe) -> drivedeck::link::LinkInfo {
+    probe
+        .seen
+        .iter()
+        .rev()
+        .find_map(|e| match e {
+            Event::Connected(info) => Some(info.clone()),
+            _ => None,
+        })
+        .expect("connected")
+}
+
+#[test]
+fn a_move_over_class_1_pdi_io_reaches_its_target() {
+    let server = adapter();
+    let mut probe = Probe::connected(spec(server.addr, "io=pdi&rpi=10"));
+    let info = connected_info(&probe);
+    assert!(
+        info.description
+            .contains("PDI set (assemblies 105/104), class 1 I/O at 10 ms"),
+        "{}",
+        info.description
+    );
+    assert!(info.pdi && info.native_objects);
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 2000,
+        speed: 200,
+    }));
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(15)),
+        CommandProgress::Done { return_value: 2000 }
+    );
+    let at = probe.sample_where("target reached", Duration::from_secs(5), |s| {
+        s.tx.status.is_set(StatusBit::TargetReached) && s.tx.return_value == 2000
+    });
+    assert!(at.tx.status.is_set(StatusBit::OperationEnabled));
+    assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
+    // The position comes by GetOD in turn (the PDI set carries only the PDI).
+    probe.sample_where("the position", Duration::from_secs(5), |s| {
+        s.position == Some(2000.0)
+    });
+}
+
+#[test]
+fn the_common_set_brings_position_inputs_analog_input_and_following_error_with_every_cycle() {
+    let server = adapter();
+    let mut probe = Probe::connected(spec(server.addr, "io=common&rpi=5"));
+    assert!(
+        connected_info(&probe)
+            .description
+            .contains("Common set (assemblies 101/100)")
+    );
+    let id = probe.send(Request::Command(Action::MoveRelative {
+        distance: 3000,
+        speed: 300,
+    }));
+    // Mid-move, every sample has the extra process values of assembly 100.
+    let moving = probe.sample_where("a sample mid-move", Duration::from_secs(5), |s| {
+        s.velocity.is_some_and(|v| v > 0.0)
+    });
+    assert!(
+        moving.position.is_some_and(|p| (0.0..3000.0).contains(&p)),
+        "{moving:?}"
+    );
+    assert!(moving.digital_inputs.is_some());
+    assert!(moving.analog_input.is_some());
+    assert!(moving.following_error.is_some());
+    assert!(moving.torque.is_some());
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(15)),
+        CommandProgress::Done { return_value: 3000 }
+    );
+    let done = probe.sample_where("the target", Duration::from_secs(5), |s| {
+        s.position == Some(3000.0)
+    });
+    assert_eq!(done.velocity, Some(0.0));
+}
+
+#[test]
+fn explicit_messages_carry_the_pdi_when_asked() {
+    let server = adapter();
+    let mut probe = Probe::connected(spec(server.addr, "io=explicit"));
+    assert!(
+        connected_info(&probe)
+            .description
+            .contains("PDI over explicit messages (2291h/2292h)")
+    );
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: -1500,
+        speed: 300,
+    }));
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(15)),
+        CommandProgress::Done {
+            return_value: -1500
+        }
+    );
+    assert!((server.drive().lock().position() + 1500.0).abs() < 0.5);
+}
+
+#[test]
+fn the_nine_byte_pdi_assembly_of_the_spec_table_works_too() {
+    let server = adapter();
+    let mut probe = Probe::connected(spec(server.addr, "io=pdi&cmd_at=8"));
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 900,
+        speed: 200,
+    }));
+    assert_eq!(
+        probe.outcome(id, Duration::from_secs(15)),
+        CommandProgress::Done { return_value: 900 }
+    );
+}
+
+#[test]
+fn objects_go_over_getod_and_setod_and_errors_name_the_object_and_the_cip_status() {
+    let server = adapter();
+    let mut probe = Probe::connected(spec(server.addr, "io=pdi"));
+    assert_eq!(
+        probe.read(
+            Address::new(0x1008, 0),
+            DataType::VisibleString,
+            ObjectPath::Native
+        ),
+        Ok(Value::Text("drivedeck simulated drive".into()))
+    );
+    assert_eq!(
+        probe.read(
+            Address::new(0x1018, 1),
+            DataType::Unsigned32,
+            ObjectPath::Auto
+        ),
+        Ok(Value::Uint(0x26C))
+    );
+    // The vendor's SetOD example: 2031h:00 = 304h.
+    let id = probe.send(Request::WriteObject {
+        address: Address::new(0x2031, 0),
+        dtype: DataType::Unsigned32,
+        value: Value::Uint(0x304),
+        path: ObjectPath::Native,
+    });
+    let written = probe.wait(
+        "the write",
+        Duration::from_secs(5),
+        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+    );
+    assert!(
+        matches!(&written, Event::ObjectWritten { result: Ok(()), .. }),
+        "{written:?}"
+    );
+    assert_eq!(
+        probe.read(
+            Address::new(0x2031, 0),
+            DataType::Unsigned32,
+            ObjectPath::Native
+        ),
+        Ok(Value::Uint(0x304))
+    );
+    // Refusals say which service, which object, and the CIP status in words.
+    let missing = probe
+        .read(
+            Address::new(0x5FFF, 0),
+            DataType::Unsigned32,
+            ObjectPath::Native,
+        )
+        .expect_err("no such object");
+    assert_eq!(
+        missing,
+        "GetOD 5FFFh:00h: CIP status 05h (path destination unknown)"
+    );
+    let sub = probe
+        .read(
+            Address::new(0x1018, 9),
+            DataType::Unsigned32,
+            ObjectPath::Native,
+        )
+        .expect_err("no such subindex");
+    assert_eq!(
+        sub,
+        "GetOD 1018h:09h: CIP status 14h (attribute not supported)"
+    );
+    let id = probe.send(Request::WriteObject {
+        address: Address::new(0x1018, 1),
+        dtype: DataType::Unsigned32,
+        value: Value::Uint(1),
+        path: ObjectPath::Native,
+    });
+    let refused = probe.wait(
+        "the refusal",
+        Duration::from_secs(5),
+        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+    );
+    assert!(
+        matches!(&refused, Event::ObjectWritten { result: Err(r), .. }
+            if r == "SetOD 1018h:01h: CIP status 0Eh (attribute not settable)"),
+        "{refused:?}"
+    );
+    // A string cannot be written over EtherNet/IP: SetOD carries 1 to 4 bytes.
+    let id = probe.send(Request::WriteObject {
+        address: Address::new(0x1008, 0),
+        dtype: DataType::VisibleString,
+        value: Value::Text("new name".into()),
+        path: ObjectPath::Native,
+    });
+    let wide = probe.wait(
+        "the refusal",
+        Duration::from_secs(5),
+        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+    );
+    assert!(
+        matches!(&wide, Event::ObjectWritten { result: Err(r), .. } if r.contains("SetOD carries 1 to 4")),
+        "{wide:?}"
+    );
+}
+
+#[test]
+fn the_frame_log_shows_explicit_and_class_1_traffic() {
+    let server = adapter();
+    let mut probe = Probe::connected(spec(server.addr, "io=pdi"));
+    probe.send(Request::SetTrace(true));
+    probe
+        .read(
+            Address::new(0x1018, 1),
+            DataType::Unsigned32,
+            ObjectPath::Native,
+        )
+        .expect("read");
+    let mut texts = vec![];
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while !(texts.iter().any(|t: &String| t.contains("GetOD (32h)"))
+        && texts.iter().any(|t| t.contains("class 1 O→T"))
+        && texts.iter().any(|t| t.contains("class 1 T→O")))
+    {
+        assert!(Instant::now() < deadline, "{texts:#?}");
+        if let Event::Frames(frames) = probe.wait("frames", Duration::from_secs(5), |e| {
+            matches!(e, Event::Frames(_))
+        }) {
+            texts.extend(frames.into_iter().map(|f| f.text));
+        }
+    }
+    assert!(
+        texts
+            .iter()
+            .any(|t| t.contains("SendRRData GetOD (32h) to class 64h / instance 1 1018h:01h")),
+        "{texts:#?}"
+    );
+}
+
+#[test]
+fn a_second_scanner_is_refused_the_io_and_falls_back_to_explicit_messages() {
+    let server = adapter();
+    let _first = Probe::connected(spec(server.addr, "io=pdi"));
+    let second = Probe::connected(spec(server.addr, "io=common"));
+    let info = connected_info(&second);
+    assert!(
+        info.description.contains("PDI over explicit messages"),
+        "{}",
+        info.description
+    );
+    assert!(
+        second
+            .notices()
+            .iter()
+            .any(|n| n.contains("extended status 0106h (ownership conflict)")
+                && n.contains("another scanner")),
+        "{:?}",
+        second.notices()
+    );
+}
+
+#[test]
+fn disconnecting_closes_the_io_connection_so_the_next_scanner_gets_it() {
+    let server = adapter();
+    let mut first = Probe::connected(spec(server.addr, "io=pdi"));
+    first.send(Request::Disconnect);
+    first.wait("the disconnection", Duration::from_secs(5), |e| {
+        matches!(e, Event::Disconnected { .. })
+    });
+    // Without Forward_Close the adapter would hold the connection until its timeout and
+    // refuse this one with 0106h.
+    let second = Probe::connected(spec(server.addr, "io=pdi"));
+    let info = connected_info(&second);
+    assert!(info.description.contains("PDI set"), "{}", info.description);
+}
+
+#[test]
+fn a_drive_that_vanishes_mid_move_shows_as_disconnected_and_is_reconnected() {
+    let drive = SharedDrive::new(Drive::new());
+    let options = Options {
+        io_port: 0,
+        ..Options::default()
+    };
+    let server = ServerThread::enip_with(local(), options, drive.clone()).expect("adapter");
+    let addr = server.addr;
+    let mut probe = Probe::connected(spec(addr, "io=pdi&rpi=10"));
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 30_000,
+        speed: 100,
+    }));
+    probe.wait(
+        "the acceptance",
+        Duration::from_secs(5),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    // The drive's network side goes away (the motor carries on).
+    let gone = Instant::now();
+    drop(server);
+    let lost = probe.wait("the disconnection", Duration::from_secs(5), |e| {
+        matches!(e, Event::Disconnected { reason: Some(_) })
+    });
+    // Detected within the connection timeout (640 ms at RPI 10 ms) plus a cycle; generous
+    // bounds only, timing is measured elsewhere.
+    assert!(
+        gone.elapsed() < Duration::from_secs(3),
+        "{:?}",
+        gone.elapsed()
+    );
+    assert!(
+        matches!(&lost, Event::Disconnected { reason: Some(r) } if r.contains("127.0.0.1")),
+        "{lost:?}"
+    );
+    probe.wait("a retry", Duration::from_secs(5), |e| {
+        matches!(
+            e,
+            Event::ConnectFailed {
+                retry_in: Some(_),
+                ..
+            }
+        )
+    });
+    // Back on the same address: the worker reconnects by itself.
+    let _back = ServerThread::enip_with(
+        addr,
+        Options {
+            io_port: 0,
+            ..Options::default()
+        },
+        drive.clone(),
+    )
+    .expect("the same port again");
+    probe.wait("the reconnection", Duration::from_secs(10), |e| {
+        matches!(e, Event::Connected(_))
+    });
+    assert_eq!(
+        probe.read(
+            Address::new(0x1018, 1),
+            DataType::Unsigned32,
+            ObjectPath::Native
+        ),
+        Ok(Value::Uint(0x26C))
+    );
+}
+
+#[test]
+fn a_scanner_that_stops_sending_leaves_the_drive_halted_with_fault_8000h() {
+    let server = adapter();
+    let addr = server.addr;
+    // A scanner that starts a long move and then freezes: its runtime (and I/O task) dies
+    // without a Forward_Close.
+    std::thread::spawn(move || {
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .expect("runtime");
+        runtime.block_on(async {
+            let mut link = EnipLink::connect(&spec(addr, "io=pdi&rpi=10"))
+                .await
+                .expect("connect");
+            let rx = RxImage::new(
+                Action::MoveAbsolute {
+                    target: 50_000,
+                    speed: 200,
+                }
+                .set_values(),
+                PdiCommand::new(Opcode::MoveAbsolute),
+            );
+            let deadline = Instant::now() + Duration::from_secs(5);
+            loop {
+                let exchange = link.exchange(Some(&rx)).await.expect("exchange");
+                if exchange.tx.status.is_set(StatusBit::OperationEnabled) && link_moving(&exchange)
+                {
+                    break;
+                }
+                assert!(Instant::now() < deadline, "never moved: {:?}", exchange.tx);
+                tokio::time::sleep(Duration::from_millis(10)).await;
+            }
+            tokio::time::sleep(Duration::from_millis(200)).await;
+            std::mem::forget(link);
+        });
+    })
+    .join()
+    .expect("the scanner thread");
+    // The adapter notices within its timeout: the drive stops and latches 8000h.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        {
+            let drive = server.drive().lock();
+            let tx = drive.tx_image();
+            if tx.status.is_set(StatusBit::Fault) {
+                assert_eq!(tx.error_code, 0x8000, "{tx:?}");
+                assert!(drive.position() < 50_000.0);
+                break;
+            }
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no fault after the scanner stopped"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The next technician sees why, with its meaning.
+    let mut probe = Probe::connected(spec(addr, "io=pdi"));
+    let sample = probe.sample_where("the fault", Duration::from_secs(5), |s| {
+        s.tx.status.is_set(StatusBit::Fault)
+    });
+    assert_eq!(sample.tx.error_code, 0x8000);
+    assert_eq!(
+        drivedeck::cia::ErrorCode(sample.tx.error_code).meaning(),
+        "fieldbus monitoring"
+    );
+}
+
+fn link_moving(exchange: &drivedeck::link::Exchange) -> bool {
+    // Mode actual value: the return value of an absolute move is the position; moving once
+    // it left 0.
+    exchange.tx.return_value > 0
+}
+
+#[test]
+fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
+    let server = adapter();
+    let mut probe = Probe::new();
+    let id = probe.send(Request::Discover {
+        interface: None,
+        host: Some("127.0.0.1".into()),
+        port: server.addr.port(),
+    });
+    let found = match probe.wait(
+        "the discovery",
+        Duration::from_secs(10),
+        |e| matches!(e, Event::Scanned { id: i, .. } if *i == id),
+    ) {
+        Event::Scanned { result, .. } => result.expect("no error"),
+        _ => unreachable!(),
+    };
+    let ours: Vec<_> = found
+        .iter()
+        .filter(|d| d.address == server.addr.to_string())
+        .collect();
+    assert_eq!(ours.len(), 1, "{found:?}");
+    assert_eq!(ours[0].vendor, Some(0x26C));
+    assert_eq!(ours[0].name.as_deref(), Some("drivedeck simulated drive"));
+    assert_eq!(ours[0].state.as_deref(), Some("operational"));
+    assert_eq!(ours[0].node, None);
+
+    // An adapter on every interface answers a broadcast on the loopback interface.
+    let everywhere = ServerThread::enip(
+        "0.0.0.0:0".parse().expect("address"),
+        Options {
+            io_port: 0,
+            ..Options::default()
+        },
+    )
+    .expect("adapter on 0.0.0.0");
+    let id = probe.send(Request::Discover {
+        interface: Some("lo".into()),
+        host: None,
+        port: everywhere.addr.port(),
+    });
+    match probe.wait(
+        "the broadcast discovery",
+        Duration::from_secs(10),
+        |e| matches!(e, Event::Scanned { id: i, .. } if *i == id),
+    ) {
+        Event::Scanned {
+            result: Ok(found), ..
+        } => {
+            if found.is_empty() {
+                // Some sandboxes drop broadcasts on loopback: say so rather than fail.
+                println!("skipped: no broadcast reached the adapter on lo here");
+            } else {
+                assert_eq!(found[0].vendor, Some(0x26C), "{found:?}");
+                assert!(
+                    found[0]
+                        .address
+                        .ends_with(&format!(":{}", everywhere.addr.port()))
+                );
+            }
+        }
+        Event::Scanned { result: Err(e), .. } => {
+            println!("skipped: no loopback interface to broadcast on ({e})")
+        }
+        _ => unreachable!(),
+    }
+}
+
+#[test]
+fn the_one_shot_commands_move_the_motor_over_real_class_1_io() {
+    // The acceptance: `drivedeck sim --enip …` and `drivedeck --link enip://… move-abs`.
+    let mut command = Command::new(env!("CARGO_BIN_EXE_drivedeck"));
+    command.args(["sim", "--enip", "127.0.0.1:0", "--enip-io-port", "0"]);
+    let mut sim = Process::spawn("drivedeck sim --enip", &mut command);
+    let banner = sim.expect_line("the EtherNet/IP banner", Duration::from_secs(10));
+    let addr: SocketAddr = banner
+        .split("EtherNet/IP ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|a| a.parse().ok())
+        .unwrap_or_else(|| panic!("no address in {banner:?}"));
+    let link = format!("enip://{addr}?io=pdi");
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
+            .args(args)
+            .env("HOME", std::env::temp_dir())
+            .output()
+            .expect("the binary runs");
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let moved = run(&[
+        "--link", &link, "move-abs", "2000", "--speed", "200", "--wait",
+    ]);
+    assert!(moved.contains("done (ReturnValue 2000)"), "{moved}");
+    let read = run(&["--link", &link, "read", "1018:01"]);
+    assert!(read.contains("26Ch") || read.contains("620"), "{read}");
+    let status = run(&["--link", &format!("enip://{addr}?io=common"), "status"]);
+    assert!(status.contains("position 2000"), "{status}");
+}
+
+/// Whether a status lamp is lit (lamps are read-only checkboxes to accessibility).
+fn lamp(harness: &Harness<'_, App>, label: &str) -> bool {
+    harness
+        .get_by_role_and_label(egui::accesskit::Role::CheckBox, label)
+        .accesskit_node()
+        .toggled()
+        == Some(Toggled::True)
+}
+
+fn step_until(
+    harness: &mut Harness<'_, App>,
+    what: &str,
+    timeout: Duration,
+    done: impl Fn(&Harness<'_, App>) -> bool,
+) {
+    let deadline = Instant::now() + timeout;
+    while !done(harness) {
+        assert!(
+            Instant::now() < deadline,
+            "{what} did not happen within {timeout:?}; log: {:#?}",
+            harness.state().state.log
+        );
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+#[test]
+fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
+    let server = adapter();
+    let app = App::new(Settings::default(), Arc::new(|| {}), false);
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    harness.run();
+    harness.get_by_label("Bus").click();
+    harness.run();
+    harness.get_by_label("EtherNet/IP").click();
+    harness.run();
+    harness
+        .get_by_label("Connection: Host")
+        .set_text_value_accesskit("127.0.0.1");
+    harness
+        .get_by_label("Connection: Port")
+        .set_text_value_accesskit(&server.addr.port().to_string());
+    harness.run();
+    harness.get_by_label("I/O set").click();
+    harness.run();
+    harness.get_by_label("common").click();
+    harness.run();
+    // Tests run in parallel: receive I/O on any free port.
+    harness.state_mut().state.settings.connection.enip_more = "&udp=0".into();
+    harness.get_by_label("Discover").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the discovery",
+        Duration::from_secs(10),
+        |h| h.state().state.scan.is_some(),
+    );
+    harness.run();
+    harness.get_by_label("Use 127.0.0.1").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the EtherNet/IP connection",
+        Duration::from_secs(10),
+        |h| {
+            h.state()
+                .state
+                .link_info()
+                .is_some_and(|i| i.description.contains("Common set"))
+                && h.state().state.latest.is_some()
+        },
+    );
+    harness.get_by_label("Move absolute").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the target over class 1 I/O",
+        Duration::from_secs(15),
+        |h| {
+            lamp(h, "Target reached")
+                && h.state().state.latest.and_then(|s| s.position) == Some(2000.0)
+        },
+    );
+    // The Common set's extra values are on the status panel.
+    harness.run();
+    assert!(harness.query_by_label("Analog input 3220h:01").is_some());
+    assert!(harness.query_by_label("Digital inputs 60FDh").is_some());
+    assert!(harness.query_by_label("Following error 60F4h").is_some());
+}
