@@ -675,3 +675,59 @@ fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
     assert!(harness.query_by_label("Digital inputs 60FDh").is_some());
     assert!(harness.query_by_label("Following error 60F4h").is_some());
 }
+
+#[test]
+fn discover_and_bench_from_the_command_line() {
+    let server = adapter();
+    let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
+        .args([
+            "--json",
+            "discover",
+            "--interface",
+            "lo",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            &server.addr.port().to_string(),
+        ])
+        .output()
+        .expect("the binary runs");
+    assert!(out.status.success(), "{out:?}");
+    let found: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(found["bus"], "EtherNet/IP on lo");
+    let ours = found["nodes"]
+        .as_array()
+        .expect("nodes")
+        .iter()
+        .find(|n| n["address"] == server.addr.to_string())
+        .unwrap_or_else(|| panic!("{found:#}"));
+    assert_eq!(ours["vendor"], 0x26C);
+    assert_eq!(ours["name"], "drivedeck simulated drive");
+    assert_eq!(ours["node"], serde_json::Value::Null);
+
+    let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
+        .args(["discover", "--interface", "no-such-interface"])
+        .output()
+        .expect("the binary runs");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no IPv4 interface 'no-such-interface'"));
+
+    for bus in ["enip", "enip-explicit"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
+            .args(["--json", "bench", "--serve-sim", bus, "--seconds", "0.3"])
+            .output()
+            .expect("the binary runs");
+        assert!(out.status.success(), "{out:?}");
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+        let results = report["results"].as_array().expect("results");
+        assert_eq!(
+            results[0]["what"], "PDI exchange (write + read)",
+            "{report:#}"
+        );
+        assert!(
+            results[0]["count"].as_u64().is_some_and(|n| n > 0),
+            "{report:#}"
+        );
+        assert_eq!(results[1]["what"], "object read 6064h (without PDI)");
+    }
+}

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::{BenchArgs, EXIT_FAILED, EXIT_USAGE};
+use super::{BenchArgs, EXIT_FAILED, EXIT_USAGE, ServedBus};
 use crate::link::{self, Link, LinkSpec};
 use crate::od::{Address, DataType};
 use crate::sim::server::ServerThread;
@@ -81,29 +81,55 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
             return ExitCode::from(EXIT_FAILED);
         }
     };
-    // --serve-sim: the simulated drive's Modbus server on loopback, in this process.
-    let server = if args.serve_sim {
-        match ServerThread::modbus_tcp(([127, 0, 0, 1], 0).into(), Options::default()) {
-            Ok(server) => Some(server),
-            Err(e) => {
-                eprintln!("drivedeck bench: cannot start the simulated server: {e}");
-                return ExitCode::from(EXIT_FAILED);
-            }
+    // --serve-sim BUS: the simulated drive served on loopback, in this process.
+    let loopback = ([127, 0, 0, 1], 0).into();
+    let served = match args.serve_sim {
+        None => None,
+        Some(ServedBus::Modbus) => Some(
+            ServerThread::modbus_tcp(loopback, Options::default()).map(|server| {
+                let spec = LinkSpec::ModbusTcp {
+                    host: server.addr.ip().to_string(),
+                    port: server.addr.port(),
+                    unit: 0,
+                    words: Default::default(),
+                };
+                (Some(server), spec)
+            }),
+        ),
+        Some(bus @ (ServedBus::Enip | ServedBus::EnipExplicit)) => {
+            let options = crate::sim::server::enip::Options {
+                io_port: 0,
+                ..Default::default()
+            };
+            Some(ServerThread::enip(loopback, options).and_then(|server| {
+                let io = if bus == ServedBus::Enip {
+                    "pdi"
+                } else {
+                    "explicit"
+                };
+                let text = format!("enip://{}?io={io}&rpi={}&udp=0", server.addr, args.rpi);
+                text.parse::<LinkSpec>()
+                    .map(|spec| (Some(server), spec))
+                    .map_err(|e| std::io::Error::other(e.to_string()))
+            }))
         }
-    } else {
-        None
+        Some(ServedBus::Canopen) => Some(Ok((
+            None,
+            LinkSpec::CanopenSim {
+                can: Default::default(),
+            },
+        ))),
     };
-    let spec = match (&server, link) {
-        (Some(server), _) => LinkSpec::ModbusTcp {
-            host: server.addr.ip().to_string(),
-            port: server.addr.port(),
-            unit: 0,
-            words: Default::default(),
-        },
-        (None, Some(spec)) => spec,
+    let (_server, spec) = match (served, link) {
+        (Some(Ok((server, spec))), _) => (server, spec),
+        (Some(Err(e)), _) => {
+            eprintln!("drivedeck bench: cannot start the simulated server: {e}");
+            return ExitCode::from(EXIT_FAILED);
+        }
+        (None, Some(spec)) => (None, spec),
         (None, None) => {
             eprintln!(
-                "drivedeck bench: give --link URL, or --serve-sim to bench the simulated drive's Modbus server on loopback"
+                "drivedeck bench: give --link URL, or --serve-sim [modbus|enip|enip-explicit|canopen] to bench the simulated drive on loopback"
             );
             return ExitCode::from(EXIT_USAGE);
         }

@@ -79,8 +79,11 @@ pub enum Command {
     HomeHere(HomeHereArgs),
     /// Auto setup (PDI-Cmd 16).
     AutoSetup(WaitArg),
-    /// Find the CANopen nodes on the --link bus: node id, vendor, product, revision, name.
+    /// Find the devices on the --link bus: CANopen nodes (node id, vendor, product,
+    /// revision, name), or EtherNet/IP adapters (ListIdentity to the host and by broadcast).
     Scan,
+    /// Find EtherNet/IP adapters by ListIdentity broadcast (no --link needed).
+    Discover(DiscoverArgs),
     /// Serve the simulated drive on real sockets for any client (PLCs, pymodbus, …).
     Sim(SimArgs),
     /// Measure PDI exchanges and object reads per second on --link (or --serve-sim).
@@ -92,9 +95,42 @@ pub struct BenchArgs {
     /// Seconds per measurement.
     #[arg(long, default_value_t = 3.0)]
     pub seconds: f64,
-    /// Bench the simulated drive's Modbus TCP server, started on loopback in this process.
-    #[arg(long)]
-    pub serve_sim: bool,
+    /// Bench the simulated drive served on loopback in this process, over this bus
+    /// (`--serve-sim` alone: Modbus TCP).
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "modbus", value_name = "BUS")]
+    pub serve_sim: Option<ServedBus>,
+    /// The I/O RPI for `--serve-sim enip`, ms.
+    #[arg(long, default_value_t = 1)]
+    pub rpi: u32,
+}
+
+/// The buses `bench --serve-sim` can serve the simulated drive on.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ServedBus {
+    /// Modbus TCP on loopback.
+    Modbus,
+    /// EtherNet/IP on loopback, PDI over class 1 I/O.
+    Enip,
+    /// EtherNet/IP on loopback, PDI over explicit messages.
+    EnipExplicit,
+    /// CANopen on the in-memory bus.
+    Canopen,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct DiscoverArgs {
+    /// Broadcast on this interface only (its name, e.g. eth0, or its IPv4 address).
+    #[arg(long, value_name = "NAME|IP")]
+    pub interface: Option<String>,
+    /// Also ask this host directly (UDP and TCP).
+    #[arg(long, value_name = "HOST")]
+    pub host: Option<String>,
+    /// The adapters' EtherNet/IP port.
+    #[arg(long, default_value_t = 44818)]
+    pub port: u16,
+    /// Seconds to collect answers.
+    #[arg(long, default_value_t = 1.0)]
+    pub wait: f64,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -301,6 +337,7 @@ pub fn main() -> ExitCode {
         },
         Some(Command::Sim(args)) => serve::run(&args),
         Some(Command::Bench(args)) => bench::run(cli.link.clone(), &args, cli.json),
+        Some(Command::Discover(args)) => oneshot::discover(&args, cli.json),
         Some(command) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::report::{self, Report};
-use super::{Command, EXIT_FAILED, EXIT_USAGE, Via};
+use super::{Command, DiscoverArgs, EXIT_FAILED, EXIT_USAGE, Via};
 use crate::link::LinkSpec;
 use crate::od::{self, Address, DataType, Value};
 use crate::pdi::{Action, Opcode, Timing};
@@ -287,6 +287,7 @@ fn execute(
         | Command::Read(_)
         | Command::Write(_)
         | Command::Scan
+        | Command::Discover(_)
         | Command::Sim(_)
         | Command::Bench(_) => None,
     };
@@ -371,6 +372,44 @@ fn execute(
     report.set_warnings(std::mem::take(&mut session.warnings));
     report.set_notes(std::mem::take(&mut session.notes));
     Ok(report)
+}
+
+/// `drivedeck discover`: EtherNet/IP adapters by ListIdentity.
+pub fn discover(args: &DiscoverArgs, json: bool) -> ExitCode {
+    let runtime = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(runtime) => runtime,
+        Err(e) => {
+            eprintln!("drivedeck discover: cannot start the runtime: {e}");
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    let discovery = crate::link::enip::discovery::Discovery {
+        port: args.port,
+        interface: args.interface.clone(),
+        unicast: args.host.iter().cloned().collect(),
+        wait: Duration::from_secs_f64(args.wait.clamp(0.1, 60.0)),
+        ..Default::default()
+    };
+    match runtime.block_on(crate::link::enip::discovery::discover(&discovery)) {
+        Ok(devices) => {
+            let place = match (&args.interface, &args.host) {
+                (Some(i), _) => format!("EtherNet/IP on {i}"),
+                (None, Some(h)) => format!("EtherNet/IP on every interface and at {h}"),
+                (None, None) => "EtherNet/IP on every interface".to_owned(),
+            };
+            let mut scan = report::scan(&LinkSpec::Sim, devices);
+            scan.bus = place;
+            report::print(&Report::Scan(scan), json);
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("drivedeck discover: {e}");
+            ExitCode::from(EXIT_USAGE)
+        }
+    }
 }
 
 /// A bus scan through the worker, without connecting to a node.

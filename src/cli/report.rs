@@ -104,6 +104,8 @@ pub struct ObjectReport {
 
 #[derive(Serialize, Debug)]
 pub struct ScanNode {
+    /// Where the device is: `node 5`, `192.168.2.100:44818`.
+    pub address: String,
     pub node: Option<u8>,
     pub vendor: Option<u32>,
     pub product: Option<u32>,
@@ -127,6 +129,7 @@ pub fn scan(link: &LinkSpec, devices: Vec<crate::link::FoundDevice>) -> ScanRepo
         nodes: devices
             .into_iter()
             .map(|d| ScanNode {
+                address: d.address,
                 node: d.node,
                 vendor: d.vendor,
                 product: d.product,
@@ -246,16 +249,23 @@ pub fn print(report: &Report, json: bool) {
         Report::Status(s) => print_status(s),
         Report::Scan(r) => {
             if r.nodes.is_empty() {
-                println!("no node answered on {}", r.bus);
+                println!("nothing answered on {}", r.bus);
             }
             let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
             for n in &r.nodes {
+                let (place, revision) = match n.node {
+                    Some(node) => (format!("node {node:>3}"), hex(n.revision)),
+                    // EtherNet/IP: the address, and the revision as major.minor.
+                    None => (
+                        n.address.clone(),
+                        n.revision
+                            .map_or("?".into(), |r| format!("{}.{}", r >> 16, r & 0xFFFF)),
+                    ),
+                };
                 println!(
-                    "node {:>3}  vendor {}  product {}  revision {}  serial {}  {:<15} {}",
-                    n.node.map_or("?".into(), |n| n.to_string()),
+                    "{place}  vendor {}  product {}  revision {revision}  serial {}  {:<15} {}",
                     hex(n.vendor),
                     hex(n.product),
-                    hex(n.revision),
                     hex(n.serial),
                     n.state.clone().unwrap_or_default(),
                     n.name.clone().unwrap_or_default()
