@@ -21,6 +21,8 @@ pub mod identity;
 mod implicit;
 pub mod io;
 pub mod nanotec;
+#[cfg(test)]
+mod proptests;
 pub mod session;
 pub mod wire;
 
