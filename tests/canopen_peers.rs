@@ -534,6 +534,7 @@ fn the_one_shot_commands_and_scan_work_against_a_python_canopen_local_node() {
     assert_eq!(
         nodes,
         json!([{
+            "address": "node 42",
             "node": 42,
             "vendor": 0x1234_5678,
             "product": 0xC0DE,

@@ -500,7 +500,8 @@ fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
         .filter(|d| d.address == server.addr.to_string())
         .collect();
     assert_eq!(ours.len(), 1, "{found:?}");
-    assert_eq!(ours[0].vendor, Some(0x26C));
+    assert_eq!(ours[0].vendor, Some(0x558));
+    assert_eq!(ours[0].vendor_name(), "Nanotec (ODVA 558h)");
     assert_eq!(ours[0].name.as_deref(), Some("drivedeck simulated drive"));
     assert_eq!(ours[0].state.as_deref(), Some("operational"));
     assert_eq!(ours[0].node, None);
@@ -531,7 +532,7 @@ fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
                 // Some sandboxes drop broadcasts on loopback: say so rather than fail.
                 println!("skipped: no broadcast reached the adapter on lo here");
             } else {
-                assert_eq!(found[0].vendor, Some(0x26C), "{found:?}");
+                assert_eq!(found[0].vendor, Some(0x558), "{found:?}");
                 assert!(
                     found[0]
                         .address
@@ -701,7 +702,7 @@ fn discover_and_bench_from_the_command_line() {
         .iter()
         .find(|n| n["address"] == server.addr.to_string())
         .unwrap_or_else(|| panic!("{found:#}"));
-    assert_eq!(ours["vendor"], 0x26C);
+    assert_eq!(ours["vendor"], 0x558);
     assert_eq!(ours["name"], "drivedeck simulated drive");
     assert_eq!(ours["node"], serde_json::Value::Null);
 

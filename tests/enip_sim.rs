@@ -358,7 +358,7 @@ fn sessions_identity_services_and_interfaces() {
     assert_eq!(SocketAddr::V4(identity.socket.socket()), server.addr);
     assert_eq!(
         (identity.vendor, identity.device_type, identity.product_code),
-        (0x026C, 0x2B, 0x42)
+        (0x0558, 0x2B, 0x42)
     );
     assert_eq!((identity.revision, identity.serial), ((3, 0), 0x1234));
     assert_eq!(identity.product_name, "drivedeck simulated drive");
@@ -435,7 +435,7 @@ fn list_identity_over_udp_on_the_tcp_port() {
     };
     let identity: &Identity = identity;
     assert_eq!(SocketAddr::V4(identity.socket.socket()), server.addr);
-    assert_eq!(identity.vendor, 0x026C);
+    assert_eq!(identity.vendor, 0x0558);
     // Anything else on that port is ignored; ListIdentity still answers after it.
     udp.send_to(b"garbage", server.addr).expect("send");
     udp.send_to(&packet(Command::LIST_IDENTITY, 0, vec![]), server.addr)
@@ -809,7 +809,7 @@ fn identity_and_assembly_objects() {
         vec![],
     ));
     assert!(all.status.is_success());
-    assert_eq!(&all.data[..6], &[0x6C, 0x02, 0x2B, 0x00, 0x42, 0x00]);
+    assert_eq!(&all.data[..6], &[0x58, 0x05, 0x2B, 0x00, 0x42, 0x00]);
     assert_eq!(&all.data[6..8], &[3, 0], "revision");
     assert_eq!(&all.data[10..14], &0x1234u32.to_le_bytes());
     assert_eq!(all.data[14], 25);
@@ -822,7 +822,7 @@ fn identity_and_assembly_objects() {
         ))
     };
     let expected: [&[u8]; 7] = [
-        &[0x6C, 0x02],
+        &[0x58, 0x05],
         &[0x2B, 0x00],
         &[0x42, 0x00],
         &[3, 0],
@@ -1192,7 +1192,7 @@ fn forward_open_refusals() {
     let (reply, _) = c.send_rr(vec![0x54, 0x02, 0x20, 0x06, 0x24, 0x01, 0x0A, 0x0E], vec![]);
     assert_eq!(status(&reply), (0x13, vec![]));
     // Nothing was opened by any of it; the keyed and the Large_Forward_Open ones work.
-    let open = keyed(0x026C);
+    let open = keyed(0x0558);
     let (reply, _) = c.open(&open, vec![]);
     assert!(reply.status.is_success(), "{}", reply.status_text());
     assert!(c.close(&open).status.is_success());
@@ -1271,7 +1271,7 @@ fn drivedeck_sim_serves_enip_and_says_where() {
     });
     let banner = rx.recv_timeout(WAIT).expect("a banner");
     // "serving the simulated drive on EtherNet/IP 127.0.0.1:P (class 1 I/O on UDP
-    // 127.0.0.1:Q, vendor 26Ch)"
+    // 127.0.0.1:Q, vendor 558h)"
     let word_after = |marker: &str| -> SocketAddr {
         banner
             .split(marker)
@@ -1284,7 +1284,7 @@ fn drivedeck_sim_serves_enip_and_says_where() {
         banner.starts_with("serving the simulated drive on EtherNet/IP 127.0.0.1:"),
         "{banner}"
     );
-    assert!(banner.trim_end().ends_with(", vendor 26Ch)"), "{banner}");
+    assert!(banner.trim_end().ends_with(", vendor 558h)"), "{banner}");
     let tcp = word_after("EtherNet/IP ");
     let io = word_after("I/O on UDP ");
     assert_ne!(tcp.port(), 0);

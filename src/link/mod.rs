@@ -105,11 +105,16 @@ pub struct FoundDevice {
 
 impl FoundDevice {
     /// The vendor in words where drivedeck knows it.
+    /// CANopen nodes carry CiA vendor ids (Nanotec 26Ch), EtherNet/IP adapters ODVA ones
+    /// (Nanotec 558h): the same number means different companies in the two lists.
     pub fn vendor_name(&self) -> String {
-        match self.vendor {
-            Some(0x26C) => "Nanotec (26Ch)".into(),
-            Some(v) => format!("{v:08X}h"),
-            None => "?".into(),
+        let odva = self.node.is_none();
+        match (self.vendor, odva) {
+            (Some(0x26C), false) => "Nanotec (26Ch)".into(),
+            (Some(0x558), true) => "Nanotec (ODVA 558h)".into(),
+            (Some(v), false) => format!("{v:08X}h"),
+            (Some(v), true) => format!("ODVA {v:X}h"),
+            (None, _) => "?".into(),
         }
     }
 }

@@ -151,6 +151,12 @@ pub fn python_canopen() -> Option<Python> {
     python_with(&[("canopen", "2."), ("can", "4."), ("serial", "")])
 }
 
+/// The pycomm3 peer (EtherNet/IP): 1.2.x, whose `generic_message`, `list_identity`,
+/// `get_module_info` and `discover` the peer script uses.
+pub fn python_pycomm3() -> Option<Python> {
+    python_with(&[("pycomm3", "1.2.")])
+}
+
 /// A peer script in tests/peers/.
 pub fn peer_script(name: &str) -> PathBuf {
     manifest_dir().join("tests/peers").join(name)
@@ -418,6 +424,29 @@ impl Sim {
         let sim = Sim::start(&all, "Modbus RTU banner");
         assert!(sim.banner.contains("Modbus RTU"), "{}", sim.banner);
         sim
+    }
+
+    /// `drivedeck sim --enip 127.0.0.1:0 --enip-io-port 0 ARGS…`: the EtherNet/IP adapter
+    /// on a free port (TCP explicit messages and UDP ListIdentity), read from its banner.
+    pub fn enip(args: &[&str]) -> (Sim, SocketAddr) {
+        Sim::enip_on("127.0.0.1:0", args)
+    }
+
+    /// `drivedeck sim --enip ADDR --enip-io-port 0 ARGS…`, for a client that only knows
+    /// one port (e.g. 127.77.0.1:44818 for pycomm3's `discover`).
+    pub fn enip_on(addr: &str, args: &[&str]) -> (Sim, SocketAddr) {
+        let mut all = vec!["--enip", addr, "--enip-io-port", "0"];
+        all.extend_from_slice(args);
+        let sim = Sim::start(&all, "EtherNet/IP banner");
+        // "serving the simulated drive on EtherNet/IP 127.0.0.1:P (class 1 I/O on UDP …)"
+        let addr = sim
+            .banner
+            .split("EtherNet/IP ")
+            .nth(1)
+            .and_then(|rest| rest.split_whitespace().next())
+            .and_then(|a| a.parse().ok())
+            .unwrap_or_else(|| panic!("no address in {:?}", sim.banner));
+        (sim, addr)
     }
 
     /// `drivedeck sim --slcan PATH --node NODE ARGS…`: a CANopen node behind an emulated

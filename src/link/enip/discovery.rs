@@ -229,7 +229,7 @@ mod tests {
         let identity = Identity {
             encap_version: 1,
             socket: SockAddr::new("0.0.0.0:44818".parse().unwrap()),
-            vendor: 0x26C,
+            vendor: 0x558,
             device_type: 0x2B,
             product_code: 7,
             revision: (2, 5),
@@ -245,7 +245,7 @@ mod tests {
         assert!(decode_reply(&bytes[..30]).is_empty());
         let (address, device) = found(&identity, "10.1.2.3:44818".parse().unwrap());
         assert_eq!(address.to_string(), "10.1.2.3:44818");
-        assert_eq!(device.vendor_name(), "Nanotec (26Ch)");
+        assert_eq!(device.vendor_name(), "Nanotec (ODVA 558h)");
         assert_eq!(device.revision, Some(0x0002_0005));
         assert_eq!(device.state.as_deref(), Some("operational"));
     }

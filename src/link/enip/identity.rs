@@ -6,8 +6,10 @@ use std::net::{Ipv4Addr, SocketAddrV4};
 use super::cpf::SockAddr;
 use super::wire::{DecodeError, Put, Reader};
 
-/// Nanotec's ODVA vendor id.
-pub const NANOTEC_VENDOR: u16 = 0x026C;
+/// Nanotec's ODVA vendor id: 1368 (558h), "Nanotec Electronic GmbH & Co. KG" in ODVA's
+/// vendor list (as pycomm3's copy of it has it). Not the CiA vendor id 26Ch of 1018h:01,
+/// which ODVA assigns to Parker Hannifin/Compumotor.
+pub const NANOTEC_VENDOR: u16 = 0x0558;
 
 /// The Identity object's state attribute, in words.
 pub fn state_text(state: u8) -> &'static str {
@@ -132,8 +134,8 @@ mod tests {
         assert_eq!(&out[0..2], &[0x01, 0x00]);
         // sockaddr big-endian: family 2, port 44818 = AF12h.
         assert_eq!(&out[2..8], &[0x00, 0x02, 0xAF, 0x12, 192, 168]);
-        // vendor 26Ch little-endian right after the 16-byte sockaddr.
-        assert_eq!(&out[18..20], &[0x6C, 0x02]);
+        // vendor 558h little-endian right after the 16-byte sockaddr.
+        assert_eq!(&out[18..20], &[0x58, 0x05]);
         assert_eq!(out[32], 9, "name length");
         assert_eq!(out.last(), Some(&3), "state");
         assert_eq!(Identity::decode(&out), Ok(sample()));

@@ -63,7 +63,7 @@
 //!
 //! 1. transport 01h (class 1 cyclic) or class 3 (A3h): else 0103h.
 //! 2. the connection path decodes (else 0315h); an electronic key with a non-zero vendor
-//!    other than 26Ch: 0114h. Port segments are ignored (routes end here).
+//!    other than 558h (Nanotec's ODVA vendor id): 0114h. Port segments are ignored (routes end here).
 //! 3. class 3: class 02h instance 1 (Message Router), else 0117h; at most 4 per TCP
 //!    session (0113h); the same triad twice in a session: 0100h. They die with their TCP
 //!    session or by Forward_Close, and a repeated sequence count gets the previous reply
@@ -94,7 +94,7 @@
 //!
 //! # Identity
 //!
-//! Vendor 26Ch (Nanotec); device type 2Bh, "generic device (keyable)": the device type
+//! Vendor 558h (Nanotec's ODVA vendor id; 26Ch is its CiA id, in 1018h:01); device type 2Bh, "generic device (keyable)": the device type
 //! Nanotec's own EDS declares is not in the public record. Product code = the low 16 bits
 //! of 1018h:02; revision = bits 16–23 (major, clamped to 1..127 as CIP requires) and bits
 //! 0–7 (minor) of 1018h:03; serial = 1018h:04; name = 1008h cut to 32 bytes; state 3
@@ -1737,7 +1737,7 @@ mod tests {
     fn the_identity_comes_from_1018h_and_1008h() {
         let drive = Drive::new();
         let id = identity_of(&drive, LOCAL, false);
-        assert_eq!((id.vendor, id.device_type), (0x026C, 0x2B));
+        assert_eq!((id.vendor, id.device_type), (0x0558, 0x2B));
         assert_eq!(id.product_code, 0x42);
         // 1018h:03 = 08030000h: major = bits 16-23, minor = bits 0-7.
         assert_eq!(id.revision, (3, 0));
