@@ -670,11 +670,21 @@ fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
                 && h.state().state.latest.and_then(|s| s.position) == Some(2000.0)
         },
     );
-    // The Common set's extra values are on the status panel.
+    // The Common set's extra values are on the status panel, and analog input and
+    // following error get plots of their own (their legends).
     harness.run();
-    assert!(harness.query_by_label("Analog input 3220h:01").is_some());
     assert!(harness.query_by_label("Digital inputs 60FDh").is_some());
     assert!(harness.query_by_label("Following error 60F4h").is_some());
+    assert!(
+        harness
+            .query_by_label("Following error 60F4h [0.1°]")
+            .is_some()
+    );
+    // The status row and the plot's legend.
+    assert_eq!(
+        harness.query_all_by_label("Analog input 3220h:01").count(),
+        2
+    );
 }
 
 #[test]

@@ -93,7 +93,13 @@ fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
         entry.outcome
     );
     // The plot history follows the motor.
-    assert!(state.history.position.len() > 10);
+    assert!(
+        state
+            .history
+            .trace(drivedeck::telemetry::Signal::Position)
+            .len()
+            > 10
+    );
 }
 
 #[test]

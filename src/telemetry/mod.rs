@@ -2,4 +2,4 @@
 
 mod history;
 
-pub use history::{History, Trace};
+pub use history::{History, Signal, Trace};

@@ -1,12 +1,12 @@
-//! Live plots of position, velocity and torque on a shared time axis, with pause and
-//! clear.
+//! Live plots of position, velocity and torque (and following error and analog input
+//! where the link delivers them every cycle) on a shared time axis, with pause and clear.
 
 use eframe::egui::{self, Ui};
 use egui_plot::{Legend, Line, Plot, PlotBounds};
 
 use super::state::AppState;
-use super::widgets::{AMBER, BLUE, GREEN};
-use crate::telemetry::Trace;
+use super::widgets::{AMBER, BLUE, GREEN, RED};
+use crate::telemetry::Signal;
 
 pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
     ui.horizontal(|ui| {
@@ -34,11 +34,7 @@ pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
             state.history.clear();
             state.plot_paused_at = None;
         }
-        let n = state
-            .history
-            .position
-            .len()
-            .max(state.history.velocity.len());
+        let n = state.history.len();
         ui.weak(format!(
             "{n} samples (last {:.0} s kept)",
             state.history.capacity() as f64 / state.settings.poll_rate.max(1.0)
@@ -52,26 +48,22 @@ pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
     let from = f64::NEG_INFINITY;
     let following = state.plot_paused_at.is_none();
     let group = egui::Id::unique("plots_time_axis");
-    let height = ((ui.available_height() - 12.0) / 3.0).max(80.0);
-    let traces: [(&str, &str, &Trace, egui::Color32); 3] = [
-        (
-            "position",
-            "Position 6064h [0.1°]",
-            &state.history.position,
-            BLUE,
-        ),
-        (
-            "velocity",
-            "Velocity 606Ch [rpm]",
-            &state.history.velocity,
-            GREEN,
-        ),
-        ("torque", "Torque 6077h [‰]", &state.history.torque, AMBER),
-    ];
-    for (id, name, trace, color) in traces {
-        let points = trace.window(from, until);
+    let shown: Vec<Signal> = Signal::ALL
+        .into_iter()
+        .filter(|s| s.always_shown() || !state.history.trace(*s).is_empty())
+        .collect();
+    let height = ((ui.available_height() - 12.0) / shown.len() as f32).max(80.0);
+    for signal in shown {
+        let color = match signal {
+            Signal::Position => BLUE,
+            Signal::Velocity => GREEN,
+            Signal::Torque => AMBER,
+            Signal::FollowingError => RED,
+            Signal::AnalogInput => egui::Color32::from_rgb(150, 110, 210),
+        };
+        let points = state.history.trace(signal).window(from, until);
         let bounds = following.then(|| follow_bounds(&points)).flatten();
-        Plot::new(id)
+        Plot::new(signal.id())
             .height(height)
             .link_axis(group, [true, false])
             .link_cursor(group, [true, false])
@@ -82,7 +74,7 @@ pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
                     // Follow the newest samples; a paused plot can be zoomed and panned.
                     plot_ui.set_plot_bounds(bounds);
                 }
-                plot_ui.line(Line::new(name, points).color(color));
+                plot_ui.line(Line::new(signal.label(), points).color(color));
             });
     }
 }

@@ -697,8 +697,16 @@ impl AppState {
             }
             Event::Samples(samples) => {
                 for sample in &samples {
-                    self.history
-                        .push(sample.t, sample.position, sample.velocity, sample.torque);
+                    self.history.push(
+                        sample.t,
+                        [
+                            sample.position,
+                            sample.velocity,
+                            sample.torque,
+                            sample.following_error,
+                            sample.analog_input,
+                        ],
+                    );
                 }
                 for sample in &samples {
                     self.latest = Some(match &self.latest {
