@@ -380,3 +380,74 @@ fn a_command_the_drive_never_acknowledges_times_out() {
     );
     assert_eq!(value, Ok(Value::Uint(0)));
 }
+
+#[test]
+fn many_objects_are_read_in_order_and_a_cancel_drops_the_rest() {
+    let mut probe = Probe::connected(LinkSpec::Sim);
+    let objects: Vec<(Address, DataType)> = drivedeck::od::builtin()
+        .entries()
+        .filter(|e| e.access.readable())
+        .map(|e| (e.address, e.dtype))
+        .collect();
+    assert!(objects.len() > 100, "{}", objects.len());
+    let id = probe.send(Request::ReadMany {
+        objects: objects.clone(),
+        path: ObjectPath::Auto,
+    });
+    let mut got = vec![];
+    while got.len() < objects.len() {
+        match probe.wait(
+            "the reads",
+            Duration::from_secs(10),
+            |e| matches!(e, Event::ObjectRead { id: i, .. } if *i == id),
+        ) {
+            Event::ObjectRead {
+                address, result, ..
+            } => got.push((address, result)),
+            _ => unreachable!(),
+        }
+    }
+    let order: Vec<Address> = got.iter().map(|(a, _)| *a).collect();
+    let asked: Vec<Address> = objects.iter().map(|(a, _)| *a).collect();
+    assert_eq!(order, asked, "in the order asked");
+    assert!(got.iter().all(|(_, r)| r.is_ok()), "{got:?}");
+    // The PDI kept running meanwhile: samples came between the reads.
+    assert!(probe.seen.iter().any(|e| matches!(e, Event::Samples(_))));
+
+    // A second bulk read, cancelled at once: every object is either read or dropped.
+    let id = probe.send(Request::ReadMany {
+        objects: objects.clone(),
+        path: ObjectPath::Auto,
+    });
+    probe.send(Request::Cancel(id));
+    let dropped = match probe.wait(
+        "the cancellation",
+        Duration::from_secs(10),
+        |e| matches!(e, Event::Cancelled { id: i, .. } if *i == id),
+    ) {
+        Event::Cancelled { dropped, .. } => dropped,
+        _ => unreachable!(),
+    };
+    let read = probe
+        .seen
+        .iter()
+        .filter(|e| matches!(e, Event::ObjectRead { id: i, .. } if *i == id))
+        .count();
+    assert!(dropped > 0, "the cancel came before the reads");
+    assert_eq!(read + dropped, objects.len());
+
+    // More than the worker queues at once is refused with a reason.
+    let id = probe.send(Request::ReadMany {
+        objects: vec![(Address::new(0x6064, 0), DataType::Integer32); 10_000],
+        path: ObjectPath::Auto,
+    });
+    let refused = probe.wait(
+        "the refusal",
+        Duration::from_secs(5),
+        |e| matches!(e, Event::Rejected { id: i, .. } if *i == id),
+    );
+    assert!(
+        matches!(&refused, Event::Rejected { reason, .. } if reason.contains("read them in parts")),
+        "{refused:?}"
+    );
+}

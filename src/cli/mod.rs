@@ -2,6 +2,7 @@
 //! action and exits; `drivedeck sim …` serves the simulated drive on real sockets.
 
 mod bench;
+mod od;
 mod oneshot;
 mod report;
 mod serve;
@@ -88,6 +89,37 @@ pub enum Command {
     Sim(SimArgs),
     /// Measure PDI exchanges and object reads per second on --link (or --serve-sim).
     Bench(BenchArgs),
+    /// The object dictionary: `od list` shows the built-in catalog or an EDS, with the
+    /// values read from the drive when --link is given.
+    Od(OdArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct OdArgs {
+    #[command(subcommand)]
+    pub command: OdCommand,
+}
+
+#[derive(Subcommand, Debug, Clone)]
+pub enum OdCommand {
+    /// List objects: index:sub, name, type, access, default and limits; with --link also
+    /// the value each one has on the drive (an object that cannot be read shows why).
+    List(OdListArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct OdListArgs {
+    /// Only objects whose index (6064, 1018:01) or name (any part, any case) matches.
+    #[arg(long, value_name = "TEXT")]
+    pub filter: Option<String>,
+    /// The device's dictionary from this EDS or DCF (CiA 306) instead of the built-in
+    /// catalog; the catalog still adds units and descriptions the file lacks.
+    #[arg(long, value_name = "FILE")]
+    pub eds: Option<std::path::PathBuf>,
+    /// The node id for the EDS's $NODEID formulas (default: the --link's CANopen node id,
+    /// else a DCF's own; without one they stay formulas).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
+    pub node: Option<u8>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -338,6 +370,10 @@ pub fn main() -> ExitCode {
         Some(Command::Sim(args)) => serve::run(&args),
         Some(Command::Bench(args)) => bench::run(cli.link.clone(), &args, cli.json),
         Some(Command::Discover(args)) => oneshot::discover(&args, cli.json),
+        Some(Command::Od(args)) => {
+            let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));
+            od::run(cli.link.as_ref(), &args, cli.json, timeout, cli.trace)
+        }
         Some(command) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));

@@ -12,19 +12,19 @@ use crate::pdi::{Action, Opcode, Timing};
 use crate::worker::{self, CommandProgress, Event, ObjectPath, Request, Sample, Worker};
 
 /// Why a one-shot command did not succeed: the message and the exit code.
-struct Failure {
-    code: u8,
-    message: String,
+pub(super) struct Failure {
+    pub(super) code: u8,
+    pub(super) message: String,
 }
 
-fn usage(message: impl Into<String>) -> Failure {
+pub(super) fn usage(message: impl Into<String>) -> Failure {
     Failure {
         code: EXIT_USAGE,
         message: message.into(),
     }
 }
 
-fn failed(message: impl Into<String>) -> Failure {
+pub(super) fn failed(message: impl Into<String>) -> Failure {
     Failure {
         code: EXIT_FAILED,
         message: message.into(),
@@ -51,7 +51,7 @@ pub fn run(
 }
 
 /// The session of one command.
-struct Session {
+pub(super) struct Session {
     worker: Worker,
     latest: Option<Sample>,
     warnings: Vec<String>,
@@ -59,7 +59,11 @@ struct Session {
 }
 
 impl Session {
-    fn open(link: &LinkSpec, timeout: Duration, trace: bool) -> Result<Session, Failure> {
+    pub(super) fn open(
+        link: &LinkSpec,
+        timeout: Duration,
+        trace: bool,
+    ) -> Result<Session, Failure> {
         let config = worker::Config {
             poll_rate: 200.0,
             timing: Timing {
@@ -178,6 +182,19 @@ impl Session {
         path: ObjectPath,
         timeout: Duration,
     ) -> Result<Value, Failure> {
+        self.try_read(address, dtype, path, timeout)?
+            .map_err(|e| failed(format!("read {address}: {e}")))
+    }
+
+    /// Read an object, keeping a refusal (the device's or the worker's: `Ok(Err(text))`)
+    /// apart from a broken link or a timeout (`Err`).
+    pub(super) fn try_read(
+        &mut self,
+        address: Address,
+        dtype: Option<DataType>,
+        path: ObjectPath,
+        timeout: Duration,
+    ) -> Result<Result<Value, String>, Failure> {
         let id = self.send(Request::ReadObject {
             address,
             dtype,
@@ -186,12 +203,8 @@ impl Session {
         let deadline = Instant::now() + timeout;
         loop {
             match self.next(deadline)? {
-                Event::ObjectRead { id: i, result, .. } if i == id => {
-                    return result.map_err(|e| failed(format!("read {address}: {e}")));
-                }
-                Event::Rejected { id: i, reason, .. } if i == id => {
-                    return Err(failed(format!("read {address}: {reason}")));
-                }
+                Event::ObjectRead { id: i, result, .. } if i == id => return Ok(result),
+                Event::Rejected { id: i, reason, .. } if i == id => return Ok(Err(reason)),
                 _ => {}
             }
         }
@@ -289,7 +302,8 @@ fn execute(
         | Command::Scan
         | Command::Discover(_)
         | Command::Sim(_)
-        | Command::Bench(_) => None,
+        | Command::Bench(_)
+        | Command::Od(_) => None,
     };
     let write_value = match command {
         Command::Write(w) => {

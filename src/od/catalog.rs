@@ -158,16 +158,58 @@ impl Catalog {
         self.entries.is_empty()
     }
 
-    /// Entries whose address or name contains `filter` (case-insensitive). An address
-    /// filter like `6064` or `1018:01` matches by index.
+    /// Entries whose name contains `filter` (case-insensitive) or whose address it
+    /// names: `6064` or `6064h` that index, `60` every index starting 60, `1018:01` (also
+    /// `1018h:1h`, `0x1018.1`) that one entry. Empty: every entry.
     pub fn filter<'a>(&'a self, filter: &'a str) -> impl Iterator<Item = &'a Entry> + 'a {
         let needle = filter.trim().to_lowercase();
+        let address = AddressFilter::parse(&needle);
         self.entries.values().filter(move |e| {
             needle.is_empty()
                 || e.full_name().to_lowercase().contains(&needle)
-                || format!("{:04x}:{:02x}", e.address.index, e.address.sub).contains(&needle)
-                || format!("{:04x}h:{:02x}h", e.address.index, e.address.sub).contains(&needle)
+                || address.as_ref().is_some_and(|a| a.matches(e.address))
         })
+    }
+}
+
+/// The address part of a catalog filter.
+#[derive(Clone, Debug, PartialEq)]
+enum AddressFilter {
+    /// Indices whose four hex digits start with these (lower case).
+    IndexPrefix(String),
+    Exact(Address),
+}
+
+impl AddressFilter {
+    fn parse(needle: &str) -> Option<AddressFilter> {
+        let t = needle.strip_prefix("0x").unwrap_or(needle);
+        let hex = |part: &str| -> Option<String> {
+            let part = part.strip_suffix('h').unwrap_or(part);
+            let part = part.strip_prefix("0x").unwrap_or(part);
+            (!part.is_empty() && part.len() <= 4 && part.chars().all(|c| c.is_ascii_hexdigit()))
+                .then(|| part.to_owned())
+        };
+        match t.split_once([':', '.', '/']) {
+            None => hex(t).map(AddressFilter::IndexPrefix),
+            Some((index, "")) => {
+                let index = hex(index)?;
+                Some(AddressFilter::IndexPrefix(format!("{:0>4}", index)))
+            }
+            Some((index, sub)) => {
+                let index = u16::from_str_radix(&hex(index)?, 16).ok()?;
+                let sub = u8::from_str_radix(&hex(sub)?, 16).ok()?;
+                Some(AddressFilter::Exact(Address::new(index, sub)))
+            }
+        }
+    }
+
+    fn matches(&self, address: Address) -> bool {
+        match self {
+            AddressFilter::IndexPrefix(digits) => {
+                format!("{:04x}", address.index).starts_with(digits.as_str())
+            }
+            AddressFilter::Exact(a) => *a == address,
+        }
     }
 }
 
@@ -376,5 +418,19 @@ mod tests {
                 .filter("1018:01")
                 .any(|e| e.address == Address::new(0x1018, 1))
         );
+        let addresses =
+            |f: &str| -> Vec<Address> { catalog.filter(f).map(|e| e.address).collect() };
+        for exact in ["1018:01", "1018h:1h", "0x1018.1", "1018/01"] {
+            assert_eq!(addresses(exact), vec![Address::new(0x1018, 1)], "{exact}");
+        }
+        assert_eq!(addresses("6064"), vec![Address::new(0x6064, 0)]);
+        assert_eq!(addresses("6064h"), vec![Address::new(0x6064, 0)]);
+        assert_eq!(addresses("1018:").len(), 5);
+        // A prefix of the index, not any part of the address: 60 is 60xxh, never 1600h.
+        let sixty = addresses("60");
+        assert!(sixty.contains(&Address::new(0x6040, 0)));
+        assert!(sixty.iter().all(|a| a.index >> 8 == 0x60), "{sixty:?}");
+        assert!(addresses("nominal").contains(&Address::new(0x203B, 1)));
+        assert_eq!(catalog.filter("").count(), catalog.len());
     }
 }

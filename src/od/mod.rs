@@ -1,7 +1,9 @@
 //! The object dictionary: addresses, CANopen data types, typed values and the catalog of
 //! known objects (built in from `assets/od/`, later also from EDS files).
 
+pub mod backup;
 mod catalog;
+pub mod eds;
 mod error;
 mod types;
 mod value;

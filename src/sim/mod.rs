@@ -4,6 +4,7 @@
 
 mod dictionary;
 mod drive;
+pub mod eds;
 mod faults;
 mod homing;
 mod motion;

@@ -1,6 +1,7 @@
 //! The window (eframe). `AppState` is plain data changed only by worker events
 //! (`logic`); the panels draw it and collect the user's intents as requests (`ui`).
 
+pub mod browser;
 pub mod commands;
 pub mod connection;
 pub mod log;
@@ -145,7 +146,18 @@ impl App {
                     .id_salt("commands_scroll")
                     .show(ui, |ui| commands::commands_ui(ui, state));
             });
-        egui::CentralPanel::default_margins().show(ui, |ui| plots::plots_ui(ui, state));
+        egui::CentralPanel::default_margins().show(ui, |ui| {
+            ui.horizontal(|ui| {
+                let central = &mut state.settings.central;
+                ui.selectable_value(central, state::Central::Plots, "Plots");
+                ui.selectable_value(central, state::Central::Dictionary, "Object dictionary");
+            });
+            ui.separator();
+            match state.settings.central {
+                state::Central::Plots => plots::plots_ui(ui, state),
+                state::Central::Dictionary => browser::browser_ui(ui, state),
+            }
+        });
     }
 
     /// One frame without eframe (UI tests): events in, draw, requests out.

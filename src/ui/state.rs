@@ -300,6 +300,16 @@ pub struct Settings {
     pub object_value: String,
     /// Where "Export" writes the frame log (candump format for CAN).
     pub frame_log_path: String,
+    /// What the middle of the window shows.
+    pub central: Central,
+}
+
+/// The middle of the window: the plots or the object dictionary.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Central {
+    #[default]
+    Plots,
+    Dictionary,
 }
 
 impl Default for Settings {
@@ -329,6 +339,7 @@ impl Default for Settings {
             object_address: "1008".into(),
             object_value: String::new(),
             frame_log_path: "drivedeck-frames.log".into(),
+            central: Central::Plots,
         }
     }
 }
@@ -422,6 +433,8 @@ pub struct AppState {
     pub show_frames: bool,
     /// The IPv4 interfaces, for EtherNet/IP discovery (found once, on first use).
     pub interfaces: Option<Vec<crate::link::enip::discovery::Interface>>,
+    /// The object dictionary browser.
+    pub browser: super::browser::Browser,
     /// The last bus scan's result.
     pub scan: Option<Result<Vec<crate::link::FoundDevice>, String>>,
     /// Reads of 6087h the window asked for itself (not logged).
@@ -449,6 +462,7 @@ impl AppState {
             clock: 0.0,
             serial_ports: None,
             scan: None,
+            browser: super::browser::Browser::new(),
             interfaces: None,
             frames: VecDeque::new(),
             show_frames: false,
@@ -491,6 +505,9 @@ impl AppState {
 
     /// Record that the app handed a request to the worker.
     pub fn note_queued(&mut self, id: RequestId, request: &Request) {
+        if self.browser.note_queued(id, request) {
+            return;
+        }
         if matches!(request, Request::ReadObject { address, .. } if *address == TORQUE_SLOPE)
             && !self.slope_reads.contains(&id)
         {
@@ -521,6 +538,9 @@ impl AppState {
 
     /// The worker could not take a request.
     pub fn note_unsent(&mut self, request: &Request, reason: String) {
+        if self.browser.note_unsent(request, &reason) {
+            return;
+        }
         self.push_log(LogEntry {
             at: self.clock,
             id: None,
@@ -606,7 +626,7 @@ impl AppState {
                 request,
                 reason,
             } => {
-                if self.slope_reads.contains(&id) {
+                if self.slope_reads.contains(&id) || self.browser.on_rejected(id, &reason) {
                     return;
                 }
                 if self.halt_request == Some(id) {
@@ -658,6 +678,9 @@ impl AppState {
                 address,
                 result,
             } => {
+                if self.browser.on_read(id, address, &result, self.clock) {
+                    return;
+                }
                 if let Some(at) = self.slope_reads.iter().position(|r| *r == id) {
                     self.slope_reads.remove(at);
                     self.torque_slope = result
@@ -683,6 +706,12 @@ impl AppState {
             } => {
                 if address == TORQUE_SLOPE && result.is_ok() {
                     self.torque_slope = value.as_i128().and_then(|v| i64::try_from(v).ok());
+                }
+                if self
+                    .browser
+                    .on_written(id, address, &result, &mut self.outbox)
+                {
+                    return;
                 }
                 if let Some(entry) = self.entry(id) {
                     entry.outcome = match &result {
@@ -742,6 +771,9 @@ impl AppState {
                 self.scan = Some(result);
             }
             Event::Notice(text) => self.info(text),
+            Event::Cancelled { id, dropped } => {
+                self.browser.on_cancelled(id, dropped);
+            }
         }
     }
 }

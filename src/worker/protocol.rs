@@ -58,6 +58,15 @@ pub enum Request {
     /// Find the devices on a bus: through the open link when it is on that bus, otherwise
     /// by opening the bus for the scan.
     Scan(LinkSpec),
+    /// Read many objects (the OD browser, backups): each result comes as an
+    /// `ObjectRead` with this request's id, in order, a few per cycle so the PDI keeps
+    /// running; `Cancel` drops the ones not read yet.
+    ReadMany {
+        objects: Vec<(Address, DataType)>,
+        path: ObjectPath,
+    },
+    /// Drop what is still queued of request `id` (a `ReadMany`); reported by `Cancelled`.
+    Cancel(RequestId),
     /// Find EtherNet/IP adapters: ListIdentity broadcast on `interface` (a name or IPv4
     /// address; `None`: every interface) and asked directly at `host`.
     Discover {
@@ -98,6 +107,8 @@ impl fmt::Display for Request {
             }
             Request::SetPollRate(hz) => write!(f, "poll at {hz} Hz"),
             Request::Scan(spec) => write!(f, "scan {}", spec.bus_name()),
+            Request::ReadMany { objects, .. } => write!(f, "read {} objects", objects.len()),
+            Request::Cancel(id) => write!(f, "cancel request {id}"),
             Request::Discover { interface, .. } => write!(
                 f,
                 "discover EtherNet/IP adapters on {}",
@@ -268,6 +279,11 @@ pub enum Event {
     /// Frames the link sent and received, when the trace is on (dropped, never queued
     /// without bound, when the UI is slow).
     Frames(Vec<TraceRecord>),
+    /// What was left of request `id` was dropped before it reached the drive.
+    Cancelled {
+        id: RequestId,
+        dropped: usize,
+    },
     /// What a bus scan found.
     Scanned {
         id: RequestId,

@@ -17,6 +17,8 @@ use crate::pdi::{Action, PdiMaster, Progress};
 /// Jobs waiting for the PDI beyond this many are refused (the request channel bounds the
 /// rest).
 const JOB_QUEUE: usize = 256;
+/// Room in the queue for bulk reads (a whole dictionary, an EDS's worth).
+const BULK_QUEUE: usize = 8192;
 /// Samples travel to the UI in batches this far apart (one frame's worth).
 const SAMPLE_BATCH: Duration = Duration::from_millis(20);
 /// Object reads without the PDI per cycle, so a long read list does not stall the cycle.
@@ -281,6 +283,46 @@ impl Worker {
                 sink.emit(Event::Scanned {
                     id,
                     result: result.map_err(|e| e.to_string()),
+                });
+            }
+            Request::ReadMany { ref objects, path } => match self.session.as_mut() {
+                None => reject_unconnected(id, &request, sink),
+                Some(s) => {
+                    if s.queue.len() + objects.len() > BULK_QUEUE {
+                        sink.emit(Event::Rejected {
+                            id,
+                            request: request.to_string(),
+                            reason: format!(
+                                "{} objects at once is more than the {BULK_QUEUE} the worker queues; read them in parts",
+                                objects.len()
+                            ),
+                        });
+                    } else {
+                        for &(address, dtype) in objects {
+                            s.queue.push_back((
+                                id,
+                                Request::ReadObject {
+                                    address,
+                                    dtype: Some(dtype),
+                                    path,
+                                },
+                            ));
+                        }
+                    }
+                }
+            },
+            Request::Cancel(cancelled) => {
+                let dropped = match self.session.as_mut() {
+                    Some(s) => {
+                        let before = s.queue.len();
+                        s.queue.retain(|(queued, _)| *queued != cancelled);
+                        before - s.queue.len()
+                    }
+                    None => 0,
+                };
+                sink.emit(Event::Cancelled {
+                    id: cancelled,
+                    dropped,
                 });
             }
             Request::Inject { injection, active } => match self.session.as_mut() {

@@ -1,0 +1,315 @@
+//! `drivedeck od …`: the object dictionary on the command line.
+//!
+//! `od list` lists the built-in catalog, or with `--eds FILE` the objects of an EDS (the
+//! catalog adds the units and descriptions the file lacks, see `od::eds`). With `--link`
+//! it reads every listed object through the one-shot session and shows its value; an
+//! object that cannot be read shows the reason on its line and the list goes on. Only a
+//! broken link stops the reading (the rest of the list says so, exit code 1).
+
+use std::path::Path;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use serde::Serialize;
+
+use super::oneshot::{Failure, Session, usage};
+use super::{EXIT_FAILED, OdArgs, OdCommand, OdListArgs, report};
+use crate::link::LinkSpec;
+use crate::od::eds::{DeviceInfo, Eds, EdsError};
+use crate::od::{self, Catalog, Entry, Value};
+use crate::worker::ObjectPath;
+
+/// Names wider than this push their line's later columns right instead of widening all.
+const NAME_WIDTH: usize = 48;
+const DEFAULT_WIDTH: usize = 22;
+
+pub fn run(
+    link: Option<&LinkSpec>,
+    args: &OdArgs,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+) -> ExitCode {
+    match &args.command {
+        OdCommand::List(list) => match list_objects(link, list, timeout, trace) {
+            Ok((report, stopped)) => {
+                print(&report, json);
+                if stopped {
+                    ExitCode::from(EXIT_FAILED)
+                } else {
+                    ExitCode::SUCCESS
+                }
+            }
+            Err(f) => {
+                report::print_error(&f.message, json);
+                ExitCode::from(f.code)
+            }
+        },
+    }
+}
+
+/// One listed object.
+#[derive(Serialize, Debug)]
+struct Row {
+    address: String,
+    index: u16,
+    sub: u8,
+    name: String,
+    #[serde(rename = "type")]
+    dtype: &'static str,
+    access: &'static str,
+    default: Option<Value>,
+    /// The EDS's `$NODEID` formula for the default, when it has one.
+    default_formula: Option<String>,
+    min: Option<Value>,
+    max: Option<Value>,
+    unit: Option<String>,
+    description: String,
+    /// With --link: the value read, as text and in hex.
+    value: Option<Value>,
+    text: Option<String>,
+    hex: Option<String>,
+    /// With --link: why the object could not be read.
+    error: Option<String>,
+}
+
+#[derive(Serialize, Debug)]
+struct ListReport {
+    /// `built-in catalog` or the EDS file.
+    source: String,
+    /// The EDS's [DeviceInfo].
+    device: Option<DeviceInfo>,
+    /// The node id the EDS's formulas were resolved with.
+    node_id: Option<u8>,
+    link: Option<String>,
+    objects: Vec<Row>,
+    warnings: Vec<String>,
+    notes: Vec<String>,
+}
+
+/// The CANopen node id of a link, for `$NODEID`.
+fn link_node_id(link: &LinkSpec) -> Option<u8> {
+    match link {
+        LinkSpec::CanopenSocketcan { can, .. }
+        | LinkSpec::CanopenSlcan { can, .. }
+        | LinkSpec::CanopenSim { can } => Some(can.node),
+        _ => None,
+    }
+}
+
+fn load_eds(path: &Path, node_id: Option<u8>) -> Result<Eds, Failure> {
+    Eds::load(path, node_id).map_err(|e| match e {
+        EdsError::Read { .. } => usage(e.to_string()),
+        _ => usage(format!("{}: {e}", path.display())),
+    })
+}
+
+/// The list, and whether a broken link stopped the reading.
+fn list_objects(
+    link: Option<&LinkSpec>,
+    args: &OdListArgs,
+    timeout: Duration,
+    trace: bool,
+) -> Result<(ListReport, bool), Failure> {
+    let mut warnings = vec![];
+    let mut notes = vec![];
+    let (catalog, eds): (Catalog, Option<Eds>) = match &args.eds {
+        Some(path) => {
+            let node_id = args.node.or_else(|| link.and_then(link_node_id));
+            let eds = load_eds(path, node_id)?;
+            let file = path.file_name().map_or_else(
+                || path.display().to_string(),
+                |n| n.to_string_lossy().into(),
+            );
+            warnings.extend(eds.warnings.iter().map(|w| format!("{file} {w}")));
+            let merged = eds.merged_with(od::builtin());
+            let listed: Vec<_> = merged
+                .catalog
+                .filter(args.filter.as_deref().unwrap_or(""))
+                .map(|e| e.address)
+                .collect();
+            notes.extend(
+                merged
+                    .notes
+                    .into_iter()
+                    .filter(|n| listed.contains(&n.address))
+                    .map(|n| n.message),
+            );
+            (merged.catalog, Some(eds))
+        }
+        None => (od::builtin().clone(), None),
+    };
+    let filter = args.filter.as_deref().unwrap_or("");
+    let entries: Vec<&Entry> = catalog.filter(filter).collect();
+    if entries.is_empty() {
+        notes.push(format!("no object matches '{filter}'"));
+    }
+    let mut rows: Vec<Row> = entries.iter().map(|e| row(e, eds.as_ref())).collect();
+    let unresolved = rows
+        .iter()
+        .filter(|r| r.default.is_none() && r.default_formula.is_some())
+        .count();
+    if unresolved > 0 {
+        notes.push(format!(
+            "{unresolved} default(s) are $NODEID formulas: give --node N to see them for a node"
+        ));
+    }
+    let mut stopped: Option<String> = None;
+    if let Some(link) = link {
+        let mut session = Session::open(link, timeout, trace)?;
+        for (row, entry) in rows.iter_mut().zip(&entries) {
+            if let Some(reason) = &stopped {
+                row.error = Some(format!("not read: {reason}"));
+                continue;
+            }
+            if !entry.access.readable() {
+                row.error = Some("not read: a write-only object".into());
+                continue;
+            }
+            match session.try_read(entry.address, Some(entry.dtype), ObjectPath::Auto, timeout) {
+                Ok(Ok(value)) => {
+                    row.text = Some(value.to_string());
+                    row.hex = Some(value.to_hex(entry.dtype)).filter(|h| !h.is_empty());
+                    row.value = Some(value);
+                }
+                Ok(Err(refusal)) => row.error = Some(refusal),
+                Err(f) => {
+                    row.error = Some(f.message.clone());
+                    stopped = Some(f.message);
+                }
+            }
+        }
+        if let Some(reason) = &stopped {
+            warnings.push(format!(
+                "reading stopped: {reason}; the objects after it were not read"
+            ));
+        }
+    }
+    let report = ListReport {
+        source: args.eds.as_ref().map_or_else(
+            || "built-in catalog".to_owned(),
+            |p| p.display().to_string(),
+        ),
+        device: eds.as_ref().map(|e| e.device_info.clone()),
+        node_id: eds.as_ref().and_then(|e| e.node_id),
+        link: link.map(ToString::to_string),
+        objects: rows,
+        warnings,
+        notes,
+    };
+    Ok((report, stopped.is_some()))
+}
+
+fn row(entry: &Entry, eds: Option<&Eds>) -> Row {
+    let info = eds.and_then(|e| e.entries.get(&entry.address));
+    Row {
+        address: entry.address.to_string(),
+        index: entry.address.index,
+        sub: entry.address.sub,
+        name: entry.full_name(),
+        dtype: entry.dtype.short_name(),
+        access: info.map_or(entry.access.short_name(), |i| i.access.as_str()),
+        default: entry.default.clone(),
+        default_formula: info.and_then(|i| i.default_formula).map(|f| f.to_string()),
+        min: entry.min.clone(),
+        max: entry.max.clone(),
+        unit: entry.unit.clone(),
+        description: entry.description.clone(),
+        value: None,
+        text: None,
+        hex: None,
+        error: None,
+    }
+}
+
+fn limits(row: &Row) -> String {
+    match (&row.min, &row.max) {
+        (None, None) => String::new(),
+        (min, max) => format!(
+            "{}..{}",
+            min.as_ref().map(Value::to_string).unwrap_or_default(),
+            max.as_ref().map(Value::to_string).unwrap_or_default()
+        ),
+    }
+}
+
+fn default_text(row: &Row) -> String {
+    match (&row.default, &row.default_formula) {
+        (Some(v), _) => v.to_string(),
+        (None, Some(f)) => f.clone(),
+        (None, None) => String::new(),
+    }
+}
+
+fn print(report: &ListReport, json: bool) {
+    for note in &report.notes {
+        eprintln!("note: {note}");
+    }
+    for warning in &report.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if json {
+        match serde_json::to_string_pretty(report) {
+            Ok(text) => println!("{text}"),
+            Err(e) => eprintln!("drivedeck: cannot format the list as JSON: {e}"),
+        }
+        return;
+    }
+    if report.objects.is_empty() {
+        return;
+    }
+    let name_width = report
+        .objects
+        .iter()
+        .map(|r| r.name.chars().count())
+        .max()
+        .unwrap_or(0)
+        .clamp(4, NAME_WIDTH);
+    let default_width = report
+        .objects
+        .iter()
+        .map(|r| default_text(r).chars().count())
+        .max()
+        .unwrap_or(0)
+        .clamp(7, DEFAULT_WIDTH);
+    let with_values = report.link.is_some();
+    let last = if with_values { "VALUE" } else { "UNIT" };
+    println!(
+        "{:<9}  {:<7} {:<6} {:<name_width$}  {:<default_width$}  {:<12}  {last}",
+        "INDEX:SUB", "TYPE", "ACCESS", "NAME", "DEFAULT", "LIMITS"
+    );
+    for row in &report.objects {
+        let unit = row.unit.as_deref().unwrap_or("");
+        let last = if with_values {
+            match (&row.text, &row.error) {
+                (_, Some(error)) => format!("error: {error}"),
+                (Some(text), None) => {
+                    // Hex for integers; text and bytes speak for themselves.
+                    let hex = match (&row.value, &row.hex) {
+                        (Some(Value::Int(_) | Value::Uint(_)), Some(h)) => format!(" ({h})"),
+                        _ => String::new(),
+                    };
+                    let unit = if unit.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" {unit}")
+                    };
+                    format!("{text}{unit}{hex}")
+                }
+                (None, None) => String::new(),
+            }
+        } else {
+            unit.to_owned()
+        };
+        let line = format!(
+            "{:<9}  {:<7} {:<6} {:<name_width$}  {:<default_width$}  {:<12}  {last}",
+            row.address,
+            row.dtype,
+            row.access,
+            row.name,
+            default_text(row),
+            limits(row),
+        );
+        println!("{}", line.trim_end());
+    }
+}

@@ -1,0 +1,351 @@
+//! The object dictionary browser in the window, headless: filter, read, edit with a bad
+//! value and a good one, read everything with progress, and a backup, change, compare and
+//! restore round trip on the simulated drive.
+
+mod common;
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use common::TempDir;
+use drivedeck::od::{Address, Value};
+use drivedeck::ui::{App, Settings};
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::{NodeT, Queryable};
+
+fn browser() -> Harness<'static, App> {
+    let app = App::new(Settings::default(), Arc::new(|| {}), true);
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1600.0, 1000.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    harness.run();
+    step_until(&mut harness, "connected", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    harness.get_by_label("Object dictionary").click();
+    harness.run();
+    harness
+}
+
+fn step_until(
+    harness: &mut Harness<'_, App>,
+    what: &str,
+    timeout: Duration,
+    done: impl Fn(&Harness<'_, App>) -> bool,
+) {
+    let deadline = Instant::now() + timeout;
+    while !done(harness) {
+        assert!(
+            Instant::now() < deadline,
+            "{what} did not happen within {timeout:?}; message: {:?}; log: {:#?}",
+            harness.state().state.browser.message,
+            harness.state().state.log
+        );
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+fn filter(harness: &mut Harness<'_, App>, text: &str) {
+    harness
+        .get_by_label("Object filter")
+        .set_text_value_accesskit(text);
+    harness.run();
+}
+
+fn value_of(harness: &Harness<'_, App>, address: Address) -> Option<Result<Value, String>> {
+    harness
+        .state()
+        .state
+        .browser
+        .values
+        .get(&address)
+        .map(|c| c.result.clone())
+}
+
+const PROFILE_VELOCITY: Address = Address::new(0x6081, 0);
+
+#[test]
+fn the_filter_finds_objects_by_index_and_by_name() {
+    let mut harness = browser();
+    filter(&mut harness, "6081");
+    assert!(harness.query_by_label("6081h:00h").is_some());
+    assert!(harness.query_by_label("6064h:00h").is_none());
+    filter(&mut harness, "position actual");
+    assert!(harness.query_by_label("6064h:00h").is_some());
+    assert!(harness.query_by_label("6081h:00h").is_none());
+    filter(&mut harness, "1018:01");
+    assert!(harness.query_by_label("1018h:01h").is_some());
+    assert!(harness.query_by_label("1018h:02h").is_none());
+    // Read-only rows cannot be edited.
+    assert!(
+        harness
+            .get_by_label("Edit 1018h:01h")
+            .accesskit_node()
+            .is_disabled()
+    );
+}
+
+#[test]
+fn a_bad_value_is_refused_with_its_reason_and_a_good_one_is_written_and_read_back() {
+    let mut harness = browser();
+    filter(&mut harness, "6081");
+    harness.get_by_label("Read 6081h:00h").click();
+    harness.step();
+    step_until(&mut harness, "the read", Duration::from_secs(5), |h| {
+        value_of(h, PROFILE_VELOCITY).is_some()
+    });
+    let before = value_of(&harness, PROFILE_VELOCITY)
+        .expect("read")
+        .expect("value");
+    harness.run();
+    harness.get_by_label("Edit 6081h:00h").click();
+    harness.run();
+    // A negative speed does not fit UNSIGNED32: refused inline, nothing sent.
+    harness
+        .get_by_label("New value 6081h:00h")
+        .set_text_value_accesskit("-5");
+    harness.run();
+    harness.get_by_label("Write 6081h:00h").click();
+    harness.run();
+    let error = harness
+        .state()
+        .state
+        .browser
+        .edit
+        .as_ref()
+        .and_then(|e| e.error.clone())
+        .expect("an error");
+    assert!(error.contains("-5"), "{error}");
+    assert!(harness.state().state.browser.confirm.is_none());
+    assert!(harness.query_by_label("Write to the drive?").is_none());
+    // A good one asks first, then writes, then reads back.
+    harness
+        .get_by_label("New value 6081h:00h")
+        .set_text_value_accesskit("0x1F4");
+    harness.run();
+    harness.get_by_label("Write 6081h:00h").click();
+    harness.run();
+    assert!(harness.query_by_label("Write to the drive?").is_some());
+    assert!(
+        harness
+            .query_by_label(&format!("{before} -> 500"))
+            .is_some(),
+        "the confirmation shows the old and the new value"
+    );
+    harness.get_by_label("Confirm write").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the write and the read back",
+        Duration::from_secs(5),
+        |h| value_of(h, PROFILE_VELOCITY) == Some(Ok(Value::Uint(500))),
+    );
+    assert_eq!(
+        harness
+            .state()
+            .state
+            .browser
+            .write_results
+            .get(&PROFILE_VELOCITY),
+        Some(&Ok(()))
+    );
+}
+
+#[test]
+fn read_all_fills_the_table_with_progress_and_can_be_cancelled() {
+    let mut harness = browser();
+    harness.get_by_label("Read all").click();
+    harness.step();
+    assert!(
+        harness.state().state.browser.bulk.is_some(),
+        "a bulk read runs"
+    );
+    step_until(
+        &mut harness,
+        "the whole read",
+        Duration::from_secs(20),
+        |h| h.state().state.browser.bulk.is_none(),
+    );
+    let message = harness.state().state.browser.message.clone();
+    assert!(
+        matches!(&message, Some(Ok(m)) if m.starts_with("read ")),
+        "{message:?}"
+    );
+    assert!(matches!(
+        value_of(&harness, Address::new(0x1018, 1)),
+        Some(Ok(Value::Uint(0x26C)))
+    ));
+    assert!(matches!(
+        value_of(&harness, Address::new(0x1008, 0)),
+        Some(Ok(Value::Text(_)))
+    ));
+    // Again, and cancelled at once: what was not read yet is dropped.
+    harness.run();
+    harness.get_by_label("Read all").click();
+    harness.run();
+    harness.get_by_label("Cancel").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the cancellation",
+        Duration::from_secs(20),
+        |h| h.state().state.browser.bulk.is_none(),
+    );
+    let message = harness.state().state.browser.message.clone();
+    assert!(
+        matches!(&message, Some(Err(m)) if m.starts_with("cancelled after")) ||
+            // On a fast machine everything may have been read before the cancel arrived.
+            matches!(&message, Some(Ok(m)) if m.starts_with("read ")),
+        "{message:?}"
+    );
+}
+
+#[test]
+fn backup_change_compare_and_restore_undo_exactly_the_change() {
+    let dir = TempDir::new("backup");
+    let path = dir.path.join("drive.json");
+    let mut harness = browser();
+    harness
+        .get_by_label("Backup file")
+        .set_text_value_accesskit(path.to_str().expect("utf-8"));
+    harness.run();
+    harness.get_by_label("Save backup").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the backup",
+        Duration::from_secs(20),
+        |h| matches!(&h.state().state.browser.message, Some(Ok(m)) if m.starts_with("saved")),
+    );
+    let text = std::fs::read_to_string(&path).expect("the file");
+    let file = drivedeck::od::backup::Backup::from_json(&text).expect("a backup");
+    assert_eq!(file.identity.vendor, Some(0x26C));
+    let saved = file
+        .entries()
+        .find(|(a, _)| *a == PROFILE_VELOCITY)
+        .map(|(_, o)| o.value.clone())
+        .expect("6081h saved");
+
+    // The technician changes one object.
+    filter(&mut harness, "6081");
+    harness.get_by_label("Edit 6081h:00h").click();
+    harness.run();
+    harness
+        .get_by_label("New value 6081h:00h")
+        .set_text_value_accesskit("777");
+    harness.run();
+    harness.get_by_label("Write 6081h:00h").click();
+    harness.run();
+    harness.get_by_label("Confirm write").click();
+    harness.step();
+    step_until(&mut harness, "the change", Duration::from_secs(5), |h| {
+        value_of(h, PROFILE_VELOCITY) == Some(Ok(Value::Uint(777)))
+    });
+
+    // The comparison lists exactly that object.
+    harness.run();
+    harness.get_by_label("Compare with file").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the comparison",
+        Duration::from_secs(20),
+        |h| h.state().state.browser.comparison.is_some(),
+    );
+    let differing: Vec<Address> = harness
+        .state()
+        .state
+        .browser
+        .comparison
+        .as_ref()
+        .map(|(_, d)| {
+            d.iter()
+                .filter(|d| d.device != drivedeck::od::backup::Comparison::Same)
+                .map(|d| d.address)
+                .collect()
+        })
+        .unwrap_or_default();
+    assert_eq!(differing, vec![PROFILE_VELOCITY]);
+
+    // The restore previews exactly one write, and undoes it.
+    harness.run();
+    harness.get_by_label("Restore from file").click();
+    harness.step();
+    step_until(&mut harness, "the preview", Duration::from_secs(20), |h| {
+        h.state().state.browser.restore.is_some()
+    });
+    let steps = harness
+        .state()
+        .state
+        .browser
+        .restore
+        .as_ref()
+        .map(|r| r.steps.clone())
+        .unwrap_or_default();
+    assert_eq!(steps.len(), 1, "{steps:?}");
+    assert_eq!(steps[0].address, PROFILE_VELOCITY);
+    assert_eq!(steps[0].before, Some(Value::Uint(777)));
+    assert_eq!(steps[0].value, saved);
+    harness.run();
+    harness.get_by_label("Restore 1 writes").click();
+    harness.run();
+    harness.get_by_label("Write them").click();
+    harness.step();
+    step_until(&mut harness, "the restore", Duration::from_secs(10), |h| {
+        h.state()
+            .state
+            .browser
+            .restore
+            .as_ref()
+            .is_some_and(|r| r.results == vec![Some(Ok(()))])
+    });
+    // Read back: as before the change.
+    harness.run();
+    harness.get_by_label("Read 6081h:00h").click();
+    harness.step();
+    step_until(&mut harness, "the read back", Duration::from_secs(5), |h| {
+        value_of(h, PROFILE_VELOCITY) == Some(Ok(saved.clone()))
+    });
+}
+
+#[test]
+fn an_eds_replaces_the_catalog_and_a_broken_path_says_why() {
+    let mut harness = browser();
+    let eds = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/eds/sample.eds");
+    harness
+        .get_by_label("EDS path")
+        .set_text_value_accesskit(eds);
+    harness.run();
+    harness.get_by_label("Load EDS").click();
+    harness.run();
+    let message = harness.state().state.browser.message.clone();
+    assert!(
+        matches!(&message, Some(Ok(m)) if m.contains("loaded") && m.contains("sample.eds")),
+        "{message:?}"
+    );
+    // sample.eds describes another maker's device: none of Nanotec's manufacturer
+    // objects (203Bh motor data), but the CiA 301 ones it lists.
+    filter(&mut harness, "203b");
+    assert!(harness.query_by_label("203Bh:01h").is_none());
+    filter(&mut harness, "1017");
+    assert!(harness.query_by_label("1017h:00h").is_some());
+    // Back to the built-in catalog.
+    harness.get_by_label("Built-in").click();
+    harness.run();
+    filter(&mut harness, "203b:01");
+    assert!(harness.query_by_label("203Bh:01h").is_some());
+
+    harness
+        .get_by_label("EDS path")
+        .set_text_value_accesskit("/nonexistent/drive.eds");
+    harness.run();
+    harness.get_by_label("Load EDS").click();
+    harness.run();
+    let message = harness.state().state.browser.message.clone();
+    assert!(
+        matches!(&message, Some(Err(m)) if m.contains("/nonexistent/drive.eds")),
+        "{message:?}"
+    );
+}
