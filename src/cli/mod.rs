@@ -4,6 +4,7 @@
 mod bench;
 mod od;
 mod oneshot;
+mod progress;
 mod report;
 mod serve;
 
@@ -105,6 +106,56 @@ pub enum OdCommand {
     /// List objects: index:sub, name, type, access, default and limits; with --link also
     /// the value each one has on the drive (an object that cannot be read shows why).
     List(OdListArgs),
+    /// Back the drive's configuration up: every readable and writable setting (no
+    /// commands, no process data) with the device's identity, to a JSON file.
+    Dump(OdDumpArgs),
+    /// Compare the drive with a backup file: each saved object, same or different.
+    /// Exit code 0 when the drive matches, 1 when something differs or cannot be read.
+    Diff(OdFileArgs),
+    /// Write a backup file back: only what differs, in a safe order (configuration, drive
+    /// profile, mappings with their procedure, communication, and the settings that can
+    /// cut the link last), each write reported, then the drive compared again.
+    Restore(OdRestoreArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct OdDumpArgs {
+    /// The backup file to write.
+    #[arg(long, value_name = "FILE.json")]
+    pub out: std::path::PathBuf,
+    /// Which objects to save: this EDS's instead of the built-in catalog's.
+    #[arg(long, value_name = "FILE")]
+    pub eds: Option<std::path::PathBuf>,
+    /// The node id for the EDS's $NODEID formulas.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
+    pub node: Option<u8>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct OdFileArgs {
+    /// A backup file written by `od dump` or the window's "Save backup".
+    #[arg(value_name = "FILE.json")]
+    pub file: std::path::PathBuf,
+    /// List the objects that match too, not only the differences.
+    #[arg(long)]
+    pub all: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct OdRestoreArgs {
+    /// A backup file written by `od dump` or the window's "Save backup".
+    #[arg(value_name = "FILE.json")]
+    pub file: std::path::PathBuf,
+    /// Show the writes a restore would make, in order, and write nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// After a restore without refusals, store the parameters in the drive (1010h:01 =
+    /// "save") so they survive a restart.
+    #[arg(long)]
+    pub store: bool,
+    /// Restore a file saved from another kind of device (vendor or product differ).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Args, Debug, Clone)]

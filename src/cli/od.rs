@@ -8,16 +8,18 @@
 
 use std::path::Path;
 use std::process::ExitCode;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
 use super::oneshot::{Failure, Session, usage};
+use super::progress;
 use super::{EXIT_FAILED, OdArgs, OdCommand, OdListArgs, report};
 use crate::link::LinkSpec;
 use crate::od::eds::{DeviceInfo, Eds, EdsError};
 use crate::od::{self, Catalog, Entry, Value};
-use crate::worker::ObjectPath;
+
+mod backup_cmd;
 
 /// Names wider than this push their line's later columns right instead of widening all.
 const NAME_WIDTH: usize = 48;
@@ -30,21 +32,27 @@ pub fn run(
     timeout: Duration,
     trace: bool,
 ) -> ExitCode {
-    match &args.command {
-        OdCommand::List(list) => match list_objects(link, list, timeout, trace) {
-            Ok((report, stopped)) => {
+    // Dump, diff and restore talk to a drive: the built-in simulator without --link, as
+    // every other one-shot command.
+    let device = link.cloned().unwrap_or(LinkSpec::Sim);
+    let outcome = match &args.command {
+        OdCommand::List(list) => {
+            list_objects(link, list, timeout, trace).map(|(report, stopped)| {
                 print(&report, json);
-                if stopped {
-                    ExitCode::from(EXIT_FAILED)
-                } else {
-                    ExitCode::SUCCESS
-                }
-            }
-            Err(f) => {
-                report::print_error(&f.message, json);
-                ExitCode::from(f.code)
-            }
-        },
+                !stopped
+            })
+        }
+        OdCommand::Dump(dump) => backup_cmd::dump(&device, dump, json, timeout, trace),
+        OdCommand::Diff(diff) => backup_cmd::diff(&device, diff, json, timeout, trace),
+        OdCommand::Restore(restore) => backup_cmd::restore(&device, restore, json, timeout, trace),
+    };
+    match outcome {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(EXIT_FAILED),
+        Err(f) => {
+            report::print_error(&f.message, json);
+            ExitCode::from(f.code)
+        }
     }
 }
 
@@ -97,7 +105,7 @@ fn link_node_id(link: &LinkSpec) -> Option<u8> {
     }
 }
 
-fn load_eds(path: &Path, node_id: Option<u8>) -> Result<Eds, Failure> {
+pub(super) fn load_eds(path: &Path, node_id: Option<u8>) -> Result<Eds, Failure> {
     Eds::load(path, node_id).map_err(|e| match e {
         EdsError::Read { .. } => usage(e.to_string()),
         _ => usage(format!("{}: {e}", path.display())),
@@ -157,25 +165,35 @@ fn list_objects(
     let mut stopped: Option<String> = None;
     if let Some(link) = link {
         let mut session = Session::open(link, timeout, trace)?;
+        let readable: Vec<_> = entries
+            .iter()
+            .filter(|e| e.access.readable())
+            .map(|e| (e.address, e.dtype))
+            .collect();
+        let started = Instant::now();
+        let count = readable.len();
+        let (reads, failure) = session.read_many(readable, timeout, progress::bar("reading"));
+        progress::done(count, reads.len(), started.elapsed(), &mut notes);
+        notes.extend(session.take_notes());
+        if let Some(f) = failure {
+            stopped = Some(f.message);
+        }
         for (row, entry) in rows.iter_mut().zip(&entries) {
-            if let Some(reason) = &stopped {
-                row.error = Some(format!("not read: {reason}"));
-                continue;
-            }
-            if !entry.access.readable() {
-                row.error = Some("not read: a write-only object".into());
-                continue;
-            }
-            match session.try_read(entry.address, Some(entry.dtype), ObjectPath::Auto, timeout) {
-                Ok(Ok(value)) => {
+            match reads.get(&entry.address) {
+                _ if !entry.access.readable() => {
+                    row.error = Some("not read: a write-only object".into());
+                }
+                Some(Ok(value)) => {
                     row.text = Some(value.to_string());
                     row.hex = Some(value.to_hex(entry.dtype)).filter(|h| !h.is_empty());
-                    row.value = Some(value);
+                    row.value = Some(value.clone());
                 }
-                Ok(Err(refusal)) => row.error = Some(refusal),
-                Err(f) => {
-                    row.error = Some(f.message.clone());
-                    stopped = Some(f.message);
+                Some(Err(refusal)) => row.error = Some(refusal.clone()),
+                None => {
+                    row.error = Some(format!(
+                        "not read: {}",
+                        stopped.as_deref().unwrap_or("no answer")
+                    ));
                 }
             }
         }

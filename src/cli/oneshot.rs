@@ -1,5 +1,6 @@
 //! One action against one drive: connect through the worker, do it, report, exit.
 
+use std::collections::BTreeMap;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -208,6 +209,86 @@ impl Session {
                 _ => {}
             }
         }
+    }
+
+    /// Read many objects in one queued request, in order; `progress(done, total)` after
+    /// each. A refusal stays with its object. A broken link or a stalled read (no answer
+    /// within `timeout` of the previous one) ends the reading: the objects read until then
+    /// come back with the failure.
+    pub(super) fn read_many(
+        &mut self,
+        objects: Vec<(Address, DataType)>,
+        timeout: Duration,
+        mut progress: impl FnMut(usize, usize),
+    ) -> (BTreeMap<Address, Result<Value, String>>, Option<Failure>) {
+        let total = objects.len();
+        let mut reads = BTreeMap::new();
+        if total == 0 {
+            return (reads, None);
+        }
+        let id = match self.send(Request::ReadMany {
+            objects,
+            path: ObjectPath::Auto,
+        }) {
+            Ok(id) => id,
+            Err(f) => return (reads, Some(f)),
+        };
+        let mut deadline = Instant::now() + timeout;
+        while reads.len() < total {
+            match self.next(deadline) {
+                Ok(Event::ObjectRead {
+                    id: i,
+                    address,
+                    result,
+                }) if i == id => {
+                    reads.insert(address, result);
+                    progress(reads.len(), total);
+                    deadline = Instant::now() + timeout;
+                }
+                Ok(Event::Rejected { id: i, reason, .. }) if i == id => {
+                    return (
+                        reads,
+                        Some(failed(format!("reading {total} objects: {reason}"))),
+                    );
+                }
+                Ok(_) => {}
+                Err(f) => {
+                    let _ = self.send(Request::Cancel(id));
+                    return (reads, Some(f));
+                }
+            }
+        }
+        (reads, None)
+    }
+
+    /// Write an object, keeping a refusal (`Ok(Err(text))`) apart from a broken link or a
+    /// timeout (`Err`).
+    pub(super) fn try_write(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: Value,
+        timeout: Duration,
+    ) -> Result<Result<(), String>, Failure> {
+        let id = self.send(Request::WriteObject {
+            address,
+            dtype,
+            value,
+            path: ObjectPath::Auto,
+        })?;
+        let deadline = Instant::now() + timeout;
+        loop {
+            match self.next(deadline)? {
+                Event::ObjectWritten { id: i, result, .. } if i == id => return Ok(result),
+                Event::Rejected { id: i, reason, .. } if i == id => return Ok(Err(reason)),
+                _ => {}
+            }
+        }
+    }
+
+    /// Notices the worker gave (fallbacks, mapping changes), for the report.
+    pub(super) fn take_notes(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notes)
     }
 
     fn write(

@@ -24,7 +24,8 @@ pub const FORMAT: &str = "drivedeck backup";
 pub const VERSION: u32 = 1;
 
 /// Objects never saved nor restored: they command or carry process data.
-const NOT_CONFIGURATION: [u16; 14] = [
+const NOT_CONFIGURATION: [u16; 15] = [
+    0x1003, // error history (writing 0 clears it: an action)
     0x1010, // store parameters (a command)
     0x1011, // restore default parameters (a command)
     0x2291, // PDI input (a command)

@@ -638,20 +638,27 @@ fn load_eds(b: &mut Browser) {
     }
 }
 
+/// The progress row of a bulk read. Always drawn (idle: empty, Cancel disabled), so the
+/// widgets below never jump when a read starts or ends: a click aimed at Cancel as the
+/// read completes must not land on the button that moved under the pointer.
 fn bulk_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
-    let Some(bulk) = &b.bulk else {
-        return;
+    let (fraction, text, id, cancelled) = match &b.bulk {
+        Some(bulk) => {
+            let what = match &bulk.purpose {
+                Purpose::Browse => "Reading",
+                Purpose::Backup { .. } => "Reading for the backup",
+                Purpose::Compare(_) => "Reading to compare",
+                Purpose::Restore(_) => "Reading before the restore",
+            };
+            (
+                bulk.done as f32 / bulk.total.max(1) as f32,
+                format!("{what}: {} of {}", bulk.done, bulk.total),
+                bulk.id,
+                bulk.cancelled,
+            )
+        }
+        None => (0.0, "no read running".to_owned(), None, false),
     };
-    let what = match &bulk.purpose {
-        Purpose::Browse => "Reading",
-        Purpose::Backup { .. } => "Reading for the backup",
-        Purpose::Compare(_) => "Reading to compare",
-        Purpose::Restore(_) => "Reading before the restore",
-    };
-    let id = bulk.id;
-    let fraction = bulk.done as f32 / bulk.total.max(1) as f32;
-    let text = format!("{what}: {} of {}", bulk.done, bulk.total);
-    let cancelled = bulk.cancelled;
     ui.horizontal(|ui| {
         ui.add(
             egui::ProgressBar::new(fraction)
@@ -660,6 +667,7 @@ fn bulk_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
         );
         if ui
             .add_enabled(id.is_some() && !cancelled, egui::Button::new("Cancel"))
+            .on_hover_text("Stop the read: what is not read yet is dropped")
             .clicked()
             && let Some(id) = id
         {

@@ -1,0 +1,574 @@
+//! `od dump`, `od diff` and `od restore`: a drive's configuration to a file, the drive
+//! compared with a file, and a file written back. The rules (what is saved, how values
+//! compare, the safe order of a restore) are `od::backup`'s, shared with the window.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::super::oneshot::{Failure, Session, failed, usage};
+use super::super::progress;
+use super::load_eds;
+use crate::link::LinkSpec;
+use crate::od::backup::{self, Backup, Comparison, DeviceIdentity, Step, Why};
+use crate::od::{self, Address, Catalog, DataType, Value};
+
+type Reads = BTreeMap<Address, Result<Value, String>>;
+
+/// A value as the browser shows it: with its unit where the catalog knows one; COB-IDs
+/// and mapping entries (32-bit communication objects) in hex.
+fn shown(address: Address, value: &Value) -> String {
+    if let Value::Uint(v) = value
+        && address.index < 0x2000
+        && od::builtin()
+            .get(address)
+            .is_some_and(|e| e.dtype == DataType::Unsigned32)
+    {
+        return format!("{v:08X}h");
+    }
+    match od::builtin().get(address) {
+        Some(entry) => backup::shown(value, entry),
+        None => value.to_string(),
+    }
+}
+
+fn seconds_since_epoch() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+fn print_lines(notes: &[String], warnings: &[String]) {
+    for note in notes {
+        eprintln!("note: {note}");
+    }
+    for warning in warnings {
+        eprintln!("warning: {warning}");
+    }
+}
+
+fn print_json(report: &impl Serialize) {
+    match serde_json::to_string_pretty(report) {
+        Ok(text) => println!("{text}"),
+        Err(e) => eprintln!("drivedeck: cannot format the report as JSON: {e}"),
+    }
+}
+
+/// Read `objects` with a progress bar; the summary goes to `notes`. A broken link fails.
+fn read_all(
+    session: &mut Session,
+    objects: Vec<(Address, DataType)>,
+    what: &'static str,
+    timeout: Duration,
+    notes: &mut Vec<String>,
+) -> Result<Reads, Failure> {
+    let started = Instant::now();
+    let asked = objects.len();
+    let (reads, failure) = session.read_many(objects, timeout, progress::bar(what));
+    progress::done(asked, reads.len(), started.elapsed(), notes);
+    match failure {
+        Some(f) => Err(failed(format!(
+            "{}; {} of {asked} objects were read before it, nothing was saved or written",
+            f.message,
+            reads.len()
+        ))),
+        None => Ok(reads),
+    }
+}
+
+fn load_backup(path: &Path) -> Result<Backup, Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| usage(format!("cannot read {}: {e}", path.display())))?;
+    Backup::from_json(&text).map_err(|e| usage(format!("{}: {e}", path.display())))
+}
+
+#[derive(Serialize)]
+struct DumpReport {
+    file: String,
+    identity: DeviceIdentity,
+    objects: usize,
+    unreadable: Vec<(String, String)>,
+    seconds: f64,
+    notes: Vec<String>,
+}
+
+/// `od dump --out FILE`: true when every object could be read.
+pub fn dump(
+    link: &LinkSpec,
+    args: &super::super::OdDumpArgs,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+) -> Result<bool, Failure> {
+    let mut warnings = vec![];
+    let catalog: Catalog = match &args.eds {
+        Some(path) => {
+            let eds = load_eds(path, args.node)?;
+            warnings.extend(
+                eds.warnings
+                    .iter()
+                    .map(|w| format!("{} {w}", path.display())),
+            );
+            eds.merged_with(od::builtin()).catalog
+        }
+        None => od::builtin().clone(),
+    };
+    let mut notes = vec![];
+    let mut session = Session::open(link, timeout, trace)?;
+    let started = Instant::now();
+    let reads = read_all(
+        &mut session,
+        backup::objects_to_read(&catalog),
+        "reading",
+        timeout,
+        &mut notes,
+    )?;
+    let seconds = started.elapsed().as_secs_f64();
+    notes.extend(session.take_notes());
+    let file = Backup::new(&link.to_string(), &catalog, &reads, seconds_since_epoch());
+    std::fs::write(&args.out, file.to_json())
+        .map_err(|e| failed(format!("cannot write {}: {e}", args.out.display())))?;
+    let report = DumpReport {
+        file: args.out.display().to_string(),
+        identity: file.identity.clone(),
+        objects: file.objects.len(),
+        unreadable: file.unreadable.clone(),
+        seconds,
+        notes: notes.clone(),
+    };
+    print_lines(&notes, &warnings);
+    if json {
+        print_json(&report);
+    } else {
+        println!(
+            "saved {} settings of {} to {}",
+            report.objects,
+            file.identity.summary(),
+            report.file
+        );
+        for (address, reason) in &report.unreadable {
+            println!("not saved: {address}: {reason}");
+        }
+    }
+    Ok(report.unreadable.is_empty())
+}
+
+/// One object of a comparison, as reported.
+#[derive(Serialize)]
+struct DiffRow {
+    address: String,
+    name: String,
+    /// `same`, `differs` or `unreadable`.
+    state: &'static str,
+    file: String,
+    device: Option<String>,
+    error: Option<String>,
+}
+
+#[derive(Serialize)]
+struct DiffReport {
+    file: String,
+    file_identity: DeviceIdentity,
+    device_identity: DeviceIdentity,
+    same: usize,
+    differs: usize,
+    unreadable: usize,
+    objects: Vec<DiffRow>,
+    notes: Vec<String>,
+    warnings: Vec<String>,
+}
+
+/// Identity differences worth a warning: another product, or another unit of the same.
+fn identity_warnings(file: &DeviceIdentity, device: &DeviceIdentity) -> Vec<String> {
+    if !file.same_product(device) {
+        vec![format!(
+            "the file was saved from another kind of device ({}); this is {}",
+            file.summary(),
+            device.summary()
+        )]
+    } else if file.serial != device.serial {
+        vec![format!(
+            "the file was saved from another unit (serial {}); this one is serial {}",
+            file.serial.map_or("?".into(), |s| format!("{s:08X}h")),
+            device.serial.map_or("?".into(), |s| format!("{s:08X}h"))
+        )]
+    } else {
+        vec![]
+    }
+}
+
+fn diff_report(path: &Path, file: &Backup, reads: &Reads, all: bool) -> DiffReport {
+    let device_identity = DeviceIdentity::from_reads(reads);
+    let mut report = DiffReport {
+        file: path.display().to_string(),
+        file_identity: file.identity.clone(),
+        warnings: identity_warnings(&file.identity, &device_identity),
+        device_identity,
+        same: 0,
+        differs: 0,
+        unreadable: 0,
+        objects: vec![],
+        notes: vec![],
+    };
+    for d in backup::compare(file, reads) {
+        let (state, device, error) = match &d.device {
+            Comparison::Same => {
+                report.same += 1;
+                ("same", Some(shown(d.address, &d.file)), None)
+            }
+            Comparison::Differs(v) => {
+                report.differs += 1;
+                ("differs", Some(shown(d.address, v)), None)
+            }
+            Comparison::Unreadable(reason) => {
+                report.unreadable += 1;
+                ("unreadable", None, Some(reason.clone()))
+            }
+        };
+        if all || state != "same" {
+            report.objects.push(DiffRow {
+                address: d.address.to_string(),
+                name: d.name,
+                state,
+                file: shown(d.address, &d.file),
+                device,
+                error,
+            });
+        }
+    }
+    report
+}
+
+fn print_diff(report: &DiffReport) {
+    if !report.objects.is_empty() {
+        let name_width = report
+            .objects
+            .iter()
+            .map(|r| r.name.chars().count())
+            .max()
+            .unwrap_or(4)
+            .clamp(4, 48);
+        let file_width = report
+            .objects
+            .iter()
+            .map(|r| r.file.chars().count())
+            .max()
+            .unwrap_or(4)
+            .clamp(4, 32);
+        println!(
+            "{:<9}  {:<10}  {:<name_width$}  {:<file_width$}  DEVICE",
+            "INDEX:SUB", "STATE", "NAME", "FILE"
+        );
+        for row in &report.objects {
+            let device = match (&row.device, &row.error) {
+                (_, Some(e)) => format!("error: {e}"),
+                (Some(v), None) => v.clone(),
+                (None, None) => String::new(),
+            };
+            println!(
+                "{:<9}  {:<10}  {:<name_width$}  {:<file_width$}  {device}",
+                row.address, row.state, row.name, row.file
+            );
+        }
+    }
+    println!(
+        "{} of {} saved settings differ, {} cannot be read, {} are the same",
+        report.differs,
+        report.same + report.differs + report.unreadable,
+        report.unreadable,
+        report.same
+    );
+}
+
+/// `od diff FILE`: true when the drive matches the file.
+pub fn diff(
+    link: &LinkSpec,
+    args: &super::super::OdFileArgs,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+) -> Result<bool, Failure> {
+    let file = load_backup(&args.file)?;
+    let mut notes = vec![];
+    let mut session = Session::open(link, timeout, trace)?;
+    let reads = read_all(
+        &mut session,
+        file.objects_to_read(),
+        "reading",
+        timeout,
+        &mut notes,
+    )?;
+    notes.extend(session.take_notes());
+    let mut report = diff_report(&args.file, &file, &reads, args.all);
+    report.notes = notes;
+    print_lines(&report.notes, &report.warnings);
+    if json {
+        print_json(&report);
+    } else {
+        print_diff(&report);
+    }
+    Ok(report.differs == 0 && report.unreadable == 0)
+}
+
+/// One write of a restore, as reported.
+#[derive(Serialize)]
+struct StepRow {
+    address: String,
+    name: String,
+    before: Option<String>,
+    value: String,
+    /// Why the write is there when it is a step of a mapping procedure.
+    procedure: Option<&'static str>,
+    warning: Option<String>,
+    /// `planned` (dry run), `written`, `refused` or `not written`.
+    result: &'static str,
+    error: Option<String>,
+}
+
+#[derive(Serialize)]
+struct RestoreReport {
+    file: String,
+    dry_run: bool,
+    steps: Vec<StepRow>,
+    written: usize,
+    refused: usize,
+    /// Whether 1010h:01 stored the parameters.
+    stored: Option<Result<(), String>>,
+    /// What still differs when the drive was compared again after the writes.
+    still_differs: Option<usize>,
+    notes: Vec<String>,
+    warnings: Vec<String>,
+}
+
+fn step_row(step: &Step) -> StepRow {
+    StepRow {
+        address: step.address.to_string(),
+        name: step.name.clone(),
+        before: step.before.as_ref().map(|v| shown(step.address, v)),
+        value: shown(step.address, &step.value),
+        procedure: match step.why {
+            Why::Procedure(what) => Some(what),
+            Why::Restore => None,
+        },
+        warning: step.warning.clone(),
+        result: "planned",
+        error: None,
+    }
+}
+
+fn print_restore(report: &RestoreReport) {
+    if report.steps.is_empty() {
+        println!(
+            "the drive already matches {}: nothing to write",
+            report.file
+        );
+        return;
+    }
+    for (n, row) in report.steps.iter().enumerate() {
+        let before = row.before.as_deref().unwrap_or("?");
+        let result = match (&row.error, report.dry_run) {
+            (_, true) => String::new(),
+            (Some(e), false) => format!("  {}: {e}", row.result),
+            (None, false) => format!("  {}", row.result),
+        };
+        let procedure = row.procedure.map(|p| format!(" ({p})")).unwrap_or_default();
+        println!(
+            "{:>3}. {:<9}  {}: {before} -> {}{procedure}{result}",
+            n + 1,
+            row.address,
+            row.name,
+            row.value
+        );
+        if let Some(w) = &row.warning {
+            println!("     warning: {w}");
+        }
+    }
+    if report.dry_run {
+        println!(
+            "dry run: {} writes would be made, nothing was written",
+            report.steps.len()
+        );
+        return;
+    }
+    println!(
+        "{} of {} writes done, {} refused",
+        report.written,
+        report.steps.len(),
+        report.refused
+    );
+    match &report.stored {
+        Some(Ok(())) => println!("stored in the drive (1010h:01): kept after a restart"),
+        Some(Err(e)) => println!("not stored: {e}"),
+        None => println!("not stored: the values are lost at a restart unless stored (--store)"),
+    }
+    match report.still_differs {
+        Some(0) => println!("compared again: the drive matches the file"),
+        Some(n) => println!("compared again: {n} settings still differ (od diff lists them)"),
+        None => {}
+    }
+}
+
+/// `od restore FILE [--dry-run] [--store]`: true when every write was accepted and the
+/// drive matches the file afterwards.
+pub fn restore(
+    link: &LinkSpec,
+    args: &super::super::OdRestoreArgs,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+) -> Result<bool, Failure> {
+    let file = load_backup(&args.file)?;
+    let mut notes = vec![];
+    let mut session = Session::open(link, timeout, trace)?;
+    let reads = read_all(
+        &mut session,
+        file.objects_to_read(),
+        "reading",
+        timeout,
+        &mut notes,
+    )?;
+    let device = DeviceIdentity::from_reads(&reads);
+    let mut warnings = identity_warnings(&file.identity, &device);
+    if !file.identity.same_product(&device) && !args.force && !args.dry_run {
+        return Err(usage(format!(
+            "{}: saved from {}, but the drive is {}; --force restores it anyway",
+            args.file.display(),
+            file.identity.summary(),
+            device.summary()
+        )));
+    }
+    let unreadable = backup::compare(&file, &reads)
+        .into_iter()
+        .filter(|d| matches!(d.device, Comparison::Unreadable(_)))
+        .count();
+    if unreadable > 0 {
+        warnings.push(format!(
+            "{unreadable} saved settings cannot be read from the drive and are left out (od diff lists them)"
+        ));
+    }
+    let plan = backup::restore_plan(&file, &reads);
+    let mut report = RestoreReport {
+        file: args.file.display().to_string(),
+        dry_run: args.dry_run,
+        steps: plan.iter().map(step_row).collect(),
+        written: 0,
+        refused: 0,
+        stored: None,
+        still_differs: None,
+        notes: vec![],
+        warnings,
+    };
+    if !args.dry_run && !plan.is_empty() {
+        let mut lost: Option<String> = None;
+        for (step, row) in plan.iter().zip(report.steps.iter_mut()) {
+            if let Some(reason) = &lost {
+                row.result = "not written";
+                row.error = Some(reason.clone());
+                continue;
+            }
+            match session.try_write(step.address, step.dtype, step.value.clone(), timeout) {
+                Ok(Ok(())) => {
+                    row.result = "written";
+                    report.written += 1;
+                }
+                Ok(Err(refusal)) => {
+                    row.result = "refused";
+                    row.error = Some(refusal);
+                    report.refused += 1;
+                }
+                Err(f) => {
+                    row.result = "not written";
+                    row.error = Some(f.message.clone());
+                    lost = Some(f.message);
+                }
+            }
+        }
+        if let Some(reason) = lost {
+            notes.extend(session.take_notes());
+            report.notes = notes;
+            print_lines(&report.notes, &report.warnings);
+            if json {
+                print_json(&report);
+            } else {
+                print_restore(&report);
+            }
+            return Err(failed(format!(
+                "the restore stopped after {} writes: {reason}",
+                report.written + report.refused
+            )));
+        }
+    }
+    if !args.dry_run {
+        if args.store {
+            report.stored = Some(if report.refused == 0 {
+                let (address, value) = backup::STORE_ALL;
+                session
+                    .try_write(
+                        address,
+                        DataType::Unsigned32,
+                        Value::Uint(value.into()),
+                        timeout,
+                    )?
+                    .map_err(|e| format!("1010h:01 refused: {e}"))
+            } else {
+                Err("not stored, since some writes were refused".to_owned())
+            });
+        }
+        let again = read_all(
+            &mut session,
+            file.objects_to_read(),
+            "comparing",
+            timeout,
+            &mut notes,
+        )?;
+        report.still_differs = Some(
+            backup::compare(&file, &again)
+                .iter()
+                .filter(|d| matches!(d.device, Comparison::Differs(_)))
+                .count(),
+        );
+    }
+    notes.extend(session.take_notes());
+    report.notes = notes;
+    print_lines(&report.notes, &report.warnings);
+    if json {
+        print_json(&report);
+    } else {
+        print_restore(&report);
+    }
+    Ok(report.refused == 0
+        && report.still_differs.unwrap_or(0) == 0
+        && !matches!(report.stored, Some(Err(_))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identity_warnings_name_product_and_unit() {
+        let a = DeviceIdentity {
+            vendor: Some(0x26C),
+            product: Some(1),
+            serial: Some(7),
+            ..Default::default()
+        };
+        assert!(identity_warnings(&a, &a).is_empty());
+        let other_unit = DeviceIdentity {
+            serial: Some(8),
+            ..a.clone()
+        };
+        let w = identity_warnings(&a, &other_unit);
+        assert!(
+            w[0].contains("another unit") && w[0].contains("00000008h"),
+            "{w:?}"
+        );
+        let other_product = DeviceIdentity {
+            product: Some(2),
+            ..a.clone()
+        };
+        assert!(identity_warnings(&a, &other_product)[0].contains("another kind of device"));
+    }
+}
