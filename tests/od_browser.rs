@@ -187,7 +187,12 @@ fn read_all_fills_the_table_with_progress_and_can_be_cancelled() {
     // Cancel is disabled again (the row stays, so nothing moves under the pointer). The
     // worker's cancel is tested deterministically in worker_sim.rs.
     harness.run();
-    assert!(harness.get_by_label("Cancel").accesskit_node().is_disabled());
+    assert!(
+        harness
+            .get_by_label("Cancel")
+            .accesskit_node()
+            .is_disabled()
+    );
     harness.get_by_label("Read all").click();
     harness.step();
     harness.get_by_label("Cancel").click();

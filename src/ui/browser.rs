@@ -660,11 +660,14 @@ fn bulk_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
         None => (0.0, "no read running".to_owned(), None, false),
     };
     ui.horizontal(|ui| {
-        ui.add(
-            egui::ProgressBar::new(fraction)
-                .text(text)
-                .desired_width(320.0),
-        );
+        let mut bar = egui::ProgressBar::new(fraction)
+            .text(text)
+            .desired_width(320.0);
+        if id.is_none() {
+            // Idle: no coloured fill, only the text.
+            bar = bar.fill(ui.visuals().extreme_bg_color);
+        }
+        ui.add(bar);
         if ui
             .add_enabled(id.is_some() && !cancelled, egui::Button::new("Cancel"))
             .on_hover_text("Stop the read: what is not read yet is dropped")
@@ -964,163 +967,172 @@ fn table_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: 
     let rows: Vec<Entry> = b.rows().into_iter().cloned().collect();
     let mut visible = vec![];
     let mut actions: Vec<(Address, RowAction)> = vec![];
-    TableBuilder::new(ui)
-        .id_salt("od_table")
-        .striped(true)
-        .resizable(true)
-        .auto_shrink([false, false])
-        .min_scrolled_height(120.0)
-        .column(Column::initial(70.0).at_least(60.0))
-        .column(Column::initial(200.0).at_least(80.0).clip(true))
-        .column(Column::initial(170.0).at_least(80.0).clip(true))
-        .column(Column::initial(120.0).at_least(100.0))
-        .column(Column::initial(90.0).clip(true))
-        .column(Column::initial(46.0))
-        .column(Column::initial(44.0))
-        .column(Column::initial(80.0).clip(true))
-        .column(Column::initial(110.0).clip(true))
-        .column(Column::remainder().at_least(60.0))
-        .header(20.0, |mut header| {
-            for title in [
-                "Object", "Name", "Value", "", "Hex", "Type", "Access", "Default", "Limits", "Read",
-            ] {
-                header.col(|ui| {
-                    ui.strong(title);
-                });
-            }
-        })
-        .body(|body| {
-            body.rows(22.0, rows.len(), |mut row| {
-                let Some(entry) = rows.get(row.index()) else {
-                    return;
-                };
-                visible.push(entry.address);
-                let cell = b.values.get(&entry.address);
-                let editing = b.edit.as_ref().filter(|e| e.address == entry.address);
-                row.col(|ui| {
-                    ui.monospace(entry.address.to_string());
-                });
-                row.col(|ui| {
-                    let response = ui.label(entry.full_name());
-                    if !entry.description.is_empty() {
-                        response.on_hover_text(&entry.description);
+    // Wider than the panel on a laptop screen: the columns right of the value scroll into
+    // view sideways, the header stays on top.
+    egui::ScrollArea::horizontal()
+        .id_salt("od_table_sideways")
+        .show(ui, |ui| {
+            TableBuilder::new(ui)
+                .id_salt("od_table")
+                .striped(true)
+                .resizable(true)
+                .auto_shrink([false, false])
+                .min_scrolled_height(120.0)
+                .column(Column::initial(70.0).at_least(60.0))
+                .column(Column::initial(200.0).at_least(80.0).clip(true))
+                .column(Column::initial(170.0).at_least(80.0).clip(true))
+                .column(Column::initial(120.0).at_least(100.0))
+                .column(Column::initial(90.0).clip(true))
+                .column(Column::initial(46.0))
+                .column(Column::initial(44.0))
+                .column(Column::initial(80.0).clip(true))
+                .column(Column::initial(110.0).clip(true))
+                .column(Column::remainder().at_least(60.0))
+                .header(20.0, |mut header| {
+                    for title in [
+                        "Object", "Name", "Value", "", "Hex", "Type", "Access", "Default",
+                        "Limits", "Read",
+                    ] {
+                        header.col(|ui| {
+                            ui.strong(title);
+                        });
                     }
-                });
-                row.col(|ui| match editing {
-                    Some(edit) => {
-                        let mut text = edit.text.clone();
-                        let response = super::widgets::named_text_edit(
-                            ui,
-                            &mut text,
-                            110.0,
-                            &format!("New value {}", entry.address),
-                        );
-                        if text != edit.text {
-                            actions.push((entry.address, RowAction::Typed(text)));
-                        }
-                        if response.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
-                            actions.push((entry.address, RowAction::Submit));
-                        }
-                    }
-                    None => {
-                        if let Some(Err(e)) = b.write_results.get(&entry.address) {
-                            ui.colored_label(RED, e).on_hover_text(e);
-                        } else {
-                            match cell.map(|c| &c.result) {
-                                Some(Ok(value)) => {
-                                    ui.label(value_text(value, entry));
+                })
+                .body(|body| {
+                    body.rows(22.0, rows.len(), |mut row| {
+                        let Some(entry) = rows.get(row.index()) else {
+                            return;
+                        };
+                        visible.push(entry.address);
+                        let cell = b.values.get(&entry.address);
+                        let editing = b.edit.as_ref().filter(|e| e.address == entry.address);
+                        row.col(|ui| {
+                            ui.monospace(entry.address.to_string());
+                        });
+                        row.col(|ui| {
+                            let response = ui.label(entry.full_name());
+                            if !entry.description.is_empty() {
+                                response.on_hover_text(&entry.description);
+                            }
+                        });
+                        row.col(|ui| match editing {
+                            Some(edit) => {
+                                let mut text = edit.text.clone();
+                                let response = super::widgets::named_text_edit(
+                                    ui,
+                                    &mut text,
+                                    110.0,
+                                    &format!("New value {}", entry.address),
+                                );
+                                if text != edit.text {
+                                    actions.push((entry.address, RowAction::Typed(text)));
                                 }
-                                Some(Err(e)) => {
+                                if response.lost_focus()
+                                    && ui.input(|i| i.key_pressed(egui::Key::Enter))
+                                {
+                                    actions.push((entry.address, RowAction::Submit));
+                                }
+                            }
+                            None => {
+                                if let Some(Err(e)) = b.write_results.get(&entry.address) {
                                     ui.colored_label(RED, e).on_hover_text(e);
+                                } else {
+                                    match cell.map(|c| &c.result) {
+                                        Some(Ok(value)) => {
+                                            ui.label(value_text(value, entry));
+                                        }
+                                        Some(Err(e)) => {
+                                            ui.colored_label(RED, e).on_hover_text(e);
+                                        }
+                                        None => {
+                                            ui.weak("?");
+                                        }
+                                    }
+                                }
+                            }
+                        });
+                        row.col(|ui| {
+                            ui.horizontal(|ui| match editing {
+                                Some(edit) => {
+                                    let write = ui.small_button("Write…");
+                                    super::widgets::name_widget(
+                                        &write,
+                                        egui::accesskit::Role::Button,
+                                        &format!("Write {}", entry.address),
+                                    );
+                                    if write.clicked() {
+                                        actions.push((entry.address, RowAction::Submit));
+                                    }
+                                    if ui.small_button("Cancel").clicked() {
+                                        actions.push((entry.address, RowAction::CancelEdit));
+                                    }
+                                    if let Some(error) = &edit.error {
+                                        ui.colored_label(RED, error);
+                                    }
                                 }
                                 None => {
-                                    ui.weak("?");
+                                    let read = ui.add_enabled(
+                                        connected && entry.access.readable(),
+                                        egui::Button::new("Read").small(),
+                                    );
+                                    super::widgets::name_widget(
+                                        &read,
+                                        egui::accesskit::Role::Button,
+                                        &format!("Read {}", entry.address),
+                                    );
+                                    if read.clicked() {
+                                        actions.push((entry.address, RowAction::Read));
+                                    }
+                                    let writable = entry.access.writable();
+                                    let edit = ui.add_enabled(
+                                        connected && writable,
+                                        egui::Button::new("Edit").small(),
+                                    );
+                                    super::widgets::name_widget(
+                                        &edit,
+                                        egui::accesskit::Role::Button,
+                                        &format!("Edit {}", entry.address),
+                                    );
+                                    let edit = edit.on_disabled_hover_text(if writable {
+                                        "not connected"
+                                    } else {
+                                        "read-only: the drive does not take writes to it"
+                                    });
+                                    if edit.clicked() {
+                                        actions.push((entry.address, RowAction::Edit));
+                                    }
+                                    if let Some(Ok(())) = b.write_results.get(&entry.address) {
+                                        ui.colored_label(GREEN, "written");
+                                    }
                                 }
-                            }
-                        }
-                    }
-                });
-                row.col(|ui| {
-                    ui.horizontal(|ui| match editing {
-                        Some(edit) => {
-                            let write = ui.small_button("Write…");
-                            super::widgets::name_widget(
-                                &write,
-                                egui::accesskit::Role::Button,
-                                &format!("Write {}", entry.address),
-                            );
-                            if write.clicked() {
-                                actions.push((entry.address, RowAction::Submit));
-                            }
-                            if ui.small_button("Cancel").clicked() {
-                                actions.push((entry.address, RowAction::CancelEdit));
-                            }
-                            if let Some(error) = &edit.error {
-                                ui.colored_label(RED, error);
-                            }
-                        }
-                        None => {
-                            let read = ui.add_enabled(
-                                connected && entry.access.readable(),
-                                egui::Button::new("Read").small(),
-                            );
-                            super::widgets::name_widget(
-                                &read,
-                                egui::accesskit::Role::Button,
-                                &format!("Read {}", entry.address),
-                            );
-                            if read.clicked() {
-                                actions.push((entry.address, RowAction::Read));
-                            }
-                            let writable = entry.access.writable();
-                            let edit = ui.add_enabled(
-                                connected && writable,
-                                egui::Button::new("Edit").small(),
-                            );
-                            super::widgets::name_widget(
-                                &edit,
-                                egui::accesskit::Role::Button,
-                                &format!("Edit {}", entry.address),
-                            );
-                            let edit = edit.on_disabled_hover_text(if writable {
-                                "not connected"
-                            } else {
-                                "read-only: the drive does not take writes to it"
                             });
-                            if edit.clicked() {
-                                actions.push((entry.address, RowAction::Edit));
+                        });
+                        row.col(|ui| {
+                            if let Some(Ok(value)) = cell.map(|c| &c.result) {
+                                ui.monospace(value.to_hex(entry.dtype));
                             }
-                            if let Some(Ok(())) = b.write_results.get(&entry.address) {
-                                ui.colored_label(GREEN, "written");
+                        });
+                        row.col(|ui| {
+                            ui.label(entry.dtype.short_name());
+                        });
+                        row.col(|ui| {
+                            ui.label(entry.access.short_name());
+                        });
+                        row.col(|ui| {
+                            if let Some(default) = &entry.default {
+                                ui.label(default.to_string());
                             }
-                        }
+                        });
+                        row.col(|ui| {
+                            ui.label(limits_text(entry));
+                        });
+                        row.col(|ui| {
+                            if let Some(cell) = cell {
+                                ui.weak(age_text(clock, cell.at));
+                            }
+                        });
                     });
                 });
-                row.col(|ui| {
-                    if let Some(Ok(value)) = cell.map(|c| &c.result) {
-                        ui.monospace(value.to_hex(entry.dtype));
-                    }
-                });
-                row.col(|ui| {
-                    ui.label(entry.dtype.short_name());
-                });
-                row.col(|ui| {
-                    ui.label(entry.access.short_name());
-                });
-                row.col(|ui| {
-                    if let Some(default) = &entry.default {
-                        ui.label(default.to_string());
-                    }
-                });
-                row.col(|ui| {
-                    ui.label(limits_text(entry));
-                });
-                row.col(|ui| {
-                    if let Some(cell) = cell {
-                        ui.weak(age_text(clock, cell.at));
-                    }
-                });
-            });
         });
     b.visible = visible;
     for (address, action) in actions {
