@@ -730,7 +730,7 @@ fn discover_and_bench_from_the_command_line() {
             .expect("the binary runs");
         assert!(out.status.success(), "{out:?}");
         let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
-        let results = report["results"].as_array().expect("results");
+        let results = report["links"][0]["results"].as_array().expect("results");
         assert_eq!(
             results[0]["what"], "PDI exchange (write + read)",
             "{report:#}"

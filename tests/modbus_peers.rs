@@ -345,3 +345,69 @@ fn our_client_with_words_low_puts_the_low_word_first_and_uses_the_unit() {
         (Some(f64::from(0x86A0_0001u32 as i32)), Some(0x0000_0001))
     );
 }
+
+#[test]
+fn bench_runs_pymodbus_side_by_side_on_the_same_server() {
+    let Some(python) = common::python(&[]) else {
+        return;
+    };
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_drivedeck"))
+        .args([
+            "--json",
+            "bench",
+            "--serve-sim",
+            "modbus",
+            "--seconds",
+            "0.3",
+        ])
+        .arg("--python")
+        .arg(&python.path)
+        .output()
+        .expect("the binary runs");
+    assert!(out.status.success(), "{out:?}");
+    let report: Json = serde_json::from_slice(&out.stdout).expect("JSON");
+    let ours = &report["links"][0]["results"][0];
+    assert_eq!(ours["what"], "PDI exchange (write + read)", "{report:#}");
+    let peer = &report["peer"];
+    assert!(
+        peer["what"]
+            .as_str()
+            .is_some_and(|w| w.starts_with("pymodbus 3.") && w.ends_with("FC 23 (write + read)")),
+        "{report:#}"
+    );
+    for figures in [ours, peer] {
+        assert!(
+            figures["count"].as_u64().is_some_and(|n| n > 10),
+            "{report:#}"
+        );
+        let (min, median, p99) = (
+            figures["min_ms"].as_f64().unwrap_or(f64::NAN),
+            figures["median_ms"].as_f64().unwrap_or(f64::NAN),
+            figures["p99_ms"].as_f64().unwrap_or(f64::NAN),
+        );
+        assert!(0.0 < min && min <= median && median <= p99, "{report:#}");
+    }
+
+    // Without pymodbus the comparison is skipped with the reason, and the rest stands.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_drivedeck"))
+        .args([
+            "--json",
+            "bench",
+            "--serve-sim",
+            "modbus",
+            "--seconds",
+            "0.2",
+        ])
+        .args(["--python", "/nonexistent/python"])
+        .output()
+        .expect("the binary runs");
+    assert!(out.status.success(), "{out:?}");
+    let report: Json = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert!(report["peer"].is_null());
+    assert!(
+        report["peer_skipped"]
+            .as_str()
+            .is_some_and(|s| s.contains("/nonexistent/python")),
+        "{report:#}"
+    );
+}

@@ -64,10 +64,138 @@ impl std::fmt::Display for Figures {
     }
 }
 
+/// The figures of one link.
 #[derive(Serialize, Debug)]
-struct Report {
+struct LinkReport {
     link: String,
     results: Vec<Figures>,
+}
+
+/// A whole run: one or more links, and the independent client on the same server.
+#[derive(Serialize, Debug)]
+struct Report {
+    links: Vec<LinkReport>,
+    /// pymodbus doing the same FC 23 exchange against the same Modbus TCP server.
+    peer: Option<Figures>,
+    /// Why the peer did not run, when it did not.
+    peer_skipped: Option<String>,
+}
+
+/// The pymodbus side of the comparison, run by the Python found (benches/pymodbus_fc23.py
+/// is compiled in, so the installed binary needs no source tree).
+const PYMODBUS_FC23: &str = include_str!("../../benches/pymodbus_fc23.py");
+
+/// The Python with pymodbus: --python, else $DRIVEDECK_PYTHON, else ./.venv (what
+/// .ci/run makes), else python3.
+fn python(args: &BenchArgs) -> std::path::PathBuf {
+    if let Some(p) = &args.python {
+        return p.clone();
+    }
+    if let Some(p) = std::env::var_os("DRIVEDECK_PYTHON") {
+        return p.into();
+    }
+    let venv = std::path::Path::new(".venv/bin/python");
+    if venv.exists() {
+        return venv.to_path_buf();
+    }
+    "python3".into()
+}
+
+/// pymodbus's FC 23 loop against `addr` for `span`.
+fn pymodbus_figures(
+    python: &std::path::Path,
+    addr: std::net::SocketAddr,
+    span: Duration,
+) -> Result<Figures, String> {
+    let out = std::process::Command::new(python)
+        .arg("-c")
+        .arg(PYMODBUS_FC23)
+        .arg(addr.ip().to_string())
+        .arg(addr.port().to_string())
+        .arg(span.as_secs_f64().to_string())
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", python.display()))?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let value: serde_json::Value = serde_json::from_str(stdout.trim()).map_err(|e| {
+        format!(
+            "{} gave no figures ({e}): {}{}",
+            python.display(),
+            stdout.trim(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        )
+    })?;
+    if let Some(failed) = value["failed"].as_str() {
+        return Err(format!(
+            "{failed} (with {}; `python3 -m pip install pymodbus==3.16.1`, or --python PATH)",
+            python.display()
+        ));
+    }
+    let number = |key: &str| value[key].as_f64().unwrap_or(f64::NAN);
+    Ok(Figures {
+        what: value["what"]
+            .as_str()
+            .unwrap_or("pymodbus FC 23")
+            .to_owned(),
+        count: value["count"].as_u64().unwrap_or(0) as usize,
+        seconds: number("seconds"),
+        per_second: number("per_second"),
+        min_ms: number("min_ms"),
+        median_ms: number("median_ms"),
+        p99_ms: number("p99_ms"),
+        max_ms: number("max_ms"),
+    })
+}
+
+/// One link to measure, with the server that serves the simulated drive for it.
+struct Target {
+    server: Option<ServerThread>,
+    spec: LinkSpec,
+}
+
+fn serve(bus: ServedBus, rpi: u32) -> std::io::Result<Target> {
+    let loopback = ([127, 0, 0, 1], 0).into();
+    match bus {
+        ServedBus::Modbus => {
+            let server = ServerThread::modbus_tcp(loopback, Options::default())?;
+            let spec = LinkSpec::ModbusTcp {
+                host: server.addr.ip().to_string(),
+                port: server.addr.port(),
+                unit: 0,
+                words: Default::default(),
+            };
+            Ok(Target {
+                server: Some(server),
+                spec,
+            })
+        }
+        ServedBus::Enip | ServedBus::EnipExplicit => {
+            let options = crate::sim::server::enip::Options {
+                io_port: 0,
+                ..Default::default()
+            };
+            let server = ServerThread::enip(loopback, options)?;
+            let io = if bus == ServedBus::Enip {
+                "pdi"
+            } else {
+                "explicit"
+            };
+            let text = format!("enip://{}?io={io}&rpi={rpi}&udp=0", server.addr);
+            let spec = text
+                .parse::<LinkSpec>()
+                .map_err(|e| std::io::Error::other(e.to_string()))?;
+            Ok(Target {
+                server: Some(server),
+                spec,
+            })
+        }
+        ServedBus::Canopen => Ok(Target {
+            server: None,
+            spec: LinkSpec::CanopenSim {
+                can: Default::default(),
+            },
+        }),
+        ServedBus::All => Err(std::io::Error::other("not one bus")),
+    }
 }
 
 pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
@@ -82,82 +210,114 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
         }
     };
     // --serve-sim BUS: the simulated drive served on loopback, in this process.
-    let loopback = ([127, 0, 0, 1], 0).into();
-    let served = match args.serve_sim {
-        None => None,
-        Some(ServedBus::Modbus) => Some(
-            ServerThread::modbus_tcp(loopback, Options::default()).map(|server| {
-                let spec = LinkSpec::ModbusTcp {
-                    host: server.addr.ip().to_string(),
-                    port: server.addr.port(),
-                    unit: 0,
-                    words: Default::default(),
-                };
-                (Some(server), spec)
-            }),
-        ),
-        Some(bus @ (ServedBus::Enip | ServedBus::EnipExplicit)) => {
-            let options = crate::sim::server::enip::Options {
-                io_port: 0,
-                ..Default::default()
-            };
-            Some(ServerThread::enip(loopback, options).and_then(|server| {
-                let io = if bus == ServedBus::Enip {
-                    "pdi"
-                } else {
-                    "explicit"
-                };
-                let text = format!("enip://{}?io={io}&rpi={}&udp=0", server.addr, args.rpi);
-                text.parse::<LinkSpec>()
-                    .map(|spec| (Some(server), spec))
-                    .map_err(|e| std::io::Error::other(e.to_string()))
-            }))
-        }
-        Some(ServedBus::Canopen) => Some(Ok((
-            None,
-            LinkSpec::CanopenSim {
-                can: Default::default(),
-            },
-        ))),
-    };
-    let (_server, spec) = match (served, link) {
-        (Some(Ok((server, spec))), _) => (server, spec),
-        (Some(Err(e)), _) => {
-            eprintln!("drivedeck bench: cannot start the simulated server: {e}");
-            return ExitCode::from(EXIT_FAILED);
-        }
-        (None, Some(spec)) => (None, spec),
+    let buses: Vec<ServedBus> = match (args.serve_sim, &link) {
+        (Some(ServedBus::All), _) => vec![
+            ServedBus::Modbus,
+            ServedBus::Enip,
+            ServedBus::EnipExplicit,
+            ServedBus::Canopen,
+        ],
+        (Some(bus), _) => vec![bus],
+        (None, Some(_)) => vec![],
         (None, None) => {
             eprintln!(
-                "drivedeck bench: give --link URL, or --serve-sim [modbus|enip|enip-explicit|canopen] to bench the simulated drive on loopback"
+                "drivedeck bench: give --link URL, or --serve-sim [all|modbus|enip|enip-explicit|canopen] to bench the simulated drive on loopback"
             );
             return ExitCode::from(EXIT_USAGE);
         }
     };
+    let mut targets = vec![];
+    for bus in buses {
+        match serve(bus, args.rpi) {
+            Ok(target) => targets.push(target),
+            Err(e) => {
+                eprintln!("drivedeck bench: cannot start the simulated server: {e}");
+                return ExitCode::from(EXIT_FAILED);
+            }
+        }
+    }
+    if let (true, Some(spec)) = (targets.is_empty(), link) {
+        targets.push(Target { server: None, spec });
+    }
     let seconds = Duration::from_secs_f64(args.seconds.clamp(0.2, 600.0));
-    match runtime.block_on(measure(&spec, seconds)) {
-        Ok(results) => {
-            let report = Report {
-                link: spec.to_string(),
-                results,
-            };
-            if json {
-                match serde_json::to_string_pretty(&report) {
-                    Ok(text) => println!("{text}"),
-                    Err(e) => eprintln!("drivedeck bench: {e}"),
+    let mut report = Report {
+        links: vec![],
+        peer: None,
+        peer_skipped: None,
+    };
+    for target in &targets {
+        if !json {
+            println!("link {}", target.spec);
+        }
+        match runtime.block_on(measure(&target.spec, seconds)) {
+            Ok(results) => {
+                if !json {
+                    for figures in &results {
+                        println!("  {figures}");
+                    }
                 }
-            } else {
-                println!("link {}", report.link);
-                for figures in &report.results {
-                    println!("{figures}");
+                report.links.push(LinkReport {
+                    link: target.spec.to_string(),
+                    results,
+                });
+            }
+            Err(e) => {
+                eprintln!("drivedeck bench: {}: {e}", target.spec);
+                return ExitCode::from(EXIT_FAILED);
+            }
+        }
+        // The independent client on the same Modbus TCP server, after ours let go of
+        // it (the server, like the drive, takes one client at a time).
+        if let (Some(server), LinkSpec::ModbusTcp { .. }, false) =
+            (&target.server, &target.spec, args.no_peer)
+        {
+            match pymodbus_figures(&python(args), server.addr, seconds) {
+                Ok(figures) => {
+                    if !json {
+                        println!("  {figures}");
+                    }
+                    report.peer = Some(figures);
+                }
+                Err(why) => {
+                    if !json {
+                        println!("  pymodbus comparison skipped: {why}");
+                    }
+                    report.peer_skipped = Some(why);
                 }
             }
-            ExitCode::SUCCESS
         }
-        Err(e) => {
-            eprintln!("drivedeck bench: {e}");
-            ExitCode::from(EXIT_FAILED)
+    }
+    if json {
+        match serde_json::to_string_pretty(&report) {
+            Ok(text) => println!("{text}"),
+            Err(e) => eprintln!("drivedeck bench: {e}"),
         }
+    } else if report.links.len() > 1 || report.peer.is_some() {
+        print_table(&report);
+    }
+    ExitCode::SUCCESS
+}
+
+/// The PDI exchanges side by side.
+fn print_table(report: &Report) {
+    println!();
+    println!(
+        "{:<58} {:>10} {:>9} {:>9} {:>9}",
+        "PDI exchange", "cycles/s", "min ms", "median", "p99"
+    );
+    let row = |name: &str, f: &Figures| {
+        println!(
+            "{:<58} {:>10.0} {:>9.3} {:>9.3} {:>9.3}",
+            name, f.per_second, f.min_ms, f.median_ms, f.p99_ms
+        );
+    };
+    for link in &report.links {
+        if let Some(f) = link.results.first() {
+            row(&format!("drivedeck, {}", link.link), f);
+        }
+    }
+    if let Some(f) = &report.peer {
+        row(&f.what, f);
     }
 }
 

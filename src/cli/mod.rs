@@ -185,11 +185,20 @@ pub struct BenchArgs {
     /// The I/O RPI for `--serve-sim enip`, ms.
     #[arg(long, default_value_t = 1)]
     pub rpi: u32,
+    /// The Python with pymodbus for the independent FC 23 client that runs against the
+    /// same Modbus TCP server (default: $DRIVEDECK_PYTHON, ./.venv/bin/python, python3).
+    #[arg(long, value_name = "PATH")]
+    pub python: Option<std::path::PathBuf>,
+    /// Leave the pymodbus comparison out.
+    #[arg(long)]
+    pub no_peer: bool,
 }
 
 /// The buses `bench --serve-sim` can serve the simulated drive on.
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ServedBus {
+    /// Every bus below, one after the other, with pymodbus on the Modbus server.
+    All,
     /// Modbus TCP on loopback.
     Modbus,
     /// EtherNet/IP on loopback, PDI over class 1 I/O.
