@@ -93,13 +93,9 @@ fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
         entry.outcome
     );
     // The plot history follows the motor.
-    assert!(
-        state
-            .history
-            .trace(drivedeck::telemetry::Signal::Position)
-            .len()
-            > 10
-    );
+    let ring = state.scope.ring();
+    assert!(ring.len() > 10);
+    assert_eq!(ring.latest(0).map(|(_, v)| v), Some(2000.0));
 }
 
 #[test]

@@ -5,6 +5,7 @@ mod bench;
 mod od;
 mod oneshot;
 mod progress;
+mod record;
 mod report;
 mod serve;
 
@@ -88,11 +89,41 @@ pub enum Command {
     Discover(DiscoverArgs),
     /// Serve the simulated drive on real sockets for any client (PLCs, pymodbus, …).
     Sim(SimArgs),
+    /// Record signals to CSV or JSON: `record --signals position,velocity --rate 500
+    /// --duration 5s --out run.csv`, optionally around a trigger.
+    Record(RecordArgs),
     /// Measure PDI exchanges and object reads per second on --link (or --serve-sim).
     Bench(BenchArgs),
     /// The object dictionary: `od list` shows the built-in catalog or an EDS, with the
     /// values read from the drive when --link is given.
     Od(OdArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct RecordArgs {
+    /// Comma-separated: position, velocity, torque, following_error, analog_input,
+    /// return_value, pdi_status, digital_inputs, or object addresses such as 2031:00.
+    #[arg(long, default_value = "position,velocity,torque,pdi_status")]
+    pub signals: String,
+    /// Samples per second (the worker's poll rate, 1 to 2000).
+    #[arg(long, default_value_t = 500.0, value_name = "HZ")]
+    pub rate: f64,
+    /// How long to record (after the trigger, with --trigger): 5s, 500ms, 2m.
+    #[arg(long, default_value = "5s")]
+    pub duration: String,
+    /// The file to write: .json for JSON, anything else CSV.
+    #[arg(long, value_name = "FILE")]
+    pub out: std::path::PathBuf,
+    /// Start on a condition: 'position rises 1000', 'velocity falls 0',
+    /// 'pdi_status bit 10 rises', 'digital_inputs bit 16 changes'.
+    #[arg(long, value_name = "CONDITION")]
+    pub trigger: Option<String>,
+    /// With --trigger: history kept from before it fired.
+    #[arg(long, default_value = "1s")]
+    pub pre: String,
+    /// With --trigger: how long to wait for it (default: --timeout).
+    #[arg(long)]
+    pub wait: Option<String>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -430,6 +461,11 @@ pub fn main() -> ExitCode {
         Some(Command::Sim(args)) => serve::run(&args),
         Some(Command::Bench(args)) => bench::run(cli.link.clone(), &args, cli.json),
         Some(Command::Discover(args)) => oneshot::discover(&args, cli.json),
+        Some(Command::Record(args)) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));
+            record::run(&link, &args, cli.json, timeout, cli.trace)
+        }
         Some(Command::Od(args)) => {
             let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));
             od::run(cli.link.as_ref(), &args, cli.json, timeout, cli.trace)

@@ -65,8 +65,18 @@ impl Session {
         timeout: Duration,
         trace: bool,
     ) -> Result<Session, Failure> {
+        Session::open_at(link, timeout, trace, 200.0)
+    }
+
+    /// A session whose worker polls (and samples) `poll_rate` times a second.
+    pub(super) fn open_at(
+        link: &LinkSpec,
+        timeout: Duration,
+        trace: bool,
+        poll_rate: f64,
+    ) -> Result<Session, Failure> {
         let config = worker::Config {
-            poll_rate: 200.0,
+            poll_rate,
             timing: Timing {
                 ack_timeout: timeout.min(Duration::from_secs(5)),
                 done_timeout: Some(timeout),
@@ -99,6 +109,16 @@ impl Session {
             session.next(deadline)?;
         }
         Ok(session)
+    }
+
+    /// Hand the worker a request without waiting for its outcome.
+    pub(super) fn send_request(&self, request: Request) -> Result<u64, Failure> {
+        self.send(request)
+    }
+
+    /// The next event (samples included) before `deadline`.
+    pub(super) fn next_event(&mut self, deadline: Instant) -> Result<Event, Failure> {
+        self.next(deadline)
     }
 
     fn send(&self, request: Request) -> Result<u64, Failure> {
@@ -384,6 +404,7 @@ fn execute(
         | Command::Discover(_)
         | Command::Sim(_)
         | Command::Bench(_)
+        | Command::Record(_)
         | Command::Od(_) => None,
     };
     let write_value = match command {

@@ -1,5 +1,16 @@
-//! Recorded signals: bounded histories for the live plots.
+//! Recorded signals: the bounded history of the live plots (`Ring`, with min/max
+//! decimation per pixel column), triggers, recordings and their files, and the plot model
+//! that ties them to the worker's samples (`Scope`).
 
-mod history;
+pub mod recording;
+pub mod ring;
+mod scope;
+pub mod trigger;
 
-pub use history::{History, Signal, Trace};
+pub use recording::{ChannelInfo, Marker, Metadata, Recording, RecordingError};
+pub use ring::{BitSpan, PushError, Ring};
+pub use scope::{
+    Builtin, DEFAULT_HISTORY_ROWS, Kind, Scope, ScopeEvent, SignalDef, Source, WatchedObject,
+    bit_name, format_number, metadata, save_recording, utc_text, watchable,
+};
+pub use trigger::{Capture, CaptureEvent, CaptureState, Condition, Edge, Trigger};

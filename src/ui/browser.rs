@@ -110,6 +110,8 @@ pub struct Browser {
     /// A dictionary loaded from an EDS instead of the built-in catalog.
     pub eds: Option<(String, Catalog)>,
     pub eds_path: String,
+    /// An object the user asked to plot (the app takes it after the panel is drawn).
+    pub plot_request: Option<Address>,
     /// The connection string, for backup files.
     pub link_text: String,
     unsent: Vec<(Request, Pending)>,
@@ -576,6 +578,14 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
     restore_ui(ui, b, outbox, connected);
     confirm_ui(ui, b, outbox);
     table_ui(ui, b, outbox, connected, clock);
+    if let Some(address) = state.browser.plot_request.take() {
+        state.watch_object(&address.to_string());
+        state.browser.message = state
+            .plot
+            .message
+            .clone()
+            .map(|m| m.map(|text| format!("{text}: see the Plots tab")));
+    }
 }
 
 /// Warnings shown in the message line; the rest are counted (all go to the log).
@@ -1083,6 +1093,27 @@ fn table_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: 
                                     if read.clicked() {
                                         actions.push((entry.address, RowAction::Read));
                                     }
+                                    let plottable = entry.access.readable()
+                                        && (entry.dtype.is_integer()
+                                            || matches!(
+                                                entry.dtype,
+                                                DataType::Boolean
+                                                    | DataType::Real32
+                                                    | DataType::Real64
+                                            ));
+                                    if plottable {
+                                        let plot = ui.small_button("Plot").on_hover_text(
+                                            "Sample it every cycle and add it to the plots",
+                                        );
+                                        super::widgets::name_widget(
+                                            &plot,
+                                            egui::accesskit::Role::Button,
+                                            &format!("Plot {}", entry.address),
+                                        );
+                                        if plot.clicked() {
+                                            actions.push((entry.address, RowAction::Plot));
+                                        }
+                                    }
                                     let writable = entry.access.writable();
                                     let edit = ui.add_enabled(
                                         connected && writable,
@@ -1143,6 +1174,7 @@ fn table_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: 
 /// What the user did in a row.
 enum RowAction {
     Read,
+    Plot,
     Edit,
     Typed(String),
     Submit,
@@ -1160,6 +1192,7 @@ fn apply_row_action(
     };
     match action {
         RowAction::Read => b.read_one(outbox, address, entry.dtype),
+        RowAction::Plot => b.plot_request = Some(address),
         RowAction::Edit => {
             let text = match b.values.get(&address).map(|c| &c.result) {
                 Some(Ok(Value::Bytes(bytes))) => bytes

@@ -10,15 +10,13 @@ use crate::link::{EnipIo, LinkInfo, LinkSpec, Parity};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Opcode, RxImage, StatusBit};
 use crate::sim::Injection;
-use crate::telemetry::History;
+use crate::telemetry::{Scope, ScopeEvent};
 use crate::worker::{CommandProgress, Event, Health, ObjectPath, Request, RequestId, Sample};
 
 /// Log entries kept in the window.
 pub const LOG_LIMIT: usize = 2000;
 /// Bus frames kept in the window (the export writes what is kept).
 pub const FRAME_LIMIT: usize = 20_000;
-/// Plot history per signal: 60 s at the default 100 Hz.
-pub const HISTORY_SAMPLES: usize = 6000;
 
 /// The bus picked in the connection bar.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -302,6 +300,8 @@ pub struct Settings {
     pub frame_log_path: String,
     /// What the middle of the window shows.
     pub central: Central,
+    /// The plot panel's choices.
+    pub plot: super::plots::PlotSettings,
 }
 
 /// The middle of the window: the plots or the object dictionary.
@@ -340,6 +340,7 @@ impl Default for Settings {
             object_value: String::new(),
             frame_log_path: "drivedeck-frames.log".into(),
             central: Central::Plots,
+            plot: super::plots::PlotSettings::default(),
         }
     }
 }
@@ -409,8 +410,10 @@ pub struct AppState {
     /// The newest known value of every signal (merged over recent samples).
     pub latest: Option<Sample>,
     pub health: Option<Health>,
-    pub history: History,
-    pub plot_paused_at: Option<f64>,
+    /// The plots' history, markers, trigger and recording.
+    pub scope: Scope,
+    /// The plot panel's view (pause, follow, cursor, exports).
+    pub plot: super::plots::PlotView,
     pub log: VecDeque<LogEntry>,
     /// Requests for the worker, taken by the app after each frame.
     pub outbox: Vec<Request>,
@@ -441,17 +444,26 @@ pub struct AppState {
     slope_reads: Vec<RequestId>,
     /// The halt request still running.
     halt_request: Option<RequestId>,
+    /// The identity read for the exports' header, and its request.
+    identity_request: Option<RequestId>,
+    identity_reads: BTreeMap<Address, Result<Value, String>>,
 }
 
 impl AppState {
     pub fn new(settings: Settings) -> Self {
+        let mut scope = Scope::new(settings.plot.history_rows);
+        if !settings.plot.shown.is_empty() {
+            for signal in scope.signals_mut() {
+                signal.shown = settings.plot.shown.contains(&signal.info.id);
+            }
+        }
         Self {
             settings,
             connection: Connection::Disconnected,
             latest: None,
             health: None,
-            history: History::new(HISTORY_SAMPLES),
-            plot_paused_at: None,
+            scope,
+            plot: super::plots::PlotView::default(),
             log: VecDeque::new(),
             outbox: Vec::new(),
             halt_engaged: false,
@@ -468,6 +480,66 @@ impl AppState {
             show_frames: false,
             slope_reads: Vec::new(),
             halt_request: None,
+            identity_request: None,
+            identity_reads: BTreeMap::new(),
+        }
+    }
+
+    /// Plot an object of the dictionary (typed as an address): checked against the
+    /// browser's catalog, then sampled by the worker every cycle.
+    pub fn watch_object(&mut self, text: &str) {
+        match crate::telemetry::watchable(self.browser.catalog(), text) {
+            Ok((object, dtype)) => {
+                if self
+                    .plot
+                    .watched
+                    .iter()
+                    .any(|(w, _)| w.address == object.address)
+                {
+                    self.plot.message = Some(Err(format!("{} is plotted already", object.address)));
+                    return;
+                }
+                if self.plot.watched.len() >= crate::worker::MAX_WATCHED {
+                    self.plot.message = Some(Err(format!(
+                        "at most {} objects can be plotted besides the built-in signals",
+                        crate::worker::MAX_WATCHED
+                    )));
+                    return;
+                }
+                self.plot.message =
+                    Some(Ok(format!("plotting {} {}", object.address, object.name)));
+                self.plot.watched.push((object, dtype));
+                self.send_watch();
+            }
+            Err(e) => self.plot.message = Some(Err(e)),
+        }
+    }
+
+    /// Stop plotting an object (`address` as `Address` displays it).
+    pub fn unwatch_object(&mut self, address: &str) {
+        self.plot
+            .watched
+            .retain(|(w, _)| w.address.to_string() != address);
+        self.send_watch();
+    }
+
+    fn send_watch(&mut self) {
+        let objects: Vec<crate::telemetry::WatchedObject> =
+            self.plot.watched.iter().map(|(w, _)| w.clone()).collect();
+        self.scope.set_watched(&objects);
+        self.outbox.push(Request::Watch(
+            self.plot
+                .watched
+                .iter()
+                .map(|(w, dtype)| (w.address, *dtype))
+                .collect(),
+        ));
+    }
+
+    fn identity_request() -> Request {
+        Request::ReadMany {
+            objects: crate::od::backup::IDENTITY.to_vec(),
+            path: ObjectPath::Auto,
         }
     }
 
@@ -505,6 +577,16 @@ impl AppState {
 
     /// Record that the app handed a request to the worker.
     pub fn note_queued(&mut self, id: RequestId, request: &Request) {
+        if self.identity_request.is_none()
+            && self.plot.identity.is_none()
+            && *request == Self::identity_request()
+        {
+            self.identity_request = Some(id);
+            return;
+        }
+        if matches!(request, Request::Watch(_)) {
+            return;
+        }
         if self.browser.note_queued(id, request) {
             return;
         }
@@ -580,10 +662,19 @@ impl AppState {
             }
             Event::Connected(info) => {
                 self.info(format!("connected: {}", info.description));
+                let link = info.spec.to_string();
                 self.connection = Connection::Connected(info);
                 self.halt_engaged = false;
                 self.torque_slope = None;
                 self.injected.clear();
+                // The samples' clock starts again; the exports name the device.
+                self.scope.clear();
+                self.plot.paused_at = None;
+                self.plot.identity = None;
+                self.identity_request = None;
+                self.identity_reads.clear();
+                self.scope.meta = crate::telemetry::metadata(None, &link, self.settings.poll_rate);
+                self.outbox.push(Self::identity_request());
                 // Know the torque slope before anyone asks for torque.
                 self.outbox.push(Request::ReadObject {
                     address: TORQUE_SLOPE,
@@ -644,7 +735,8 @@ impl AppState {
                     }),
                 }
             }
-            Event::Sent { id, what, image } => {
+            Event::Sent { id, t, what, image } => {
+                self.scope.mark(t, what.clone());
                 if let Some(entry) = self.entry(id) {
                     entry.image = Some(image);
                     entry.outcome = Outcome::Sent;
@@ -678,6 +770,22 @@ impl AppState {
                 address,
                 result,
             } => {
+                if self.identity_request == Some(id) {
+                    self.identity_reads.insert(address, result);
+                    if self.identity_reads.len() == crate::od::backup::IDENTITY.len() {
+                        let identity =
+                            crate::od::backup::DeviceIdentity::from_reads(&self.identity_reads);
+                        let link = self.scope.meta.link.clone().unwrap_or_default();
+                        self.scope.meta = crate::telemetry::metadata(
+                            Some(&identity),
+                            &link,
+                            self.settings.poll_rate,
+                        );
+                        self.plot.identity = Some(identity);
+                        self.identity_request = None;
+                    }
+                    return;
+                }
                 if self.browser.on_read(id, address, &result, self.clock) {
                     return;
                 }
@@ -726,16 +834,25 @@ impl AppState {
             }
             Event::Samples(samples) => {
                 for sample in &samples {
-                    self.history.push(
-                        sample.t,
-                        [
-                            sample.position,
-                            sample.velocity,
-                            sample.torque,
-                            sample.following_error,
-                            sample.analog_input,
-                        ],
-                    );
+                    match self.scope.push(sample) {
+                        Some(ScopeEvent::Fired(at)) => {
+                            self.info(format!("trigger fired at {at:.3} s"));
+                        }
+                        Some(ScopeEvent::Recorded) => {
+                            let text = self.scope.recording().map(|r| {
+                                format!(
+                                    "triggered recording ready: {:.2} s, {} samples; Save recording writes it",
+                                    r.duration(),
+                                    r.len()
+                                )
+                            });
+                            if let Some(text) = text {
+                                self.plot.message = Some(Ok(text.clone()));
+                                self.info(text);
+                            }
+                        }
+                        None => {}
+                    }
                 }
                 for sample in &samples {
                     self.latest = Some(match &self.latest {

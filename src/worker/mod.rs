@@ -15,7 +15,9 @@ use std::time::Duration;
 
 use tokio::sync::mpsc;
 
-pub use protocol::{CommandProgress, Event, Health, ObjectPath, Request, RequestId, Sample};
+pub use protocol::{
+    CommandProgress, Event, Health, MAX_WATCHED, ObjectPath, Request, RequestId, Sample,
+};
 
 use crate::pdi::Timing;
 

@@ -65,6 +65,11 @@ pub enum Request {
         objects: Vec<(Address, DataType)>,
         path: ObjectPath,
     },
+    /// Sample these objects every cycle along with the plot signals (at most
+    /// [`MAX_WATCHED`]; an empty list stops). Each comes by the cheapest path: from the
+    /// exchange where the link's image carries it, otherwise by a cyclic object read, as
+    /// many per cycle as fit in a share of the cycle (round robin). Kept across reconnects.
+    Watch(Vec<(Address, DataType)>),
     /// Drop what is still queued of request `id` (a `ReadMany`); reported by `Cancelled`.
     Cancel(RequestId),
     /// Find EtherNet/IP adapters: ListIdentity broadcast on `interface` (a name or IPv4
@@ -115,6 +120,7 @@ impl fmt::Display for Request {
                 interface.as_deref().unwrap_or("every interface")
             ),
             Request::SetTrace(on) => write!(f, "frame trace {}", if *on { "on" } else { "off" }),
+            Request::Watch(objects) => write!(f, "sample {} object(s) cyclically", objects.len()),
         }
     }
 }
@@ -170,6 +176,9 @@ impl fmt::Display for CommandProgress {
     }
 }
 
+/// Objects a [`Request::Watch`] may name.
+pub const MAX_WATCHED: usize = 8;
+
 /// One sample of the drive, taken at the worker.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sample {
@@ -192,6 +201,8 @@ pub struct Sample {
     pub analog_input: Option<f64>,
     /// 6061h
     pub mode: Option<i8>,
+    /// The watched objects (`Request::Watch`), in the order asked, where read this cycle.
+    pub watched: [Option<f64>; MAX_WATCHED],
 }
 
 impl Sample {
@@ -210,6 +221,7 @@ impl Sample {
             digital_inputs: self.digital_inputs.or(older.digital_inputs),
             analog_input: self.analog_input.or(older.analog_input),
             mode: self.mode.or(older.mode),
+            watched: std::array::from_fn(|i| self.watched[i].or(older.watched[i])),
         }
     }
 }
@@ -253,6 +265,8 @@ pub enum Event {
     /// A PDI image carrying a command was written.
     Sent {
         id: RequestId,
+        /// When, on the samples' clock (seconds since the link was connected).
+        t: f64,
         what: String,
         image: RxImage,
     },

@@ -7,7 +7,9 @@ use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 use tokio::time::MissedTickBehavior;
 
-use super::protocol::{CommandProgress, Event, Health, ObjectPath, Request, RequestId, Sample};
+use super::protocol::{
+    CommandProgress, Event, Health, MAX_WATCHED, ObjectPath, Request, RequestId, Sample,
+};
 use super::sink::EventSink;
 use super::{Config, Envelope};
 use crate::link::{self, AnyLink, Link, LinkSpec, Refusal};
@@ -65,6 +67,40 @@ struct Session {
     next_extra: usize,
     /// Signals the device refused to read: never asked again this session.
     unreadable: Vec<u16>,
+    /// The watched objects' state this session.
+    watch: WatchState,
+}
+
+/// The objects sampled on request (`Request::Watch`), read round robin.
+#[derive(Default)]
+struct WatchState {
+    objects: Vec<(Address, DataType)>,
+    /// The next one to read by object access.
+    next: usize,
+    /// Refused by the device this session: never asked again (the user was told).
+    refused: Vec<Address>,
+}
+
+/// The share of a cycle the watched objects' reads may take (at least one per cycle).
+const WATCH_SHARE_OF_CYCLE: f64 = 0.25;
+
+/// A watched object the exchange already brought: the cheapest path.
+fn from_exchange(signals: &crate::link::Signals, address: Address) -> Option<f64> {
+    if address.sub != 0 {
+        return (address.index == 0x3220 && address.sub == 1)
+            .then_some(signals.analog_input)
+            .flatten();
+    }
+    match address.index {
+        0x6064 => signals.position,
+        0x606C => signals.velocity,
+        0x6077 => signals.torque,
+        0x60F4 => signals.following_error,
+        0x6041 => signals.statusword.map(f64::from),
+        0x60FD => signals.digital_inputs.map(f64::from),
+        0x6061 => signals.mode.map(f64::from),
+        _ => None,
+    }
 }
 
 /// Plot signals a link may not bring with its exchange; one of those it lacks is read per
@@ -119,6 +155,8 @@ struct Worker {
     retry_at: Option<Instant>,
     backoff: Duration,
     ticker: tokio::time::Interval,
+    /// The objects sampled on request, kept across reconnects.
+    watch: Vec<(Address, DataType)>,
 }
 
 /// The worker's whole life.
@@ -136,6 +174,7 @@ pub async fn run(
         retry_at: None,
         backoff: BACKOFF_FIRST,
         ticker: new_ticker(config.poll_rate),
+        watch: Vec::new(),
     };
     loop {
         tokio::select! {
@@ -258,6 +297,30 @@ impl Worker {
                         request: request.to_string(),
                         reason: format!("a poll rate of {rate} Hz is outside 1 to 2000 Hz"),
                     });
+                }
+            }
+            Request::Watch(ref objects) => {
+                if objects.len() > MAX_WATCHED {
+                    sink.emit(Event::Rejected {
+                        id,
+                        request: request.to_string(),
+                        reason: format!(
+                            "at most {MAX_WATCHED} objects can be sampled besides the built-in signals"
+                        ),
+                    });
+                    return;
+                }
+                self.watch = objects.clone();
+                if let Some(s) = self.session.as_mut() {
+                    s.watch = WatchState {
+                        objects: objects.clone(),
+                        ..WatchState::default()
+                    };
+                    if !s.native_objects {
+                        sink.emit(Event::Notice(
+                            "this link has no object access of its own: added objects are sampled only where its process image carries them".into(),
+                        ));
+                    }
                 }
             }
             Request::Scan(spec) => {
@@ -386,14 +449,14 @@ impl Worker {
         sink.emit(Event::Connecting(spec.clone()));
         let result = match self.broken.take() {
             Some(mut link) => match link.reconnect().await {
-                Ok(()) => Session::start(link, &self.config).await,
+                Ok(()) => Session::start(link, &self.config, &self.watch).await,
                 Err(e) => {
                     self.broken = Some(link);
                     Err(e)
                 }
             },
             None => match link::open(spec).await {
-                Ok(link) => Session::start(link, &self.config).await,
+                Ok(link) => Session::start(link, &self.config, &self.watch).await,
                 Err(e) => Err(e),
             },
         };
@@ -432,7 +495,11 @@ impl Worker {
 
 impl Session {
     /// Start a session on an open link.
-    async fn start(mut link: AnyLink, config: &Config) -> Result<Session, link::Error> {
+    async fn start(
+        mut link: AnyLink,
+        config: &Config,
+        watch: &[(Address, DataType)],
+    ) -> Result<Session, link::Error> {
         let mut master = PdiMaster::new(config.timing);
         // Start from what the drive holds, so connecting replays no command.
         if let Some(rx) = link.read_rx().await? {
@@ -460,6 +527,10 @@ impl Session {
             last_health: now,
             next_extra: 0,
             unreadable: Vec::new(),
+            watch: WatchState {
+                objects: watch.to_vec(),
+                ..WatchState::default()
+            },
         })
     }
 
@@ -491,7 +562,9 @@ impl Session {
 
         let mut signals = exchange.signals;
         self.fill_one_missing(&mut signals).await?;
+        let watched = self.sample_watched(&signals, budget, sink).await?;
         self.samples.push(Sample {
+            watched,
             t: (now - self.started).as_secs_f64(),
             tx,
             position: signals.position,
@@ -568,6 +641,56 @@ impl Session {
             return Ok(());
         }
         Ok(())
+    }
+
+    /// The watched objects this cycle: from the exchange where it brought them, the others
+    /// by object access, round robin, while the time spent stays under a share of the
+    /// cycle (at least one read per cycle).
+    async fn sample_watched(
+        &mut self,
+        signals: &crate::link::Signals,
+        budget: Duration,
+        sink: &mut EventSink,
+    ) -> Result<[Option<f64>; MAX_WATCHED], link::Error> {
+        let mut values = [None; MAX_WATCHED];
+        let mut to_read = Vec::new();
+        for (slot, &(address, dtype)) in self.watch.objects.iter().enumerate().take(MAX_WATCHED) {
+            match from_exchange(signals, address) {
+                Some(v) => values[slot] = Some(v),
+                None if !self.watch.refused.contains(&address) => {
+                    to_read.push((slot, address, dtype))
+                }
+                None => {}
+            }
+        }
+        if to_read.is_empty() || !self.native_objects {
+            return Ok(values);
+        }
+        let budget = budget.mul_f64(WATCH_SHARE_OF_CYCLE / OBJECT_SHARE_OF_CYCLE);
+        let started = Instant::now();
+        let first = self.watch.next % to_read.len();
+        for step in 0..to_read.len() {
+            if step > 0 && started.elapsed() >= budget {
+                break;
+            }
+            let (slot, address, dtype) = to_read[(first + step) % to_read.len()];
+            self.watch.next = first + step + 1;
+            match self.link.read_object(address, dtype).await? {
+                Ok(value) => values[slot] = value.as_f64(),
+                Err(Refusal::NotSupported) => {
+                    self.native_objects = false;
+                    break;
+                }
+                Err(refusal) => {
+                    self.watch.refused.push(address);
+                    sink.emit(Event::Notice(format!(
+                        "{address} is no longer sampled: {}",
+                        refusal_text(&refusal)
+                    )));
+                }
+            }
+        }
+        Ok(values)
     }
 
     /// Start queued jobs: object accesses without the PDI right away (as many as fit in
@@ -760,6 +883,7 @@ impl Session {
                 self.purposes.insert(id, purpose);
                 sink.emit(Event::Sent {
                     id,
+                    t: (now - self.started).as_secs_f64(),
                     what: described,
                     image,
                 });

@@ -1,0 +1,90 @@
+//! What one frame of the plot panel costs with 10 k, 1 M and 5 M samples in the history,
+//! the whole history in view: layout (decimation, plot items) and tessellation through a
+//! headless egui context, no GPU. Also the decimation alone.
+//!
+//! `cargo bench --bench plot` (criterion prints time per frame).
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use drivedeck::pdi::{Status, TxImage};
+use drivedeck::ui::{AppState, Settings};
+use drivedeck::worker::Sample;
+use eframe::egui;
+
+/// A plot panel holding `rows` samples at 1 kHz: a moving motor with noise, a few
+/// one-sample spikes, status bits toggling.
+fn state_with(rows: usize) -> AppState {
+    let mut settings = Settings::default();
+    settings.plot.history_rows = rows;
+    // The whole history in view: the worst case.
+    settings.plot.window_s = 0.0;
+    let mut state = AppState::new(settings);
+    for i in 0..rows {
+        let t = i as f64 * 0.001;
+        let noise = ((i * 7919) % 101) as f64 - 50.0;
+        let spike = if i % 100_003 == 0 { 5000.0 } else { 0.0 };
+        state.scope.push(&Sample {
+            t,
+            position: Some((t * 0.7).sin() * 36_000.0 + noise + spike),
+            velocity: Some((t * 0.7).cos() * 2_500.0 + noise),
+            torque: Some((t * 3.0).sin() * 400.0 + noise),
+            following_error: Some(noise),
+            tx: TxImage {
+                status: Status(if (i / 1500) % 2 == 0 { 0x0009 } else { 0x0001 }),
+                error_code: 0,
+                return_value: i as i32,
+            },
+            ..Sample::default()
+        });
+    }
+    state
+}
+
+fn frame(ctx: &egui::Context, state: &mut AppState) -> usize {
+    let input = egui::RawInput {
+        screen_rect: Some(egui::Rect::from_min_size(
+            egui::Pos2::ZERO,
+            egui::vec2(1600.0, 1000.0),
+        )),
+        ..Default::default()
+    };
+    let output = ctx.run_ui(input, |ui| {
+        drivedeck::ui::plots::plots_ui(ui, state);
+    });
+    let primitives = ctx.tessellate(output.shapes, output.pixels_per_point);
+    primitives.len()
+}
+
+fn plot_frames(c: &mut Criterion) {
+    let mut g = c.benchmark_group("plot frame (layout + tessellation, 1600x1000)");
+    g.sample_size(20);
+    for rows in [10_000, 1_000_000, 5_000_000] {
+        let mut state = state_with(rows);
+        let ctx = egui::Context::default();
+        // Fonts and first-frame layout out of the measurement.
+        frame(&ctx, &mut state);
+        frame(&ctx, &mut state);
+        g.bench_function(format!("{rows} samples"), |b| {
+            b.iter(|| black_box(frame(&ctx, &mut state)))
+        });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("decimation, one signal, 1600 columns");
+    for rows in [10_000, 1_000_000, 5_000_000] {
+        let state = state_with(rows);
+        let ring = state.scope.ring();
+        let (from, to) = (
+            ring.first_time().unwrap_or(0.0),
+            ring.last_time().unwrap_or(0.0),
+        );
+        g.bench_function(format!("{rows} samples"), |b| {
+            b.iter(|| black_box(ring.decimate(0, from, to, 1600).len()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, plot_frames);
+criterion_main!(benches);

@@ -1,0 +1,338 @@
+//! The trigger (a status-bit edge or a threshold crossing, with pre- and post-trigger
+//! time) and the exports: the triggered recording or the visible window to CSV or JSON
+//! with the device's identity and units in the header, and the plots to PNG.
+
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+use eframe::egui::{self, Ui};
+use serde::{Deserialize, Serialize};
+
+use super::super::state::AppState;
+use super::super::widgets::{GREEN, RED};
+use crate::telemetry::{Builtin, CaptureState, Condition, Edge, Kind, Trigger, bit_name};
+
+/// The trigger as typed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct TriggerForm {
+    pub threshold: bool,
+    /// The signal's id.
+    pub signal: String,
+    pub bit: u8,
+    pub level: String,
+    pub edge: Edge,
+    pub pre_s: String,
+    pub post_s: String,
+}
+
+impl Default for TriggerForm {
+    fn default() -> Self {
+        Self {
+            threshold: false,
+            signal: Builtin::PdiStatus.id().into(),
+            bit: crate::pdi::StatusBit::TargetReached.bit(),
+            level: "1000".into(),
+            edge: Edge::Rising,
+            pre_s: "1".into(),
+            post_s: "2".into(),
+        }
+    }
+}
+
+fn edge_text(edge: Edge) -> &'static str {
+    match edge {
+        Edge::Rising => "rises",
+        Edge::Falling => "falls",
+        Edge::Either => "changes",
+    }
+}
+
+impl TriggerForm {
+    /// The trigger it describes, or why not.
+    pub fn trigger(&self, scope: &crate::telemetry::Scope) -> Result<Trigger, String> {
+        let signal = scope
+            .signal(&self.signal)
+            .ok_or_else(|| format!("no signal '{}' to trigger on", self.signal))?;
+        let seconds = |text: &str, what: &str| {
+            text.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && (0.0..=3600.0).contains(v))
+                .ok_or_else(|| format!("{what} '{text}' is not a time of 0 to 3600 s"))
+        };
+        let pre_s = seconds(&self.pre_s, "pre-trigger")?;
+        let post_s = seconds(&self.post_s, "post-trigger")?;
+        let condition = if self.threshold {
+            let level = self
+                .level
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("level '{}' is not a number", self.level))?;
+            Condition::Threshold {
+                channel: signal.column,
+                level,
+                edge: self.edge,
+            }
+        } else {
+            if signal.kind != Kind::Bits {
+                return Err(format!(
+                    "{} has no bits: pick PDI-Status or the digital inputs, or a threshold",
+                    signal.info.name
+                ));
+            }
+            Condition::Bit {
+                channel: signal.column,
+                bit: self.bit.min(31),
+                edge: self.edge,
+            }
+        };
+        Ok(Trigger {
+            condition,
+            pre_s,
+            post_s,
+        })
+    }
+}
+
+pub fn capture_ui(ui: &mut Ui, state: &mut AppState) {
+    ui.horizontal_wrapped(|ui| {
+        trigger_row(ui, state);
+    });
+    ui.horizontal_wrapped(|ui| {
+        export_row(ui, state);
+    });
+    if let Some(message) = &state.plot.message {
+        match message {
+            Ok(text) => ui.colored_label(GREEN, text),
+            Err(text) => ui.colored_label(RED, text),
+        };
+    }
+}
+
+fn trigger_row(ui: &mut Ui, state: &mut AppState) {
+    ui.label("Trigger");
+    let form = &mut state.settings.plot.trigger;
+    let combo = egui::ComboBox::from_id_salt("trigger_kind")
+        .selected_text(if form.threshold {
+            "threshold"
+        } else {
+            "status bit"
+        })
+        .show_ui(ui, |ui| {
+            ui.selectable_value(&mut form.threshold, false, "status bit");
+            ui.selectable_value(&mut form.threshold, true, "threshold");
+        });
+    crate::ui::widgets::name_widget(
+        &combo.response,
+        egui::accesskit::Role::ComboBox,
+        "Trigger kind",
+    );
+    let wanted = if form.threshold {
+        Kind::Analog
+    } else {
+        Kind::Bits
+    };
+    let candidates: Vec<(String, String, Option<Builtin>)> = state
+        .scope
+        .signals()
+        .iter()
+        .filter(|s| s.kind == wanted)
+        .map(|s| (s.info.id.clone(), s.info.name.clone(), s.builtin()))
+        .collect();
+    if !candidates.iter().any(|(id, _, _)| *id == form.signal)
+        && let Some((id, _, _)) = candidates.first()
+    {
+        form.signal = id.clone();
+    }
+    let selected = candidates
+        .iter()
+        .find(|(id, _, _)| *id == form.signal)
+        .map_or_else(String::new, |(_, name, _)| name.clone());
+    let combo = egui::ComboBox::from_id_salt("trigger_signal")
+        .selected_text(selected)
+        .show_ui(ui, |ui| {
+            for (id, name, _) in &candidates {
+                ui.selectable_value(&mut form.signal, id.clone(), name);
+            }
+        });
+    crate::ui::widgets::name_widget(
+        &combo.response,
+        egui::accesskit::Role::ComboBox,
+        "Trigger signal",
+    );
+    let builtin = candidates
+        .iter()
+        .find(|(id, _, _)| *id == form.signal)
+        .and_then(|(_, _, b)| *b);
+    if form.threshold {
+        ui.add(
+            egui::TextEdit::singleline(&mut form.level)
+                .desired_width(60.0)
+                .hint_text("level"),
+        )
+        .on_hover_text("The level the signal crosses, in its unit");
+    } else {
+        let bits: Vec<u8> = match builtin {
+            Some(Builtin::PdiStatus) => crate::pdi::StatusBit::ALL
+                .into_iter()
+                .map(|b| b.bit())
+                .collect(),
+            _ => (0..32).collect(),
+        };
+        let combo = egui::ComboBox::from_id_salt("trigger_bit")
+            .selected_text(bit_name(builtin, form.bit))
+            .show_ui(ui, |ui| {
+                for bit in bits {
+                    ui.selectable_value(&mut form.bit, bit, bit_name(builtin, bit));
+                }
+            });
+        crate::ui::widgets::name_widget(
+            &combo.response,
+            egui::accesskit::Role::ComboBox,
+            "Trigger bit",
+        );
+    }
+    let combo = egui::ComboBox::from_id_salt("trigger_edge")
+        .selected_text(edge_text(form.edge))
+        .show_ui(ui, |ui| {
+            for edge in [Edge::Rising, Edge::Falling, Edge::Either] {
+                ui.selectable_value(&mut form.edge, edge, edge_text(edge));
+            }
+        });
+    crate::ui::widgets::name_widget(
+        &combo.response,
+        egui::accesskit::Role::ComboBox,
+        "Trigger edge",
+    );
+    ui.label("pre [s]");
+    ui.add(egui::TextEdit::singleline(&mut form.pre_s).desired_width(36.0))
+        .on_hover_text("History kept from before the trigger");
+    ui.label("post [s]");
+    ui.add(egui::TextEdit::singleline(&mut form.post_s).desired_width(36.0))
+        .on_hover_text("Recorded after the trigger");
+
+    let capture = state.scope.capture_state();
+    let armed = matches!(capture, CaptureState::Armed | CaptureState::Fired { .. });
+    if armed {
+        if ui.button("Disarm").clicked() {
+            state.scope.disarm();
+            state.plot.message = Some(Ok("trigger disarmed".into()));
+        }
+    } else if ui
+        .button("Arm")
+        .on_hover_text("Wait for the condition, then record the time around it")
+        .clicked()
+    {
+        match state.settings.plot.trigger.trigger(&state.scope) {
+            Ok(trigger) => {
+                let text = state.scope.describe_trigger(&trigger);
+                state.scope.arm(trigger);
+                state.plot.message = Some(Ok(format!("armed: {text}")));
+            }
+            Err(e) => state.plot.message = Some(Err(e)),
+        }
+    }
+    match capture {
+        CaptureState::Idle => ui.weak("not armed"),
+        CaptureState::Armed => ui.strong("armed, waiting"),
+        CaptureState::Fired { at } => ui.strong(format!("fired at {at:.3} s, recording")),
+        CaptureState::Complete { from, at, to } => {
+            ui.label(format!("recorded {:.2} s around {at:.3} s", to - from))
+        }
+    };
+}
+
+fn export_row(ui: &mut Ui, state: &mut AppState) {
+    ui.label("Export to");
+    ui.add(
+        egui::TextEdit::singleline(&mut state.settings.plot.export_path)
+            .desired_width(220.0)
+            .hint_text("file.csv or file.json"),
+    )
+    .on_hover_text("A path ending in .json writes JSON, anything else CSV; PNG goes beside it");
+    let has_recording = state.scope.recording().is_some();
+    if ui
+        .add_enabled(has_recording, egui::Button::new("Save recording"))
+        .on_hover_text("The triggered recording, every signal")
+        .on_disabled_hover_text("Arm the trigger first: a recording comes when it fires")
+        .clicked()
+        && let Some(recording) = state.scope.recording()
+    {
+        let path = state.settings.plot.export_path.clone();
+        let mut recording = recording.clone();
+        recording.meta.rate_hz = Some(state.settings.poll_rate);
+        state.plot.message = Some(crate::telemetry::save_recording(&recording, &path));
+    }
+    if ui
+        .button("Export visible")
+        .on_hover_text("The time span in view, the signals shown")
+        .clicked()
+    {
+        state.plot.message = Some(export_visible(state));
+    }
+    if ui
+        .button("Save PNG")
+        .on_hover_text("A picture of the plots, beside the export file")
+        .clicked()
+    {
+        let path = Path::new(&state.settings.plot.export_path).with_extension("png");
+        request_png(ui.ctx(), state, path.to_string_lossy().into_owned());
+    }
+}
+
+/// The visible time span of the shown signals to the export file.
+pub fn export_visible(state: &AppState) -> Result<String, String> {
+    let (from, to) = super::time_range(state).ok_or("nothing recorded yet")?;
+    let mut meta = state.scope.meta.clone();
+    meta.rate_hz = Some(state.settings.poll_rate);
+    meta.note = Some("the visible window of the plots".into());
+    let recording = state.scope.export(from, to, meta, true);
+    crate::telemetry::save_recording(&recording, &state.settings.plot.export_path)
+}
+
+/// Ask egui for a screenshot; the plots' part of it is written when it arrives.
+fn request_png(ctx: &egui::Context, state: &mut AppState, path: String) {
+    let rect = state.plot.plots_rect;
+    let result: Arc<Mutex<Option<Result<String, String>>>> = state.plot.png_result.clone();
+    let repaint = ctx.clone();
+    let pixels_per_point = ctx.pixels_per_point();
+    ctx.send_viewport_cmd(egui::ViewportCommand::Screenshot(
+        egui::ScreenshotCallback::new(move |image| {
+            // Only the plots, clamped into the picture (`region` panics outside it).
+            let whole = egui::Rect::from_min_size(
+                egui::Pos2::ZERO,
+                egui::vec2(image.size[0] as f32, image.size[1] as f32) / pixels_per_point,
+            );
+            let image = match rect.map(|r| r.intersect(whole.shrink(1.0))) {
+                Some(r) if r.is_positive() => image.region(&r, Some(pixels_per_point)),
+                _ => (*image).clone(),
+            };
+            let outcome = write_png(&image, &path);
+            if let Ok(mut slot) = result.lock() {
+                *slot = Some(outcome);
+            }
+            repaint.request_repaint();
+        }),
+    ));
+    state.plot.message = Some(Ok("taking a picture of the plots…".into()));
+}
+
+/// An RGBA PNG of `image`.
+pub fn write_png(image: &egui::ColorImage, path: &str) -> Result<String, String> {
+    let [width, height] = image.size;
+    let file = std::fs::File::create(path).map_err(|e| format!("cannot write {path}: {e}"))?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
+    encoder.set_color(png::ColorType::Rgba);
+    encoder.set_depth(png::BitDepth::Eight);
+    let bytes: Vec<u8> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
+    encoder
+        .write_header()
+        .and_then(|mut writer| writer.write_image_data(&bytes))
+        .map_err(|e| format!("cannot write {path}: {e}"))?;
+    Ok(format!(
+        "saved a {width}x{height} picture of the plots to {path}"
+    ))
+}

@@ -1,0 +1,351 @@
+//! The stacked plots: one per analog signal, then the digital lanes, all on one linked
+//! time axis, each drawn from the history's min/max decimation at one point group per
+//! pixel column, so the whole history draws without dropping a peak.
+
+use eframe::egui::{self, Color32, Ui};
+use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Text, VLine};
+
+use super::super::state::AppState;
+use super::super::widgets::{AMBER, BLUE, GREEN, RED};
+use super::time_range;
+use crate::telemetry::{BitSpan, Builtin, CaptureState, Condition, Kind, SignalDef, bit_name};
+
+/// Height of one digital lane, in points.
+const LANE_HEIGHT: f32 = 16.0;
+/// Marker labels drawn per plot at most (all markers get their line).
+const MARKER_LABELS: usize = 24;
+
+const PURPLE: Color32 = Color32::from_rgb(150, 110, 210);
+const TEAL: Color32 = Color32::from_rgb(60, 190, 190);
+const GREY: Color32 = Color32::from_gray(150);
+
+fn color_of(signal: &SignalDef, index: usize) -> Color32 {
+    match signal.builtin() {
+        Some(Builtin::Position) => BLUE,
+        Some(Builtin::Velocity) => GREEN,
+        Some(Builtin::Torque) => AMBER,
+        Some(Builtin::FollowingError) => RED,
+        Some(Builtin::AnalogInput) => PURPLE,
+        Some(Builtin::ReturnValue) => TEAL,
+        _ => [PURPLE, TEAL, AMBER, GREEN, BLUE, RED][index % 6],
+    }
+}
+
+/// A lane to draw: which bit of which bit signal.
+struct Lane {
+    column: usize,
+    bit: u8,
+    name: String,
+}
+
+/// What the plots report back for the next frame.
+#[derive(Default)]
+struct Interaction {
+    cursor: Option<f64>,
+    range: Option<(f64, f64)>,
+    user_moved: bool,
+    follow_again: bool,
+}
+
+pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
+    let Some((from, to)) = time_range(state) else {
+        ui.add_space(8.0);
+        ui.weak("Waiting for samples: connect to a drive (or the simulated one).");
+        return;
+    };
+    let ring = state.scope.ring();
+    let analog: Vec<(usize, &SignalDef)> = state
+        .scope
+        .signals()
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.shown && s.kind == Kind::Analog)
+        .collect();
+    let lanes = lanes(state, from, to);
+    let lanes_height = if lanes.is_empty() {
+        0.0
+    } else {
+        lanes.len() as f32 * LANE_HEIGHT + 40.0
+    };
+    let plot_height = if analog.is_empty() {
+        0.0
+    } else {
+        ((ui.available_height() - lanes_height - 8.0) / analog.len() as f32).max(90.0)
+    };
+    let group = egui::Id::unique("plots_time_axis");
+    let follow = state.plot.follow;
+    let markers: Vec<(f64, &str)> = state
+        .scope
+        .markers()
+        .filter(|m| m.t >= from && m.t <= to)
+        .map(|m| (m.t, m.text.as_str()))
+        .collect();
+    let trigger_at = match state.scope.capture_state() {
+        CaptureState::Fired { at } | CaptureState::Complete { at, .. } => Some(at),
+        _ => None,
+    };
+    let threshold = state.scope.trigger().and_then(|t| match t.condition {
+        Condition::Threshold { channel, level, .. } => Some((channel, level)),
+        Condition::Bit { .. } => None,
+    });
+    let mut interaction = Interaction::default();
+    let top = ui.cursor().min;
+
+    for (n, (index, signal)) in analog.iter().enumerate() {
+        let label = if signal.info.unit.is_empty() {
+            signal.info.name.clone()
+        } else {
+            format!("{} [{}]", signal.info.name, signal.info.unit)
+        };
+        let color = color_of(signal, *index);
+        let column = signal.column;
+        let level = threshold.filter(|(c, _)| *c == column).map(|(_, l)| l);
+        let markers = &markers;
+        let response = Plot::new(("plot", signal.info.id.as_str()))
+            .height(plot_height)
+            .link_axis(group, [true, false])
+            .link_cursor(group, [true, false])
+            .legend(Legend::default())
+            .allow_double_click_reset(false)
+            .show_x(true)
+            .x_axis_label(if n + 1 == analog.len() && lanes.is_empty() {
+                "time [s]"
+            } else {
+                ""
+            })
+            .show(ui, |plot_ui| {
+                let (from, to) = visible(plot_ui, follow, from, to);
+                let columns = plot_ui.transform().frame().width().max(1.0) as usize;
+                let points = ring.decimate(column, from, to, columns);
+                if follow {
+                    plot_ui.set_plot_bounds(follow_bounds(&points, from, to, level));
+                }
+                draw_markers(plot_ui, markers, n == 0);
+                if let Some(at) = trigger_at {
+                    plot_ui.add(VLine::new("trigger", at).color(RED).width(1.5));
+                }
+                if let Some(level) = level {
+                    plot_ui.add(
+                        egui_plot::HLine::new("trigger level", level)
+                            .color(RED)
+                            .style(LineStyle::dashed_loose()),
+                    );
+                }
+                plot_ui.line(Line::new(label, points).color(color));
+                (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
+            });
+        interaction.absorb(ui, &response.response, response.inner);
+    }
+
+    if !lanes.is_empty() {
+        let names: Vec<String> = lanes.iter().map(|l| l.name.clone()).collect();
+        let lanes = &lanes;
+        let markers = &markers;
+        let response =
+            Plot::new("plot_lanes")
+                .height(lanes_height - 8.0)
+                .link_axis(group, [true, false])
+                .link_cursor(group, [true, false])
+                .allow_double_click_reset(false)
+                .allow_zoom([true, false])
+                .allow_drag([true, false])
+                .show_grid([true, false])
+                .y_axis_min_width(110.0)
+                .y_axis_formatter(move |mark, _| {
+                    let lane = (mark.value / 1.5).round();
+                    if (mark.value - lane * 1.5).abs() < 0.01 && lane >= 0.0 {
+                        names.get(lane as usize).cloned().unwrap_or_default()
+                    } else {
+                        String::new()
+                    }
+                })
+                .y_grid_spacer(|_| Vec::new())
+                .x_axis_label("time [s]")
+                .show(ui, |plot_ui| {
+                    let (from, to) = visible(plot_ui, follow, from, to);
+                    let columns = plot_ui.transform().frame().width().max(1.0) as usize;
+                    if follow {
+                        plot_ui.set_plot_bounds(PlotBounds::from_min_max(
+                            [from, -0.5],
+                            [to, lanes.len() as f64 * 1.5],
+                        ));
+                    }
+                    draw_markers(plot_ui, markers, false);
+                    let mut last_column = None;
+                    let mut spans: Vec<BitSpan> = Vec::new();
+                    for (k, lane) in lanes.iter().enumerate() {
+                        if last_column != Some(lane.column) {
+                            spans = ring.decimate_bits(lane.column, from, to, columns);
+                            last_column = Some(lane.column);
+                        }
+                        let base = k as f64 * 1.5;
+                        plot_ui.line(
+                            Line::new("", lane_points(&spans, lane.bit, base))
+                                .color(if k % 2 == 0 { GREEN } else { BLUE }),
+                        );
+                    }
+                    (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
+                });
+        interaction.absorb(ui, &response.response, response.inner);
+    }
+
+    let bottom = ui.cursor().min;
+    state.plot.plots_rect = Some(egui::Rect::from_min_max(
+        top,
+        egui::pos2(top.x + ui.available_width(), bottom.y),
+    ));
+    state.plot.cursor = interaction.cursor;
+    if interaction.follow_again {
+        state.plot.follow = true;
+    } else if interaction.user_moved {
+        state.plot.follow = false;
+    }
+    if !state.plot.follow || interaction.user_moved {
+        state.plot.shown_range = interaction.range;
+    } else {
+        state.plot.shown_range = Some((from, to));
+    }
+}
+
+impl Interaction {
+    fn absorb(
+        &mut self,
+        ui: &Ui,
+        response: &egui::Response,
+        (cursor, range): (Option<f64>, (f64, f64)),
+    ) {
+        if cursor.is_some() && response.hovered() {
+            self.cursor = cursor;
+        }
+        self.range.get_or_insert(range);
+        if response.double_clicked() {
+            self.follow_again = true;
+        } else if response.dragged()
+            || (response.hovered()
+                && ui.input(|i| i.smooth_scroll_delta != egui::Vec2::ZERO || i.zoom_delta() != 1.0))
+        {
+            self.user_moved = true;
+        }
+    }
+}
+
+/// The time span this plot shows: ours while following, the plot's own (zoomed, panned)
+/// otherwise.
+fn visible(plot_ui: &PlotUi, follow: bool, from: f64, to: f64) -> (f64, f64) {
+    if follow {
+        return (from, to);
+    }
+    let b = plot_ui.plot_bounds();
+    let (min, max) = (b.min()[0], b.max()[0]);
+    if min.is_finite() && max.is_finite() && max > min {
+        (min, max)
+    } else {
+        (from, to)
+    }
+}
+
+/// The time span on x, the data's range with a margin on y (a flat line is not squeezed
+/// into nothing); a trigger level stays in view.
+fn follow_bounds(points: &[[f64; 2]], from: f64, to: f64, level: Option<f64>) -> PlotBounds {
+    let (mut low, mut high) = points
+        .iter()
+        .filter(|p| p[0] >= from && p[0] <= to)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[1]), hi.max(p[1]))
+        });
+    if let Some(level) = level {
+        low = low.min(level);
+        high = high.max(level);
+    }
+    if !low.is_finite() || !high.is_finite() {
+        (low, high) = (-1.0, 1.0);
+    }
+    let span = (high - low).max(2.0);
+    let margin = span * 0.08;
+    let middle = (high + low) / 2.0;
+    PlotBounds::from_min_max(
+        [from, middle - span / 2.0 - margin],
+        [to, middle + span / 2.0 + margin],
+    )
+}
+
+/// A dashed line for every command sent, labelled (the newest few) on the top plot.
+fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
+    for (t, _) in markers {
+        plot_ui.add(
+            VLine::new("", *t)
+                .color(GREY)
+                .style(LineStyle::dashed_dense())
+                .allow_hover(false),
+        );
+    }
+    if labels {
+        let top = plot_ui.plot_bounds().max()[1];
+        for (t, text) in markers.iter().rev().take(MARKER_LABELS) {
+            plot_ui.text(
+                Text::new("", egui_plot::PlotPoint::new(*t, top), *text)
+                    .anchor(egui::Align2::LEFT_TOP)
+                    .color(GREY)
+                    .allow_hover(false),
+            );
+        }
+    }
+}
+
+/// The lanes to draw: every named PDI-Status bit, and the digital inputs that were on
+/// somewhere in view (the limit and home switches when none was).
+fn lanes(state: &AppState, from: f64, to: f64) -> Vec<Lane> {
+    let ring = state.scope.ring();
+    let mut lanes = Vec::new();
+    for signal in state.scope.signals() {
+        if !signal.shown || signal.kind != Kind::Bits || ring.latest(signal.column).is_none() {
+            continue;
+        }
+        let builtin = signal.builtin();
+        let bits: Vec<u8> = match builtin {
+            Some(Builtin::PdiStatus) => crate::pdi::StatusBit::ALL
+                .into_iter()
+                .map(|b| b.bit())
+                .collect(),
+            _ => {
+                let any = ring
+                    .decimate_bits(signal.column, from, to, 1)
+                    .iter()
+                    .fold(0, |acc, s| acc | s.any);
+                let on: Vec<u8> = (0..32).filter(|b| any & (1 << b) != 0).collect();
+                if on.is_empty() { vec![0, 1, 2] } else { on }
+            }
+        };
+        lanes.extend(bits.into_iter().map(|bit| Lane {
+            column: signal.column,
+            bit,
+            name: bit_name(builtin, bit),
+        }));
+    }
+    lanes
+}
+
+/// One lane's line: low (base) where the bit was 0 throughout a pixel column, high where
+/// it was 1 throughout, a filled-looking zigzag where it changed inside the column.
+fn lane_points(spans: &[BitSpan], bit: u8, base: f64) -> Vec<[f64; 2]> {
+    let mask = 1u32 << bit;
+    let high = base + 1.0;
+    let mut out = Vec::with_capacity(spans.len() * 2);
+    for span in spans {
+        let any = span.any & mask != 0;
+        let all = span.all & mask != 0;
+        if all {
+            out.push([span.t0, high]);
+            out.push([span.t1, high]);
+        } else if !any {
+            out.push([span.t0, base]);
+            out.push([span.t1, base]);
+        } else {
+            out.push([span.t0, base]);
+            out.push([span.t0, high]);
+            out.push([span.t1, base]);
+            out.push([span.t1, high]);
+        }
+    }
+    out
+}

@@ -1,0 +1,246 @@
+//! The plot panel, headless: pause and resume, exports, a trigger capturing a move, and
+//! an object added from the dictionary browser — egui_kittest clicking by label, the real
+//! worker sampling the simulated drive.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use drivedeck::telemetry::{CaptureState, Edge, Recording};
+use drivedeck::ui::{App, Settings};
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+
+fn app_harness() -> Harness<'static, App> {
+    let app = App::new(Settings::default(), Arc::new(|| {}), true);
+    Harness::builder()
+        .with_size(egui::vec2(1600.0, 1000.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
+}
+
+fn step_until(
+    harness: &mut Harness<'_, App>,
+    what: &str,
+    timeout: Duration,
+    done: impl Fn(&Harness<'_, App>) -> bool,
+) {
+    let deadline = Instant::now() + timeout;
+    while !done(harness) {
+        assert!(
+            Instant::now() < deadline,
+            "{what} did not happen within {timeout:?}; message: {:?}; log: {:#?}",
+            harness.state().state.plot.message,
+            harness.state().state.log
+        );
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+fn step_for(harness: &mut Harness<'_, App>, time: Duration) {
+    let until = Instant::now() + time;
+    while Instant::now() < until {
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+fn temp_path(name: &str) -> String {
+    std::env::temp_dir()
+        .join(format!("drivedeck-plots-{}-{name}", std::process::id()))
+        .to_string_lossy()
+        .into_owned()
+}
+
+#[test]
+fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
+    let mut harness = app_harness();
+    step_until(
+        &mut harness,
+        "samples and the identity",
+        Duration::from_secs(5),
+        |h| h.state().state.scope.ring().len() > 50 && h.state().state.plot.identity.is_some(),
+    );
+
+    harness.get_by_label("Pause plot").click();
+    harness.step();
+    let paused_at = harness.state().state.plot.paused_at.expect("paused");
+    let len_at_pause = harness.state().state.scope.ring().len();
+    step_for(&mut harness, Duration::from_millis(300));
+    let state = &harness.state().state;
+    assert_eq!(
+        state.plot.paused_at,
+        Some(paused_at),
+        "the picture stays put"
+    );
+    assert!(
+        state.scope.ring().len() > len_at_pause,
+        "sampling goes on underneath"
+    );
+    let (_, end) = drivedeck::ui::plots::time_range(state).expect("a range");
+    assert_eq!(end, paused_at);
+
+    harness.get_by_label("Resume plot").click();
+    harness.step();
+    step_for(&mut harness, Duration::from_millis(100));
+    let state = &harness.state().state;
+    assert_eq!(state.plot.paused_at, None);
+    assert!(state.plot.follow);
+    let (_, end) = drivedeck::ui::plots::time_range(state).expect("a range");
+    assert!(end > paused_at, "following the newest samples again");
+
+    // The visible window to CSV, then to JSON: units and identity in the header.
+    let csv = temp_path("visible.csv");
+    harness.state_mut().state.settings.plot.export_path = csv.clone();
+    harness.get_by_label("Export visible").click();
+    harness.step();
+    let text = std::fs::read_to_string(&csv).expect("the CSV was written");
+    let recording = Recording::from_csv(&text).expect("our own CSV reads back");
+    assert!(recording.len() > 10, "{} rows", recording.len());
+    let ids: Vec<&str> = recording.channels.iter().map(|c| c.id.as_str()).collect();
+    assert_eq!(ids, ["position", "velocity", "torque", "pdi_status"]);
+    assert_eq!(recording.channels[0].unit, "0.1°");
+    assert_eq!(recording.meta.vendor.as_deref(), Some("0000026Ch"));
+    assert_eq!(recording.meta.link.as_deref(), Some("sim"));
+    assert!(
+        text.contains("# channel: velocity | Velocity 606Ch | rpm"),
+        "{text:.600}"
+    );
+
+    let json = temp_path("visible.json");
+    harness.state_mut().state.settings.plot.export_path = json.clone();
+    harness.get_by_label("Export visible").click();
+    harness.step();
+    let text = std::fs::read_to_string(&json).expect("the JSON was written");
+    let from_json = Recording::from_json(&text).expect("our own JSON reads back");
+    assert_eq!(from_json.channels, recording.channels);
+    assert!(from_json.len() >= recording.len());
+    let _ = std::fs::remove_file(csv);
+    let _ = std::fs::remove_file(json);
+}
+
+#[test]
+fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
+    let mut harness = app_harness();
+    step_until(&mut harness, "samples", Duration::from_secs(5), |h| {
+        h.state().state.scope.ring().len() > 20
+    });
+    {
+        let form = &mut harness.state_mut().state.settings.plot.trigger;
+        form.threshold = true;
+        form.signal = "position".into();
+        form.level = "1000".into();
+        form.edge = Edge::Rising;
+        form.pre_s = "0.3".into();
+        form.post_s = "0.3".into();
+    }
+    harness.step();
+    harness.get_by_label("Arm").click();
+    harness.step();
+    assert_eq!(
+        harness.state().state.scope.capture_state(),
+        CaptureState::Armed,
+        "{:?}",
+        harness.state().state.plot.message
+    );
+    // The default absolute move: to 2000 (0.1°) at 200 rpm, through the level.
+    harness.get_by_label("Move absolute").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the recording",
+        Duration::from_secs(10),
+        |h| h.state().state.scope.recording().is_some(),
+    );
+    let state = &harness.state().state;
+    let recording = state.scope.recording().expect("recorded");
+    let at = recording.meta.trigger_time_s.expect("the trigger time");
+    let first = recording.times.first().copied().unwrap_or(f64::NAN);
+    let last = recording.times.last().copied().unwrap_or(f64::NAN);
+    assert!(
+        (at - first - 0.3).abs() < 0.05,
+        "pre-trigger from {first} to {at}"
+    );
+    assert!(last >= at + 0.3 - 0.05, "post-trigger to {last}");
+    // Before the trigger the position was below the level, at the trigger at or above.
+    let position = &recording.columns[0];
+    let before: Vec<f64> = recording
+        .times
+        .iter()
+        .zip(position)
+        .filter(|(t, v)| **t < at && !v.is_nan())
+        .map(|(_, v)| *v)
+        .collect();
+    assert!(!before.is_empty() && before.iter().all(|v| *v < 1000.0));
+    let at_trigger = recording
+        .times
+        .iter()
+        .position(|t| *t == at)
+        .map(|i| position[i]);
+    assert!(at_trigger.is_some_and(|v| v >= 1000.0), "{at_trigger:?}");
+    assert!(
+        recording
+            .markers
+            .iter()
+            .any(|m| m.text.starts_with("Profile Position absolute")),
+        "the command is marked: {:?}",
+        recording.markers
+    );
+
+    let path = temp_path("triggered.csv");
+    harness.state_mut().state.settings.plot.export_path = path.clone();
+    harness.get_by_label("Save recording").click();
+    harness.step();
+    let text = std::fs::read_to_string(&path).expect("saved");
+    let back = Recording::from_csv(&text).expect("reads back");
+    assert_eq!(back.meta.trigger_time_s, Some(at));
+    assert_eq!(
+        back.len(),
+        harness
+            .state()
+            .state
+            .scope
+            .recording()
+            .map_or(0, Recording::len)
+    );
+    let _ = std::fs::remove_file(path);
+}
+
+#[test]
+fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
+    let mut harness = app_harness();
+    step_until(&mut harness, "samples", Duration::from_secs(5), |h| {
+        h.state().state.scope.ring().len() > 5
+    });
+    harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Dictionary;
+    harness.step();
+    harness
+        .get_by_label("Object filter")
+        .set_text_value_accesskit("6044");
+    harness.run();
+    harness.get_by_label("Plot 6044h:00h").click();
+    harness.step();
+    harness.step();
+    let message = harness.state().state.plot.message.clone();
+    assert!(
+        matches!(&message, Some(Ok(text)) if text.contains("6044h:00h")),
+        "{message:?}"
+    );
+    harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Plots;
+    harness.get_by_label("Move absolute").click();
+    harness.step();
+    step_until(&mut harness, "6044h to move", Duration::from_secs(5), |h| {
+        let scope = &h.state().state.scope;
+        scope
+            .signal("6044h_00h")
+            .and_then(|s| scope.ring().latest(s.column))
+            .is_some_and(|(_, v)| v > 50.0)
+    });
+    // A string cannot be plotted: refused with the reason.
+    harness.state_mut().state.watch_object("1008");
+    let message = harness.state().state.plot.message.clone();
+    assert!(
+        matches!(&message, Some(Err(e)) if e.contains("not a number")),
+        "{message:?}"
+    );
+}
