@@ -10,8 +10,14 @@ use super::super::widgets::{AMBER, BLUE, GREEN, RED};
 use super::time_range;
 use crate::telemetry::{BitSpan, Builtin, CaptureState, Condition, Kind, SignalDef, bit_name};
 
-/// Height of one digital lane, in points.
+/// Height of one digital lane, in points: at most, and at least (the lanes take up to
+/// 40 % of the panel between the two).
 const LANE_HEIGHT: f32 = 16.0;
+const LANE_HEIGHT_MIN: f32 = 9.0;
+/// Width of every plot's y axis, so the time axes line up.
+const Y_AXIS_WIDTH: f32 = 56.0;
+/// The lowest an analog plot gets.
+const PLOT_HEIGHT_MIN: f32 = 60.0;
 /// Marker labels drawn per plot at most (all markers get their line).
 const MARKER_LABELS: usize = 24;
 
@@ -62,15 +68,19 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
         .filter(|(_, s)| s.shown && s.kind == Kind::Analog)
         .collect();
     let lanes = lanes(state, from, to);
+    let available = ui.available_height();
     let lanes_height = if lanes.is_empty() {
         0.0
     } else {
-        lanes.len() as f32 * LANE_HEIGHT + 40.0
+        let share = if analog.is_empty() { 1.0 } else { 0.4 };
+        let lane =
+            ((available * share - 40.0) / lanes.len() as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
+        lanes.len() as f32 * lane + 40.0
     };
     let plot_height = if analog.is_empty() {
         0.0
     } else {
-        ((ui.available_height() - lanes_height - 8.0) / analog.len() as f32).max(90.0)
+        ((available - lanes_height - 8.0) / analog.len() as f32).max(PLOT_HEIGHT_MIN)
     };
     let group = egui::Id::unique("plots_time_axis");
     let follow = state.plot.follow;
@@ -105,14 +115,13 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
             .height(plot_height)
             .link_axis(group, [true, false])
             .link_cursor(group, [true, false])
-            .legend(Legend::default())
+            // Top left: the newest samples come in on the right.
+            .legend(Legend::default().position(egui_plot::Corner::LeftTop))
             .allow_double_click_reset(false)
-            .show_x(true)
-            .x_axis_label(if n + 1 == analog.len() && lanes.is_empty() {
-                "time [s]"
-            } else {
-                ""
-            })
+            .y_axis_min_width(Y_AXIS_WIDTH)
+            .custom_x_axes(time_axis())
+            // The time labels once, under the lowest plot.
+            .show_axes([n + 1 == analog.len() && lanes.is_empty(), true])
             .show(ui, |plot_ui| {
                 let (from, to) = visible(plot_ui, follow, from, to);
                 let columns = plot_ui.transform().frame().width().max(1.0) as usize;
@@ -138,7 +147,6 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
     }
 
     if !lanes.is_empty() {
-        let names: Vec<String> = lanes.iter().map(|l| l.name.clone()).collect();
         let lanes = &lanes;
         let markers = &markers;
         let response =
@@ -150,17 +158,10 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
                 .allow_zoom([true, false])
                 .allow_drag([true, false])
                 .show_grid([true, false])
-                .y_axis_min_width(110.0)
-                .y_axis_formatter(move |mark, _| {
-                    let lane = (mark.value / 1.5).round();
-                    if (mark.value - lane * 1.5).abs() < 0.01 && lane >= 0.0 {
-                        names.get(lane as usize).cloned().unwrap_or_default()
-                    } else {
-                        String::new()
-                    }
-                })
+                .y_axis_min_width(Y_AXIS_WIDTH)
+                .y_axis_formatter(|_, _| String::new())
                 .y_grid_spacer(|_| Vec::new())
-                .x_axis_label("time [s]")
+                .custom_x_axes(time_axis())
                 .show(ui, |plot_ui| {
                     let (from, to) = visible(plot_ui, follow, from, to);
                     let columns = plot_ui.transform().frame().width().max(1.0) as usize;
@@ -182,6 +183,13 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
                         plot_ui.line(
                             Line::new("", lane_points(&spans, lane.bit, base))
                                 .color(if k % 2 == 0 { GREEN } else { BLUE }),
+                        );
+                        // The lane's name at the left edge, over the trace.
+                        plot_ui.text(
+                            Text::new("", egui_plot::PlotPoint::new(from, base + 0.5), &lane.name)
+                                .anchor(egui::Align2::LEFT_CENTER)
+                                .color(Color32::from_gray(210))
+                                .allow_hover(false),
                         );
                     }
                     (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
@@ -205,6 +213,16 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
     } else {
         state.plot.shown_range = Some((from, to));
     }
+}
+
+/// The time axis: labels closer together than egui_plot's default (which shows one
+/// label per 10 s on a 10 s window).
+fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
+    vec![
+        egui_plot::AxisHints::new_x()
+            .label("time [s]")
+            .label_spacing(34.0..=48.0),
+    ]
 }
 
 impl Interaction {
@@ -282,8 +300,10 @@ fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
     if labels {
         let top = plot_ui.plot_bounds().max()[1];
         for (t, text) in markers.iter().rev().take(MARKER_LABELS) {
+            // The command's name; its values are in the log and the exported file.
+            let name = text.split(':').next().unwrap_or(text);
             plot_ui.text(
-                Text::new("", egui_plot::PlotPoint::new(*t, top), *text)
+                Text::new("", egui_plot::PlotPoint::new(*t, top), name)
                     .anchor(egui::Align2::LEFT_TOP)
                     .color(GREY)
                     .allow_hover(false),
