@@ -59,7 +59,7 @@ fn frame(ctx: &egui::Context, state: &mut AppState) -> usize {
 fn plot_frames(c: &mut Criterion) {
     let mut g = c.benchmark_group("plot frame (layout + tessellation, 1600x1000)");
     g.sample_size(20);
-    for rows in [10_000, 1_000_000, 5_000_000] {
+    for rows in [10_000, 600_000, 1_000_000, 5_000_000] {
         let mut state = state_with(rows);
         let ctx = egui::Context::default();
         // Fonts and first-frame layout out of the measurement.
@@ -72,7 +72,7 @@ fn plot_frames(c: &mut Criterion) {
     g.finish();
 
     let mut g = c.benchmark_group("decimation, one signal, 1600 columns");
-    for rows in [10_000, 1_000_000, 5_000_000] {
+    for rows in [10_000, 600_000, 1_000_000, 5_000_000] {
         let state = state_with(rows);
         let ring = state.scope.ring();
         let (from, to) = (

@@ -200,6 +200,7 @@ fn record(
     scope.set_watched(&objects);
     for signal in scope.signals_mut() {
         signal.shown = ids.contains(&signal.info.id);
+        signal.auto = false;
     }
     let trigger = match &args.trigger {
         Some(text) => Some(Trigger {

@@ -162,6 +162,9 @@ pub struct SignalDef {
     /// Its column in the history.
     pub column: usize,
     pub shown: bool,
+    /// Drawn once it has samples, until the user decides (following error and analog
+    /// input: most links do not deliver them).
+    pub auto: bool,
 }
 
 impl SignalDef {
@@ -226,6 +229,7 @@ impl Scope {
                 kind: b.kind(),
                 column,
                 shown: b.shown_by_default(),
+                auto: matches!(b, Builtin::FollowingError | Builtin::AnalogInput),
             })
             .collect();
         Scope {
@@ -254,6 +258,11 @@ impl Scope {
     /// The signal with this id.
     pub fn signal(&self, id: &str) -> Option<&SignalDef> {
         self.signals.iter().find(|s| s.info.id == id)
+    }
+
+    /// Whether the plots draw this signal: picked, or automatic and with samples.
+    pub fn is_drawn(&self, signal: &SignalDef) -> bool {
+        signal.shown || (signal.auto && self.ring.latest(signal.column).is_some())
     }
 
     /// Rows kept per signal.
@@ -355,6 +364,7 @@ impl Scope {
                 kind: Kind::Analog,
                 column,
                 shown,
+                auto: false,
             });
         }
         self.signals = kept;
@@ -420,7 +430,7 @@ impl Scope {
         let columns: Vec<(usize, ChannelInfo)> = self
             .signals
             .iter()
-            .filter(|s| s.shown || !shown_only)
+            .filter(|s| !shown_only || self.is_drawn(s))
             .map(|s| (s.column, s.info.clone()))
             .collect();
         let mut recording = Recording::from_ring(&self.ring, &columns, from, to, meta);

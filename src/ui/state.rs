@@ -455,6 +455,7 @@ impl AppState {
         if !settings.plot.shown.is_empty() {
             for signal in scope.signals_mut() {
                 signal.shown = settings.plot.shown.contains(&signal.info.id);
+                signal.auto = false;
             }
         }
         Self {

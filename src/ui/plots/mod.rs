@@ -203,7 +203,10 @@ fn signals_menu(ui: &mut Ui, state: &mut AppState) {
             } else {
                 format!("{} [{}]", signal.info.name, signal.info.unit)
             };
-            changed |= ui.checkbox(&mut signal.shown, label).changed();
+            if ui.checkbox(&mut signal.shown, label).changed() {
+                signal.auto = false;
+                changed = true;
+            }
         }
         if changed {
             state.settings.plot.shown = state
@@ -306,7 +309,12 @@ fn readout(ui: &mut Ui, state: &AppState) {
             "latest"
         };
         ui.monospace(format!("{what} t = {:.3} s", ring.time(row).unwrap_or(at)));
-        for signal in state.scope.signals().iter().filter(|s| s.shown) {
+        for signal in state
+            .scope
+            .signals()
+            .iter()
+            .filter(|s| state.scope.is_drawn(s))
+        {
             let Some(v) = value_near(ring, row, signal.column) else {
                 continue;
             };

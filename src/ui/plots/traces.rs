@@ -65,7 +65,7 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
         .signals()
         .iter()
         .enumerate()
-        .filter(|(_, s)| s.shown && s.kind == Kind::Analog)
+        .filter(|(_, s)| state.scope.is_drawn(s) && s.kind == Kind::Analog)
         .collect();
     let lanes = lanes(state, from, to);
     let available = ui.available_height();
@@ -318,7 +318,10 @@ fn lanes(state: &AppState, from: f64, to: f64) -> Vec<Lane> {
     let ring = state.scope.ring();
     let mut lanes = Vec::new();
     for signal in state.scope.signals() {
-        if !signal.shown || signal.kind != Kind::Bits || ring.latest(signal.column).is_none() {
+        if !state.scope.is_drawn(signal)
+            || signal.kind != Kind::Bits
+            || ring.latest(signal.column).is_none()
+        {
             continue;
         }
         let builtin = signal.builtin();
