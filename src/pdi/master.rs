@@ -287,6 +287,11 @@ impl PdiMaster {
         self.pending.is_some_and(|p| p.acked_at.is_none())
     }
 
+    /// Whether a travel command runs without the halt bit (the motor may be moving).
+    pub fn travel_running(&self) -> bool {
+        self.travel.is_some_and(|t| !t.halted)
+    }
+
     /// The tag of the command still running, if any.
     pub fn pending_tag(&self) -> Option<u64> {
         self.pending.map(|p| p.tag)

@@ -172,6 +172,7 @@ const GROUPS: [(&str, &[Opcode]); 3] = [
 pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
     ui.heading("Commands");
     halt_ui(ui, state);
+    super::jog::jog_ui(ui, state);
     ui.separator();
     for (title, opcodes) in GROUPS {
         ui.label(RichText::new(title).strong());

@@ -302,6 +302,8 @@ pub struct Settings {
     pub central: Central,
     /// The plot panel's choices.
     pub plot: super::plots::PlotSettings,
+    /// The jog speed as typed, rpm.
+    pub jog_speed: String,
 }
 
 /// The middle of the window: the plots or the object dictionary.
@@ -341,6 +343,7 @@ impl Default for Settings {
             frame_log_path: "drivedeck-frames.log".into(),
             central: Central::Plots,
             plot: super::plots::PlotSettings::default(),
+            jog_speed: "100".into(),
         }
     }
 }
@@ -444,6 +447,10 @@ pub struct AppState {
     slope_reads: Vec<RequestId>,
     /// The halt request still running.
     halt_request: Option<RequestId>,
+    /// A jog button (or arrow key) held.
+    pub jog: Option<super::jog::JogHold>,
+    /// A stop ended the jog: nothing jogs again until the button is released.
+    pub jog_blocked: bool,
     /// The identity read for the exports' header, and its request.
     identity_request: Option<RequestId>,
     identity_reads: BTreeMap<Address, Result<Value, String>>,
@@ -481,6 +488,8 @@ impl AppState {
             show_frames: false,
             slope_reads: Vec::new(),
             halt_request: None,
+            jog: None,
+            jog_blocked: false,
             identity_request: None,
             identity_reads: BTreeMap::new(),
         }
@@ -568,7 +577,14 @@ impl AppState {
                     || matches!(action, Action::Quickstop | Action::SwitchOff)) =>
             {
                 self.halt_engaged = false;
+                if matches!(action, Action::Quickstop | Action::SwitchOff) {
+                    // A stop ends the jog; holding on does not start it again.
+                    if self.jog.take().is_some() {
+                        self.jog_blocked = true;
+                    }
+                }
             }
+            Request::Jog { .. } => self.halt_engaged = false,
             Request::Halt => self.halt_engaged = true,
             Request::Resume => self.halt_engaged = false,
             _ => {}
@@ -585,7 +601,7 @@ impl AppState {
             self.identity_request = Some(id);
             return;
         }
-        if matches!(request, Request::Watch(_)) {
+        if matches!(request, Request::Watch(_) | Request::JogKeepAlive) {
             return;
         }
         if self.browser.note_queued(id, request) {
@@ -710,6 +726,7 @@ impl AppState {
                 }
                 self.connection = Connection::Disconnected;
                 self.health = None;
+                self.jog = None;
                 self.halt_engaged = false;
                 self.halt_request = None;
             }

@@ -16,7 +16,8 @@ use std::time::Duration;
 use tokio::sync::mpsc;
 
 pub use protocol::{
-    CommandProgress, Event, Health, MAX_WATCHED, ObjectPath, Request, RequestId, Sample,
+    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_KEEPALIVE, JOG_TIMEOUT, MAX_WATCHED,
+    ObjectPath, Request, RequestId, Sample, WORKER_ID,
 };
 
 use crate::pdi::Timing;

@@ -11,6 +11,18 @@ use crate::sim::Injection;
 /// Identifies a request in the events it causes.
 pub type RequestId = u64;
 
+/// The id of what the worker does on its own (the halt of a jog whose keep-alive
+/// stopped, the halt tried when the link fails during a move).
+pub const WORKER_ID: RequestId = u64::MAX;
+
+/// How often the window sends `JogKeepAlive` while a jog button is held.
+pub const JOG_KEEPALIVE: Duration = Duration::from_millis(100);
+/// A jog without a keep-alive for this long is halted by the worker: five missed
+/// keep-alives. The drive then brakes on its halt ramp.
+pub const JOG_TIMEOUT: Duration = Duration::from_millis(500);
+/// How long the worker tries to get a halt through when the link fails during a move.
+pub const HALT_ON_LOSS_TIMEOUT: Duration = Duration::from_millis(300);
+
 /// Which way an object access travels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ObjectPath {
@@ -32,6 +44,16 @@ pub enum Request {
     Command(Action),
     /// Set the halt bit on the running travel command.
     Halt,
+    /// Jog: Profile Velocity at `speed` rpm for as long as `JogKeepAlive` keeps coming
+    /// (at least every [`JOG_KEEPALIVE`]); the worker halts the drive when it stops
+    /// coming for [`JOG_TIMEOUT`] (a frozen window, a lost focus, a closed lid).
+    Jog {
+        speed: i32,
+    },
+    /// The jog button is still held.
+    JogKeepAlive,
+    /// The jog button was released: halt.
+    JogStop,
     /// Reset the halt bit: continue to the old target.
     Resume,
     ReadObject {
@@ -87,6 +109,7 @@ impl Request {
         matches!(
             self,
             Request::Halt
+                | Request::JogStop
                 | Request::Command(Action::Quickstop)
                 | Request::Command(Action::SwitchOff)
         )
@@ -100,6 +123,9 @@ impl fmt::Display for Request {
             Request::Disconnect => f.write_str("disconnect"),
             Request::Command(action) => write!(f, "{action}"),
             Request::Halt => f.write_str("Halt (set bit 6)"),
+            Request::Jog { speed } => write!(f, "Jog at {speed} rpm (Profile Velocity while held)"),
+            Request::JogKeepAlive => f.write_str("jog keep-alive"),
+            Request::JogStop => f.write_str("Jog released: halt"),
             Request::Resume => f.write_str("Resume (reset bit 6)"),
             Request::ReadObject { address, .. } => write!(f, "read {address}"),
             Request::WriteObject { address, value, .. } => write!(f, "write {value} to {address}"),

@@ -8,7 +8,8 @@ use tokio::sync::mpsc;
 use tokio::time::MissedTickBehavior;
 
 use super::protocol::{
-    CommandProgress, Event, Health, MAX_WATCHED, ObjectPath, Request, RequestId, Sample,
+    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_TIMEOUT, MAX_WATCHED, ObjectPath,
+    Request, RequestId, Sample, WORKER_ID,
 };
 use super::sink::EventSink;
 use super::{Config, Envelope};
@@ -69,6 +70,8 @@ struct Session {
     unreadable: Vec<u16>,
     /// The watched objects' state this session.
     watch: WatchState,
+    /// A jog runs: halt it unless a keep-alive comes before this.
+    jog_deadline: Option<Instant>,
 }
 
 /// The objects sampled on request (`Request::Watch`), read round robin.
@@ -230,6 +233,16 @@ fn reject_unconnected(id: RequestId, request: &Request, sink: &mut EventSink) {
 
 impl Worker {
     async fn tick(&mut self, sink: &mut EventSink) {
+        if let Some(s) = self.session.as_mut()
+            && s.jog_deadline.is_some_and(|d| Instant::now() >= d)
+        {
+            s.jog_deadline = None;
+            s.start_pdi(WORKER_ID, Request::Halt, sink);
+            sink.emit(Event::Notice(format!(
+                "jog halted: no keep-alive from the window for {:.1} s (frozen, or the focus was lost)",
+                JOG_TIMEOUT.as_secs_f64()
+            )));
+        }
         if let Some(s) = self.session.as_mut() {
             let budget = Duration::from_secs_f64(
                 OBJECT_SHARE_OF_CYCLE / self.config.poll_rate.clamp(1.0, 2000.0),
@@ -240,6 +253,9 @@ impl Worker {
                 };
                 let spec = s.link.info().spec;
                 let reason = error.to_string();
+                if s.jog_deadline.is_some() || s.master.travel_running() {
+                    s.halt_on_loss(&reason, sink).await;
+                }
                 s.abandon_all(&reason, sink);
                 sink.emit(Event::Disconnected {
                     reason: Some(reason.clone()),
@@ -299,6 +315,36 @@ impl Worker {
                     });
                 }
             }
+            Request::Jog { speed } => match self.session.as_mut() {
+                None => reject_unconnected(id, &request, sink),
+                Some(s) => {
+                    s.start_pdi(id, Request::Command(Action::Velocity { speed }), sink);
+                    if s.master.pending_tag() == Some(id) {
+                        s.jog_deadline = Some(Instant::now() + JOG_TIMEOUT);
+                    }
+                }
+            },
+            Request::JogKeepAlive => {
+                if let Some(s) = self.session.as_mut()
+                    && s.jog_deadline.is_some()
+                {
+                    s.jog_deadline = Some(Instant::now() + JOG_TIMEOUT);
+                }
+            }
+            Request::JogStop => match self.session.as_mut() {
+                None => reject_unconnected(id, &request, sink),
+                Some(s) => {
+                    s.jog_deadline = None;
+                    if s.master.travel_running() {
+                        s.start_pdi(id, Request::Halt, sink);
+                    } else {
+                        sink.emit(Event::Progress {
+                            id,
+                            progress: CommandProgress::Done { return_value: 0 },
+                        });
+                    }
+                }
+            },
             Request::Watch(ref objects) => {
                 if objects.len() > MAX_WATCHED {
                     sink.emit(Event::Rejected {
@@ -531,6 +577,7 @@ impl Session {
                 objects: watch.to_vec(),
                 ..WatchState::default()
             },
+            jog_deadline: None,
         })
     }
 
@@ -806,6 +853,35 @@ impl Session {
     }
 
     /// Hand a request to the PDI master and write its image with the next exchange.
+    /// The link failed during a move: one last try to halt the drive, and an honest
+    /// report of whether it got through.
+    async fn halt_on_loss(&mut self, reason: &str, sink: &mut EventSink) {
+        self.jog_deadline = None;
+        let image = match self.master.halt(WORKER_ID, Instant::now()) {
+            Ok(image) => image,
+            Err(e) => {
+                sink.emit(Event::Notice(format!(
+                    "the link failed during a move and no halt could be made ({e}): the drive may still be moving"
+                )));
+                return;
+            }
+        };
+        let attempt =
+            tokio::time::timeout(HALT_ON_LOSS_TIMEOUT, self.link.exchange(Some(&image))).await;
+        sink.emit(Event::Notice(match attempt {
+            Ok(Ok(_)) => format!(
+                "the link failed during a move ({reason}); a halt was sent and the drive answered: it brakes to a stop"
+            ),
+            Ok(Err(e)) => format!(
+                "the link failed during a move ({reason}) and the halt did not reach the drive ({e}): it may still be moving; stop it at the machine"
+            ),
+            Err(_) => format!(
+                "the link failed during a move ({reason}) and the halt got no answer within {:.1} s: the drive may still be moving; stop it at the machine",
+                HALT_ON_LOSS_TIMEOUT.as_secs_f64()
+            ),
+        }));
+    }
+
     fn start_pdi(&mut self, id: RequestId, request: Request, sink: &mut EventSink) {
         if !self.pdi {
             sink.emit(Event::Rejected {
@@ -819,6 +895,10 @@ impl Session {
         }
         let now = Instant::now();
         let described = request.to_string();
+        if matches!(request, Request::Command(_) | Request::Resume) {
+            // Another command takes over from a jog.
+            self.jog_deadline = None;
+        }
         let (result, purpose) = match &request {
             Request::Command(action) => (self.master.start(id, *action, now), Purpose::Command),
             Request::Halt => (self.master.halt(id, now), Purpose::Command),

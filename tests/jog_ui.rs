@@ -1,0 +1,192 @@
+//! Jog and stop in the window, headless (egui_kittest) on the simulated drive: the motor
+//! moves while "Jog +" is held and stops on release; the arrow keys jog too, Esc stops a
+//! jog and a held key does not start it again; Esc's Quickstop goes out ahead of
+//! requests already queued.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use drivedeck::od::{Address, DataType};
+use drivedeck::pdi::StatusBit;
+use drivedeck::ui::state::Outcome;
+use drivedeck::ui::{App, Settings};
+use drivedeck::worker::{ObjectPath, Request};
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+
+fn app_harness() -> Harness<'static, App> {
+    let app = App::new(Settings::default(), Arc::new(|| {}), true);
+    Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
+}
+
+fn step_until(
+    harness: &mut Harness<'_, App>,
+    what: &str,
+    timeout: Duration,
+    done: impl Fn(&Harness<'_, App>) -> bool,
+) {
+    let deadline = Instant::now() + timeout;
+    while !done(harness) {
+        assert!(
+            Instant::now() < deadline,
+            "{what} did not happen within {timeout:?}; log: {:#?}",
+            harness.state().state.log
+        );
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+fn step_for(harness: &mut Harness<'_, App>, time: Duration) {
+    let until = Instant::now() + time;
+    while Instant::now() < until {
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+fn velocity(harness: &Harness<'_, App>) -> f64 {
+    harness
+        .state()
+        .state
+        .latest
+        .and_then(|s| s.velocity)
+        .unwrap_or(f64::NAN)
+}
+
+fn connected(harness: &mut Harness<'_, App>) {
+    step_until(harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+}
+
+#[test]
+fn the_motor_moves_while_jog_is_held_and_halts_on_release() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    let button = harness.get_by_label("Jog +").rect().center();
+    harness.hover_at(button);
+    harness.drag_at(button);
+    harness.step();
+    step_until(&mut harness, "the jog", Duration::from_secs(3), |h| {
+        velocity(h) > 80.0
+    });
+    // Held for well over the worker's keep-alive timeout: the window keeps it alive.
+    step_for(&mut harness, Duration::from_millis(1200));
+    assert!(velocity(&harness) > 80.0, "still jogging");
+    assert!(
+        !harness
+            .state()
+            .state
+            .log
+            .iter()
+            .any(|e| e.what.contains("jog halted")),
+        "the worker did not have to step in"
+    );
+    harness.drop_at(button);
+    harness.step();
+    step_until(
+        &mut harness,
+        "the halt on release",
+        Duration::from_secs(3),
+        |h| velocity(h) == 0.0,
+    );
+    let state = &harness.state().state;
+    assert!(state.bit(StatusBit::QsHaltBit));
+    assert!(
+        state.bit(StatusBit::OperationEnabled),
+        "halted, still enabled"
+    );
+    assert!(state.jog.is_none());
+    assert!(state.log.iter().any(|e| e.what == "Jog released: halt"));
+}
+
+#[test]
+fn arrow_keys_jog_and_escape_stops_a_jog_for_good() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    harness.key_down(egui::Key::ArrowLeft);
+    harness.step();
+    step_until(
+        &mut harness,
+        "the jog backwards",
+        Duration::from_secs(3),
+        |h| velocity(h) < -80.0,
+    );
+    // Esc while the arrow is still held: Quickstop, and no new jog.
+    harness.key_press(egui::Key::Escape);
+    harness.step();
+    step_until(
+        &mut harness,
+        "the quick stop",
+        Duration::from_secs(3),
+        |h| !h.state().state.bit(StatusBit::OperationEnabled) && velocity(h) == 0.0,
+    );
+    step_for(&mut harness, Duration::from_millis(400));
+    assert!(velocity(&harness) == 0.0, "the held key did not jog again");
+    assert!(harness.state().state.jog.is_none());
+    harness.key_up(egui::Key::ArrowLeft);
+    harness.step();
+    assert!(
+        !harness.state().state.jog_blocked,
+        "released: jog works again"
+    );
+}
+
+#[test]
+fn escape_sends_quickstop_ahead_of_everything_queued() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    harness.get_by_label("Velocity").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the motor to turn",
+        Duration::from_secs(3),
+        |h| velocity(h) > 50.0,
+    );
+    // Twelve reads through the PDI queue up: each waits for the one before.
+    for sub in 1..=4 {
+        for _ in 0..3 {
+            harness.state_mut().state.request(Request::ReadObject {
+                address: Address::new(0x1018, sub),
+                dtype: Some(DataType::Unsigned32),
+                path: ObjectPath::Pdi,
+            });
+        }
+    }
+    harness.key_press(egui::Key::Escape);
+    harness.step();
+    step_until(
+        &mut harness,
+        "the quick stop to go out",
+        Duration::from_secs(2),
+        |h| {
+            h.state()
+                .state
+                .log
+                .iter()
+                .any(|e| e.what == "Quickstop" && e.outcome != Outcome::Queued)
+        },
+    );
+    let waiting = harness
+        .state()
+        .state
+        .log
+        .iter()
+        .filter(|e| e.what.starts_with("read 1018h") && e.outcome == Outcome::Queued)
+        .count();
+    assert!(
+        waiting >= 8,
+        "the quick stop went out while the reads queued before it still waited ({waiting} of 12)"
+    );
+    step_until(
+        &mut harness,
+        "the motor to stop",
+        Duration::from_secs(3),
+        |h| velocity(h) == 0.0 && !h.state().state.bit(StatusBit::OperationEnabled),
+    );
+}
