@@ -6,6 +6,7 @@
 
 pub mod cia;
 pub mod cli;
+pub mod diagnostics;
 pub mod link;
 pub mod number;
 pub mod od;

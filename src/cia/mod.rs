@@ -7,5 +7,5 @@ pub mod error_code;
 pub mod power_state;
 
 pub use abort::AbortCode;
-pub use error_code::{ErrorCode, HistoryEntry};
+pub use error_code::{ErrorCode, HistoryEntry, error_register_text};
 pub use power_state::PowerState;

@@ -2,25 +2,42 @@
 
 use eframe::egui::{self, RichText, Ui};
 
-use super::state::{AppState, Outcome};
+use super::state::{AppState, Bottom, Outcome};
 use super::widgets::{AMBER, GREEN, RED};
 
 pub fn log_ui(ui: &mut Ui, state: &mut AppState) {
     ui.horizontal(|ui| {
         ui.heading("Log");
-        ui.selectable_value(&mut state.show_frames, false, "Commands");
-        ui.selectable_value(&mut state.show_frames, true, "Bus frames");
-        if ui.small_button("Clear").clicked() {
-            if state.show_frames {
-                state.frames.clear();
+        ui.selectable_value(&mut state.bottom, Bottom::Commands, "Commands");
+        ui.selectable_value(&mut state.bottom, Bottom::Frames, "Bus frames");
+        let faults = state.timeline.len();
+        ui.selectable_value(
+            &mut state.bottom,
+            Bottom::Faults,
+            if faults == 0 {
+                "Faults".to_owned()
             } else {
-                state.log.clear();
+                format!("Faults ({faults})")
+            },
+        );
+        if ui.small_button("Clear").clicked() {
+            match state.bottom {
+                Bottom::Frames => state.frames.clear(),
+                Bottom::Commands => state.log.clear(),
+                Bottom::Faults => state.timeline.clear(),
             }
         }
     });
-    if state.show_frames {
-        frames_ui(ui, state);
-        return;
+    match state.bottom {
+        Bottom::Frames => {
+            frames_ui(ui, state);
+            return;
+        }
+        Bottom::Faults => {
+            super::faults::faults_ui(ui, state);
+            return;
+        }
+        Bottom::Commands => {}
     }
     egui::ScrollArea::vertical()
         .stick_to_bottom(true)

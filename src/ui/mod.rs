@@ -4,6 +4,7 @@
 pub mod browser;
 pub mod commands;
 pub mod connection;
+pub mod faults;
 pub mod jog;
 pub mod log;
 pub mod plots;

@@ -304,6 +304,8 @@ pub struct Settings {
     pub plot: super::plots::PlotSettings,
     /// The jog speed as typed, rpm.
     pub jog_speed: String,
+    /// Where the fault timeline's export goes.
+    pub timeline_path: String,
 }
 
 /// The middle of the window: the plots or the object dictionary.
@@ -344,6 +346,7 @@ impl Default for Settings {
             central: Central::Plots,
             plot: super::plots::PlotSettings::default(),
             jog_speed: "100".into(),
+            timeline_path: "drivedeck-faults.csv".into(),
         }
     }
 }
@@ -436,7 +439,9 @@ pub struct AppState {
     /// Bus frames recorded (when `settings.record_frames`).
     pub frames: VecDeque<crate::link::TraceRecord>,
     /// Which log the bottom panel shows.
-    pub show_frames: bool,
+    pub bottom: Bottom,
+    /// Every fault and warning seen, in order.
+    pub timeline: crate::diagnostics::Timeline,
     /// The IPv4 interfaces, for EtherNet/IP discovery (found once, on first use).
     pub interfaces: Option<Vec<crate::link::enip::discovery::Interface>>,
     /// The object dictionary browser.
@@ -454,6 +459,31 @@ pub struct AppState {
     /// The identity read for the exports' header, and its request.
     identity_request: Option<RequestId>,
     identity_reads: BTreeMap<Address, Result<Value, String>>,
+    /// The read of 1001h and 1003h for the timeline, its results, and whether another
+    /// fault came while it ran (read again after).
+    diagnosis_request: Option<RequestId>,
+    diagnosis_reads: BTreeMap<Address, Result<Value, String>>,
+    diagnosis_again: bool,
+}
+
+/// What the bottom panel shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Bottom {
+    #[default]
+    Commands,
+    Frames,
+    Faults,
+}
+
+/// 1001h, 1003h:00 and the first eight 1003h entries: read on connecting and on each new
+/// fault or warning, for the timeline.
+fn diagnosis_objects() -> Vec<(Address, DataType)> {
+    let mut objects = vec![
+        (Address::new(0x1001, 0), DataType::Unsigned8),
+        (Address::new(0x1003, 0), DataType::Unsigned8),
+    ];
+    objects.extend((1..=8).map(|sub| (Address::new(0x1003, sub), DataType::Unsigned32)));
+    objects
 }
 
 impl AppState {
@@ -485,14 +515,78 @@ impl AppState {
             browser: super::browser::Browser::new(),
             interfaces: None,
             frames: VecDeque::new(),
-            show_frames: false,
+            bottom: Bottom::Commands,
+            timeline: crate::diagnostics::Timeline::default(),
             slope_reads: Vec::new(),
             halt_request: None,
             jog: None,
             jog_blocked: false,
             identity_request: None,
             identity_reads: BTreeMap::new(),
+            diagnosis_request: None,
+            diagnosis_reads: BTreeMap::new(),
+            diagnosis_again: false,
         }
+    }
+
+    fn diagnosis_request() -> Request {
+        Request::ReadMany {
+            objects: diagnosis_objects(),
+            path: ObjectPath::Auto,
+        }
+    }
+
+    /// Read 1001h and 1003h for the timeline (again after the running read, if one runs).
+    fn want_diagnosis(&mut self) {
+        if self.diagnosis_request.is_some() || self.outbox.contains(&Self::diagnosis_request()) {
+            self.diagnosis_again = true;
+        } else {
+            self.outbox.push(Self::diagnosis_request());
+        }
+    }
+
+    /// The samples' clock now (the newest sample's time).
+    fn sample_time(&self) -> Option<f64> {
+        self.scope.ring().last_time()
+    }
+
+    fn diagnosis_read(&mut self, address: Address, result: Result<Value, String>) {
+        self.diagnosis_reads.insert(address, result);
+        if self.diagnosis_reads.len() < diagnosis_objects().len() {
+            return;
+        }
+        let reads = std::mem::take(&mut self.diagnosis_reads);
+        self.diagnosis_request = None;
+        let t = self.sample_time();
+        let uint = |address: Address| match reads.get(&address) {
+            Some(Ok(value)) => value.as_i128().and_then(|v| u32::try_from(v).ok()),
+            _ => None,
+        };
+        if let Some(register) = uint(Address::new(0x1001, 0)) {
+            self.timeline.error_register(t, register as u8);
+        }
+        let count = uint(Address::new(0x1003, 0)).unwrap_or(0).min(8) as u8;
+        let entries: Vec<(u8, u32)> = (1..=count)
+            .filter_map(|sub| uint(Address::new(0x1003, sub)).map(|raw| (sub, raw)))
+            .collect();
+        self.timeline.error_history(t, &entries);
+        if std::mem::take(&mut self.diagnosis_again) {
+            self.want_diagnosis();
+        }
+    }
+
+    /// Show the moment `t` on the plots: the window around it, marked.
+    pub fn show_on_plot(&mut self, t: f64) {
+        self.settings.central = Central::Plots;
+        let half = if self.settings.plot.window_s > 0.0 {
+            self.settings.plot.window_s / 2.0
+        } else {
+            5.0
+        };
+        let last = self.scope.ring().last_time().unwrap_or(t);
+        self.plot.paused_at = Some((t + half).min(last));
+        self.plot.follow = true;
+        self.plot.highlight = Some(t);
     }
 
     /// Plot an object of the dictionary (typed as an address): checked against the
@@ -601,6 +695,11 @@ impl AppState {
             self.identity_request = Some(id);
             return;
         }
+        if self.diagnosis_request.is_none() && *request == Self::diagnosis_request() {
+            self.diagnosis_request = Some(id);
+            self.diagnosis_reads.clear();
+            return;
+        }
         if matches!(request, Request::Watch(_) | Request::JogKeepAlive) {
             return;
         }
@@ -692,6 +791,10 @@ impl AppState {
                 self.identity_reads.clear();
                 self.scope.meta = crate::telemetry::metadata(None, &link, self.settings.poll_rate);
                 self.outbox.push(Self::identity_request());
+                self.timeline.reconnected();
+                self.diagnosis_request = None;
+                self.diagnosis_again = false;
+                self.outbox.push(Self::diagnosis_request());
                 // Know the torque slope before anyone asks for torque.
                 self.outbox.push(Request::ReadObject {
                     address: TORQUE_SLOPE,
@@ -709,6 +812,12 @@ impl AppState {
                 error,
                 retry_in,
             } => {
+                self.timeline.add(
+                    None,
+                    crate::diagnostics::Severity::Warning,
+                    crate::diagnostics::Origin::Link,
+                    format!("connection to {spec} failed: {error}"),
+                );
                 let retry = retry_in
                     .map(|d| format!("; retrying in {:.1} s", d.as_secs_f64()))
                     .unwrap_or_default();
@@ -720,6 +829,15 @@ impl AppState {
                 };
             }
             Event::Disconnected { reason } => {
+                if let Some(reason) = &reason {
+                    let t = self.sample_time();
+                    self.timeline.add(
+                        t,
+                        crate::diagnostics::Severity::Fault,
+                        crate::diagnostics::Origin::Link,
+                        format!("link lost: {reason}"),
+                    );
+                }
                 match &reason {
                     Some(reason) => self.info(format!("link lost: {reason}")),
                     None => self.info("disconnected"),
@@ -775,6 +893,18 @@ impl AppState {
                         self.halt_engaged = false;
                     }
                 }
+                if !progress.is_success() {
+                    let what = self
+                        .entry(id)
+                        .map_or_else(|| "a command".to_owned(), |e| e.what.clone());
+                    let t = self.sample_time();
+                    self.timeline.add(
+                        t,
+                        crate::diagnostics::Severity::Warning,
+                        crate::diagnostics::Origin::Command,
+                        format!("{what}: {progress}"),
+                    );
+                }
                 if let Some(entry) = self.entry(id) {
                     entry.outcome = match &progress {
                         CommandProgress::Accepted => Outcome::Accepted,
@@ -788,6 +918,10 @@ impl AppState {
                 address,
                 result,
             } => {
+                if self.diagnosis_request == Some(id) {
+                    self.diagnosis_read(address, result);
+                    return;
+                }
                 if self.identity_request == Some(id) {
                     self.identity_reads.insert(address, result);
                     if self.identity_reads.len() == crate::od::backup::IDENTITY.len() {
@@ -852,6 +986,9 @@ impl AppState {
             }
             Event::Samples(samples) => {
                 for sample in &samples {
+                    if self.timeline.observe(sample) {
+                        self.want_diagnosis();
+                    }
                     match self.scope.push(sample) {
                         Some(ScopeEvent::Fired(at)) => {
                             self.info(format!("trigger fired at {at:.3} s"));
@@ -905,7 +1042,22 @@ impl AppState {
                 }
                 self.scan = Some(result);
             }
-            Event::Notice(text) => self.info(text),
+            Event::Notice(text) => {
+                use crate::diagnostics::{Origin, Severity};
+                let t = self.sample_time();
+                if text.starts_with("EMCY") {
+                    let severity = if text.contains("error reset") {
+                        Severity::Info
+                    } else {
+                        Severity::Fault
+                    };
+                    self.timeline.add(t, severity, Origin::Emcy, text.clone());
+                } else if text.contains("jog halted") || text.contains("during a move") {
+                    self.timeline
+                        .add(t, Severity::Warning, Origin::Link, text.clone());
+                }
+                self.info(text)
+            }
             Event::Cancelled { id, dropped } => {
                 self.browser.on_cancelled(id, dropped);
             }

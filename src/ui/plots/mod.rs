@@ -52,6 +52,8 @@ pub struct PlotView {
     pub follow: bool,
     /// Where the pointer is on the time axis, over any plot.
     pub cursor: Option<f64>,
+    /// A moment to mark (a timeline entry shown on the plots).
+    pub highlight: Option<f64>,
     /// The time range drawn in the last frame.
     pub shown_range: Option<(f64, f64)>,
     /// The outcome of the last export or trigger action.
@@ -76,6 +78,7 @@ impl Default for PlotView {
             follow: true,
             cursor: None,
             shown_range: None,
+            highlight: None,
             message: None,
             identity: None,
             watched: Vec::new(),
@@ -138,6 +141,7 @@ fn toolbar(ui: &mut Ui, state: &mut AppState) {
             if paused {
                 state.plot.paused_at = None;
                 state.plot.follow = true;
+                state.plot.highlight = None;
             } else {
                 state.plot.paused_at = state.scope.ring().last_time();
             }

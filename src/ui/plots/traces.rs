@@ -90,6 +90,7 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
         .filter(|m| m.t >= from && m.t <= to)
         .map(|m| (m.t, m.text.as_str()))
         .collect();
+    let highlight = state.plot.highlight;
     let trigger_at = match state.scope.capture_state() {
         CaptureState::Fired { at } | CaptureState::Complete { at, .. } => Some(at),
         _ => None,
@@ -132,6 +133,14 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
                 draw_markers(plot_ui, markers, n == 0);
                 if let Some(at) = trigger_at {
                     plot_ui.add(VLine::new("trigger", at).color(RED).width(1.5));
+                }
+                if let Some(at) = highlight {
+                    plot_ui.add(
+                        VLine::new("", at)
+                            .color(AMBER)
+                            .width(2.0)
+                            .allow_hover(false),
+                    );
                 }
                 if let Some(level) = level {
                     plot_ui.add(

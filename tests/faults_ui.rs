@@ -1,0 +1,126 @@
+//! The fault timeline in the window, headless: a following error injected into the
+//! simulated drive appears with its code and meaning, from PDI-Status, 603Fh, 1001h and
+//! the 1003h history; "Show" puts the plots at that moment; the export writes CSV.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use drivedeck::diagnostics::{Origin, Severity};
+use drivedeck::sim::Injection;
+use drivedeck::ui::state::Central;
+use drivedeck::ui::{App, Settings};
+use drivedeck::worker::Request;
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+
+fn app_harness() -> Harness<'static, App> {
+    let app = App::new(Settings::default(), Arc::new(|| {}), true);
+    Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
+}
+
+fn step_until(
+    harness: &mut Harness<'_, App>,
+    what: &str,
+    timeout: Duration,
+    done: impl Fn(&Harness<'_, App>) -> bool,
+) {
+    let deadline = Instant::now() + timeout;
+    while !done(harness) {
+        assert!(
+            Instant::now() < deadline,
+            "{what} did not happen within {timeout:?}; timeline: {:#?}",
+            harness.state().state.timeline.entries().collect::<Vec<_>>()
+        );
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+fn has(harness: &Harness<'_, App>, origin: Origin, text: &str) -> bool {
+    harness
+        .state()
+        .state
+        .timeline
+        .entries()
+        .any(|e| e.origin == origin && e.text.contains(text))
+}
+
+#[test]
+fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
+    let mut harness = app_harness();
+    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    harness.step();
+    assert!(
+        harness.state().state.timeline.is_empty(),
+        "a healthy drive: nothing on the timeline"
+    );
+    harness.state_mut().state.request(Request::Inject {
+        injection: Injection::FollowingError,
+        active: true,
+    });
+    step_until(
+        &mut harness,
+        "the fault edges",
+        Duration::from_secs(3),
+        |h| has(h, Origin::PdiStatus, "Fault set") && has(h, Origin::ErrorCode, "8611h"),
+    );
+    step_until(
+        &mut harness,
+        "1001h and 1003h read",
+        Duration::from_secs(3),
+        |h| has(h, Origin::ErrorHistory, "8611h") && has(h, Origin::ErrorRegister, ""),
+    );
+    let state = &harness.state().state;
+    let code = state
+        .timeline
+        .entries()
+        .find(|e| e.origin == Origin::ErrorCode)
+        .expect("603Fh entry");
+    assert_eq!(code.severity, Severity::Fault);
+    assert!(
+        code.text.to_lowercase().contains("following error"),
+        "{}",
+        code.text
+    );
+    let at = code.t.expect("a time on the samples' clock");
+    let history = state
+        .timeline
+        .entries()
+        .find(|e| e.origin == Origin::ErrorHistory)
+        .expect("1003h entry");
+    assert!(
+        history.text.starts_with("1003h:01h error #"),
+        "{}",
+        history.text
+    );
+
+    // The Faults tab lists them; "Show" puts the plots at that moment.
+    let tab = format!("Faults ({})", harness.state().state.timeline.len());
+    harness.get_by_label(&tab).click();
+    harness.step();
+    harness.get_by_label("Show entry 1").click();
+    harness.step();
+    let state = &harness.state().state;
+    assert_eq!(state.settings.central, Central::Plots);
+    let highlight = state.plot.highlight.expect("marked on the plots");
+    assert!((highlight - at).abs() < 0.5, "{highlight} vs {at}");
+    assert!(state.plot.paused_at.is_some(), "held still to look at it");
+
+    // Exported as CSV.
+    let path = std::env::temp_dir().join(format!("drivedeck-faults-{}.csv", std::process::id()));
+    harness.state_mut().state.settings.timeline_path = path.to_string_lossy().into_owned();
+    harness.get_by_label("Export timeline").click();
+    harness.step();
+    let csv = std::fs::read_to_string(&path).expect("exported");
+    assert!(
+        csv.starts_with("time_s,wall_clock,severity,origin,text\n"),
+        "{csv}"
+    );
+    assert!(csv.contains(",fault,603Fh,8611h"), "{csv}");
+    let _ = std::fs::remove_file(path);
+}
