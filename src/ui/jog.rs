@@ -126,9 +126,17 @@ pub fn jog_ui(ui: &mut Ui, state: &mut AppState) {
             _ => 0,
         };
     }
-    // A window that lost the focus no longer sees the release: stop now.
-    if !ui.input(|i| i.focused) {
-        held = 0;
+    // A window that loses the focus no longer sees the release: stop now, and wait for
+    // the button to be let go before jogging again.
+    let focus_lost = ui.input(|i| {
+        i.events
+            .iter()
+            .any(|e| matches!(e, egui::Event::WindowFocused(false)))
+    });
+    if focus_lost && state.jog.is_some() {
+        state.jog_step(0, 0);
+        state.jog_blocked = true;
+        return;
     }
     let speed = speed.unwrap_or(0);
     state.jog_step(if usable { held } else { 0 }, speed);

@@ -8,6 +8,7 @@ pub mod faults;
 pub mod jog;
 pub mod log;
 pub mod plots;
+pub mod power_state;
 pub mod state;
 pub mod status;
 pub mod widgets;

@@ -74,6 +74,8 @@ pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
             ui.label(RichText::new(power.name()).size(18.0).color(color).strong())
                 .on_hover_text(power.meaning());
             ui.small(power.meaning());
+            ui.add_space(4.0);
+            super::power_state::power_state_ui(ui, Some(power));
         }
         None => {
             ui.label(match sample.statusword {

@@ -17,7 +17,7 @@ const LANE_HEIGHT_MIN: f32 = 9.0;
 /// Width of every plot's y axis, so the time axes line up.
 const Y_AXIS_WIDTH: f32 = 56.0;
 /// The lowest an analog plot gets.
-const PLOT_HEIGHT_MIN: f32 = 60.0;
+const PLOT_HEIGHT_MIN: f32 = 40.0;
 /// Marker labels drawn per plot at most (all markers get their line).
 const MARKER_LABELS: usize = 24;
 
@@ -72,7 +72,7 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
     let lanes_height = if lanes.is_empty() {
         0.0
     } else {
-        let share = if analog.is_empty() { 1.0 } else { 0.4 };
+        let share = if analog.is_empty() { 1.0 } else { 0.35 };
         let lane =
             ((available * share - 40.0) / lanes.len() as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
         lanes.len() as f32 * lane + 40.0
