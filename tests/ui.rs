@@ -418,7 +418,9 @@ fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
     step_until(
         &mut harness,
         "the target over PDOs",
-        Duration::from_secs(5),
+        // Ten seconds for a one-second move: the PDOs run at the window's 100 Hz and a
+        // loaded two-core machine starves the threads now and then.
+        Duration::from_secs(10),
         |h| {
             lamp(h, "Target reached")
                 && h.state().state.latest.map(|s| s.tx.return_value) == Some(2000)
