@@ -124,3 +124,45 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
     assert!(csv.contains(",fault,603Fh,8611h"), "{csv}");
     let _ = std::fs::remove_file(path);
 }
+
+#[test]
+fn the_changes_tab_lists_what_was_written_and_restores_it() {
+    use drivedeck::od::{Address, DataType, Value};
+    use drivedeck::worker::ObjectPath;
+    let mut harness = app_harness();
+    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    let velocity = Address::new(0x6081, 0);
+    harness.state_mut().state.request(Request::WriteObject {
+        address: velocity,
+        dtype: DataType::Unsigned32,
+        value: Value::Uint(1234),
+        path: ObjectPath::Auto,
+    });
+    step_until(&mut harness, "the change", Duration::from_secs(3), |h| {
+        h.state().state.changes.len() == 1
+    });
+    let before = harness.state().state.changes[0]
+        .before
+        .clone()
+        .expect("read before the write");
+    assert_ne!(before, Value::Uint(1234));
+    harness.get_by_label("Changes (1)").click();
+    harness.step();
+    harness.get_by_label("Restore what I changed (1)").click();
+    harness.step();
+    step_until(&mut harness, "the restore", Duration::from_secs(3), |h| {
+        h.state().state.changes.is_empty()
+    });
+    assert!(
+        harness
+            .state()
+            .state
+            .log
+            .iter()
+            .any(|e| e.what == format!("write {before} to {velocity}")),
+        "{:#?}",
+        harness.state().state.log
+    );
+}

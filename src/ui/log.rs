@@ -20,11 +20,22 @@ pub fn log_ui(ui: &mut Ui, state: &mut AppState) {
                 format!("Faults ({faults})")
             },
         );
+        let changes = state.changes.len();
+        ui.selectable_value(
+            &mut state.bottom,
+            Bottom::Changes,
+            if changes == 0 {
+                "Changes".to_owned()
+            } else {
+                format!("Changes ({changes})")
+            },
+        );
         if ui.small_button("Clear").clicked() {
             match state.bottom {
                 Bottom::Frames => state.frames.clear(),
                 Bottom::Commands => state.log.clear(),
                 Bottom::Faults => state.timeline.clear(),
+                Bottom::Changes => state.changes.clear(),
             }
         }
     });
@@ -35,6 +46,10 @@ pub fn log_ui(ui: &mut Ui, state: &mut AppState) {
         }
         Bottom::Faults => {
             super::faults::faults_ui(ui, state);
+            return;
+        }
+        Bottom::Changes => {
+            super::changes::changes_ui(ui, state);
             return;
         }
         Bottom::Commands => {}

@@ -2,6 +2,7 @@
 //! (`logic`); the panels draw it and collect the user's intents as requests (`ui`).
 
 pub mod browser;
+pub mod changes;
 pub mod commands;
 pub mod connection;
 pub mod faults;

@@ -442,6 +442,10 @@ pub struct AppState {
     pub bottom: Bottom,
     /// Every fault and warning seen, in order.
     pub timeline: crate::diagnostics::Timeline,
+    /// What the tool changed on the drive, with the values before (for undo), and the
+    /// link they belong to.
+    pub changes: Vec<super::changes::ChangeEntry>,
+    changes_link: Option<LinkSpec>,
     /// The IPv4 interfaces, for EtherNet/IP discovery (found once, on first use).
     pub interfaces: Option<Vec<crate::link::enip::discovery::Interface>>,
     /// The object dictionary browser.
@@ -473,6 +477,7 @@ pub enum Bottom {
     Commands,
     Frames,
     Faults,
+    Changes,
 }
 
 /// 1001h, 1003h:00 and the first eight 1003h entries: read on connecting and on each new
@@ -517,6 +522,8 @@ impl AppState {
             frames: VecDeque::new(),
             bottom: Bottom::Commands,
             timeline: crate::diagnostics::Timeline::default(),
+            changes: Vec::new(),
+            changes_link: None,
             slope_reads: Vec::new(),
             halt_request: None,
             jog: None,
@@ -779,6 +786,7 @@ impl AppState {
             Event::Connected(info) => {
                 self.info(format!("connected: {}", info.description));
                 let link = info.spec.to_string();
+                let spec = info.spec.clone();
                 self.connection = Connection::Connected(info);
                 self.halt_engaged = false;
                 self.torque_slope = None;
@@ -792,6 +800,12 @@ impl AppState {
                 self.scope.meta = crate::telemetry::metadata(None, &link, self.settings.poll_rate);
                 self.outbox.push(Self::identity_request());
                 self.timeline.reconnected();
+                // Changes belong to a drive: another link starts a new list (a reconnect
+                // to the same one keeps the values from before the first write).
+                if self.changes_link.as_ref() != Some(&spec) {
+                    self.changes.clear();
+                    self.changes_link = Some(spec);
+                }
                 self.diagnosis_request = None;
                 self.diagnosis_again = false;
                 self.outbox.push(Self::diagnosis_request());
@@ -1042,6 +1056,20 @@ impl AppState {
                 }
                 self.scan = Some(result);
             }
+            Event::Changed {
+                address,
+                dtype,
+                before,
+                after,
+            } => super::changes::note_change(
+                &mut self.changes,
+                super::changes::ChangeEntry {
+                    address,
+                    dtype,
+                    before,
+                    after,
+                },
+            ),
             Event::Notice(text) => {
                 use crate::diagnostics::{Origin, Severity};
                 let t = self.sample_time();

@@ -314,6 +314,15 @@ pub enum Event {
     /// The newest samples, in order; the last one is the current status.
     Samples(Vec<Sample>),
     Health(Health),
+    /// The tool changed an object on the drive: `before` is its value before the tool
+    /// first wrote it this session (`None` when it could not be read first), `after` the
+    /// value now. Writing `before` back undoes the change.
+    Changed {
+        address: Address,
+        dtype: DataType,
+        before: Option<Value>,
+        after: Value,
+    },
     /// Something the user should know that is not tied to a request.
     Notice(String),
     /// Frames the link sent and received, when the trace is on (dropped, never queued

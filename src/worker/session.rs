@@ -43,7 +43,13 @@ enum Purpose {
     },
     Write {
         address: Address,
+        dtype: DataType,
         value: Value,
+    },
+    /// The value an object has before a PDI write changes it (for undo).
+    Before {
+        address: Address,
+        dtype: DataType,
     },
 }
 
@@ -72,6 +78,11 @@ struct Session {
     watch: WatchState,
     /// A jog runs: halt it unless a keep-alive comes before this.
     jog_deadline: Option<Instant>,
+    /// Objects written this session, with the value before the first write (`None`:
+    /// could not be read first), for undo.
+    before: HashMap<Address, Option<Value>>,
+    /// Ids for the worker's own PDI reads (counting down from below `WORKER_ID`).
+    next_internal: RequestId,
 }
 
 /// The objects sampled on request (`Request::Watch`), read round robin.
@@ -578,6 +589,8 @@ impl Session {
                 ..WatchState::default()
             },
             jog_deadline: None,
+            before: HashMap::new(),
+            next_internal: WORKER_ID - 1,
         })
     }
 
@@ -740,6 +753,69 @@ impl Session {
         Ok(values)
     }
 
+    /// Whether a PDI read of a value before a write still runs.
+    fn awaiting_before(&self) -> bool {
+        self.purposes
+            .values()
+            .any(|p| matches!(p, Purpose::Before { .. }))
+    }
+
+    /// Remember a write for undo and tell the window.
+    fn record_change(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        before: Option<Value>,
+        after: Value,
+        sink: &mut EventSink,
+    ) {
+        let before = self.before.entry(address).or_insert(before).clone();
+        sink.emit(Event::Changed {
+            address,
+            dtype,
+            before,
+            after,
+        });
+    }
+
+    /// Before a PDI write of an object not written yet this session, read its value
+    /// through the PDI (for undo). `true` when such a read was started: the write waits.
+    fn pre_read(&mut self, request: &Request, sink: &mut EventSink) -> bool {
+        let Request::WriteObject { address, dtype, .. } = request else {
+            return false;
+        };
+        if self.before.contains_key(address) {
+            return false;
+        }
+        let id = self.next_internal;
+        self.next_internal -= 1;
+        let started = self.master.start(
+            id,
+            Action::OdRead {
+                index: address.index,
+                sub: address.sub,
+            },
+            Instant::now(),
+        );
+        match started {
+            Ok(_) => {
+                self.purposes.insert(
+                    id,
+                    Purpose::Before {
+                        address: *address,
+                        dtype: *dtype,
+                    },
+                );
+                self.report_progress(sink);
+                true
+            }
+            Err(_) => {
+                self.before.insert(*address, None);
+                false
+            }
+        }
+    }
+
     /// Start queued jobs: object accesses without the PDI right away (as many as fit in
     /// `budget`, at least one), one PDI command once the previous one was acknowledged.
     async fn run_jobs(
@@ -766,7 +842,10 @@ impl Session {
                 native_done += 1;
                 continue;
             }
-            if self.master.is_awaiting_ack() {
+            if self.master.is_awaiting_ack() || self.awaiting_before() {
+                break;
+            }
+            if self.pre_read(&request, sink) {
                 break;
             }
             self.queue.pop_front();
@@ -805,18 +884,26 @@ impl Session {
                 dtype,
                 value,
                 ..
-            } => match self.link.write_object(*address, *dtype, value).await? {
-                Ok(()) => {
-                    sink.emit(Event::ObjectWritten {
-                        id,
-                        address: *address,
-                        value: value.clone(),
-                        result: Ok(()),
-                    });
-                    return Ok(());
+            } => {
+                // The value before the first write, for undo.
+                let before = match self.before.get(address) {
+                    Some(known) => known.clone(),
+                    None => self.link.read_object(*address, *dtype).await?.ok(),
+                };
+                match self.link.write_object(*address, *dtype, value).await? {
+                    Ok(()) => {
+                        sink.emit(Event::ObjectWritten {
+                            id,
+                            address: *address,
+                            value: value.clone(),
+                            result: Ok(()),
+                        });
+                        self.record_change(*address, *dtype, before, value.clone(), sink);
+                        return Ok(());
+                    }
+                    Err(refusal) => refusal,
                 }
-                Err(refusal) => refusal,
-            },
+            }
             other => {
                 sink.emit(Event::Rejected {
                     id,
@@ -935,6 +1022,7 @@ impl Session {
                     ),
                     Purpose::Write {
                         address: *address,
+                        dtype: *dtype,
                         value: value.clone(),
                     },
                 ),
@@ -993,14 +1081,31 @@ impl Session {
                         result: Value::from_pdi(dtype, return_value).map_err(|e| e.to_string()),
                     });
                 }
-                (Some(Purpose::Write { address, value }), Progress::Done { .. }) => {
+                (
+                    Some(Purpose::Write {
+                        address,
+                        dtype,
+                        value,
+                    }),
+                    Progress::Done { .. },
+                ) => {
                     sink.emit(Event::ObjectWritten {
                         id,
                         address,
-                        value,
+                        value: value.clone(),
                         result: Ok(()),
                     });
+                    let before = self.before.get(&address).cloned().flatten();
+                    self.record_change(address, dtype, before, value, sink);
                 }
+                (Some(Purpose::Before { address, dtype }), Progress::Done { return_value, .. }) => {
+                    self.before
+                        .insert(address, Value::from_pdi(dtype, return_value).ok());
+                }
+                (Some(Purpose::Before { address, .. }), p) if p.is_final() => {
+                    self.before.insert(address, None);
+                }
+                (Some(Purpose::Before { .. }), _) => {}
                 (Some(Purpose::Read { address, .. }), p) if p.is_final() => {
                     sink.emit(Event::ObjectRead {
                         id,
@@ -1008,7 +1113,7 @@ impl Session {
                         result: Err(CommandProgress::from(p).to_string()),
                     });
                 }
-                (Some(Purpose::Write { address, value }), p) if p.is_final() => {
+                (Some(Purpose::Write { address, value, .. }), p) if p.is_final() => {
                     sink.emit(Event::ObjectWritten {
                         id,
                         address,
