@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use drivedeck::link::LinkSpec;
 use drivedeck::pdi::StatusBit;
 use drivedeck::sim::Injection;
-use drivedeck::worker::{CommandProgress, Event, JOG_KEEPALIVE, Request};
+use drivedeck::worker::{CommandProgress, Event, JOG_KEEPALIVE, LinkLossAction, Request};
 use probe::Probe;
 
 /// Jog at `speed` and wait until the motor turns.
@@ -122,4 +122,24 @@ fn a_link_lost_mid_jog_gets_a_halt_attempt_and_an_honest_report() {
     });
     let after = probe.settle(Duration::from_millis(200));
     assert!(after.velocity.is_some_and(|v| v > 50.0), "{after:?}");
+}
+
+#[test]
+fn the_link_loss_setting_can_leave_the_drive_alone() {
+    let (mut probe, _) = jogging(60);
+    probe.send(Request::SetLinkLoss(LinkLossAction::Nothing));
+    hold(&mut probe, Duration::from_millis(200));
+    probe.send(Request::Inject {
+        injection: Injection::LinkLoss,
+        active: true,
+    });
+    let report = probe.wait(
+        "the report",
+        Duration::from_secs(3),
+        |e| matches!(e, Event::Notice(n) if n.contains("the link failed during a move")),
+    );
+    assert!(
+        matches!(&report, Event::Notice(n) if n.contains("as set, the drive is left alone")),
+        "{report:?}"
+    );
 }

@@ -84,6 +84,7 @@ impl Session {
             },
             reconnect: false,
             trace,
+            ..worker::Config::default()
         };
         let worker = Worker::spawn(config, Arc::new(|| {}))
             .map_err(|e| usage(format!("cannot start the worker thread: {e}")))?;

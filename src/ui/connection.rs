@@ -137,7 +137,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
                 retry_in: Some(_), ..
             } => {
                 if ui.button("Disconnect").clicked() {
-                    state.request(Request::Disconnect);
+                    state.ask_to_leave(false);
                 }
             }
             _ => {
@@ -166,6 +166,17 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
         );
         name_widget(&poll, egui::accesskit::Role::SpinButton, "Poll rate");
         poll.on_hover_text("Process-image exchanges per second (the plots sample at this rate)");
+        let loss = egui::ComboBox::from_id_salt("on_link_loss")
+            .selected_text(format!("link lost: {}", state.settings.on_link_loss.name()))
+            .show_ui(ui, |ui| {
+                for action in crate::worker::LinkLossAction::ALL {
+                    ui.selectable_value(&mut state.settings.on_link_loss, action, action.name());
+                }
+            });
+        name_widget(&loss.response, egui::accesskit::Role::ComboBox, "When the link drops");
+        loss.response.on_hover_text(
+            "What the worker does when the link fails while the motor may be moving: one last try to halt (default) or switch off, or nothing; the log says whether it reached the drive",
+        );
         match &state.connection {
             Connection::Disconnected => {
                 ui.weak("disconnected");

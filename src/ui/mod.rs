@@ -7,6 +7,7 @@ pub mod commands;
 pub mod connection;
 pub mod faults;
 pub mod jog;
+pub mod leave;
 pub mod log;
 pub mod plots;
 pub mod power_state;
@@ -33,6 +34,9 @@ pub struct App {
     started: Instant,
     last_poll_rate: f64,
     last_record_frames: bool,
+    last_link_loss: Option<worker::LinkLossAction>,
+    /// Leaving is done: let the window close.
+    may_close: bool,
 }
 
 impl App {
@@ -58,6 +62,8 @@ impl App {
             started: Instant::now(),
             last_poll_rate,
             last_record_frames: false,
+            last_link_loss: None,
+            may_close: false,
         };
         if connect {
             match app.state.settings.connection.spec() {
@@ -88,6 +94,12 @@ impl App {
                 .outbox
                 .push(Request::SetTrace(self.last_record_frames));
         }
+        if self.last_link_loss != Some(self.state.settings.on_link_loss) {
+            self.last_link_loss = Some(self.state.settings.on_link_loss);
+            self.state
+                .outbox
+                .push(Request::SetLinkLoss(self.state.settings.on_link_loss));
+        }
         if self.state.settings.poll_rate != self.last_poll_rate {
             self.last_poll_rate = self.state.settings.poll_rate;
             self.state
@@ -111,6 +123,19 @@ impl App {
     /// Draw the whole window into `ui`.
     pub fn draw(&mut self, ui: &mut Ui) {
         connection::stop_keys(ui.ctx(), &mut self.state);
+        // Closing the window with the drive energised asks first.
+        let ctx = ui.ctx().clone();
+        if ctx.input(|i| i.viewport().close_requested()) && !self.may_close {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            if self.state.leaving.is_none() {
+                self.state.ask_to_leave(true);
+            }
+        }
+        leave::leave_dialog(&ctx, &mut self.state);
+        if self.state.leave_step() {
+            self.may_close = true;
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
         let state = &mut self.state;
         egui::Panel::top("connection_bar").show(ui, |ui| {
             ui.add_space(4.0);

@@ -306,6 +306,8 @@ pub struct Settings {
     pub jog_speed: String,
     /// Where the fault timeline's export goes.
     pub timeline_path: String,
+    /// What the worker does when the link fails during a move.
+    pub on_link_loss: crate::worker::LinkLossAction,
 }
 
 /// The middle of the window: the plots or the object dictionary.
@@ -347,6 +349,7 @@ impl Default for Settings {
             plot: super::plots::PlotSettings::default(),
             jog_speed: "100".into(),
             timeline_path: "drivedeck-faults.csv".into(),
+            on_link_loss: crate::worker::LinkLossAction::Halt,
         }
     }
 }
@@ -460,6 +463,8 @@ pub struct AppState {
     pub jog: Option<super::jog::JogHold>,
     /// A stop ended the jog: nothing jogs again until the button is released.
     pub jog_blocked: bool,
+    /// Disconnecting (or closing) with the drive energised or objects changed.
+    pub leaving: Option<super::leave::Leaving>,
     /// The identity read for the exports' header, and its request.
     identity_request: Option<RequestId>,
     identity_reads: BTreeMap<Address, Result<Value, String>>,
@@ -528,6 +533,7 @@ impl AppState {
             halt_request: None,
             jog: None,
             jog_blocked: false,
+            leaving: None,
             identity_request: None,
             identity_reads: BTreeMap::new(),
             diagnosis_request: None,

@@ -16,8 +16,8 @@ use std::time::Duration;
 use tokio::sync::mpsc;
 
 pub use protocol::{
-    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_KEEPALIVE, JOG_TIMEOUT, MAX_WATCHED,
-    ObjectPath, Request, RequestId, Sample, WORKER_ID,
+    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_KEEPALIVE, JOG_TIMEOUT,
+    LinkLossAction, MAX_WATCHED, ObjectPath, Request, RequestId, Sample, WORKER_ID,
 };
 
 use crate::pdi::Timing;
@@ -42,6 +42,8 @@ pub struct Config {
     pub reconnect: bool,
     /// Report every frame (`Event::Frames`) from the start.
     pub trace: bool,
+    /// What to do when the link fails during a move.
+    pub on_link_loss: LinkLossAction,
 }
 
 impl Default for Config {
@@ -51,6 +53,7 @@ impl Default for Config {
             timing: Timing::default(),
             reconnect: true,
             trace: false,
+            on_link_loss: LinkLossAction::Halt,
         }
     }
 }

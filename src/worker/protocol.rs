@@ -23,6 +23,35 @@ pub const JOG_TIMEOUT: Duration = Duration::from_millis(500);
 /// How long the worker tries to get a halt through when the link fails during a move.
 pub const HALT_ON_LOSS_TIMEOUT: Duration = Duration::from_millis(300);
 
+/// What the worker does when the link fails while the motor may be moving (a travel
+/// command without the halt bit, or a jog).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum LinkLossAction {
+    /// One last try to set the halt bit: the drive brakes on its ramp, stays energised.
+    #[default]
+    Halt,
+    /// One last try to switch the power stage off (the motor coasts).
+    SwitchOff,
+    /// Leave the drive alone (it carries on, or stops by its own watchdog).
+    Nothing,
+}
+
+impl LinkLossAction {
+    pub const ALL: [LinkLossAction; 3] = [
+        LinkLossAction::Halt,
+        LinkLossAction::SwitchOff,
+        LinkLossAction::Nothing,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            LinkLossAction::Halt => "try to halt",
+            LinkLossAction::SwitchOff => "try to switch off",
+            LinkLossAction::Nothing => "leave the drive alone",
+        }
+    }
+}
+
 /// Which way an object access travels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ObjectPath {
@@ -75,6 +104,8 @@ pub enum Request {
     },
     /// Change the poll rate (cycles per second).
     SetPollRate(f64),
+    /// What to do when the link fails during a move.
+    SetLinkLoss(LinkLossAction),
     /// Report every frame the link sends and receives (`Event::Frames`), or stop.
     SetTrace(bool),
     /// Find the devices on a bus: through the open link when it is on that bus, otherwise
@@ -137,6 +168,7 @@ impl fmt::Display for Request {
                 }
             }
             Request::SetPollRate(hz) => write!(f, "poll at {hz} Hz"),
+            Request::SetLinkLoss(action) => write!(f, "on link loss: {}", action.name()),
             Request::Scan(spec) => write!(f, "scan {}", spec.bus_name()),
             Request::ReadMany { objects, .. } => write!(f, "read {} objects", objects.len()),
             Request::Cancel(id) => write!(f, "cancel request {id}"),

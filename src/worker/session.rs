@@ -8,8 +8,8 @@ use tokio::sync::mpsc;
 use tokio::time::MissedTickBehavior;
 
 use super::protocol::{
-    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_TIMEOUT, MAX_WATCHED, ObjectPath,
-    Request, RequestId, Sample, WORKER_ID,
+    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_TIMEOUT, LinkLossAction, MAX_WATCHED,
+    ObjectPath, Request, RequestId, Sample, WORKER_ID,
 };
 use super::sink::EventSink;
 use super::{Config, Envelope};
@@ -265,7 +265,8 @@ impl Worker {
                 let spec = s.link.info().spec;
                 let reason = error.to_string();
                 if s.jog_deadline.is_some() || s.master.travel_running() {
-                    s.halt_on_loss(&reason, sink).await;
+                    s.stop_on_loss(&reason, self.config.on_link_loss, sink)
+                        .await;
                 }
                 s.abandon_all(&reason, sink);
                 sink.emit(Event::Disconnected {
@@ -302,6 +303,18 @@ impl Worker {
                 self.connect(&spec, sink).await;
             }
             Request::Disconnect => {
+                // A command just given (the halt or switch-off of leaving) reaches the drive
+                // before the link closes.
+                if let Some(s) = self.session.as_mut()
+                    && s.master.is_awaiting_ack()
+                {
+                    let outgoing = s.master.outgoing();
+                    let _ = tokio::time::timeout(
+                        HALT_ON_LOSS_TIMEOUT,
+                        s.link.exchange(outgoing.as_ref()),
+                    )
+                    .await;
+                }
                 self.close(Some("disconnected"), sink).await;
                 self.wanted = None;
                 self.retry_at = None;
@@ -314,6 +327,7 @@ impl Worker {
                     let _ = s.link.take_trace();
                 }
             }
+            Request::SetLinkLoss(action) => self.config.on_link_loss = action,
             Request::SetPollRate(rate) => {
                 if rate.is_finite() && (1.0..=2000.0).contains(&rate) {
                     self.config.poll_rate = rate;
@@ -940,15 +954,33 @@ impl Session {
     }
 
     /// Hand a request to the PDI master and write its image with the next exchange.
-    /// The link failed during a move: one last try to halt the drive, and an honest
-    /// report of whether it got through.
-    async fn halt_on_loss(&mut self, reason: &str, sink: &mut EventSink) {
+    /// The link failed during a move: one last try to halt (or switch off) the drive, as
+    /// the setting says, and an honest report of whether it got through.
+    async fn stop_on_loss(&mut self, reason: &str, action: LinkLossAction, sink: &mut EventSink) {
         self.jog_deadline = None;
-        let image = match self.master.halt(WORKER_ID, Instant::now()) {
+        let made = match action {
+            LinkLossAction::Halt => self.master.halt(WORKER_ID, Instant::now()),
+            LinkLossAction::SwitchOff => {
+                self.master
+                    .start(WORKER_ID, Action::SwitchOff, Instant::now())
+            }
+            LinkLossAction::Nothing => {
+                sink.emit(Event::Notice(format!(
+                    "the link failed during a move ({reason}); as set, the drive is left alone: it may still be moving"
+                )));
+                return;
+            }
+        };
+        let what = if action == LinkLossAction::Halt {
+            "a halt"
+        } else {
+            "a switch-off"
+        };
+        let image = match made {
             Ok(image) => image,
             Err(e) => {
                 sink.emit(Event::Notice(format!(
-                    "the link failed during a move and no halt could be made ({e}): the drive may still be moving"
+                    "the link failed during a move and no {what} could be made ({e}): the drive may still be moving"
                 )));
                 return;
             }
@@ -957,13 +989,13 @@ impl Session {
             tokio::time::timeout(HALT_ON_LOSS_TIMEOUT, self.link.exchange(Some(&image))).await;
         sink.emit(Event::Notice(match attempt {
             Ok(Ok(_)) => format!(
-                "the link failed during a move ({reason}); a halt was sent and the drive answered: it brakes to a stop"
+                "the link failed during a move ({reason}); {what} was sent and the drive answered"
             ),
             Ok(Err(e)) => format!(
-                "the link failed during a move ({reason}) and the halt did not reach the drive ({e}): it may still be moving; stop it at the machine"
+                "the link failed during a move ({reason}) and {what} did not reach the drive ({e}): it may still be moving; stop it at the machine"
             ),
             Err(_) => format!(
-                "the link failed during a move ({reason}) and the halt got no answer within {:.1} s: the drive may still be moving; stop it at the machine",
+                "the link failed during a move ({reason}) and {what} got no answer within {:.1} s: the drive may still be moving; stop it at the machine",
                 HALT_ON_LOSS_TIMEOUT.as_secs_f64()
             ),
         }));

@@ -1,0 +1,215 @@
+//! Leaving a drive safely, headless (egui_kittest), against the simulated drive served
+//! over Modbus TCP (so the drive outlives the connection and can be looked at after):
+//! Disconnect with the motor energised asks; halt (the default) and switch off reach the
+//! drive before the link closes; changed objects are restored first when asked; closing
+//! the window asks the same; the link-loss setting is honoured.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use drivedeck::cia::PowerState;
+use drivedeck::od::{Address, DataType, Value};
+use drivedeck::sim::server::ServerThread;
+use drivedeck::sim::server::modbus::Options;
+use drivedeck::ui::state::{Bus, Connection};
+use drivedeck::ui::{App, Settings};
+use drivedeck::worker::{ObjectPath, Request};
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+
+fn server() -> ServerThread {
+    ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
+        .expect("server")
+}
+
+/// The window connected to `server`, the motor turning at 300 rpm.
+fn turning(server: &ServerThread) -> Harness<'static, App> {
+    let mut settings = Settings::default();
+    settings.connection.bus = Bus::ModbusTcp;
+    settings.connection.tcp_host = "127.0.0.1".into();
+    settings.connection.tcp_port = server.addr.port().to_string();
+    let app = App::new(settings, Arc::new(|| {}), true);
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    harness.get_by_label("Velocity").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the motor to turn",
+        Duration::from_secs(5),
+        |h| {
+            h.state()
+                .state
+                .latest
+                .and_then(|s| s.velocity)
+                .is_some_and(|v| v > 250.0)
+        },
+    );
+    harness
+}
+
+fn step_until(
+    harness: &mut Harness<'_, App>,
+    what: &str,
+    timeout: Duration,
+    done: impl Fn(&Harness<'_, App>) -> bool,
+) {
+    let deadline = Instant::now() + timeout;
+    while !done(harness) {
+        assert!(
+            Instant::now() < deadline,
+            "{what} did not happen within {timeout:?}; log: {:#?}",
+            harness.state().state.log
+        );
+        std::thread::sleep(Duration::from_millis(10));
+        harness.step();
+    }
+}
+
+fn wait_for(what: &str, timeout: Duration, done: impl Fn() -> bool) {
+    let deadline = Instant::now() + timeout;
+    while !done() {
+        assert!(Instant::now() < deadline, "{what} within {timeout:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn disconnected(harness: &Harness<'_, App>) -> bool {
+    matches!(harness.state().state.connection, Connection::Disconnected)
+}
+
+#[test]
+fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
+    let server = server();
+    let mut harness = turning(&server);
+    harness.get_by_label("Disconnect").click();
+    harness.run();
+    assert!(harness.state().state.leaving.is_some(), "it asks first");
+    assert!(!disconnected(&harness), "nothing happens before the answer");
+    harness.get_by_label("Halt, then disconnect").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the disconnect",
+        Duration::from_secs(3),
+        |h| disconnected(h),
+    );
+    // The halt bit reached the drive before the link closed: it brakes to a stop and
+    // stays energised.
+    let drive = server.drive();
+    assert!(drive.lock().rx_image().cmd & 0x40 != 0, "halt bit written");
+    wait_for("the motor at rest", Duration::from_secs(5), || {
+        drive.lock().velocity_rpm().abs() < 0.5
+    });
+    assert_eq!(drive.lock().power_state(), PowerState::OperationEnabled);
+}
+
+#[test]
+fn switch_off_with_restore_undoes_the_changes_then_switches_off() {
+    let server = server();
+    let mut harness = turning(&server);
+    let velocity = Address::new(0x6081, 0);
+    let before = server.drive().lock().read(velocity).expect("readable");
+    harness.state_mut().state.request(Request::WriteObject {
+        address: velocity,
+        dtype: DataType::Unsigned32,
+        value: Value::Uint(777),
+        path: ObjectPath::Auto,
+    });
+    step_until(&mut harness, "the change", Duration::from_secs(3), |h| {
+        h.state().state.changes.len() == 1
+    });
+    assert_eq!(server.drive().lock().read(velocity), Ok(Value::Uint(777)));
+    harness.get_by_label("Disconnect").click();
+    harness.run();
+    // Restoring is offered, and on by default.
+    assert!(harness.state().state.leaving.is_some_and(|l| l.restore));
+    harness.get_by_label("Switch off, then disconnect").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the disconnect",
+        Duration::from_secs(5),
+        |h| disconnected(h),
+    );
+    let drive = server.drive();
+    assert_eq!(drive.lock().read(velocity), Ok(before), "restored");
+    wait_for("the power stage off", Duration::from_secs(5), || {
+        !drive.lock().power_state().is_energised()
+    });
+}
+
+#[test]
+fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking() {
+    let server = server();
+    let mut harness = turning(&server);
+    harness.get_by_label("Disconnect").click();
+    harness.run();
+    harness
+        .get_by_label("Leave it as it is, disconnect")
+        .click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the disconnect",
+        Duration::from_secs(3),
+        |h| disconnected(h),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        server.drive().lock().velocity_rpm() > 250.0,
+        "still turning"
+    );
+
+    // A drive switched off and unchanged: no question.
+    let idle = self::server();
+    let mut settings = Settings::default();
+    settings.connection.bus = Bus::ModbusTcp;
+    settings.connection.tcp_host = "127.0.0.1".into();
+    settings.connection.tcp_port = idle.addr.port().to_string();
+    let app = App::new(settings, Arc::new(|| {}), true);
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    harness.get_by_label("Disconnect").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the disconnect",
+        Duration::from_secs(3),
+        |h| disconnected(h),
+    );
+}
+
+#[test]
+fn closing_the_window_while_turning_asks_too() {
+    let server = server();
+    let mut harness = turning(&server);
+    harness
+        .input_mut()
+        .viewports
+        .entry(egui::ViewportId::ROOT)
+        .or_default()
+        .events
+        .push(egui::ViewportEvent::Close);
+    harness.run();
+    let leaving = harness.state().state.leaving.expect("asked");
+    assert!(leaving.close_window);
+    harness.get_by_label("Halt, then disconnect").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the disconnect",
+        Duration::from_secs(3),
+        |h| disconnected(h),
+    );
+    assert!(server.drive().lock().rx_image().cmd & 0x40 != 0, "halted");
+}
