@@ -116,10 +116,10 @@ impl AppState {
                         "not every change was restored within {RESTORE_TIMEOUT_S:.0} s; disconnecting anyway (see the Changes tab)"
                     ));
                 }
-                if !pending || late || !self.is_connected() {
-                    if let Some(l) = self.leaving.as_mut() {
-                        l.stage = Stage::Disconnecting;
-                    }
+                if (!pending || late || !self.is_connected())
+                    && let Some(l) = self.leaving.as_mut()
+                {
+                    l.stage = Stage::Disconnecting;
                 }
                 false
             }
