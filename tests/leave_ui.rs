@@ -97,7 +97,7 @@ fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
         &mut harness,
         "the disconnect",
         Duration::from_secs(3),
-        |h| disconnected(h),
+        disconnected,
     );
     // The halt bit reached the drive before the link closed: it brakes to a stop and
     // stays energised.
@@ -135,7 +135,7 @@ fn switch_off_with_restore_undoes_the_changes_then_switches_off() {
         &mut harness,
         "the disconnect",
         Duration::from_secs(5),
-        |h| disconnected(h),
+        disconnected,
     );
     let drive = server.drive();
     assert_eq!(drive.lock().read(velocity), Ok(before), "restored");
@@ -158,7 +158,7 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
         &mut harness,
         "the disconnect",
         Duration::from_secs(3),
-        |h| disconnected(h),
+        disconnected,
     );
     std::thread::sleep(Duration::from_millis(300));
     assert!(
@@ -185,7 +185,7 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
         &mut harness,
         "the disconnect",
         Duration::from_secs(3),
-        |h| disconnected(h),
+        disconnected,
     );
 }
 
@@ -209,7 +209,7 @@ fn closing_the_window_while_turning_asks_too() {
         &mut harness,
         "the disconnect",
         Duration::from_secs(3),
-        |h| disconnected(h),
+        disconnected,
     );
     assert!(server.drive().lock().rx_image().cmd & 0x40 != 0, "halted");
 }
