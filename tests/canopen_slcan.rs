@@ -226,8 +226,11 @@ fn the_window_connects_over_slcan_and_moves_the_motor() {
             .as_ref()
             .is_some_and(|r| r.result == Ok(Value::Text("drivedeck simulated drive".into())))
     });
-    // Disconnect releases the port and puts the node's mapping back.
+    // Disconnect releases the port and puts the node's mapping back. The motor is
+    // energised after the move: the window asks what to leave behind; halt.
     harness.get_by_label("Disconnect").click();
+    harness.run();
+    harness.get_by_label("Halt, then disconnect").click();
     harness.step();
     step_until(
         &mut harness,

@@ -588,6 +588,17 @@ impl AppState {
         }
     }
 
+    /// An object access the device refused, on the timeline.
+    fn object_failure(&mut self, text: String) {
+        let t = self.sample_time();
+        self.timeline.add(
+            t,
+            crate::diagnostics::Severity::Warning,
+            crate::diagnostics::Origin::Command,
+            text,
+        );
+    }
+
     /// Show the moment `t` on the plots: the window around it, marked.
     pub fn show_on_plot(&mut self, t: f64) {
         self.settings.central = Central::Plots;
@@ -728,6 +739,7 @@ impl AppState {
         if matches!(
             request,
             Request::SetPollRate(_)
+                | Request::SetLinkLoss(_)
                 | Request::Connect(_)
                 | Request::Disconnect
                 | Request::Inject { .. }
@@ -913,10 +925,9 @@ impl AppState {
                         self.halt_engaged = false;
                     }
                 }
-                if !progress.is_success() {
-                    let what = self
-                        .entry(id)
-                        .map_or_else(|| "a command".to_owned(), |e| e.what.clone());
+                if !progress.is_success()
+                    && let Some(what) = self.entry(id).map(|e| e.what.clone())
+                {
                     let t = self.sample_time();
                     self.timeline.add(
                         t,
@@ -976,6 +987,10 @@ impl AppState {
                         Err(e) => Outcome::Failed(e.clone()),
                     };
                 }
+                if let Err(e) = &result {
+                    // The device's answer (Modbus exception, SDO abort, CIP status).
+                    self.object_failure(format!("read {address}: {e}"));
+                }
                 self.last_object = Some(ReadBack { address, result });
             }
             Event::ObjectWritten {
@@ -998,6 +1013,9 @@ impl AppState {
                         Ok(()) => Outcome::Succeeded(format!("{address} = {value} written")),
                         Err(e) => Outcome::Failed(e.clone()),
                     };
+                }
+                if let Err(e) = &result {
+                    self.object_failure(format!("write {value} to {address}: {e}"));
                 }
                 self.last_object = Some(ReadBack {
                     address,

@@ -958,6 +958,10 @@ impl Session {
     /// the setting says, and an honest report of whether it got through.
     async fn stop_on_loss(&mut self, reason: &str, action: LinkLossAction, sink: &mut EventSink) {
         self.jog_deadline = None;
+        let running: Vec<RequestId> = [self.master.pending_tag(), self.master.background_tag()]
+            .into_iter()
+            .flatten()
+            .collect();
         let made = match action {
             LinkLossAction::Halt => self.master.halt(WORKER_ID, Instant::now()),
             LinkLossAction::SwitchOff => {
@@ -976,6 +980,15 @@ impl Session {
         } else {
             "a switch-off"
         };
+        // The commands that ran end with the link, not "superseded" by this last try.
+        let _ = self.master.drain_progress();
+        for id in running {
+            self.purposes.remove(&id);
+            sink.emit(Event::Progress {
+                id,
+                progress: CommandProgress::LinkLost,
+            });
+        }
         let image = match made {
             Ok(image) => image,
             Err(e) => {
