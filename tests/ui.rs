@@ -413,6 +413,14 @@ fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
             }) && h.state().state.latest.is_some()
         },
     );
+    // What the link itself changed (the PDO mapping) is listed, with its fate.
+    let link_changes = harness.state().state.link_changes.clone();
+    assert!(
+        link_changes
+            .iter()
+            .any(|c| c.contains("PDO setting of node 6") && c.contains("put back")),
+        "{link_changes:#?}"
+    );
     harness.get_by_label("Move absolute").click();
     harness.step();
     step_until(

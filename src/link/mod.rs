@@ -203,6 +203,12 @@ pub trait Link {
         Vec::new()
     }
 
+    /// What the link itself changed on the device to run (a PDO mapping, …), each with
+    /// its old value and what becomes of it when the link closes.
+    fn own_changes(&self) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Bring a failed link back to the same device (the worker calls this with backoff
     /// after a transient error).
     async fn reconnect(&mut self) -> Result<(), Error> {

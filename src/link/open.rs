@@ -215,6 +215,18 @@ impl Link for AnyLink {
         }
     }
 
+    fn own_changes(&self) -> Vec<String> {
+        match self {
+            AnyLink::Sim(l) => l.own_changes(),
+            AnyLink::Modbus(l) => l.own_changes(),
+            AnyLink::Enip(l) => l.own_changes(),
+            AnyLink::CanopenSim(l) => l.own_changes(),
+            AnyLink::CanopenSlcan(l) => l.own_changes(),
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.own_changes(),
+        }
+    }
+
     async fn reconnect(&mut self) -> Result<(), Error> {
         match self {
             AnyLink::Sim(l) => l.reconnect().await,

@@ -85,8 +85,13 @@ pub fn changes_ui(ui: &mut Ui, state: &mut AppState) {
                 .striped(true)
                 .spacing([12.0, 2.0])
                 .show(ui, |ui| {
-                    if state.changes.is_empty() {
+                    if state.changes.is_empty() && state.link_changes.is_empty() {
                         ui.weak("nothing changed on the drive this session");
+                        ui.end_row();
+                    }
+                    for change in &state.link_changes {
+                        ui.weak("link");
+                        ui.label(change);
                         ui.end_row();
                     }
                     for change in &state.changes {

@@ -448,6 +448,8 @@ pub struct AppState {
     /// What the tool changed on the drive, with the values before (for undo), and the
     /// link they belong to.
     pub changes: Vec<super::changes::ChangeEntry>,
+    /// What the link itself changed on the device (a PDO mapping) and its fate.
+    pub link_changes: Vec<String>,
     changes_link: Option<LinkSpec>,
     /// The IPv4 interfaces, for EtherNet/IP discovery (found once, on first use).
     pub interfaces: Option<Vec<crate::link::enip::discovery::Interface>>,
@@ -528,6 +530,7 @@ impl AppState {
             bottom: Bottom::Commands,
             timeline: crate::diagnostics::Timeline::default(),
             changes: Vec::new(),
+            link_changes: Vec::new(),
             changes_link: None,
             slope_reads: Vec::new(),
             halt_request: None,
@@ -876,6 +879,7 @@ impl AppState {
                 }
                 self.connection = Connection::Disconnected;
                 self.health = None;
+                self.link_changes.clear();
                 self.jog = None;
                 self.halt_engaged = false;
                 self.halt_request = None;
@@ -1080,6 +1084,7 @@ impl AppState {
                 }
                 self.scan = Some(result);
             }
+            Event::LinkOwnChanges(changes) => self.link_changes = changes,
             Event::Changed {
                 address,
                 dtype,

@@ -355,6 +355,8 @@ pub enum Event {
         before: Option<Value>,
         after: Value,
     },
+    /// What the link itself changed on the device (see `Link::own_changes`), anew.
+    LinkOwnChanges(Vec<String>),
     /// Something the user should know that is not tied to a request.
     Notice(String),
     /// Frames the link sent and received, when the trace is on (dropped, never queued

@@ -534,6 +534,7 @@ impl Worker {
         match result {
             Ok(mut s) => {
                 sink.emit(Event::Connected(s.link.info()));
+                sink.emit(Event::LinkOwnChanges(s.link.own_changes()));
                 // What connecting took (PDO mapping, for one), and what the link learned.
                 let frames = s.link.take_trace();
                 if self.config.trace && !frames.is_empty() {
@@ -670,6 +671,7 @@ impl Session {
             let info = self.link.info();
             self.native_objects = info.native_objects;
             sink.emit(Event::LinkChanged(info));
+            sink.emit(Event::LinkOwnChanges(self.link.own_changes()));
         }
 
         if now - self.last_health >= Duration::from_secs(1) {

@@ -553,6 +553,27 @@ impl<B: CanBus> Link for CanopenLink<B> {
         std::mem::take(&mut self.notices)
     }
 
+    fn own_changes(&self) -> Vec<String> {
+        let fate = if self.options.keep_pdo {
+            "kept when disconnecting (keep_pdo=1)"
+        } else {
+            "put back by the link when disconnecting"
+        };
+        let mut writes = self.saved.writes.clone();
+        writes.sort_by_key(|w| (w.index, w.sub));
+        writes
+            .iter()
+            .map(|w| {
+                let hex: String = w.data.iter().rev().map(|b| format!("{b:02X}")).collect();
+                format!(
+                    "{}: PDO setting of node {}, was {hex}h; {fate}",
+                    Address::new(w.index, w.sub),
+                    self.options.node
+                )
+            })
+            .collect()
+    }
+
     fn take_trace(&mut self) -> Vec<TraceRecord> {
         self.trace.drain(..).collect()
     }
