@@ -169,6 +169,46 @@ fn disconnecting_puts_the_previous_mapping_back() {
 }
 
 #[test]
+fn self_start_sets_1f80h_lists_it_and_puts_it_back() {
+    runtime().block_on(async {
+        let (bus, _drive) = bus_with_node(1, false);
+        let before = raw_upload(&bus, 1, 0x1F80, 0).await.expect("read");
+        assert_eq!(u32_le(&before) & 0x08, 0, "not self-starting before");
+        let options = CanopenOptions {
+            self_start: true,
+            ..CanopenOptions::default()
+        };
+        let mut link = CanopenLink::connect(spec(1), bus.port(), options)
+            .await
+            .expect("connect");
+        assert_eq!(
+            u32_le(&raw_upload(&bus, 1, 0x1F80, 0).await.expect("read")),
+            0x08
+        );
+        let notices = link.take_notices();
+        assert!(
+            notices.iter().any(|n| n.contains("set 1F80h = 08h")),
+            "{notices:?}"
+        );
+        let changes = link.own_changes();
+        assert!(
+            changes
+                .iter()
+                .any(|c| c.starts_with("1F80h:00h") && c.contains("put back")),
+            "{changes:#?}"
+        );
+        assert!(changes.iter().any(|c| c.starts_with("1400h:01h")));
+        link.close().await.expect("close");
+        assert_eq!(raw_upload(&bus, 1, 0x1F80, 0).await.expect("read"), before);
+        assert_eq!(
+            u32_le(&raw_upload(&bus, 1, 0x1400, 1).await.expect("read")),
+            0x8000_0201,
+            "the mapping is back too"
+        );
+    });
+}
+
+#[test]
 fn a_refused_mapping_runs_the_pdi_over_sdo() {
     runtime().block_on(async {
         let (bus, drive) = bus_with_node(2, true);

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 pub use super::modbus::registers::WordOrder;
 
 /// Every form, for error messages and `--help`.
-pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0[&words=low] | modbus-rtu://PATH?baud=19200&parity=even&stop=1&slave=5[&words=low] | canopen+socketcan://IFACE?node=1[&pdo=1&keep_pdo=1] | canopen+slcan://PATH?bitrate=1000000&node=1 | canopen+sim://?node=1 | enip://HOST:PORT?io=pdi&rpi=10[&cmd_at=8&config=100&udp=2222]";
+pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0[&words=low] | modbus-rtu://PATH?baud=19200&parity=even&stop=1&slave=5[&words=low] | canopen+socketcan://IFACE?node=1[&pdo=1&keep_pdo=1&self_start=1] | canopen+slcan://PATH?bitrate=1000000&node=1 | canopen+sim://?node=1 | enip://HOST:PORT?io=pdi&rpi=10[&cmd_at=8&config=100&udp=2222]";
 
 /// Serial parity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -158,6 +158,10 @@ pub struct CanopenOptions {
     /// Leave the PDO mapping as drivedeck set it when disconnecting (default: restore).
     #[serde(default)]
     pub keep_pdo: bool,
+    /// Master-less setup: set 1F80h = 08h so the node starts by itself after a reset
+    /// (spec 3.1), besides the NMT start now. Put back on disconnect unless `keep_pdo`.
+    #[serde(default)]
+    pub self_start: bool,
 }
 
 fn default_pdo() -> u8 {
@@ -170,6 +174,7 @@ impl Default for CanopenOptions {
             node: 1,
             pdo: 1,
             keep_pdo: false,
+            self_start: false,
         }
     }
 }
@@ -183,6 +188,9 @@ impl CanopenOptions {
         if self.keep_pdo {
             q.push_str("&keep_pdo=1");
         }
+        if self.self_start {
+            q.push_str("&self_start=1");
+        }
         q
     }
 
@@ -190,10 +198,12 @@ impl CanopenOptions {
         let node = q.number("node", 1, 1, 127)? as u8;
         let pdo = q.number("pdo", 1, 1, 4)? as u8;
         let keep_pdo = q.number("keep_pdo", 0, 0, 1)? == 1;
+        let self_start = q.number("self_start", 0, 0, 1)? == 1;
         Ok(Self {
             node,
             pdo,
             keep_pdo,
+            self_start,
         })
     }
 }
@@ -578,7 +588,7 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
                 );
             }
             let can = CanopenOptions::parse(&mut q)?;
-            q.finish(&["node", "pdo", "keep_pdo"])?;
+            q.finish(&["node", "pdo", "keep_pdo", "self_start"])?;
             LinkSpec::CanopenSocketcan {
                 iface: target.to_owned(),
                 can,
@@ -598,7 +608,7 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
                 ));
             }
             let can = CanopenOptions::parse(&mut q)?;
-            q.finish(&["bitrate", "node", "pdo", "keep_pdo"])?;
+            q.finish(&["bitrate", "node", "pdo", "keep_pdo", "self_start"])?;
             LinkSpec::CanopenSlcan {
                 path: target.to_owned(),
                 bitrate,
@@ -610,7 +620,7 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
                 return Err("the simulated CAN bus takes no target (canopen+sim://?node=1)".into());
             }
             let can = CanopenOptions::parse(&mut q)?;
-            q.finish(&["node", "pdo", "keep_pdo"])?;
+            q.finish(&["node", "pdo", "keep_pdo", "self_start"])?;
             LinkSpec::CanopenSim { can }
         }
         "enip" => {

@@ -193,12 +193,15 @@ fn words_more(spec: &LinkSpec) -> String {
     }
 }
 
-fn keep_more(keep_pdo: bool) -> String {
-    if keep_pdo {
-        "&keep_pdo=1".into()
-    } else {
-        String::new()
+fn keep_more(can: crate::link::spec::CanopenOptions) -> String {
+    let mut more = String::new();
+    if can.keep_pdo {
+        more.push_str("&keep_pdo=1");
     }
+    if can.self_start {
+        more.push_str("&self_start=1");
+    }
+    more
 }
 
 impl ConnectionForm {
@@ -237,13 +240,13 @@ impl ConnectionForm {
                 form.can_iface = iface;
                 form.node = can.node.to_string();
                 form.pdo = can.pdo.to_string();
-                form.can_more = keep_more(can.keep_pdo);
+                form.can_more = keep_more(can);
             }
             LinkSpec::CanopenSim { can } => {
                 form.bus = Bus::CanopenSim;
                 form.node = can.node.to_string();
                 form.pdo = can.pdo.to_string();
-                form.can_more = keep_more(can.keep_pdo);
+                form.can_more = keep_more(can);
             }
             LinkSpec::CanopenSlcan { path, bitrate, can } => {
                 form.bus = Bus::CanopenSlcan;
@@ -251,7 +254,7 @@ impl ConnectionForm {
                 form.bitrate = bitrate.to_string();
                 form.node = can.node.to_string();
                 form.pdo = can.pdo.to_string();
-                form.can_more = keep_more(can.keep_pdo);
+                form.can_more = keep_more(can);
             }
             LinkSpec::Enip { host, port, enip } => {
                 form.bus = Bus::Enip;
@@ -1139,6 +1142,8 @@ mod tests {
             "canopen+socketcan://can1?node=4&pdo=2&keep_pdo=1",
             "canopen+slcan://COM5?bitrate=500000&node=9",
             "canopen+sim://?node=6&keep_pdo=1",
+            "canopen+sim://?node=7&self_start=1",
+            "canopen+slcan://COM5?bitrate=500000&node=9&keep_pdo=1&self_start=1",
             "enip://192.168.2.100:44818?io=common&rpi=4&cmd_at=8&config=0&udp=0",
             "enip://[::1]:2000?io=explicit&rpi=10",
         ] {

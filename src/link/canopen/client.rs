@@ -128,6 +128,9 @@ impl<B: CanBus> CanopenLink<B> {
                 ));
             }
         }
+        if options.self_start {
+            link.start_by_itself().await?;
+        }
         link.send(&nmt::command_frame(NmtCommand::Start, options.node))
             .await?;
         // The image as it is now, before the first TPDO arrives.
@@ -367,6 +370,40 @@ impl<B: CanBus> CanopenLink<B> {
             tx_comm.cob_id
         ));
         Ok(Ok(()))
+    }
+
+    /// Master-less setup (spec 3.1): 1F80h = 08h, the node starts by itself after a
+    /// reset; the old value is kept with the mapping's for the restore.
+    async fn start_by_itself(&mut self) -> Result<(), Error> {
+        let old = self.sdo_upload(0x1F80, 0).await?;
+        match self
+            .sdo_download(0x1F80, 0, &0x08u32.to_le_bytes())
+            .await?
+        {
+            Ok(()) => {
+                if let Ok(data) = old {
+                    self.saved.writes.push(SdoWrite {
+                        index: 0x1F80,
+                        sub: 0,
+                        data,
+                    });
+                }
+                self.notices.push(format!(
+                    "set 1F80h = 08h on node {}: it starts by itself after a reset (master-less); {}",
+                    self.options.node,
+                    if self.options.keep_pdo {
+                        "kept after disconnecting (keep_pdo=1)"
+                    } else {
+                        "put back on disconnect"
+                    }
+                ));
+            }
+            Err(code) => self.notices.push(format!(
+                "node {} refused 1F80h = 08h ({code}): it needs an NMT start from a master after each reset",
+                self.options.node
+            )),
+        }
+        Ok(())
     }
 
     /// Put back what `map_pdi` changed.
@@ -655,7 +692,14 @@ fn restore_order(saved: Vec<SdoWrite>) -> Vec<SdoWrite> {
             out.push(cob);
         }
     }
+    // Everything else (1F80h) after the PDOs.
+    out.extend(saved.iter().filter(|w| !is_pdo_object(w.index)).cloned());
     out
+}
+
+/// PDO communication (1400h-15FFh, 1800h-19FFh) and mapping (1600h-17FFh, 1A00h-1BFFh).
+fn is_pdo_object(index: u16) -> bool {
+    (0x1400..0x1C00).contains(&index)
 }
 
 #[cfg(test)]
