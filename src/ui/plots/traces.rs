@@ -119,6 +119,11 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
             // Top left: the newest samples come in on the right.
             .legend(Legend::default().position(egui_plot::Corner::LeftTop))
             .allow_double_click_reset(false)
+            // Three or four labelled values on a low plot (egui_plot's decades give one).
+            .custom_y_axes(vec![
+                egui_plot::AxisHints::new_y().label_spacing(10.0..=16.0),
+            ])
+            .y_grid_spacer(nice_steps)
             .y_axis_min_width(Y_AXIS_WIDTH)
             .custom_x_axes(time_axis())
             // The time labels once, under the lowest plot.
@@ -222,6 +227,35 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
     } else {
         state.plot.shown_range = Some((from, to));
     }
+}
+
+/// Grid marks at 1, 2 or 5 × 10ⁿ, about three per plot, with finer unlabelled lines.
+fn nice_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
+    let (min, max) = input.bounds;
+    let span = max - min;
+    if !span.is_finite() || span <= 0.0 {
+        return Vec::new();
+    }
+    let raw = span / 3.0;
+    let decade = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * decade)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * decade);
+    let mut marks = Vec::new();
+    for (size, limit) in [(step, 16), (step / 5.0, 80)] {
+        let first = (min / size).ceil() as i64;
+        let last = (max / size).floor() as i64;
+        if last - first > limit {
+            continue;
+        }
+        marks.extend((first..=last).map(|k| egui_plot::GridMark {
+            value: k as f64 * size,
+            step_size: size,
+        }));
+    }
+    marks
 }
 
 /// The time axis: labels closer together than egui_plot's default (which shows one
