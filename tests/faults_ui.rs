@@ -2,42 +2,18 @@
 //! simulated drive appears with its code and meaning, from PDI-Status, 603Fh, 1001h and
 //! the 1003h history; "Show" puts the plots at that moment; the export writes CSV.
 
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+mod window;
+
+use std::time::Duration;
 
 use drivedeck::diagnostics::{Origin, Severity};
 use drivedeck::sim::Injection;
+use drivedeck::ui::App;
 use drivedeck::ui::state::Central;
-use drivedeck::ui::{App, Settings};
 use drivedeck::worker::Request;
-use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-
-fn app_harness() -> Harness<'static, App> {
-    let app = App::new(Settings::default(), Arc::new(|| {}), true);
-    Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
-}
-
-fn step_until(
-    harness: &mut Harness<'_, App>,
-    what: &str,
-    timeout: Duration,
-    done: impl Fn(&Harness<'_, App>) -> bool,
-) {
-    let deadline = Instant::now() + timeout;
-    while !done(harness) {
-        assert!(
-            Instant::now() < deadline,
-            "{what} did not happen within {timeout:?}; timeline: {:#?}",
-            harness.state().state.timeline.entries().collect::<Vec<_>>()
-        );
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
-}
+use window::{app_harness, step_until};
 
 fn has(harness: &Harness<'_, App>, origin: Origin, text: &str) -> bool {
     harness

@@ -3,50 +3,19 @@
 //! jog and a held key does not start it again; Esc's Quickstop goes out ahead of
 //! requests already queued.
 
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+mod window;
+
+use std::time::Duration;
 
 use drivedeck::od::{Address, DataType};
 use drivedeck::pdi::StatusBit;
+use drivedeck::ui::App;
 use drivedeck::ui::state::Outcome;
-use drivedeck::ui::{App, Settings};
 use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-
-fn app_harness() -> Harness<'static, App> {
-    let app = App::new(Settings::default(), Arc::new(|| {}), true);
-    Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
-}
-
-fn step_until(
-    harness: &mut Harness<'_, App>,
-    what: &str,
-    timeout: Duration,
-    done: impl Fn(&Harness<'_, App>) -> bool,
-) {
-    let deadline = Instant::now() + timeout;
-    while !done(harness) {
-        assert!(
-            Instant::now() < deadline,
-            "{what} did not happen within {timeout:?}; log: {:#?}",
-            harness.state().state.log
-        );
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
-}
-
-fn step_for(harness: &mut Harness<'_, App>, time: Duration) {
-    let until = Instant::now() + time;
-    while Instant::now() < until {
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
-}
+use window::{app_harness, connected, step_for, step_until};
 
 fn velocity(harness: &Harness<'_, App>) -> f64 {
     harness
@@ -55,12 +24,6 @@ fn velocity(harness: &Harness<'_, App>) -> f64 {
         .latest
         .and_then(|s| s.velocity)
         .unwrap_or(f64::NAN)
-}
-
-fn connected(harness: &mut Harness<'_, App>) {
-    step_until(harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
 }
 
 #[test]

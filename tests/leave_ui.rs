@@ -4,7 +4,8 @@
 //! drive before the link closes; changed objects are restored first when asked; closing
 //! the window asks the same; the link-loss setting is honoured.
 
-use std::sync::Arc;
+mod window;
+
 use std::time::{Duration, Instant};
 
 use drivedeck::cia::PowerState;
@@ -17,25 +18,27 @@ use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
+use window::{connected, harness_with, step_until};
 
 fn server() -> ServerThread {
     ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
         .expect("server")
 }
 
-/// The window connected to `server`, the motor turning at 300 rpm.
-fn turning(server: &ServerThread) -> Harness<'static, App> {
+/// The window connected to `server` over Modbus TCP.
+fn window_on(server: &ServerThread) -> Harness<'static, App> {
     let mut settings = Settings::default();
     settings.connection.bus = Bus::ModbusTcp;
     settings.connection.tcp_host = "127.0.0.1".into();
     settings.connection.tcp_port = server.addr.port().to_string();
-    let app = App::new(settings, Arc::new(|| {}), true);
-    let mut harness = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    let mut harness = harness_with(settings, true, egui::vec2(1400.0, 900.0));
+    connected(&mut harness);
+    harness
+}
+
+/// The window connected to `server`, the motor turning at 300 rpm.
+fn turning(server: &ServerThread) -> Harness<'static, App> {
+    let mut harness = window_on(server);
     harness.get_by_label("Velocity").click();
     harness.step();
     step_until(
@@ -51,24 +54,6 @@ fn turning(server: &ServerThread) -> Harness<'static, App> {
         },
     );
     harness
-}
-
-fn step_until(
-    harness: &mut Harness<'_, App>,
-    what: &str,
-    timeout: Duration,
-    done: impl Fn(&Harness<'_, App>) -> bool,
-) {
-    let deadline = Instant::now() + timeout;
-    while !done(harness) {
-        assert!(
-            Instant::now() < deadline,
-            "{what} did not happen within {timeout:?}; log: {:#?}",
-            harness.state().state.log
-        );
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
 }
 
 fn wait_for(what: &str, timeout: Duration, done: impl Fn() -> bool) {
@@ -168,17 +153,7 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
 
     // A drive switched off and unchanged: no question.
     let idle = self::server();
-    let mut settings = Settings::default();
-    settings.connection.bus = Bus::ModbusTcp;
-    settings.connection.tcp_host = "127.0.0.1".into();
-    settings.connection.tcp_port = idle.addr.port().to_string();
-    let app = App::new(settings, Arc::new(|| {}), true);
-    let mut harness = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    let mut harness = window_on(&idle);
     harness.get_by_label("Disconnect").click();
     harness.step();
     step_until(

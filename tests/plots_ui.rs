@@ -2,47 +2,20 @@
 //! an object added from the dictionary browser — egui_kittest clicking by label, the real
 //! worker sampling the simulated drive.
 
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+mod window;
+
+use std::time::Duration;
 
 use drivedeck::telemetry::{CaptureState, Edge, Recording};
 use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
+use window::{harness_with, step_for, step_until};
 
+/// The window on the simulator, wide enough for the dictionary's Plot buttons.
 fn app_harness() -> Harness<'static, App> {
-    let app = App::new(Settings::default(), Arc::new(|| {}), true);
-    Harness::builder()
-        .with_size(egui::vec2(1600.0, 1000.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
-}
-
-fn step_until(
-    harness: &mut Harness<'_, App>,
-    what: &str,
-    timeout: Duration,
-    done: impl Fn(&Harness<'_, App>) -> bool,
-) {
-    let deadline = Instant::now() + timeout;
-    while !done(harness) {
-        assert!(
-            Instant::now() < deadline,
-            "{what} did not happen within {timeout:?}; message: {:?}; log: {:#?}",
-            harness.state().state.plot.message,
-            harness.state().state.log
-        );
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
-}
-
-fn step_for(harness: &mut Harness<'_, App>, time: Duration) {
-    let until = Instant::now() + time;
-    while Instant::now() < until {
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
+    harness_with(Settings::default(), true, egui::vec2(1600.0, 1000.0))
 }
 
 fn temp_path(name: &str) -> String {

@@ -1,53 +1,20 @@
 //! The window, headless: egui_kittest clicks by label, the real worker drives the
 //! simulated drive.
 
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+mod window;
+
+use std::time::Duration;
 
 use drivedeck::link::{LinkInfo, LinkSpec};
 use drivedeck::pdi::{Action, StatusBit};
 use drivedeck::ui::state::Connection;
-use drivedeck::ui::{App, AppState, Settings, commands};
+use drivedeck::ui::{AppState, Settings, commands};
 use drivedeck::worker::Request;
 use eframe::egui;
 use egui::accesskit::Toggled;
 use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT, Queryable};
-
-fn app_harness() -> Harness<'static, App> {
-    let app = App::new(Settings::default(), Arc::new(|| {}), true);
-    Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
-}
-
-/// Step the window in real time until `done` holds.
-fn step_until(
-    harness: &mut Harness<'_, App>,
-    what: &str,
-    timeout: Duration,
-    done: impl Fn(&Harness<'_, App>) -> bool,
-) {
-    let deadline = Instant::now() + timeout;
-    while !done(harness) {
-        assert!(
-            Instant::now() < deadline,
-            "{what} did not happen within {timeout:?}; log: {:#?}",
-            harness.state().state.log
-        );
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
-}
-
-/// Whether a status lamp is lit (lamps are read-only checkboxes to accessibility).
-fn lamp(harness: &Harness<'_, App>, label: &str) -> bool {
-    harness
-        .get_by_role_and_label(egui::accesskit::Role::CheckBox, label)
-        .accesskit_node()
-        .toggled()
-        == Some(Toggled::True)
-}
+use window::{app_harness, harness_with, lamp, step_until};
 
 #[test]
 fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
@@ -314,10 +281,7 @@ fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor()
     let server = ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
         .expect("server");
     // A window that starts disconnected, as after a fresh install on a machine with a drive.
-    let app = App::new(Settings::default(), Arc::new(|| {}), false);
-    let mut harness = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    let mut harness = harness_with(Settings::default(), false, egui::vec2(1400.0, 900.0));
     harness.run();
     harness.get_by_label("Bus").click();
     harness.run();
@@ -372,10 +336,7 @@ fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor()
 
 #[test]
 fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
-    let app = App::new(Settings::default(), Arc::new(|| {}), false);
-    let mut harness = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    let mut harness = harness_with(Settings::default(), false, egui::vec2(1400.0, 900.0));
     harness.run();
     harness.get_by_label("Bus").click();
     harness.run();
