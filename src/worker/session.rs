@@ -132,16 +132,7 @@ const EXTRA_SIGNALS: [(u16, DataType); 7] = [
 
 /// Whether a signal is missing from an exchange.
 fn lacks(signals: &crate::link::Signals, index: u16) -> bool {
-    match index {
-        0x606C => signals.velocity.is_none(),
-        0x6077 => signals.torque.is_none(),
-        0x60F4 => signals.following_error.is_none(),
-        0x6064 => signals.position.is_none(),
-        0x6041 => signals.statusword.is_none(),
-        0x6061 => signals.mode.is_none(),
-        0x60FD => signals.digital_inputs.is_none(),
-        _ => false,
-    }
+    from_exchange(signals, Address::new(index, 0)).is_none()
 }
 
 fn put(signals: &mut crate::link::Signals, index: u16, value: f64) {
