@@ -229,7 +229,12 @@ fn the_window_connects_over_slcan_and_moves_the_motor() {
     // Disconnect releases the port and puts the node's mapping back. The motor is
     // energised after the move: the window asks what to leave behind; halt.
     harness.get_by_label("Disconnect").click();
-    harness.run();
+    step_until(
+        &mut harness,
+        "the leave dialog",
+        Duration::from_secs(3),
+        |h| h.query_by_label("Halt, then disconnect").is_some(),
+    );
     harness.get_by_label("Halt, then disconnect").click();
     harness.step();
     step_until(

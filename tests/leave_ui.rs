@@ -18,7 +18,7 @@ use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use window::{connected, harness_with, step_until};
+use window::{connected, harness_with, step_until, step_until_shown};
 
 fn server() -> ServerThread {
     ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
@@ -73,7 +73,7 @@ fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
     let server = server();
     let mut harness = turning(&server);
     harness.get_by_label("Disconnect").click();
-    harness.run();
+    step_until_shown(&mut harness, "Halt, then disconnect");
     assert!(harness.state().state.leaving.is_some(), "it asks first");
     assert!(!disconnected(&harness), "nothing happens before the answer");
     harness.get_by_label("Halt, then disconnect").click();
@@ -111,7 +111,7 @@ fn switch_off_with_restore_undoes_the_changes_then_switches_off() {
     });
     assert_eq!(server.drive().lock().read(velocity), Ok(Value::Uint(777)));
     harness.get_by_label("Disconnect").click();
-    harness.run();
+    step_until_shown(&mut harness, "Switch off, then disconnect");
     // Restoring is offered, and on by default.
     assert!(harness.state().state.leaving.is_some_and(|l| l.restore));
     harness.get_by_label("Switch off, then disconnect").click();
@@ -134,7 +134,7 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
     let server = server();
     let mut harness = turning(&server);
     harness.get_by_label("Disconnect").click();
-    harness.run();
+    step_until_shown(&mut harness, "Leave it as it is, disconnect");
     harness
         .get_by_label("Leave it as it is, disconnect")
         .click();
@@ -175,7 +175,7 @@ fn closing_the_window_while_turning_asks_too() {
         .or_default()
         .events
         .push(egui::ViewportEvent::Close);
-    harness.run();
+    step_until_shown(&mut harness, "Halt, then disconnect");
     let leaving = harness.state().state.leaving.expect("asked");
     assert!(leaving.close_window);
     harness.get_by_label("Halt, then disconnect").click();

@@ -11,7 +11,7 @@ use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use window::{harness_with, step_for, step_until};
+use window::{harness_with, step_for, step_until, step_until_shown};
 
 /// The window on the simulator, wide enough for the dictionary's Plot buttons.
 fn app_harness() -> Harness<'static, App> {
@@ -194,7 +194,7 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
     harness
         .get_by_label("Object filter")
         .set_text_value_accesskit("6044");
-    harness.run();
+    step_until_shown(&mut harness, "Plot 6044h:00h");
     harness.get_by_label("Plot 6044h:00h").click();
     harness.step();
     harness.step();

@@ -72,3 +72,14 @@ pub fn lamp(harness: &Harness<'_, App>, label: &str) -> bool {
         .toggled()
         == Some(Toggled::True)
 }
+
+/// Step until a widget labelled `label` is on screen (a dialog that opens, a row that
+/// a filter brings): the live plots keep repainting, so `Harness::run` may not settle.
+pub fn step_until_shown(harness: &mut Harness<'_, App>, label: &str) {
+    step_until(
+        harness,
+        &format!("'{label}' on screen"),
+        Duration::from_secs(3),
+        |h| h.query_by_label(label).is_some(),
+    );
+}
