@@ -478,11 +478,20 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// Colour codes in the log only on a terminal, and never when `NO_COLOR` is set to
+/// anything but the empty string (no-color.org): redirected stderr is plain text.
+fn colour_on_stderr() -> bool {
+    use std::io::IsTerminal;
+    let no_color = std::env::var_os("NO_COLOR").is_some_and(|v| !v.is_empty());
+    !no_color && std::io::stderr().is_terminal()
+}
+
 fn init_tracing() {
     let filter = tracing_subscriber::EnvFilter::try_from_env("DRIVEDECK_LOG")
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(colour_on_stderr())
         .try_init();
 }

@@ -27,6 +27,20 @@ pub enum Error {
 
     #[error("malformed reply: {0}")]
     Protocol(String),
+
+    /// The drive answered the process-image exchange, but with a refusal (a Modbus
+    /// exception, a CIP error status, an SDO abort): its answer, not a broken frame.
+    #[error("{0}")]
+    Answer(String),
+
+    /// Every try of one request went wrong: lost, late, corrupted or mismatched replies,
+    /// each named.
+    #[error("{what}: no valid reply in {tries} tries ({})", troubles.join("; "))]
+    NoValidReply {
+        what: String,
+        tries: u32,
+        troubles: Vec<String>,
+    },
 }
 
 impl Error {
@@ -39,7 +53,58 @@ impl Error {
                 | Error::Disconnected(_)
                 | Error::Refused(_)
                 | Error::Protocol(_)
+                | Error::Answer(_)
+                | Error::NoValidReply { .. }
         )
+    }
+
+    /// Whether the failure may pass by itself within a few cycles (a lost, late, corrupted
+    /// or refused reply), so that the worker retries the next cycle before it calls the
+    /// link lost; a closed connection or a failed socket is gone for good.
+    pub fn is_momentary(&self) -> bool {
+        matches!(
+            self,
+            Error::Timeout { .. }
+                | Error::Protocol(_)
+                | Error::Answer(_)
+                | Error::NoValidReply { .. }
+        )
+    }
+}
+
+/// How often one request goes out before a link gives up on it: a lost, late, corrupted
+/// or mismatched reply is worth another try within the request's timeout.
+pub const TRIES: u32 = 3;
+
+/// How a try without an answer is described (and told apart when every try timed out).
+pub(crate) const NO_ANSWER: &str = "no answer within";
+
+/// How one try of a request ended when it brought no usable answer.
+pub(crate) enum Trouble {
+    /// A lost, late, corrupted or mismatched reply: worth sending again.
+    Retry(String),
+    /// The connection itself failed: sending again cannot help.
+    Fatal(Error),
+}
+
+/// The error after every try of `what` went wrong: a timeout when nothing came back at
+/// all (with `hint`, what to check), otherwise each try's trouble named.
+pub(crate) fn gave_up(what: String, troubles: Vec<String>, waited: Duration, hint: &str) -> Error {
+    if troubles.iter().all(|t| t.starts_with(NO_ANSWER)) {
+        let hint = if hint.is_empty() {
+            String::new()
+        } else {
+            format!("; {hint}")
+        };
+        return Error::Timeout {
+            what: format!("{what} ({TRIES} tries{hint})"),
+            after: waited,
+        };
+    }
+    Error::NoValidReply {
+        what,
+        tries: TRIES,
+        troubles,
     }
 }
 

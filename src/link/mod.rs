@@ -7,7 +7,7 @@
 
 pub mod canopen;
 pub mod enip;
-mod error;
+pub(crate) mod error;
 pub mod modbus;
 mod open;
 pub mod sim;
@@ -16,7 +16,7 @@ pub mod spec;
 use std::fmt;
 
 pub use error::{Error, Refusal, modbus_exception_text};
-pub use open::{AnyLink, open, scan};
+pub use open::{AnyLink, open, open_traced, scan};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
 
 use crate::od::{Address, DataType, Value};
@@ -84,6 +84,10 @@ impl TraceRecord {
         }
     }
 }
+
+/// A connection that could not be made, with the frames exchanged on the way (so that
+/// `--trace` and the frame log show what the device said before it failed).
+pub type Traced<T> = Result<T, (Error, Vec<TraceRecord>)>;
 
 /// A device found on a bus by a scan (CANopen) or a discovery (EtherNet/IP).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -194,6 +198,12 @@ pub trait Link {
     /// The frames sent and received since the last call, oldest first (bounded: the oldest
     /// are dropped when nobody asks).
     fn take_trace(&mut self) -> Vec<TraceRecord> {
+        Vec::new()
+    }
+
+    /// Troubles the link got over by itself since the last call (a lost or corrupted reply
+    /// answered on a second try), each named, for the log.
+    fn take_recovered(&mut self) -> Vec<String> {
         Vec::new()
     }
 

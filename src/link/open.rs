@@ -6,7 +6,7 @@ use super::canopen::slcan::SlcanBus;
 use super::enip::client::EnipLink;
 use super::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
 use super::sim::SimLink;
-use super::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal};
+use super::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Traced};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
 use crate::sim::Injection;
@@ -25,36 +25,50 @@ pub enum AnyLink {
 
 /// Open the link a connection string names.
 pub async fn open(spec: &LinkSpec) -> Result<AnyLink, Error> {
+    open_traced(spec).await.map_err(|(error, _)| error)
+}
+
+/// [`open`], keeping the frames exchanged before a connection failed.
+pub async fn open_traced(spec: &LinkSpec) -> Traced<AnyLink> {
+    let bare = |e: Error| (e, Vec::new());
     match spec {
         LinkSpec::Sim => Ok(AnyLink::Sim(Box::default())),
         LinkSpec::ModbusTcp { .. } | LinkSpec::ModbusRtu { .. } => Ok(AnyLink::Modbus(Box::new(
-            ModbusLink::connect(spec, DEFAULT_TIMEOUT).await?,
+            ModbusLink::connect_traced(spec, DEFAULT_TIMEOUT).await?,
         ))),
         LinkSpec::CanopenSim { can } => {
             let bus = SimCanBus::start(can.node);
             Ok(AnyLink::CanopenSim(Box::new(
-                CanopenLink::connect(spec.clone(), bus, *can).await?,
+                CanopenLink::connect_traced(spec.clone(), bus, *can).await?,
             )))
         }
         LinkSpec::CanopenSlcan { path, bitrate, can } => {
-            let bus = SlcanBus::open(path, *bitrate).await?;
+            let bus = SlcanBus::open(path, *bitrate).await.map_err(bare)?;
             Ok(AnyLink::CanopenSlcan(Box::new(
-                CanopenLink::connect(spec.clone(), bus, *can).await?,
+                CanopenLink::connect_traced(spec.clone(), bus, *can).await?,
             )))
         }
         #[cfg(target_os = "linux")]
         LinkSpec::CanopenSocketcan { iface, can } => {
-            let bus = super::canopen::socketcan::SocketCanBus::open(iface)?;
+            let bus = super::canopen::socketcan::SocketCanBus::open(iface).map_err(bare)?;
             Ok(AnyLink::CanopenSocketcan(Box::new(
-                CanopenLink::connect(spec.clone(), bus, *can).await?,
+                CanopenLink::connect_traced(spec.clone(), bus, *can).await?,
             )))
         }
         #[cfg(not(target_os = "linux"))]
-        LinkSpec::CanopenSocketcan { .. } => Err(Error::Unsupported(
+        LinkSpec::CanopenSocketcan { .. } => Err(bare(Error::Unsupported(
             "SocketCAN exists only on Linux: use an slcan adapter (canopen+slcan://COM5?node=1)"
                 .into(),
-        )),
-        LinkSpec::Enip { .. } => Ok(AnyLink::Enip(Box::new(EnipLink::connect(spec).await?))),
+        ))),
+        LinkSpec::Enip { .. } => Ok(AnyLink::Enip(Box::new(
+            EnipLink::connect_traced(spec).await?,
+        ))),
+    }
+}
+
+impl From<SimLink> for AnyLink {
+    fn from(link: SimLink) -> Self {
+        AnyLink::Sim(Box::new(link))
     }
 }
 
@@ -88,12 +102,6 @@ pub async fn scan(spec: &LinkSpec) -> Result<Vec<super::FoundDevice>, Error> {
             "{} has no bus scan: scanning works on CANopen buses and EtherNet/IP networks",
             spec.bus_name()
         ))),
-    }
-}
-
-impl From<SimLink> for AnyLink {
-    fn from(link: SimLink) -> Self {
-        AnyLink::Sim(Box::new(link))
     }
 }
 
@@ -200,6 +208,18 @@ impl Link for AnyLink {
             AnyLink::CanopenSlcan(l) => l.take_trace(),
             #[cfg(target_os = "linux")]
             AnyLink::CanopenSocketcan(l) => l.take_trace(),
+        }
+    }
+
+    fn take_recovered(&mut self) -> Vec<String> {
+        match self {
+            AnyLink::Sim(l) => l.take_recovered(),
+            AnyLink::Modbus(l) => l.take_recovered(),
+            AnyLink::Enip(l) => l.take_recovered(),
+            AnyLink::CanopenSim(l) => l.take_recovered(),
+            AnyLink::CanopenSlcan(l) => l.take_recovered(),
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan(l) => l.take_recovered(),
         }
     }
 

@@ -16,8 +16,8 @@ use std::time::Duration;
 use tokio::sync::mpsc;
 
 pub use protocol::{
-    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_KEEPALIVE, JOG_TIMEOUT,
-    LinkLossAction, MAX_WATCHED, ObjectPath, Request, RequestId, Sample, WORKER_ID,
+    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_KEEPALIVE, JOG_TIMEOUT, LOST_AFTER,
+    LinkLossAction, MAX_LOST_AFTER, MAX_WATCHED, ObjectPath, Request, RequestId, Sample, WORKER_ID,
 };
 
 use crate::pdi::Timing;
@@ -44,6 +44,8 @@ pub struct Config {
     pub trace: bool,
     /// What to do when the link fails during a move.
     pub on_link_loss: LinkLossAction,
+    /// Exchanges that must fail in a row before the link counts as lost.
+    pub lost_after: u32,
 }
 
 impl Default for Config {
@@ -54,6 +56,7 @@ impl Default for Config {
             reconnect: true,
             trace: false,
             on_link_loss: LinkLossAction::Halt,
+            lost_after: LOST_AFTER,
         }
     }
 }

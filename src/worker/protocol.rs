@@ -22,6 +22,11 @@ pub const JOG_KEEPALIVE: Duration = Duration::from_millis(100);
 pub const JOG_TIMEOUT: Duration = Duration::from_millis(500);
 /// How long the worker tries to get a halt through when the link fails during a move.
 pub const HALT_ON_LOSS_TIMEOUT: Duration = Duration::from_millis(300);
+/// Exchanges that must fail in a row before the link counts as lost, unless set: one
+/// lost, late or corrupted reply (after the bus's own retries) is not a lost link.
+pub const LOST_AFTER: u32 = 3;
+/// The most failed exchanges in a row the setting allows.
+pub const MAX_LOST_AFTER: u32 = 100;
 
 /// What the worker does when the link fails while the motor may be moving (a travel
 /// command without the halt bit, or a jog).
@@ -106,6 +111,9 @@ pub enum Request {
     SetPollRate(f64),
     /// What to do when the link fails during a move.
     SetLinkLoss(LinkLossAction),
+    /// How many exchanges in a row must fail before the link counts as lost (1 to
+    /// [`MAX_LOST_AFTER`]); fewer are retried, each named in the log.
+    SetLostAfter(u32),
     /// Report every frame the link sends and receives (`Event::Frames`), or stop.
     SetTrace(bool),
     /// Find the devices on a bus: through the open link when it is on that bus, otherwise
@@ -169,6 +177,7 @@ impl fmt::Display for Request {
             }
             Request::SetPollRate(hz) => write!(f, "poll at {hz} Hz"),
             Request::SetLinkLoss(action) => write!(f, "on link loss: {}", action.name()),
+            Request::SetLostAfter(n) => write!(f, "link lost after {n} failed exchanges in a row"),
             Request::Scan(spec) => write!(f, "scan {}", spec.bus_name()),
             Request::ReadMany { objects, .. } => write!(f, "read {} objects", objects.len()),
             Request::Cancel(id) => write!(f, "cancel request {id}"),
@@ -198,8 +207,9 @@ pub enum CommandProgress {
     },
     /// A newer command replaced it.
     Superseded,
-    /// The link was lost before the command finished.
-    LinkLost,
+    /// The link was lost before the command finished: why, and what the worker did to
+    /// the drive on the way out (a halt tried, and whether it reached the drive).
+    LinkLost { reason: String },
 }
 
 impl CommandProgress {
@@ -229,7 +239,9 @@ impl fmt::Display for CommandProgress {
                 after.as_secs_f64()
             ),
             CommandProgress::Superseded => f.write_str("superseded by a newer command"),
-            CommandProgress::LinkLost => f.write_str("the link was lost before it finished"),
+            CommandProgress::LinkLost { reason } => {
+                write!(f, "the link was lost before it finished: {reason}")
+            }
         }
     }
 }
@@ -291,8 +303,11 @@ pub struct Health {
     pub cycles_per_second: f64,
     pub rtt_mean: Duration,
     pub rtt_max: Duration,
-    /// Link errors since connecting.
+    /// Failed exchanges since connecting (each retried until the link counted as lost).
     pub errors: u64,
+    /// Replies that were lost, late, corrupted or mismatched and got over by sending the
+    /// request again, since connecting.
+    pub recovered: u64,
     /// Samples the UI was too slow to take (dropped, never queued without bound).
     pub dropped_samples: u64,
 }

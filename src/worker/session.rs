@@ -8,8 +8,8 @@ use tokio::sync::mpsc;
 use tokio::time::MissedTickBehavior;
 
 use super::protocol::{
-    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_TIMEOUT, LinkLossAction, MAX_WATCHED,
-    ObjectPath, Request, RequestId, Sample, WORKER_ID,
+    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_TIMEOUT, LinkLossAction,
+    MAX_LOST_AFTER, MAX_WATCHED, ObjectPath, Request, RequestId, Sample, WORKER_ID,
 };
 use super::sink::EventSink;
 use super::{Config, Envelope};
@@ -70,6 +70,13 @@ struct Session {
     rtt_max: Duration,
     errors: u64,
     last_health: Instant,
+    /// Exchanges failed in a row (the link counts as lost at `Config::lost_after`).
+    failures: u32,
+    /// Troubles the link got over by sending again, since connecting.
+    recovered: u64,
+    /// The log lines about failed exchanges and recoveries, at a bounded rate.
+    failure_notices: Limiter,
+    recovery_notices: Limiter,
     /// The next plot signal to read when the exchange did not bring it.
     next_extra: usize,
     /// Signals the device refused to read: never asked again this session.
@@ -249,16 +256,64 @@ impl Worker {
             let budget = Duration::from_secs_f64(
                 OBJECT_SHARE_OF_CYCLE / self.config.poll_rate.clamp(1.0, 2000.0),
             );
-            if let Err(error) = s.cycle(sink, self.config.trace, budget).await {
+            let result = s.cycle(sink, self.config.trace, budget).await;
+            s.report_recovered(sink);
+            let error = match result {
+                Ok(()) => {
+                    if s.failures > 0 {
+                        s.failure_notices.say(
+                            format!(
+                                "the link recovered after {} failed exchange(s) in a row",
+                                s.failures
+                            ),
+                            sink,
+                        );
+                        s.failures = 0;
+                    }
+                    return;
+                }
+                Err(error) => error,
+            };
+            // The frames of the failed exchange come before its message.
+            let frames = s.link.take_trace();
+            if self.config.trace && !frames.is_empty() {
+                sink.emit(Event::Frames(frames));
+            }
+            s.errors += 1;
+            s.failures += 1;
+            let lost_after = self.config.lost_after.clamp(1, MAX_LOST_AFTER);
+            if error.is_momentary() && s.failures < lost_after {
+                if s.failures == 1 {
+                    s.failure_notices.say(
+                        format!(
+                            "an exchange failed: {error}; trying again (the link counts as lost after {lost_after} failures in a row)"
+                        ),
+                        sink,
+                    );
+                }
+                return;
+            }
+            {
                 let Some(mut s) = self.session.take() else {
                     return;
                 };
                 let spec = s.link.info().spec;
-                let reason = error.to_string();
-                if s.jog_deadline.is_some() || s.master.travel_running() {
-                    s.stop_on_loss(&reason, self.config.on_link_loss, sink)
+                let reason = if s.failures > 1 {
+                    format!(
+                        "{} exchanges failed in a row; the last: {error}",
+                        s.failures
+                    )
+                } else {
+                    error.to_string()
+                };
+                let reason = if s.jog_deadline.is_some() || s.master.travel_running() {
+                    let done = s
+                        .stop_on_loss(&reason, self.config.on_link_loss, sink)
                         .await;
-                }
+                    format!("{reason}; {done}")
+                } else {
+                    reason
+                };
                 s.abandon_all(&reason, sink);
                 sink.emit(Event::Disconnected {
                     reason: Some(reason.clone()),
@@ -319,6 +374,19 @@ impl Worker {
                 }
             }
             Request::SetLinkLoss(action) => self.config.on_link_loss = action,
+            Request::SetLostAfter(n) => {
+                if (1..=MAX_LOST_AFTER).contains(&n) {
+                    self.config.lost_after = n;
+                } else {
+                    sink.emit(Event::Rejected {
+                        id,
+                        request: request.to_string(),
+                        reason: format!(
+                            "the link can count as lost after 1 to {MAX_LOST_AFTER} failed exchanges in a row, not {n}"
+                        ),
+                    });
+                }
+            }
             Request::SetPollRate(rate) => {
                 if rate.is_finite() && (1.0..=2000.0).contains(&rate) {
                     self.config.poll_rate = rate;
@@ -509,19 +577,29 @@ impl Worker {
     /// Open the wanted link, or bring a broken one back.
     async fn connect(&mut self, spec: &LinkSpec, sink: &mut EventSink) {
         sink.emit(Event::Connecting(spec.clone()));
-        let result = match self.broken.take() {
+        // The frames of a connection that failed come before its message.
+        let mut frames = Vec::new();
+        let result: link::Traced<Session> = match self.broken.take() {
             Some(mut link) => match link.reconnect().await {
                 Ok(()) => Session::start(link, &self.config, &self.watch).await,
                 Err(e) => {
+                    let trace = link.take_trace();
                     self.broken = Some(link);
-                    Err(e)
+                    Err((e, trace))
                 }
             },
-            None => match link::open(spec).await {
+            None => match link::open_traced(spec).await {
                 Ok(link) => Session::start(link, &self.config, &self.watch).await,
-                Err(e) => Err(e),
+                Err(failed) => Err(failed),
             },
         };
+        if let Err((_, trace)) = &result {
+            frames.extend(trace.iter().cloned());
+        }
+        let result = result.map_err(|(error, _)| error);
+        if self.config.trace && !frames.is_empty() {
+            sink.emit(Event::Frames(frames));
+        }
         match result {
             Ok(mut s) => {
                 sink.emit(Event::Connected(s.link.info()));
@@ -562,13 +640,17 @@ impl Session {
         mut link: AnyLink,
         config: &Config,
         watch: &[(Address, DataType)],
-    ) -> Result<Session, link::Error> {
+    ) -> link::Traced<Session> {
         let mut master = PdiMaster::new(config.timing);
         // Start from what the drive holds, so connecting replays no command.
-        if let Some(rx) = link.read_rx().await? {
-            master.adopt(rx);
-        }
-        let first = link.exchange(None).await?;
+        let first = match Self::first_exchange(&mut link, &mut master).await {
+            Ok(first) => first,
+            Err(error) => {
+                let frames = link.take_trace();
+                let _ = link.close().await;
+                return Err((error, frames));
+            }
+        };
         let now = Instant::now();
         master.on_tx(first.tx, now);
         let info = link.info();
@@ -588,6 +670,10 @@ impl Session {
             rtt_max: Duration::ZERO,
             errors: 0,
             last_health: now,
+            failures: 0,
+            recovered: 0,
+            failure_notices: Limiter::default(),
+            recovery_notices: Limiter::default(),
             next_extra: 0,
             unreadable: Vec::new(),
             watch: WatchState {
@@ -600,6 +686,18 @@ impl Session {
         })
     }
 
+    /// The RX image the drive holds (adopted, so connecting replays no command) and the
+    /// first exchange.
+    async fn first_exchange(
+        link: &mut AnyLink,
+        master: &mut PdiMaster,
+    ) -> Result<link::Exchange, link::Error> {
+        if let Some(rx) = link.read_rx().await? {
+            master.adopt(rx);
+        }
+        link.exchange(None).await
+    }
+
     /// One poll cycle. An error means the link is gone.
     async fn cycle(
         &mut self,
@@ -609,13 +707,7 @@ impl Session {
     ) -> Result<(), link::Error> {
         let outgoing = self.master.outgoing();
         let sent = Instant::now();
-        let exchange = match self.link.exchange(outgoing.as_ref()).await {
-            Ok(exchange) => exchange,
-            Err(e) => {
-                self.errors += 1;
-                return Err(e);
-            }
-        };
+        let exchange = self.link.exchange(outgoing.as_ref()).await?;
         let tx = exchange.tx;
         let now = Instant::now();
         let rtt = now - sent;
@@ -672,6 +764,7 @@ impl Session {
                 rtt_mean: self.rtt_sum / (self.cycles.max(1) as u32),
                 rtt_max: self.rtt_max,
                 errors: self.errors,
+                recovered: self.recovered,
                 dropped_samples: sink.dropped_samples,
             }));
             self.cycles = 0;
@@ -845,7 +938,12 @@ impl Session {
                     break;
                 }
                 self.queue.pop_front();
-                self.native_job(id, request, sink).await?;
+                if let Err(e) = self.native_job(id, request.clone(), sink).await {
+                    // Tried again next cycle, or refused with the reason once the link
+                    // counts as lost.
+                    self.queue.push_front((id, request));
+                    return Err(e);
+                }
                 native_done += 1;
                 continue;
             }
@@ -895,7 +993,13 @@ impl Session {
                 // The value before the first write, for undo.
                 let before = match self.before.get(address) {
                     Some(known) => known.clone(),
-                    None => self.link.read_object(*address, *dtype).await?.ok(),
+                    None => {
+                        let before = self.link.read_object(*address, *dtype).await?.ok();
+                        // Kept at once: a write tried again must not take its own value
+                        // for the one before.
+                        self.before.insert(*address, before.clone());
+                        before
+                    }
                 };
                 match self.link.write_object(*address, *dtype, value).await? {
                     Ok(()) => {
@@ -946,65 +1050,93 @@ impl Session {
         Ok(())
     }
 
-    /// Hand a request to the PDI master and write its image with the next exchange.
     /// The link failed during a move: one last try to halt (or switch off) the drive, as
-    /// the setting says, and an honest report of whether it got through.
-    async fn stop_on_loss(&mut self, reason: &str, action: LinkLossAction, sink: &mut EventSink) {
+    /// the setting says. Returns what was done, honestly (for the messages of the link
+    /// loss and of the commands it ends); the commands that ran end here.
+    async fn stop_on_loss(
+        &mut self,
+        reason: &str,
+        action: LinkLossAction,
+        sink: &mut EventSink,
+    ) -> String {
         self.jog_deadline = None;
         let running: Vec<RequestId> = [self.master.pending_tag(), self.master.background_tag()]
             .into_iter()
             .flatten()
             .collect();
         let made = match action {
-            LinkLossAction::Halt => self.master.halt(WORKER_ID, Instant::now()),
-            LinkLossAction::SwitchOff => {
-                self.master
-                    .start(WORKER_ID, Action::SwitchOff, Instant::now())
-            }
-            LinkLossAction::Nothing => {
-                sink.emit(Event::Notice(format!(
-                    "the link failed during a move ({reason}); as set, the drive is left alone: it may still be moving"
-                )));
-                return;
-            }
+            LinkLossAction::Halt => Some(self.master.halt(WORKER_ID, Instant::now())),
+            LinkLossAction::SwitchOff => Some(self.master.start(
+                WORKER_ID,
+                Action::SwitchOff,
+                Instant::now(),
+            )),
+            LinkLossAction::Nothing => None,
         };
+        // The commands that ran end with the link, not "superseded" by this last try.
+        let _ = self.master.drain_progress();
         let what = if action == LinkLossAction::Halt {
             "a halt"
         } else {
             "a switch-off"
         };
-        // The commands that ran end with the link, not "superseded" by this last try.
-        let _ = self.master.drain_progress();
+        let done = match made {
+            None => "as set, the drive is left alone: it may still be moving".to_owned(),
+            Some(Err(e)) => {
+                format!("no {what} could be made ({e}): the drive may still be moving")
+            }
+            Some(Ok(image)) => {
+                let attempt =
+                    tokio::time::timeout(HALT_ON_LOSS_TIMEOUT, self.link.exchange(Some(&image)))
+                        .await;
+                match attempt {
+                    Ok(Ok(exchange)) => {
+                        let status = exchange.tx.status;
+                        let confirmed = match action {
+                            LinkLossAction::Halt => status.is_set(crate::pdi::StatusBit::QsHaltBit),
+                            _ => !status.is_set(crate::pdi::StatusBit::OperationEnabled),
+                        };
+                        if confirmed {
+                            format!("{what} was sent and the drive confirmed it")
+                        } else {
+                            format!(
+                                "{what} was sent and the drive answered, without showing it yet"
+                            )
+                        }
+                    }
+                    Ok(Err(e)) => format!(
+                        "{what} did not reach the drive ({e}): it may still be moving; stop it at the machine"
+                    ),
+                    Err(_) => format!(
+                        "{what} got no answer within {:.1} s: the drive may still be moving; stop it at the machine",
+                        HALT_ON_LOSS_TIMEOUT.as_secs_f64()
+                    ),
+                }
+            }
+        };
+        sink.emit(Event::Notice(format!(
+            "the link failed during a move ({reason}); {done}"
+        )));
+        let ended = format!("{reason}; {done}");
         for id in running {
             self.purposes.remove(&id);
             sink.emit(Event::Progress {
                 id,
-                progress: CommandProgress::LinkLost,
+                progress: CommandProgress::LinkLost {
+                    reason: ended.clone(),
+                },
             });
         }
-        let image = match made {
-            Ok(image) => image,
-            Err(e) => {
-                sink.emit(Event::Notice(format!(
-                    "the link failed during a move and no {what} could be made ({e}): the drive may still be moving"
-                )));
-                return;
-            }
-        };
-        let attempt =
-            tokio::time::timeout(HALT_ON_LOSS_TIMEOUT, self.link.exchange(Some(&image))).await;
-        sink.emit(Event::Notice(match attempt {
-            Ok(Ok(_)) => format!(
-                "the link failed during a move ({reason}); {what} was sent and the drive answered"
-            ),
-            Ok(Err(e)) => format!(
-                "the link failed during a move ({reason}) and {what} did not reach the drive ({e}): it may still be moving; stop it at the machine"
-            ),
-            Err(_) => format!(
-                "the link failed during a move ({reason}) and {what} got no answer within {:.1} s: the drive may still be moving; stop it at the machine",
-                HALT_ON_LOSS_TIMEOUT.as_secs_f64()
-            ),
-        }));
+        done
+    }
+
+    /// Troubles the link got over by itself (a reply lost or corrupted, then answered on
+    /// another try): counted for the health line, named in the log at a bounded rate.
+    fn report_recovered(&mut self, sink: &mut EventSink) {
+        for trouble in self.link.take_recovered() {
+            self.recovered += 1;
+            self.recovery_notices.say(format!("link: {trouble}"), sink);
+        }
     }
 
     fn start_pdi(&mut self, id: RequestId, request: Request, sink: &mut EventSink) {
@@ -1177,7 +1309,9 @@ impl Session {
             self.purposes.remove(&id);
             sink.emit(Event::Progress {
                 id,
-                progress: CommandProgress::LinkLost,
+                progress: CommandProgress::LinkLost {
+                    reason: reason.to_owned(),
+                },
             });
         }
         for (id, request) in self.queue.drain(..) {
@@ -1190,6 +1324,32 @@ impl Session {
         if !self.samples.is_empty() {
             sink.emit(Event::Samples(std::mem::take(&mut self.samples)));
         }
+    }
+}
+
+/// Log lines that may repeat at the cycle rate (a noisy line), said at most once per
+/// [`Limiter::QUIET`], with a count of the ones held back.
+#[derive(Default)]
+struct Limiter {
+    last: Option<Instant>,
+    held: u32,
+}
+
+impl Limiter {
+    const QUIET: Duration = Duration::from_secs(5);
+
+    fn say(&mut self, text: String, sink: &mut EventSink) {
+        let now = Instant::now();
+        if self.last.is_some_and(|last| now - last < Self::QUIET) {
+            self.held += 1;
+            return;
+        }
+        let text = match std::mem::take(&mut self.held) {
+            0 => text,
+            held => format!("{text} (and {held} more like it in the last seconds)"),
+        };
+        self.last = Some(now);
+        sink.emit(Event::Notice(text));
     }
 }
 

@@ -78,6 +78,17 @@ impl<B: CanBus> CanopenLink<B> {
     /// Connect to node `options.node` on `bus`: check it answers, map the PDI PDOs (or fall
     /// back to SDO), start it.
     pub async fn connect(spec: LinkSpec, bus: B, options: CanopenOptions) -> Result<Self, Error> {
+        Self::connect_traced(spec, bus, options)
+            .await
+            .map_err(|(error, _)| error)
+    }
+
+    /// [`CanopenLink::connect`], keeping the frames of a connection that failed.
+    pub async fn connect_traced(
+        spec: LinkSpec,
+        bus: B,
+        options: CanopenOptions,
+    ) -> crate::link::Traced<Self> {
         let interface = match &spec {
             LinkSpec::CanopenSocketcan { iface, .. } => iface.clone(),
             LinkSpec::CanopenSlcan { .. } => "slcan0".into(),
@@ -98,11 +109,21 @@ impl<B: CanBus> CanopenLink<B> {
             notices: vec![],
             trace: VecDeque::new(),
         };
+        match link.start().await {
+            Ok(()) => Ok(link),
+            Err(error) => Err((error, link.trace.drain(..).collect())),
+        }
+    }
+
+    /// Learn the node and set the PDI up on it.
+    async fn start(&mut self) -> Result<(), Error> {
+        let link = self;
+        let options = link.options;
         // Is anybody there?
         match link.sdo_upload(0x1018, 1).await? {
             Ok(_) => {}
             Err(code) => {
-                return Err(Error::Protocol(format!(
+                return Err(Error::Answer(format!(
                     "node {} answered the identity read with abort {code}",
                     options.node
                 )));
@@ -116,7 +137,7 @@ impl<B: CanBus> CanopenLink<B> {
                 "node {} has no Plug & Drive interface (reading 2292h:01h: {code}): object access only",
                 options.node
             ));
-            return Ok(link);
+            return Ok(());
         }
         match link.map_pdi().await? {
             Ok(()) => link.path = PdiPath::Pdo,
@@ -135,7 +156,7 @@ impl<B: CanBus> CanopenLink<B> {
             .await?;
         // The image as it is now, before the first TPDO arrives.
         link.tx = Some(link.read_tx_by_sdo().await?);
-        Ok(link)
+        Ok(())
     }
 
     fn trace(&mut self, sent: bool, frame: &CanFrame) {
@@ -418,7 +439,9 @@ impl<B: CanBus> CanopenLink<B> {
     async fn read_tx_by_sdo(&mut self) -> Result<TxImage, Error> {
         let read = |data: Result<Vec<u8>, AbortCode>| -> Result<Vec<u8>, Error> {
             data.map_err(|code| {
-                Error::Protocol(format!("the PDI status could not be read: {code}"))
+                Error::Answer(format!(
+                    "the drive refused to give its PDI status over SDO: abort {code}"
+                ))
             })
         };
         let status = read(self.sdo_upload(0x2292, 1).await?)?;
@@ -525,8 +548,8 @@ impl<B: CanBus> Link for CanopenLink<B> {
                         (4, &bytes[7..8]),
                     ] {
                         if let Err(code) = self.sdo_download(0x2291, sub, data).await? {
-                            return Err(Error::Protocol(format!(
-                                "writing 2291h:{sub:02X}h: {code}"
+                            return Err(Error::Answer(format!(
+                                "the drive refused the PDI write of 2291h:{sub:02X}h over SDO: abort {code}"
                             )));
                         }
                     }

@@ -91,12 +91,18 @@ pub struct EnipLink {
 
 impl EnipLink {
     pub async fn connect(spec: &LinkSpec) -> Result<EnipLink, Error> {
+        Self::connect_traced(spec).await.map_err(|(error, _)| error)
+    }
+
+    /// [`EnipLink::connect`], keeping the frames of a connection that failed.
+    pub async fn connect_traced(spec: &LinkSpec) -> crate::link::Traced<EnipLink> {
         let LinkSpec::Enip { host, port, enip } = spec else {
-            return Err(Error::Unsupported(format!(
-                "{spec} is not an EtherNet/IP connection string"
-            )));
+            return Err((
+                Error::Unsupported(format!("{spec} is not an EtherNet/IP connection string")),
+                vec![],
+            ));
         };
-        let session = Session::open(host, *port, EXPLICIT_TIMEOUT).await?;
+        let session = Session::open_traced(host, *port, EXPLICIT_TIMEOUT).await?;
         let mut link = EnipLink {
             spec: spec.clone(),
             host: host.clone(),
@@ -109,8 +115,10 @@ impl EnipLink {
             explicit_rx: None,
             notices: vec![],
         };
-        link.start().await?;
-        Ok(link)
+        match link.start().await {
+            Ok(()) => Ok(link),
+            Err(error) => Err((error, link.take_trace())),
+        }
     }
 
     /// Learn the device and open the I/O connection the user asked for.
@@ -243,7 +251,7 @@ impl EnipLink {
             Ok(value) => value
                 .as_i128()
                 .ok_or_else(|| Error::Protocol(format!("{address} is not a number"))),
-            Err(refusal) => Err(Error::Protocol(format!(
+            Err(refusal) => Err(Error::Answer(format!(
                 "the drive stopped answering its PDI objects: {refusal}"
             ))),
         }
@@ -541,7 +549,7 @@ impl EnipLink {
                 }
                 let address = Address::new(0x2291, sub);
                 if let Err(refusal) = self.set(address, dtype, &Value::Int(value)).await? {
-                    return Err(Error::Protocol(format!(
+                    return Err(Error::Answer(format!(
                         "the drive refused the PDI write: {refusal}"
                     )));
                 }
@@ -711,6 +719,10 @@ impl Link for EnipLink {
             ..super::discovery::Discovery::default()
         })
         .await
+    }
+
+    fn take_recovered(&mut self) -> Vec<String> {
+        self.session.take_recovered()
     }
 
     fn take_trace(&mut self) -> Vec<crate::link::TraceRecord> {

@@ -13,6 +13,7 @@ use super::cpf::Item;
 use super::encap::{self, Command, Framed, Packet, RrData, Status};
 use super::identity::Identity;
 use super::wire::hex;
+use crate::link::error::{NO_ANSWER, TRIES, Trouble, gave_up};
 use crate::link::{Error, TraceRecord};
 
 /// Frames kept for the log between two `take_trace` calls.
@@ -29,6 +30,8 @@ pub struct Session {
     /// `host:port`, for messages.
     peer: String,
     trace: VecDeque<TraceRecord>,
+    /// Troubles got over by sending again, not yet reported.
+    recovered: Vec<String>,
 }
 
 /// Message for a failed TCP read or write.
@@ -48,6 +51,17 @@ fn io_error(what: &str, e: std::io::Error) -> Error {
 impl Session {
     /// Connect and register a session.
     pub async fn open(host: &str, port: u16, timeout: Duration) -> Result<Session, Error> {
+        Self::open_traced(host, port, timeout)
+            .await
+            .map_err(|(error, _)| error)
+    }
+
+    /// [`Session::open`], keeping the frames of a registration that failed.
+    pub async fn open_traced(
+        host: &str,
+        port: u16,
+        timeout: Duration,
+    ) -> crate::link::Traced<Session> {
         let peer = if host.contains(':') {
             format!("[{host}]:{port}")
         } else {
@@ -56,17 +70,25 @@ impl Session {
         let what = format!("EtherNet/IP adapter at {peer}");
         let stream = match tokio::time::timeout(timeout, TcpStream::connect((host, port))).await {
             Err(_) => {
-                return Err(Error::Timeout {
-                    what: format!("connecting to the {what}"),
-                    after: timeout,
-                });
+                return Err((
+                    Error::Timeout {
+                        what: format!("connecting to the {what}"),
+                        after: timeout,
+                    },
+                    vec![],
+                ));
             }
             Ok(Err(e)) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
-                return Err(Error::Refused(format!(
-                    "the {what} refuses TCP connections: is it on, and is {port} its EtherNet/IP port (44818)?"
-                )));
+                return Err((
+                    Error::Refused(format!(
+                        "the {what} refuses TCP connections: is it on, and is {port} its EtherNet/IP port (44818)?"
+                    )),
+                    vec![],
+                ));
             }
-            Ok(Err(e)) => return Err(io_error(&format!("connecting to the {what}"), e)),
+            Ok(Err(e)) => {
+                return Err((io_error(&format!("connecting to the {what}"), e), vec![]));
+            }
             Ok(Ok(stream)) => stream,
         };
         let _ = stream.set_nodelay(true);
@@ -78,26 +100,35 @@ impl Session {
             timeout,
             peer,
             trace: VecDeque::new(),
+            recovered: Vec::new(),
         };
-        let reply = session
+        match session.register().await {
+            Ok(()) => Ok(session),
+            Err(error) => Err((error, session.take_trace())),
+        }
+    }
+
+    /// RegisterSession: the handle every later message carries.
+    async fn register(&mut self) -> Result<(), Error> {
+        let reply = self
             .exchange(Command::REGISTER_SESSION, encap::register_session_data())
             .await?;
         match reply.status {
             Status::SUCCESS if reply.session != 0 => {
-                session.handle = reply.session;
-                Ok(session)
+                self.handle = reply.session;
+                Ok(())
             }
             Status::SUCCESS => Err(Error::Protocol(format!(
                 "the adapter at {} registered session handle 0",
-                session.peer
+                self.peer
             ))),
             Status::INSUFFICIENT_MEMORY => Err(Error::Refused(format!(
                 "the adapter at {} has no room for another session ({}): close other tools talking to it",
-                session.peer, reply.status
+                self.peer, reply.status
             ))),
             status => Err(Error::Refused(format!(
                 "the adapter at {} refused RegisterSession: {status}",
-                session.peer
+                self.peer
             ))),
         }
     }
@@ -132,42 +163,92 @@ impl Session {
         });
     }
 
-    /// Send one encapsulation message and wait for the reply with the same context.
+    /// Send one encapsulation message and wait for its reply. A lost, late, corrupted or
+    /// mismatched reply sends the message again (up to [`TRIES`] times within the
+    /// timeout); a reply with another session handle or command code is rejected by name.
     pub async fn exchange(&mut self, command: Command, data: Vec<u8>) -> Result<Packet, Error> {
+        let what = format!("{} to {}", command.name(), self.peer);
+        let started = Instant::now();
+        let deadline = started + self.timeout;
+        let mut troubles = Vec::new();
+        let mut contexts = Vec::new();
+        for attempt in 1..=TRIES {
+            let try_deadline = try_deadline(attempt, self.timeout, deadline);
+            match self
+                .exchange_once(command, &data, &what, try_deadline, &mut contexts)
+                .await
+            {
+                Ok(reply) => {
+                    self.note_recovered(&what, &troubles, attempt);
+                    return Ok(reply);
+                }
+                Err(Trouble::Retry(text)) => troubles.push(text),
+                Err(Trouble::Fatal(error)) => return Err(error),
+            }
+        }
+        Err(gave_up(what, troubles, self.timeout, ""))
+    }
+
+    /// One try: a fresh sender context, then frames until the reply to this or an earlier
+    /// try (`contexts`).
+    async fn exchange_once(
+        &mut self,
+        command: Command,
+        data: &[u8],
+        what: &str,
+        deadline: Instant,
+        contexts: &mut Vec<[u8; 8]>,
+    ) -> Result<Packet, Trouble> {
         self.context = self.context.wrapping_add(1);
         let context = self.context.to_le_bytes();
-        let packet = Packet::new(command, self.handle, context, data);
+        contexts.push(context);
+        let packet = Packet::new(command, self.handle, context, data.to_vec());
         let bytes = packet.encode();
-        let what = format!("{} to {}", command.name(), self.peer);
         self.record(true, &bytes, describe(&packet));
-        let deadline = Instant::now() + self.timeout;
         match tokio::time::timeout_at(deadline.into(), self.stream.write_all(&bytes)).await {
             Err(_) => {
-                return Err(Error::Timeout {
-                    what,
+                return Err(Trouble::Fatal(Error::Timeout {
+                    what: format!("{what}: sending"),
                     after: self.timeout,
-                });
+                }));
             }
-            Ok(Err(e)) => return Err(io_error(&what, e)),
+            Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
             Ok(Ok(())) => {}
         }
+        let sent_at = Instant::now();
         loop {
             match encap::split(&self.buffer) {
                 Framed::Packet(reply, used) => {
                     let raw = self.buffer[..used].to_vec();
                     self.buffer.drain(..used);
                     self.record(false, &raw, describe(&reply));
-                    if reply.context == context && reply.command == command {
-                        return Ok(reply);
+                    if !contexts.contains(&reply.context) {
+                        // A stale reply to an earlier, timed-out request: skip it.
+                        continue;
                     }
-                    // A stale reply to an earlier, timed-out request: skip it.
-                    continue;
+                    if reply.command != command {
+                        return Err(Trouble::Retry(format!(
+                            "a reply with command {} to our {}: rejected",
+                            reply.command, command
+                        )));
+                    }
+                    // RegisterSession is answered with the new handle; everything after
+                    // carries ours.
+                    if command != Command::REGISTER_SESSION && reply.session != self.handle {
+                        return Err(Trouble::Retry(format!(
+                            "a reply with session handle {:08X}h, ours is {:08X}h: rejected",
+                            reply.session, self.handle
+                        )));
+                    }
+                    return Ok(reply);
                 }
                 Framed::TooLong(header) => {
-                    self.buffer.clear();
-                    return Err(Error::Protocol(format!(
-                        "{what}: the reply announces {} bytes, more than any adapter sends",
-                        header.length
+                    let raw = std::mem::take(&mut self.buffer);
+                    self.record(false, &raw, "garbage".into());
+                    return Err(Trouble::Retry(format!(
+                        "a reply that announces {} bytes, more than any adapter sends (corrupted): {}",
+                        header.length,
+                        hex(&raw)
                     )));
                 }
                 Framed::Incomplete => {}
@@ -176,24 +257,47 @@ impl Session {
             let read = tokio::time::timeout_at(deadline.into(), self.stream.read(&mut chunk)).await;
             match read {
                 Err(_) => {
-                    return Err(Error::Timeout {
-                        what,
-                        after: self.timeout,
-                    });
-                }
-                Ok(Err(e)) => return Err(io_error(&what, e)),
-                Ok(Ok(0)) => {
-                    return Err(Error::Disconnected(format!(
-                        "{what}: the adapter closed the connection"
+                    let heard = if self.buffer.is_empty() {
+                        String::new()
+                    } else {
+                        // Half a message: its rest may never come; start clean.
+                        let raw = std::mem::take(&mut self.buffer);
+                        self.record(false, &raw, "incomplete".into());
+                        format!(" (only part of a message came: {})", hex(&raw))
+                    };
+                    return Err(Trouble::Retry(format!(
+                        "{NO_ANSWER} {} ms{heard}",
+                        sent_at.elapsed().as_millis()
                     )));
+                }
+                Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
+                Ok(Ok(0)) => {
+                    return Err(Trouble::Fatal(Error::Disconnected(format!(
+                        "{what}: the adapter closed the connection"
+                    ))));
                 }
                 Ok(Ok(n)) => self.buffer.extend_from_slice(&chunk[..n]),
             }
         }
     }
 
+    /// Troubles got over by sending again, since the last call.
+    pub fn take_recovered(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.recovered)
+    }
+
+    fn note_recovered(&mut self, what: &str, troubles: &[String], attempt: u32) {
+        if !troubles.is_empty() {
+            self.recovered.push(format!(
+                "{what}: {} (answered on try {attempt})",
+                troubles.join("; ")
+            ));
+        }
+    }
+
     /// An explicit request in SendRRData, with `items` after the data item (e.g. a T→O
     /// sockaddr for Forward_Open). Returns the Message Router reply and the other items.
+    /// A reply whose CIP part is corrupted, or answers another service, is asked again.
     pub async fn request(
         &mut self,
         request: &Request,
@@ -202,36 +306,56 @@ impl Session {
         let mut all = vec![Item::Null, Item::UnconnectedData(request.encode())];
         all.extend(items);
         let body = RrData::new(10, all).encode();
-        let reply = self.exchange(Command::SEND_RR_DATA, body).await?;
         let what = format!(
             "{} ({:02X}h) to {}",
             cip::service::name(request.service),
             request.service,
             self.peer
         );
-        if reply.status == Status::INVALID_SESSION {
-            return Err(Error::Disconnected(format!(
-                "{what}: the adapter no longer knows our session ({})",
-                reply.status
-            )));
+        let started = Instant::now();
+        let deadline = started + self.timeout;
+        let mut troubles = Vec::new();
+        let mut contexts = Vec::new();
+        for attempt in 1..=TRIES {
+            let try_deadline = try_deadline(attempt, self.timeout, deadline);
+            let reply = match self
+                .exchange_once(
+                    Command::SEND_RR_DATA,
+                    &body,
+                    &what,
+                    try_deadline,
+                    &mut contexts,
+                )
+                .await
+            {
+                Ok(reply) => reply,
+                Err(Trouble::Retry(text)) => {
+                    troubles.push(text);
+                    continue;
+                }
+                Err(Trouble::Fatal(error)) => return Err(error),
+            };
+            if reply.status == Status::INVALID_SESSION {
+                return Err(Error::Disconnected(format!(
+                    "{what}: the adapter no longer knows our session ({})",
+                    reply.status
+                )));
+            }
+            if reply.status != Status::SUCCESS {
+                return Err(Error::Answer(format!(
+                    "{what}: the adapter answered {}",
+                    reply.status
+                )));
+            }
+            match decode_router(request, &reply.data) {
+                Ok(decoded) => {
+                    self.note_recovered(&what, &troubles, attempt);
+                    return Ok(decoded);
+                }
+                Err(text) => troubles.push(format!("a corrupted reply ({text})")),
+            }
         }
-        if reply.status != Status::SUCCESS {
-            return Err(Error::Protocol(format!("{what}: {}", reply.status)));
-        }
-        let data = RrData::decode(&reply.data)
-            .map_err(|e| Error::Protocol(format!("{what}: {e}; reply {}", hex(&reply.data))))?;
-        let router = data.unconnected().ok_or_else(|| {
-            Error::Protocol(format!("{what}: the reply has no unconnected data item"))
-        })?;
-        let decoded = Reply::decode(router)
-            .and_then(|r| r.expect(request.service))
-            .map_err(|e| Error::Protocol(format!("{what}: {e}; reply {}", hex(router))))?;
-        let others = data
-            .items
-            .into_iter()
-            .filter(|i| !matches!(i, Item::Null | Item::UnconnectedData(_)))
-            .collect();
-        Ok((decoded, others))
+        Err(gave_up(what, troubles, self.timeout, ""))
     }
 
     /// ListIdentity over this TCP connection.
@@ -261,6 +385,33 @@ impl Session {
         let _ = tokio::time::timeout(self.timeout, self.stream.write_all(&bytes)).await;
         let _ = self.stream.shutdown().await;
     }
+}
+
+/// The deadline of one try: its share of the timeout, the last one all that is left.
+fn try_deadline(attempt: u32, timeout: Duration, deadline: Instant) -> Instant {
+    if attempt == TRIES {
+        deadline
+    } else {
+        (Instant::now() + timeout / TRIES).min(deadline)
+    }
+}
+
+/// The Message Router reply in a SendRRData reply, and the items besides it; `Err` names
+/// what is wrong with it.
+fn decode_router(request: &Request, data: &[u8]) -> Result<(Reply, Vec<Item>), String> {
+    let data = RrData::decode(data).map_err(|e| format!("{e}; reply {}", hex(data)))?;
+    let router = data
+        .unconnected()
+        .ok_or_else(|| "the reply has no unconnected data item".to_owned())?;
+    let decoded = Reply::decode(router)
+        .and_then(|r| r.expect(request.service))
+        .map_err(|e| format!("{e}; reply {}", hex(router)))?;
+    let others = data
+        .items
+        .into_iter()
+        .filter(|i| !matches!(i, Item::Null | Item::UnconnectedData(_)))
+        .collect();
+    Ok((decoded, others))
 }
 
 /// One line for the frame log: the command, and the CIP service or reply inside.

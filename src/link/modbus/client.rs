@@ -55,14 +55,29 @@ pub struct ModbusLink {
 impl ModbusLink {
     /// Connect and learn what the device supports.
     pub async fn connect(spec: &LinkSpec, timeout: Duration) -> Result<ModbusLink, Error> {
+        Self::connect_traced(spec, timeout)
+            .await
+            .map_err(|(error, _)| error)
+    }
+
+    /// [`ModbusLink::connect`], keeping the frames of a connection that failed.
+    pub async fn connect_traced(
+        spec: &LinkSpec,
+        timeout: Duration,
+    ) -> crate::link::Traced<ModbusLink> {
         let endpoint = Endpoint::from_spec(spec).ok_or_else(|| {
-            Error::Unsupported(format!("{spec} is not a Modbus connection string"))
+            (
+                Error::Unsupported(format!("{spec} is not a Modbus connection string")),
+                vec![],
+            )
         })?;
         let order = match spec {
             LinkSpec::ModbusTcp { words, .. } | LinkSpec::ModbusRtu { words, .. } => *words,
             _ => WordOrder::High,
         };
-        let transport = Transport::connect(&endpoint, timeout).await?;
+        let transport = Transport::connect(&endpoint, timeout)
+            .await
+            .map_err(|e| (e, vec![]))?;
         let mut link = ModbusLink {
             spec: spec.clone(),
             transport,
@@ -72,8 +87,10 @@ impl ModbusLink {
             tx_image: None,
             notices: vec![],
         };
-        link.learn_tx_image().await?;
-        Ok(link)
+        match link.learn_tx_image().await {
+            Ok(()) => Ok(link),
+            Err(error) => Err((error, link.transport.take_trace())),
+        }
     }
 
     /// Where the TX process image is and what it holds: 3602h over FC 43 where the device
@@ -271,8 +288,10 @@ fn apply_signal(signals: &mut Signals, entry: Mapped, raw: u32) {
     }
 }
 
+/// The drive's exception to a process-image exchange: its answer, named with its code
+/// and meaning, not a broken frame.
 fn exception_error(request: &Request, e: &Exception) -> Error {
-    Error::Protocol(format!("{}: {e}", request.describe()))
+    Error::Answer(format!("{}: the drive answered {e}", request.describe()))
 }
 
 /// The bytes to ask for when reading an object of `dtype`: its size; strings and domains
@@ -409,6 +428,10 @@ impl Link for ModbusLink {
 
     fn take_trace(&mut self) -> Vec<crate::link::TraceRecord> {
         self.transport.take_trace()
+    }
+
+    fn take_recovered(&mut self) -> Vec<String> {
+        self.transport.take_recovered()
     }
 
     async fn reconnect(&mut self) -> Result<(), Error> {

@@ -11,10 +11,14 @@ use tokio_serial::{SerialPort, SerialPortBuilderExt, SerialStream};
 
 use super::frame::{self, Direction};
 use super::pdu::{Exception, Request, Response};
+use crate::link::error::{NO_ANSWER, TRIES, Trouble, gave_up};
 use crate::link::{Error, LinkSpec, Parity, TraceRecord};
 
 /// Frames kept for diagnostics (the log panel and error messages).
 const TRACE_LIMIT: usize = 4096;
+/// Transaction ids remembered, so that a late answer to an earlier request is told from
+/// a reply for a transaction never asked for.
+const SENT_KEPT: usize = 64;
 
 /// Where a Modbus connection goes.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -80,9 +84,13 @@ pub struct Transport {
     io: Io,
     timeout: Duration,
     transaction: u16,
+    /// The transaction ids sent lately (TCP), oldest first.
+    sent: VecDeque<u16>,
     buffer: Vec<u8>,
     last_answer: Option<Instant>,
     trace: VecDeque<TraceRecord>,
+    /// Troubles got over by sending again, not yet reported.
+    recovered: Vec<String>,
 }
 
 impl std::fmt::Debug for Transport {
@@ -121,9 +129,11 @@ impl Transport {
             io,
             timeout,
             transaction: 0,
+            sent: VecDeque::with_capacity(SENT_KEPT),
             buffer: Vec::with_capacity(512),
             last_answer: None,
             trace: VecDeque::new(),
+            recovered: Vec::new(),
         })
     }
 
@@ -176,54 +186,107 @@ impl Transport {
     }
 
     /// Send a request and wait for its answer. A device's exception is data
-    /// (`Ok(Err(_))`); a connection that fails, times out or talks nonsense is an error.
+    /// (`Ok(Err(_))`); a connection that fails is an error at once. A lost, late,
+    /// corrupted or mismatched reply is not: the request goes out again, up to [`TRIES`]
+    /// times within the timeout, and only when every try went wrong is that an error
+    /// naming what each try met.
     pub async fn transact(
         &mut self,
         request: &Request,
     ) -> Result<Result<Response, Exception>, Error> {
         let pdu = request.encode();
         let what = format!("{} to {}", request.describe(), self.endpoint.describe());
-        let deadline = Instant::now() + self.timeout;
-        let answer = match self.io {
-            Io::Tcp(_) => self.transact_tcp(&pdu, &what, deadline).await?,
-            Io::Rtu(_) => self.transact_rtu(&pdu, &what, deadline).await?,
-            Io::Closed => {
-                return Err(Error::Disconnected(format!(
-                    "{what}: the connection is closed (reopening failed)"
-                )));
+        let started = Instant::now();
+        let deadline = started + self.timeout;
+        let per_try = self.timeout / TRIES;
+        let mut troubles = Vec::new();
+        let mut ids = Vec::new();
+        for attempt in 1..=TRIES {
+            let try_deadline = if attempt == TRIES {
+                deadline
+            } else {
+                (Instant::now() + per_try).min(deadline)
+            };
+            let answer = match self.io {
+                Io::Tcp(_) => self.try_tcp(&pdu, &what, try_deadline, &mut ids).await,
+                Io::Rtu(_) => self.try_rtu(&pdu, &what, try_deadline).await,
+                Io::Closed => {
+                    return Err(Error::Disconnected(format!(
+                        "{what}: the connection is closed (reopening failed)"
+                    )));
+                }
+            };
+            match answer {
+                Ok(answer) => match Response::decode(request, &answer) {
+                    Ok(result) => {
+                        if !troubles.is_empty() {
+                            self.recovered.push(format!(
+                                "{what}: {} (answered on try {attempt})",
+                                troubles.join("; ")
+                            ));
+                        }
+                        return Ok(result);
+                    }
+                    Err(e) => troubles.push(format!("a corrupted reply ({e}): {}", hex(&answer))),
+                },
+                Err(Trouble::Retry(text)) => troubles.push(text),
+                Err(Trouble::Fatal(error)) => return Err(error),
             }
+        }
+        let hint = match self.endpoint {
+            Endpoint::Rtu { .. } => "check the slave address, baud rate and parity",
+            Endpoint::Tcp { .. } => "",
         };
-        Response::decode(request, &answer)
-            .map_err(|e| Error::Protocol(format!("{what}: {e}; reply {}", hex(&answer))))
+        Err(gave_up(what, troubles, self.timeout, hint))
     }
 
-    async fn transact_tcp(
+    /// What went wrong and was got over by sending again, since the last call (for the
+    /// log: a link that recovers often is worth a look at the cabling).
+    pub fn take_recovered(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.recovered)
+    }
+
+    /// One try over TCP: a fresh transaction id, then frames until the answer to this or
+    /// an earlier try of the same request (`ids`). A late answer to an earlier request is
+    /// skipped; a frame for a transaction never asked for, or bytes that are no frame,
+    /// end the try so that the request goes out again.
+    async fn try_tcp(
         &mut self,
         pdu: &[u8],
         what: &str,
         deadline: Instant,
-    ) -> Result<Vec<u8>, Error> {
+        ids: &mut Vec<u16>,
+    ) -> Result<Vec<u8>, Trouble> {
         let Endpoint::Tcp { unit, .. } = self.endpoint else {
-            return Err(Error::Protocol("TCP transaction on a serial link".into()));
+            return Err(Trouble::Fatal(Error::Protocol(
+                "TCP transaction on a serial link".into(),
+            )));
         };
         self.transaction = self.transaction.wrapping_add(1);
         let transaction = self.transaction;
+        ids.push(transaction);
+        if self.sent.len() >= SENT_KEPT {
+            self.sent.pop_front();
+        }
+        self.sent.push_back(transaction);
         let adu = frame::encode_tcp(transaction, unit, pdu);
         self.record(true, &adu);
         let Io::Tcp(stream) = &mut self.io else {
-            return Err(Error::Protocol("TCP transaction on a serial link".into()));
+            return Err(Trouble::Fatal(Error::Protocol(
+                "TCP transaction on a serial link".into(),
+            )));
         };
-        let written = tokio::time::timeout_at(deadline.into(), stream.write_all(&adu)).await;
-        match written {
+        match tokio::time::timeout_at(deadline.into(), stream.write_all(&adu)).await {
             Err(_) => {
-                return Err(Error::Timeout {
-                    what: what.to_owned(),
+                return Err(Trouble::Fatal(Error::Timeout {
+                    what: format!("{what}: sending"),
                     after: self.timeout,
-                });
+                }));
             }
-            Ok(Err(e)) => return Err(io_error(what, e)),
+            Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
             Ok(Ok(())) => {}
         }
+        let sent_at = Instant::now();
         loop {
             // A whole frame waiting already?
             match frame::decode_tcp(&self.buffer) {
@@ -231,52 +294,74 @@ impl Transport {
                     let raw = self.buffer[..used].to_vec();
                     self.buffer.drain(..used);
                     self.record(false, &raw);
-                    if frame.transaction != transaction {
+                    if ids.contains(&frame.transaction) {
+                        return Ok(frame.pdu);
+                    }
+                    if self.sent.contains(&frame.transaction) {
                         // A late answer to a request that timed out: skip it.
                         continue;
                     }
-                    return Ok(frame.pdu);
+                    return Err(Trouble::Retry(format!(
+                        "a reply for another transaction ({:04X}h, ours {transaction:04X}h): discarded",
+                        frame.transaction
+                    )));
                 }
                 Ok(None) => {}
                 Err(e) => {
                     let raw = std::mem::take(&mut self.buffer);
                     self.record(false, &raw);
-                    return Err(Error::Protocol(format!(
-                        "{what}: garbage instead of a Modbus TCP frame ({e}): {}",
+                    return Err(Trouble::Retry(format!(
+                        "garbage instead of a Modbus TCP frame ({e}): {}",
                         hex(&raw)
                     )));
                 }
             }
             let Io::Tcp(stream) = &mut self.io else {
-                return Err(Error::Protocol("TCP transaction on a serial link".into()));
+                return Err(Trouble::Fatal(Error::Protocol(
+                    "TCP transaction on a serial link".into(),
+                )));
             };
             let mut chunk = [0u8; 512];
             match tokio::time::timeout_at(deadline.into(), stream.read(&mut chunk)).await {
                 Err(_) => {
-                    return Err(Error::Timeout {
-                        what: what.to_owned(),
-                        after: self.timeout,
-                    });
-                }
-                Ok(Err(e)) => return Err(io_error(what, e)),
-                Ok(Ok(0)) => {
-                    return Err(Error::Disconnected(format!(
-                        "{what}: the drive closed the connection (a Nanotec drive allows one Modbus TCP connection; if another client such as Plug & Drive Studio or a PLC holds it, close that one)"
+                    let heard = if self.buffer.is_empty() {
+                        String::new()
+                    } else {
+                        // Half a frame: its rest may never come; start clean.
+                        let raw = std::mem::take(&mut self.buffer);
+                        self.record(false, &raw);
+                        format!(" (only part of a frame came: {})", hex(&raw))
+                    };
+                    return Err(Trouble::Retry(format!(
+                        "{NO_ANSWER} {} ms{heard}",
+                        sent_at.elapsed().as_millis()
                     )));
+                }
+                Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
+                Ok(Ok(0)) => {
+                    return Err(Trouble::Fatal(Error::Disconnected(format!(
+                        "{what}: the drive closed the connection (a Nanotec drive allows one Modbus TCP connection; if another client such as Plug & Drive Studio or a PLC holds it, close that one)"
+                    ))));
                 }
                 Ok(Ok(n)) => self.buffer.extend_from_slice(&chunk[..n]),
             }
         }
     }
 
-    async fn transact_rtu(
+    /// One try over RTU. Noise before the answer is skipped byte by byte until a frame
+    /// with a good CRC starts (resynchronising); a frame from another slave is skipped;
+    /// once something garbled came and the line has been quiet for a few character times,
+    /// the try ends so that the request goes out again.
+    async fn try_rtu(
         &mut self,
         pdu: &[u8],
         what: &str,
         deadline: Instant,
-    ) -> Result<Vec<u8>, Error> {
+    ) -> Result<Vec<u8>, Trouble> {
         let Endpoint::Rtu { slave, baud, .. } = self.endpoint else {
-            return Err(Error::Protocol("RTU transaction on a TCP link".into()));
+            return Err(Trouble::Fatal(Error::Protocol(
+                "RTU transaction on a TCP link".into(),
+            )));
         };
         // Keep the bus silent long enough between frames.
         if let Some(last) = self.last_answer {
@@ -286,71 +371,100 @@ impl Transport {
         let adu = frame::encode_rtu(slave, pdu);
         self.record(true, &adu);
         let Io::Rtu(port) = &mut self.io else {
-            return Err(Error::Protocol("RTU transaction on a TCP link".into()));
+            return Err(Trouble::Fatal(Error::Protocol(
+                "RTU transaction on a TCP link".into(),
+            )));
         };
         // Whatever is still in the buffer belongs to nothing we asked.
         let _ = port.clear(tokio_serial::ClearBuffer::Input);
         self.buffer.clear();
         match tokio::time::timeout_at(deadline.into(), port.write_all(&adu)).await {
             Err(_) => {
-                return Err(Error::Timeout {
-                    what: what.to_owned(),
+                return Err(Trouble::Fatal(Error::Timeout {
+                    what: format!("{what}: sending"),
                     after: self.timeout,
-                });
+                }));
             }
-            Ok(Err(e)) => return Err(io_error(what, e)),
+            Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
             Ok(Ok(())) => {}
         }
+        let sent_at = Instant::now();
+        // Bytes skipped as noise, and the first reason, for the message.
+        let mut noise: Vec<u8> = Vec::new();
+        let mut first_error: Option<String> = None;
+        let mut other_slave: Option<u8> = None;
         loop {
-            match frame::decode_rtu(&self.buffer, Direction::Response) {
-                Ok(Some((frame, used))) => {
-                    let raw = self.buffer[..used].to_vec();
-                    self.buffer.drain(..used);
-                    self.record(false, &raw);
-                    self.last_answer = Some(Instant::now());
-                    if frame.slave != slave {
-                        return Err(Error::Protocol(format!(
-                            "{what}: the answer came from slave {} (another device answers on this address?)",
-                            frame.slave
-                        )));
+            loop {
+                match frame::decode_rtu(&self.buffer, Direction::Response) {
+                    Ok(Some((frame, used))) => {
+                        let raw = self.buffer[..used].to_vec();
+                        self.buffer.drain(..used);
+                        if !noise.is_empty() {
+                            let skipped = std::mem::take(&mut noise);
+                            self.record(false, &skipped);
+                        }
+                        self.record(false, &raw);
+                        self.last_answer = Some(Instant::now());
+                        if frame.slave != slave {
+                            other_slave = Some(frame.slave);
+                            continue;
+                        }
+                        return Ok(frame.pdu);
                     }
-                    return Ok(frame.pdu);
-                }
-                Ok(None) => {}
-                Err(e) => {
-                    let raw = std::mem::take(&mut self.buffer);
-                    self.record(false, &raw);
-                    self.last_answer = Some(Instant::now());
-                    return Err(Error::Protocol(format!(
-                        "{what}: garbled RTU frame ({e}): {} — check baud rate, parity and wiring",
-                        hex(&raw)
-                    )));
+                    Ok(None) => break,
+                    Err(e) => {
+                        // Not a frame from here: drop one byte and look again.
+                        first_error.get_or_insert_with(|| e.to_string());
+                        noise.push(self.buffer.remove(0));
+                    }
                 }
             }
+            // After something garbled, a quiet line means nothing good is coming.
+            let garbled = first_error.is_some() || other_slave.is_some();
+            let wait_until = if garbled {
+                (Instant::now() + rtu_gap(baud) * 4).min(deadline)
+            } else {
+                deadline
+            };
             let Io::Rtu(port) = &mut self.io else {
-                return Err(Error::Protocol("RTU transaction on a TCP link".into()));
+                return Err(Trouble::Fatal(Error::Protocol(
+                    "RTU transaction on a TCP link".into(),
+                )));
             };
             let mut chunk = [0u8; 256];
-            match tokio::time::timeout_at(deadline.into(), port.read(&mut chunk)).await {
+            match tokio::time::timeout_at(wait_until.into(), port.read(&mut chunk)).await {
                 Err(_) => {
                     self.last_answer = Some(Instant::now());
-                    let heard = if self.buffer.is_empty() {
-                        "no answer".to_owned()
-                    } else {
-                        format!("an incomplete answer {}", hex(&self.buffer))
-                    };
-                    return Err(Error::Timeout {
-                        what: format!(
-                            "{what} ({heard}; check the slave address, baud rate and parity)"
+                    let mut heard = std::mem::take(&mut noise);
+                    heard.append(&mut self.buffer);
+                    if !heard.is_empty() {
+                        self.record(false, &heard);
+                    }
+                    let text = match (first_error, other_slave) {
+                        (Some(e), _) => format!(
+                            "a garbled answer ({e}; noise on the line, or a wrong baud rate or parity): {}",
+                            hex(&heard)
                         ),
-                        after: self.timeout,
-                    });
+                        (None, Some(other)) => format!(
+                            "an answer from slave {other} instead of {slave} (another device answers on this address?)"
+                        ),
+                        (None, None) if heard.is_empty() => format!(
+                            "{NO_ANSWER} {} ms (check the slave address, baud rate and parity)",
+                            sent_at.elapsed().as_millis()
+                        ),
+                        (None, None) => format!(
+                            "{NO_ANSWER} {} ms but an incomplete one: {} (check baud rate and parity)",
+                            sent_at.elapsed().as_millis(),
+                            hex(&heard)
+                        ),
+                    };
+                    return Err(Trouble::Retry(text));
                 }
-                Ok(Err(e)) => return Err(io_error(what, e)),
+                Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
                 Ok(Ok(0)) => {
-                    return Err(Error::Disconnected(format!(
+                    return Err(Trouble::Fatal(Error::Disconnected(format!(
                         "{what}: the serial port closed"
-                    )));
+                    ))));
                 }
                 Ok(Ok(n)) => self.buffer.extend_from_slice(&chunk[..n]),
             }
