@@ -286,7 +286,7 @@ impl Worker {
                 if s.failures == 1 {
                     s.failure_notices.say(
                         format!(
-                            "an exchange failed: {error}; trying again (the link counts as lost after {lost_after} failures in a row)"
+                            "an exchange with the drive failed: {error}; trying again (the link counts as lost after {lost_after} failures in a row)"
                         ),
                         sink,
                     );
@@ -796,6 +796,10 @@ impl Session {
                     }
                 }
                 Err(Refusal::NotSupported) => self.native_objects = false,
+                // Busy for now (Modbus 05h acknowledge, 06h busy): asked again later.
+                Err(Refusal::Modbus {
+                    code: 0x05 | 0x06, ..
+                }) => {}
                 Err(_) => self.unreadable.push(index),
             }
             return Ok(());
@@ -1327,28 +1331,37 @@ impl Session {
     }
 }
 
-/// Log lines that may repeat at the cycle rate (a noisy line), said at most once per
-/// [`Limiter::QUIET`], with a count of the ones held back.
+/// Log lines that may repeat at the cycle rate (a noisy line): at most [`Limiter::BURST`]
+/// in any [`Limiter::WINDOW`], then a count of the ones held back with the next one said.
 #[derive(Default)]
 struct Limiter {
-    last: Option<Instant>,
+    window_start: Option<Instant>,
+    said: u32,
     held: u32,
 }
 
 impl Limiter {
-    const QUIET: Duration = Duration::from_secs(5);
+    const WINDOW: Duration = Duration::from_secs(5);
+    const BURST: u32 = 5;
 
     fn say(&mut self, text: String, sink: &mut EventSink) {
         let now = Instant::now();
-        if self.last.is_some_and(|last| now - last < Self::QUIET) {
+        if self
+            .window_start
+            .is_none_or(|start| now - start >= Self::WINDOW)
+        {
+            self.window_start = Some(now);
+            self.said = 0;
+        }
+        if self.said >= Self::BURST {
             self.held += 1;
             return;
         }
+        self.said += 1;
         let text = match std::mem::take(&mut self.held) {
             0 => text,
-            held => format!("{text} (and {held} more like it in the last seconds)"),
+            held => format!("{text} (and {held} more like it before, not shown)"),
         };
-        self.last = Some(now);
         sink.emit(Event::Notice(text));
     }
 }

@@ -291,7 +291,19 @@ fn apply_signal(signals: &mut Signals, entry: Mapped, raw: u32) {
 /// The drive's exception to a process-image exchange: its answer, named with its code
 /// and meaning, not a broken frame.
 fn exception_error(request: &Request, e: &Exception) -> Error {
-    Error::Answer(format!("{}: the drive answered {e}", request.describe()))
+    let answer = match e {
+        Exception::Standard { code, .. } => format!("exception {code:02X}h ({})", e.text()),
+        Exception::Extended { abort, .. } => {
+            format!(
+                "the extended exception abort {}",
+                crate::cia::AbortCode(*abort)
+            )
+        }
+    };
+    Error::Answer(format!(
+        "{}: the drive refused it with {answer}",
+        request.describe()
+    ))
 }
 
 /// The bytes to ask for when reading an object of `dtype`: its size; strings and domains

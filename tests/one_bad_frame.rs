@@ -1,0 +1,366 @@
+//! One bad frame is not a lost link. A proxy between the worker and the simulated drive
+//! drops, delays, corrupts, duplicates or re-numbers one reply during a move (Modbus TCP,
+//! EtherNet/IP explicit messages), and a serial proxy puts noise on Modbus RTU and slcan:
+//! the move still reaches its target, the log names what happened, and only the
+//! configured number of failed exchanges in a row makes the link count as lost.
+mod common;
+mod probe;
+mod proxy;
+
+use std::net::SocketAddr;
+use std::time::{Duration, Instant};
+
+use drivedeck::link::LinkSpec;
+use drivedeck::pdi::Action;
+use drivedeck::sim::server::ServerThread;
+use drivedeck::worker::{CommandProgress, Event, Request};
+use probe::Probe;
+use proxy::{Fault, Framing, Noise, Proxy, SerialProxy};
+
+fn local() -> SocketAddr {
+    "127.0.0.1:0".parse().expect("address")
+}
+
+fn modbus(addr: SocketAddr) -> LinkSpec {
+    format!("modbus-tcp://{addr}").parse().expect("spec")
+}
+
+fn enip_explicit(addr: SocketAddr) -> LinkSpec {
+    format!("enip://{addr}?io=explicit").parse().expect("spec")
+}
+
+/// One turn at 120 rpm: about half a second of motion, plenty of exchanges to spoil.
+fn a_move() -> Request {
+    Request::Command(Action::MoveRelative {
+        distance: 3600,
+        speed: 120,
+    })
+}
+
+/// Start a move, spoil one reply with `spoil`, and check the move reaches its target on
+/// the same connection. Returns the probe for more checks.
+fn move_through(spec: LinkSpec, spoil: impl FnOnce()) -> Probe {
+    let mut probe = Probe::connected(spec);
+    let id = probe.send(a_move());
+    probe.wait(
+        "the move accepted",
+        Duration::from_secs(3),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    spoil();
+    let outcome = probe.outcome(id, Duration::from_secs(15));
+    assert!(
+        matches!(outcome, CommandProgress::Done { .. }),
+        "the move did not survive one bad frame: {outcome:?}; notices: {:#?}",
+        probe.notices()
+    );
+    let lost = probe
+        .seen
+        .iter()
+        .find(|e| matches!(e, Event::Disconnected { .. } | Event::ConnectFailed { .. }));
+    assert!(lost.is_none(), "the link was dropped: {lost:?}");
+    probe
+}
+
+/// A notice that says `words` (all of them).
+fn named(probe: &Probe, words: &[&str]) -> bool {
+    probe
+        .notices()
+        .iter()
+        .any(|n| words.iter().all(|w| n.contains(w)))
+}
+
+/// FC 23, the process-image exchange of every cycle.
+const FC_23: u8 = 0x17;
+
+/// A notice with `text`, seen already or coming within a few seconds.
+fn expect_notice(probe: &mut Probe, text: &str) {
+    if !named(probe, &[text]) {
+        probe.wait(
+            text,
+            Duration::from_secs(3),
+            |e| matches!(e, Event::Notice(n) if n.contains(text)),
+        );
+    }
+}
+
+fn modbus_move_through(fault: Fault) -> (Probe, Proxy) {
+    let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+    let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
+    let probe = move_through(modbus(proxy.addr), || proxy.fault_on(5, fault, FC_23));
+    assert_eq!(
+        proxy.applied(),
+        vec![fault],
+        "the proxy did not spoil a reply"
+    );
+    drop(server);
+    (probe, proxy)
+}
+
+#[test]
+fn modbus_tcp_a_lost_reply_is_sent_again() {
+    let (probe, _) = modbus_move_through(Fault::Drop);
+    assert!(
+        named(&probe, &["no answer within", "answered on try 2"]),
+        "{:#?}",
+        probe.notices()
+    );
+}
+
+#[test]
+fn modbus_tcp_a_late_reply_is_taken_or_skipped() {
+    // Later than one try (a third of 500 ms), sooner than the whole timeout.
+    modbus_move_through(Fault::Delay(Duration::from_millis(300)));
+    // Later than all three tries: that exchange fails, the next one works.
+    let (probe, _) = modbus_move_through(Fault::Delay(Duration::from_millis(700)));
+    assert!(
+        named(&probe, &["an exchange with the drive failed", "no answer"]),
+        "{:#?}",
+        probe.notices()
+    );
+    let mut probe = probe;
+    expect_notice(&mut probe, "recovered after 1 failed exchange");
+}
+
+#[test]
+fn modbus_tcp_a_corrupted_reply_is_sent_again() {
+    let (probe, _) = modbus_move_through(Fault::Corrupt);
+    assert!(
+        named(&probe, &["a corrupted reply", "answered on try 2"]),
+        "{:#?}",
+        probe.notices()
+    );
+    let (probe, _) = modbus_move_through(Fault::BreakFraming);
+    assert!(
+        named(&probe, &["garbage instead of a Modbus TCP frame"]),
+        "{:#?}",
+        probe.notices()
+    );
+}
+
+#[test]
+fn modbus_tcp_a_reply_for_another_transaction_is_discarded() {
+    let (probe, _) = modbus_move_through(Fault::WrongId);
+    assert!(
+        named(&probe, &["a reply for another transaction", "discarded"]),
+        "{:#?}",
+        probe.notices()
+    );
+    // A reply that comes twice: the second copy is a late answer, skipped.
+    modbus_move_through(Fault::Duplicate);
+}
+
+#[test]
+fn modbus_tcp_one_exception_is_the_drives_answer_not_a_lost_link() {
+    let (probe, _) = modbus_move_through(Fault::Exception(0x06));
+    assert!(
+        named(
+            &probe,
+            &["an exchange with the drive failed", "exception 06h", "busy"]
+        ),
+        "{:#?}",
+        probe.notices()
+    );
+    assert!(
+        !probe.notices().iter().any(|n| n.contains("malformed")),
+        "an exception is an answer: {:#?}",
+        probe.notices()
+    );
+}
+
+#[test]
+fn two_failed_exchanges_in_a_row_are_not_yet_a_lost_link() {
+    let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+    let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
+    // Each failed exchange is three tries: six replies lost are two exchanges.
+    let mut probe = move_through(modbus(proxy.addr), || proxy.drop_next(6));
+    assert_eq!(proxy.dropped(), 6);
+    expect_notice(&mut probe, "recovered after 2 failed exchange");
+}
+
+/// Every reply lost from mid-move on: the link counts as lost after exactly `lost_after`
+/// failed exchanges, and the message says so and what was done to the drive.
+fn lost_after(lost_after: u32) {
+    let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+    let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
+    let mut probe = Probe::connected(modbus(proxy.addr));
+    probe.send(Request::SetLostAfter(lost_after));
+    let id = probe.send(Request::Command(Action::Velocity { speed: 60 }));
+    probe.wait(
+        "the velocity accepted",
+        Duration::from_secs(3),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    let cut = Instant::now();
+    proxy.drop_all();
+    let lost = probe.wait("the link loss", Duration::from_secs(20), |e| {
+        matches!(e, Event::Disconnected { reason: Some(_) })
+    });
+    let took = cut.elapsed();
+    let Event::Disconnected {
+        reason: Some(reason),
+    } = lost
+    else {
+        unreachable!()
+    };
+    assert!(
+        reason.contains(&format!("{lost_after} exchanges failed in a row")),
+        "{reason}"
+    );
+    assert!(reason.contains("no answer within"), "{reason}");
+    assert!(
+        reason.contains("halt"),
+        "what was done to the drive: {reason}"
+    );
+    // Three tries of 500 ms per failed exchange (plus the halt attempt), never fewer.
+    assert!(
+        took >= Duration::from_millis(500) * (lost_after - 1),
+        "lost after {took:?}"
+    );
+    let failed = probe.notices();
+    assert!(
+        failed
+            .iter()
+            .any(|n| n.contains("an exchange with the drive failed")),
+        "{failed:#?}"
+    );
+    // The command running then ends with the same, whole reason.
+    let ended = probe.seen.iter().find_map(|e| match e {
+        Event::Progress {
+            id: i,
+            progress: CommandProgress::LinkLost { reason },
+        } if *i == id => Some(reason.clone()),
+        _ => None,
+    });
+    let ended = ended.expect("the velocity command ends with the link");
+    assert!(ended.contains("exchanges failed in a row"), "{ended}");
+    assert!(ended.contains("halt"), "{ended}");
+}
+
+#[test]
+fn the_link_counts_as_lost_after_three_failed_exchanges_by_default() {
+    lost_after(3);
+}
+
+#[test]
+fn the_link_counts_as_lost_after_the_configured_number_of_failed_exchanges() {
+    lost_after(5);
+}
+
+fn enip_move_through(fault: Fault) -> Probe {
+    let server = ServerThread::enip(
+        local(),
+        drivedeck::sim::server::enip::Options {
+            io_port: 0,
+            ..Default::default()
+        },
+    )
+    .expect("adapter");
+    let proxy = Proxy::start(server.addr, Framing::Enip);
+    let probe = move_through(enip_explicit(proxy.addr), || proxy.fault_in(8, fault));
+    assert_eq!(
+        proxy.applied(),
+        vec![fault],
+        "the proxy did not spoil a reply"
+    );
+    probe
+}
+
+#[test]
+fn enip_explicit_a_lost_or_corrupted_reply_is_sent_again() {
+    let probe = enip_move_through(Fault::Drop);
+    assert!(
+        named(&probe, &["no answer within", "answered on try 2"]),
+        "{:#?}",
+        probe.notices()
+    );
+    let probe = enip_move_through(Fault::Corrupt);
+    assert!(
+        named(&probe, &["a corrupted reply", "answered on try 2"]),
+        "{:#?}",
+        probe.notices()
+    );
+    let probe = enip_move_through(Fault::BreakFraming);
+    assert!(
+        named(&probe, &["more than any adapter sends"]),
+        "{:#?}",
+        probe.notices()
+    );
+    enip_move_through(Fault::Delay(Duration::from_millis(500)));
+    enip_move_through(Fault::Duplicate);
+}
+
+#[test]
+fn enip_a_reply_with_another_session_or_command_is_rejected_by_name() {
+    let probe = enip_move_through(Fault::WrongId);
+    assert!(
+        named(&probe, &["session handle", "rejected"]),
+        "{:#?}",
+        probe.notices()
+    );
+    let probe = enip_move_through(Fault::WrongCommand);
+    assert!(
+        named(&probe, &["RegisterSession", "rejected"]),
+        "{:#?}",
+        probe.notices()
+    );
+}
+
+fn rtu(path: &std::path::Path) -> LinkSpec {
+    format!("modbus-rtu://{}?baud=115200&slave=5", path.display())
+        .parse()
+        .expect("spec")
+}
+
+#[test]
+fn modbus_rtu_noise_and_a_crc_error_are_got_over() {
+    let (Some(host), Some(device)) = (common::PtyPair::new(), common::PtyPair::new()) else {
+        return;
+    };
+    let _sim = common::Sim::rtu(&device.a, &["--baud", "115200"]);
+    let proxy = SerialProxy::start(&host.b, &device.b, false);
+    let probe = move_through(rtu(&host.a), || {
+        proxy.noise_in(3, Noise::Before);
+        proxy.noise_in(9, Noise::Flip);
+        proxy.noise_in(15, Noise::Lost);
+        proxy.noise_in(21, Noise::Garbage);
+    });
+    assert_eq!(
+        proxy.applied(),
+        vec![Noise::Before, Noise::Flip, Noise::Lost, Noise::Garbage]
+    );
+    // Noise before a reply is skipped (resynchronised); a CRC error, a lost reply and
+    // garbage instead of one are each sent again, and named.
+    assert!(
+        named(&probe, &["a garbled answer", "CRC"]),
+        "{:#?}",
+        probe.notices()
+    );
+    assert!(
+        named(&probe, &["no answer within", "answered on try 2"]),
+        "{:#?}",
+        probe.notices()
+    );
+}
+
+#[test]
+fn slcan_a_garbled_line_is_skipped() {
+    let (Some(host), Some(device)) = (common::PtyPair::new(), common::PtyPair::new()) else {
+        return;
+    };
+    let _sim = common::Sim::slcan(&device.a, 1, &[]);
+    let proxy = SerialProxy::start(&host.b, &device.b, true);
+    let spec: LinkSpec = format!("canopen+slcan://{}?node=1", host.a.display())
+        .parse()
+        .expect("spec");
+    move_through(spec, || {
+        proxy.noise_in(2, Noise::Garbage);
+        proxy.noise_in(5, Noise::Flip);
+        proxy.noise_in(9, Noise::Lost);
+        proxy.noise_in(12, Noise::Before);
+    });
+    assert_eq!(
+        proxy.applied(),
+        vec![Noise::Garbage, Noise::Flip, Noise::Lost, Noise::Before]
+    );
+}
