@@ -15,7 +15,7 @@
 //! * process data: set values and outputs the drive acts on cyclically (CiA 402 targets
 //!   and offsets, digital outputs, the NanoJ and PDI images), and for dictionaries from an
 //!   EDS every entry the file's AccessType marks as process data (`rww`, written on
-//!   process output; `rwr`, read on process input; CiA 306 section 4.6.3).
+//!   process output; `rwr`, read on process input, as CiA 306 defines AccessType).
 //!
 //! The catalog sets [`Entry::role`](super::Entry::role) with [`Role::of`] for the built-in
 //! objects and for those of an EDS ([`Role::of_eds`]); the command and process-data
