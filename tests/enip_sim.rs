@@ -590,6 +590,7 @@ fn drive_refusals_map_to_cip_statuses() {
         min: None,
         max: None,
         group: Group::Manufacturer,
+        role: drivedeck::od::Role::WriteOnly,
     });
     let drive = SharedDrive::new(Drive::with_catalog(&catalog, World::default()));
     let server = ServerThread::enip_with(local(), options(), drive).expect("server");

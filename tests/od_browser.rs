@@ -359,3 +359,158 @@ fn an_eds_replaces_the_catalog_and_a_broken_path_says_why() {
         "{message:?}"
     );
 }
+
+/// A hand-edited backup: one setting that differs from the drive, and entries a restore
+/// must never write (commands, PDI set values and command, restore defaults, a read-only
+/// object, an object the dictionary does not know).
+fn crafted_backup(objects: &[(&str, &str, &str, &str, u64)]) -> String {
+    let objects: Vec<serde_json::Value> = objects
+        .iter()
+        .map(|(address, name, dtype, kind, value)| {
+            serde_json::json!({
+                "address": address, "name": name, "type": dtype,
+                "value": {"kind": kind, "value": value}, "shown": value.to_string(),
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "format": "drivedeck backup", "version": 1, "saved_at": 0, "link": "sim",
+        "identity": {"vendor": 0x26C}, "objects": objects,
+    })
+    .to_string()
+}
+
+#[test]
+fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_the_reason() {
+    let dir = TempDir::new("backup-crafted");
+    let path = dir.path.join("crafted.json");
+    std::fs::write(
+        &path,
+        crafted_backup(&[
+            ("6081:00", "Profile Velocity", "UNSIGNED32", "uint", 777),
+            ("6040:00", "Controlword", "UNSIGNED16", "uint", 0x000F),
+            ("2291:01", "PDI-SetValue1", "INTEGER32", "int", 5000),
+            ("2291:04", "PDI-Cmd", "INTEGER8", "int", 21),
+            ("1011:01", "Restore all", "UNSIGNED32", "uint", 0x6461_6F6C),
+            ("2300:00", "NanoJ Control", "UNSIGNED32", "uint", 1),
+            ("6041:00", "Statusword", "UNSIGNED16", "uint", 0x0237),
+            ("2FF0:00", "Something else", "UNSIGNED32", "uint", 7),
+        ]),
+    )
+    .expect("write");
+    let never = [
+        (Address::new(0x6040, 0), "command"),
+        (Address::new(0x2291, 1), "command"),
+        (Address::new(0x2291, 4), "command"),
+        (Address::new(0x1011, 1), "command"),
+        (Address::new(0x2300, 0), "command"),
+        (Address::new(0x6041, 0), "read-only"),
+        (Address::new(0x2FF0, 0), "not in the dictionary"),
+    ];
+    let mut harness = browser();
+    harness
+        .get_by_label("Backup file")
+        .set_text_value_accesskit(path.to_str().expect("utf-8"));
+    harness.run();
+
+    // The preview plans the one setting; the rest is listed as skipped, with the reason.
+    harness.get_by_label("Restore from file").click();
+    harness.step();
+    step_until(&mut harness, "the preview", Duration::from_secs(20), |h| {
+        h.state().state.browser.restore.is_some()
+    });
+    let restore = harness
+        .state()
+        .state
+        .browser
+        .restore
+        .clone()
+        .expect("a preview");
+    let planned: Vec<Address> = restore.steps.iter().map(|s| s.address).collect();
+    assert_eq!(planned, vec![PROFILE_VELOCITY]);
+    for (address, word) in never {
+        let reason = restore
+            .skipped
+            .iter()
+            .find(|(a, _)| *a == address)
+            .map(|(_, r)| r.clone())
+            .unwrap_or_else(|| panic!("{address} not skipped: {:?}", restore.skipped));
+        assert!(reason.contains(word), "{address}: {reason}");
+    }
+    harness.run();
+    assert!(
+        harness
+            .query_by_label_contains("6040h:00h Controlword skipped: a command (the controlword")
+            .is_some(),
+        "the preview shows the skipped controlword with its reason"
+    );
+    assert!(
+        harness
+            .query_by_label_contains("6041h:00h Statusword skipped: read-only")
+            .is_some()
+    );
+
+    // Restoring writes that one setting.
+    harness.get_by_label("Restore 1 writes").click();
+    harness.run();
+    harness.get_by_label("Write them").click();
+    harness.step();
+    step_until(&mut harness, "the restore", Duration::from_secs(10), |h| {
+        h.state()
+            .state
+            .browser
+            .restore
+            .as_ref()
+            .is_some_and(|r| r.results == vec![Some(Ok(()))])
+    });
+
+    // The comparison lists the same entries as skipped, not as differences.
+    harness.run();
+    harness.get_by_label("Compare with file").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the comparison",
+        Duration::from_secs(20),
+        |h| h.state().state.browser.comparison.is_some(),
+    );
+    let message = harness.state().state.browser.message.clone();
+    assert!(
+        matches!(&message, Some(Ok(m)) if m.contains("0 differ") && m.contains("7 entries skipped")),
+        "{message:?}"
+    );
+    harness.run();
+    assert!(
+        harness
+            .query_by_label_contains("skipped: a command (restore default parameters")
+            .is_some()
+    );
+}
+
+#[test]
+fn a_file_naming_an_object_twice_is_refused_with_the_object_named() {
+    let dir = TempDir::new("backup-twice");
+    let path = dir.path.join("twice.json");
+    std::fs::write(
+        &path,
+        crafted_backup(&[
+            ("6081:00", "Profile Velocity", "UNSIGNED32", "uint", 100),
+            ("6081h:0", "Profile Velocity", "UNSIGNED32", "uint", 900),
+        ]),
+    )
+    .expect("write");
+    let mut harness = browser();
+    harness
+        .get_by_label("Backup file")
+        .set_text_value_accesskit(path.to_str().expect("utf-8"));
+    harness.run();
+    harness.get_by_label("Restore from file").click();
+    harness.run();
+    let message = harness.state().state.browser.message.clone();
+    assert!(
+        matches!(&message, Some(Err(m)) if m.contains("6081h:00h") && m.contains("twice")),
+        "{message:?}"
+    );
+    assert!(harness.state().state.browser.bulk.is_none(), "nothing read");
+    assert!(harness.state().state.browser.restore.is_none());
+}

@@ -140,12 +140,15 @@ pub enum OdCommand {
     /// Back the drive's configuration up: every readable and writable setting (no
     /// commands, no process data) with the device's identity, to a JSON file.
     Dump(OdDumpArgs),
-    /// Compare the drive with a backup file: each saved object, same or different.
+    /// Compare the drive with a backup file: each saved object, same or different (and the
+    /// entries a restore skips, with the reason: they do not count as differences).
     /// Exit code 0 when the drive matches, 1 when something differs or cannot be read.
     Diff(OdFileArgs),
     /// Write a backup file back: only what differs, in a safe order (configuration, drive
     /// profile, mappings with their procedure, communication, and the settings that can
-    /// cut the link last), each write reported, then the drive compared again.
+    /// cut the link last), each write reported, then the drive compared again. Commands,
+    /// process data, read-only and unknown objects are never written, whatever the file
+    /// says: they are listed as skipped, with the reason.
     Restore(OdRestoreArgs),
 }
 
@@ -170,6 +173,14 @@ pub struct OdFileArgs {
     /// List the objects that match too, not only the differences.
     #[arg(long)]
     pub all: bool,
+    /// The dictionary that judges the file: this EDS's instead of the built-in catalog's
+    /// (give the one the backup was saved with). Objects it does not know as settings are
+    /// skipped, never written.
+    #[arg(long, value_name = "FILE")]
+    pub eds: Option<std::path::PathBuf>,
+    /// The node id for the EDS's $NODEID formulas.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
+    pub node: Option<u8>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -187,6 +198,14 @@ pub struct OdRestoreArgs {
     /// Restore a file saved from another kind of device (vendor or product differ).
     #[arg(long)]
     pub force: bool,
+    /// The dictionary that judges the file: this EDS's instead of the built-in catalog's
+    /// (give the one the backup was saved with). Objects it does not know as settings are
+    /// skipped, never written.
+    #[arg(long, value_name = "FILE")]
+    pub eds: Option<std::path::PathBuf>,
+    /// The node id for the EDS's $NODEID formulas.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
+    pub node: Option<u8>,
 }
 
 #[derive(Args, Debug, Clone)]

@@ -1,10 +1,16 @@
 //! A drive's configuration as a file: what a backup saves, how a file compares with the
 //! device, and the order a restore writes in.
 //!
-//! Saved are the objects that are both readable and writable, except process data and
-//! commands (the PDI images, the controlword, targets, outputs, NanoJ I/O, store/restore
-//! commands): writing those back would move the motor or act, not configure. The
-//! identity (1018h, 1008h, 1009h, 100Ah) goes in the file's header.
+//! Saved are the objects whose [`Role`] is configuration: readable and writable, and not
+//! process data nor commands (the PDI images, the controlword, targets, outputs, NanoJ
+//! I/O, store/restore commands), since writing those back would move the motor or act,
+//! not configure. The identity (1018h, 1008h, 1009h, 100Ah) goes in the file's header.
+//!
+//! A file is only ever trusted as far as the dictionary in use agrees with it: comparing
+//! and restoring skip every saved object that dictionary does not know, knows with another
+//! type, or does not call configuration, whatever the file says, and list it with the
+//! reason ([`Comparison::Skipped`]); such an object is not even read. A file that names an
+//! object twice, or none, is refused when it is loaded.
 //!
 //! A restore writes only what differs, in a safe order: drive configuration, then the
 //! drive profile, then mappings with their procedure (PDO invalidated, count 0, entries,
@@ -16,31 +22,12 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Access, Address, Catalog, DataType, Entry, Value};
+use super::{Address, Catalog, DataType, Entry, Role, Value};
 
 /// The `format` field of every backup file.
 pub const FORMAT: &str = "drivedeck backup";
 /// The file format's version.
 pub const VERSION: u32 = 1;
-
-/// Objects never saved nor restored: they command or carry process data.
-const NOT_CONFIGURATION: [u16; 15] = [
-    0x1003, // error history (writing 0 clears it: an action)
-    0x1010, // store parameters (a command)
-    0x1011, // restore default parameters (a command)
-    0x2291, // PDI input (a command)
-    0x2292, // PDI output
-    0x2300, // NanoJ control (starts programs)
-    0x2400, // NanoJ inputs
-    0x2500, // NanoJ outputs
-    0x6040, // controlword
-    0x6042, // vl target velocity
-    0x6060, // modes of operation (set by each command)
-    0x6071, // target torque
-    0x607A, // target position
-    0x60FE, // digital outputs
-    0x60FF, // target velocity
-];
 
 /// Settings that change how the drive is reached: written last, with a warning.
 const LINK_SETTINGS: [u16; 10] = [
@@ -72,13 +59,43 @@ pub enum BackupError {
     Version(u32),
     #[error("object '{address}' in the file: {reason}")]
     Object { address: String, reason: String },
+    #[error(
+        "object {address} is listed twice (as '{first}' and as '{second}'): which value is meant is unclear; remove one and try again"
+    )]
+    Twice {
+        address: Address,
+        first: String,
+        second: String,
+    },
+    #[error("the file lists no objects: nothing to restore or compare")]
+    Empty,
 }
 
-/// Whether a catalog entry belongs in a backup.
+/// Whether a catalog entry belongs in a backup: configuration, by its [`Role`].
 pub fn savable(entry: &Entry) -> bool {
-    entry.access == Access::Rw
-        && !NOT_CONFIGURATION.contains(&entry.address.index)
-        && entry.dtype != DataType::Domain
+    entry.role.is_configuration()
+}
+
+/// Why comparing and restoring leave a saved object alone, or None when a restore may
+/// write it: `catalog` (the dictionary in use) must know the object, with the file's
+/// type, as configuration. An object it does not know is not written blind.
+pub fn skip_reason(catalog: &Catalog, address: Address, saved: &SavedObject) -> Option<String> {
+    let Some(entry) = catalog.get(address) else {
+        return Some(
+            "not in the dictionary in use (the built-in catalog, or the EDS given): what writing it does is unknown"
+                .to_owned(),
+        );
+    };
+    if entry.role != Role::Configuration {
+        return Some(entry.role.to_string());
+    }
+    if entry.dtype != saved.dtype {
+        return Some(format!(
+            "the file says {}, the dictionary {}: not written as a type the object does not have",
+            saved.dtype, entry.dtype
+        ));
+    }
+    None
 }
 
 /// What a backup reads: the identity, then every savable object.
@@ -249,8 +266,19 @@ impl Backup {
         if backup.version > VERSION {
             return Err(BackupError::Version(backup.version));
         }
+        if backup.objects.is_empty() {
+            return Err(BackupError::Empty);
+        }
+        let mut seen: BTreeMap<Address, &str> = BTreeMap::new();
         for object in &backup.objects {
-            object.address()?;
+            let address = object.address()?;
+            if let Some(first) = seen.insert(address, &object.address) {
+                return Err(BackupError::Twice {
+                    address,
+                    first: first.to_owned(),
+                    second: object.address.clone(),
+                });
+            }
             object
                 .value
                 .to_le_bytes(object.dtype)
@@ -269,10 +297,24 @@ impl Backup {
             .filter_map(|o| o.address().ok().map(|a| (a, o)))
     }
 
-    /// What to read from a device to compare it with this file.
-    pub fn objects_to_read(&self) -> Vec<(Address, DataType)> {
+    /// The saved objects a restore may write, judged by `catalog` (see [`skip_reason`]).
+    pub fn restorable<'a>(
+        &'a self,
+        catalog: &'a Catalog,
+    ) -> impl Iterator<Item = (Address, &'a SavedObject)> + 'a {
+        self.entries()
+            .filter(|(a, o)| skip_reason(catalog, *a, o).is_none())
+    }
+
+    /// What to read from a device to compare it with this file: the identity and the
+    /// objects a restore may write, each once.
+    pub fn objects_to_read(&self, catalog: &Catalog) -> Vec<(Address, DataType)> {
         let mut out: Vec<(Address, DataType)> = IDENTITY.to_vec();
-        out.extend(self.entries().map(|(a, o)| (a, o.dtype)));
+        for (address, saved) in self.restorable(catalog) {
+            if !out.iter().any(|(a, _)| *a == address) {
+                out.push((address, saved.dtype));
+            }
+        }
         out
     }
 }
@@ -293,6 +335,8 @@ pub enum Comparison {
     Same,
     Differs(Value),
     Unreadable(String),
+    /// Not compared and never restored, with the reason (see [`skip_reason`]).
+    Skipped(String),
 }
 
 /// One line of a comparison.
@@ -305,19 +349,23 @@ pub struct Difference {
     pub device: Comparison,
 }
 
-/// Every saved object against the device's current values.
+/// Every saved object against the device's current values; the objects `catalog` (the
+/// dictionary in use) does not let a restore write are [`Comparison::Skipped`].
 pub fn compare(
     backup: &Backup,
+    catalog: &Catalog,
     device: &BTreeMap<Address, Result<Value, String>>,
 ) -> Vec<Difference> {
     backup
         .entries()
         .map(|(address, saved)| {
-            let device = match device.get(&address) {
-                Some(Ok(value)) if same(value, &saved.value) => Comparison::Same,
-                Some(Ok(value)) => Comparison::Differs(value.clone()),
-                Some(Err(reason)) => Comparison::Unreadable(reason.clone()),
-                None => Comparison::Unreadable("not read".into()),
+            let skipped = skip_reason(catalog, address, saved);
+            let device = match (skipped, device.get(&address)) {
+                (Some(reason), _) => Comparison::Skipped(reason),
+                (None, Some(Ok(value))) if same(value, &saved.value) => Comparison::Same,
+                (None, Some(Ok(value))) => Comparison::Differs(value.clone()),
+                (None, Some(Err(reason))) => Comparison::Unreadable(reason.clone()),
+                (None, None) => Comparison::Unreadable("not read".into()),
             };
             Difference {
                 address,
@@ -392,12 +440,14 @@ fn phase(index: u16) -> u8 {
 }
 
 /// The writes that make the device match the file, in a safe order. Objects the device
-/// could not read are left out (and reported by [`compare`]).
+/// could not read, and those `catalog` does not let a restore write, are left out (and
+/// reported by [`compare`]).
 pub fn restore_plan(
     backup: &Backup,
+    catalog: &Catalog,
     device: &BTreeMap<Address, Result<Value, String>>,
 ) -> Vec<Step> {
-    let differences: Vec<Difference> = compare(backup, device)
+    let differences: Vec<Difference> = compare(backup, catalog, device)
         .into_iter()
         .filter(|d| matches!(d.device, Comparison::Differs(_)))
         .collect();
@@ -407,7 +457,7 @@ pub fn restore_plan(
     };
     let saved = |address: Address| {
         backup
-            .entries()
+            .restorable(catalog)
             .find(|(a, _)| *a == address)
             .map(|(_, o)| o.value.clone())
     };
@@ -607,7 +657,10 @@ mod tests {
         let catalog = crate::od::builtin();
         let reads = device_of(catalog);
         let backup = Backup::new("sim", catalog, &reads, 0);
-        assert!(restore_plan(&backup, &reads).is_empty(), "nothing differs");
+        assert!(
+            restore_plan(&backup, catalog, &reads).is_empty(),
+            "nothing differs"
+        );
         // The device now differs in a profile object, a drive object, a link setting and
         // a PDO mapping entry.
         let mut device = reads.clone();
@@ -615,7 +668,7 @@ mod tests {
         device.insert(Address::new(0x2031, 0), Ok(Value::Uint(7)));
         device.insert(Address::new(0x2009, 0), Ok(Value::Uint(9)));
         device.insert(Address::new(0x1600, 1), Ok(Value::Uint(0x6040_0010)));
-        let plan = restore_plan(&backup, &device);
+        let plan = restore_plan(&backup, catalog, &device);
         let order: Vec<Address> = plan.iter().map(|s| s.address).collect();
         let at = |a: Address| order.iter().position(|x| *x == a).expect("in the plan");
         assert!(at(Address::new(0x2031, 0)) < at(Address::new(0x6081, 0)));
@@ -667,7 +720,7 @@ mod tests {
         let mut device = reads.clone();
         device.insert(Address::new(0x6083, 0), Ok(Value::Uint(42)));
         device.insert(Address::new(0x6084, 0), Err("abort 06020000h".into()));
-        let report = compare(&backup, &device);
+        let report = compare(&backup, catalog, &device);
         let of = |a: Address| {
             report
                 .iter()
@@ -685,5 +738,140 @@ mod tests {
             Comparison::Unreadable("abort 06020000h".into())
         );
         assert_eq!(of(Address::new(0x6081, 0)), Comparison::Same);
+    }
+
+    fn object(address: &str, dtype: DataType, value: Value) -> SavedObject {
+        SavedObject {
+            address: address.into(),
+            name: String::new(),
+            dtype,
+            value,
+            shown: String::new(),
+        }
+    }
+
+    #[test]
+    fn commands_process_data_read_only_and_unknown_objects_are_never_restored() {
+        let catalog = crate::od::builtin();
+        let reads = device_of(catalog);
+        let mut backup = Backup::new("sim", catalog, &reads, 0);
+        // Saved objects are all configuration: a dump never holds a skipped one.
+        assert!(
+            backup
+                .entries()
+                .all(|(a, o)| skip_reason(catalog, a, o).is_none())
+        );
+        let u32 = DataType::Unsigned32;
+        let crafted = [
+            (
+                object("6040:00", DataType::Unsigned16, Value::Uint(0xF)),
+                "command",
+            ),
+            (
+                object("2291:04", DataType::Integer8, Value::Int(21)),
+                "command",
+            ),
+            (object("1011:01", u32, Value::Uint(0x6461_6F6C)), "command"),
+            (object("1010:01", u32, Value::Uint(0x6576_6173)), "command"),
+            (object("2300:00", u32, Value::Uint(1)), "command"),
+            (
+                object("60FF:00", DataType::Integer32, Value::Int(500)),
+                "process data",
+            ),
+            (
+                object("6041:00", DataType::Unsigned16, Value::Uint(0x237)),
+                "read-only",
+            ),
+            (object("1018:01", u32, Value::Uint(1)), "read-only"),
+            (
+                object("2FF0:00", u32, Value::Uint(1)),
+                "not in the dictionary",
+            ),
+        ];
+        backup
+            .objects
+            .extend(crafted.iter().map(|(o, _)| o.clone()));
+        // Make every crafted object "differ" from the device.
+        let mut device = reads.clone();
+        for (o, _) in &crafted {
+            device.insert(o.address().unwrap(), Ok(Value::Uint(0xDEAD)));
+        }
+        let report = compare(&backup, catalog, &device);
+        for (o, word) in &crafted {
+            let address = o.address().unwrap();
+            let row = report.iter().find(|d| d.address == address).unwrap();
+            match &row.device {
+                Comparison::Skipped(reason) => assert!(reason.contains(word), "{reason}"),
+                other => panic!("{address}: {other:?}"),
+            }
+        }
+        assert!(restore_plan(&backup, catalog, &device).is_empty());
+        // Nor are they read (1018h:01 only once, for the identity).
+        let read = backup.objects_to_read(catalog);
+        for (o, _) in &crafted[..7] {
+            assert!(
+                !read.iter().any(|(a, _)| *a == o.address().unwrap()),
+                "{}",
+                o.address
+            );
+        }
+        assert_eq!(
+            read.iter()
+                .filter(|(a, _)| *a == Address::new(0x1018, 1))
+                .count(),
+            1
+        );
+    }
+
+    #[test]
+    fn a_setting_saved_with_another_type_is_skipped() {
+        let catalog = crate::od::builtin();
+        let reads = device_of(catalog);
+        let mut backup = Backup::new("sim", catalog, &reads, 0);
+        let at = backup
+            .objects
+            .iter()
+            .position(|o| o.address == "6083:00")
+            .unwrap();
+        backup.objects[at] = object("6083:00", DataType::Unsigned8, Value::Uint(9));
+        let report = compare(&backup, catalog, &reads);
+        let row = report
+            .iter()
+            .find(|d| d.address == Address::new(0x6083, 0))
+            .unwrap();
+        assert!(
+            matches!(&row.device, Comparison::Skipped(r) if r.contains("U8") && r.contains("U32")),
+            "{row:?}"
+        );
+    }
+
+    #[test]
+    fn a_file_naming_an_object_twice_or_none_is_refused() {
+        let catalog = crate::od::builtin();
+        let mut backup = Backup::new("sim", catalog, &device_of(catalog), 0);
+        let mut again = object("6081h:0", DataType::Unsigned32, Value::Uint(1));
+        again.name = "Profile Velocity".into();
+        backup.objects.push(again);
+        let err = Backup::from_json(&backup.to_json()).unwrap_err();
+        assert!(matches!(err, BackupError::Twice { .. }), "{err}");
+        let text = err.to_string();
+        assert!(
+            text.contains("6081h:00h") && text.contains("'6081:00'") && text.contains("'6081h:0'"),
+            "{text}"
+        );
+        backup.objects.clear();
+        let err = Backup::from_json(&backup.to_json()).unwrap_err();
+        assert!(err.to_string().contains("nothing to restore"), "{err}");
+    }
+
+    #[test]
+    fn files_saved_before_the_rule_still_load() {
+        // Version 1 as drivedeck wrote it, without the later `unreadable` list.
+        let text = r#"{"format":"drivedeck backup","version":1,"saved_at":1700000000,
+            "link":"sim","identity":{"vendor":620,"product":1},
+            "objects":[{"address":"6081:00","name":"Profile Velocity","type":"UNSIGNED32",
+                        "value":{"kind":"uint","value":200},"shown":"200 rpm"}]}"#;
+        let backup = Backup::from_json(text).unwrap();
+        assert_eq!(backup.restorable(crate::od::builtin()).count(), 1);
     }
 }

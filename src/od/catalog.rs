@@ -6,7 +6,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Access, Address, DataType, Error, Value};
+use super::{Access, Address, DataType, Error, Role, Value};
 
 /// Where an object sits in the CiA 301 index ranges.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -60,6 +60,9 @@ pub struct Entry {
     pub min: Option<Value>,
     pub max: Option<Value>,
     pub group: Group,
+    /// Setting, command, process data or read-only: whether a backup saves it and a
+    /// restore may write it. Set by [`Role::of`] (built-in catalog) or [`Role::of_eds`].
+    pub role: Role,
 }
 
 impl Entry {
@@ -302,6 +305,7 @@ impl ObjectDef {
                 min: optional_value(&self.min, dtype, address, "min")?,
                 max: optional_value(&self.max, dtype, address, "max")?,
                 group,
+                role: Role::of(address, access, dtype),
             };
             if catalog.entries.contains_key(&address) {
                 return Err(here("defined twice"));
@@ -342,6 +346,7 @@ impl ObjectDef {
                     "max",
                 )?,
                 group,
+                role: Role::of(address, sub.access, sub.dtype),
             };
             if catalog.entries.contains_key(&address) {
                 return Err(Error::Catalog(format!("{address} defined twice")));

@@ -59,7 +59,8 @@
 //! EDS (vendor 26Ch) or when the names agree, since another maker's 2031h is not
 //! Nanotec's Max Motor Current. Catalog objects the EDS lacks are not added: the device
 //! would refuse every read of them. Where type or access differ, the EDS wins and a note
-//! says so.
+//! says so. An entry's [`Role`] (whether a restore may write it) is the stricter of the
+//! EDS's (AccessType `rww`/`rwr` is process data) and the catalog's.
 //!
 //! # Export
 //!
@@ -75,7 +76,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::{Access, Address, Catalog, DataType, Entry, Group, Value};
+use super::{Access, Address, Catalog, DataType, Entry, Group, Role, Value};
 
 /// Larger than any real EDS: the biggest vendor files are a few megabytes.
 pub const MAX_SIZE: usize = 32 * 1024 * 1024;
@@ -492,6 +493,8 @@ impl Eds {
                 if entry.unit.is_none() {
                     entry.unit = k.unit.clone();
                 }
+                // What the catalog knows to act stays unwritten, whatever the EDS says.
+                entry.role = entry.role.stricter(k.role);
                 let mut note = |eds: &dyn fmt::Display, catalog: &dyn fmt::Display| {
                     merged.notes.push(MergeNote {
                         address: entry.address,
@@ -1828,6 +1831,7 @@ impl<'a> Importer<'a> {
             min: None,
             max: None,
             group: Group::of_index(index),
+            role: Role::ReadOnly,
         };
         let count_info = EntryInfo {
             type_code: DataType::Unsigned8.code(),
@@ -2036,6 +2040,12 @@ impl<'a> Importer<'a> {
             min,
             max,
             group: Group::of_index(address.index),
+            role: Role::of_eds(
+                address,
+                access.access(),
+                dtype,
+                matches!(access, EdsAccess::Rww | EdsAccess::Rwr),
+            ),
         };
         if let Some(default) = &entry.default
             && let Err(e) = entry.check(default)
@@ -2293,5 +2303,29 @@ mod tests {
         assert!(eds.entries[&Address::new(0x6040, 0)].pdo_mapping);
         assert!(!eds.entries[&Address::new(0x1018, 1)].pdo_mapping);
         assert!(!eds.entries[&Address::new(0x2400, 0)].pdo_mapping);
+    }
+
+    #[test]
+    fn an_eds_entry_is_a_setting_only_where_the_rule_and_the_catalog_agree() {
+        let text = "[DeviceInfo]\nVendorNumber=0x26C\n\
+[3000]\nParameterName=Set value\nDataType=0x0004\nAccessType=rww\nPDOMapping=1\n\
+[3001]\nParameterName=Input\nDataType=0x0004\nAccessType=rwr\nPDOMapping=1\n\
+[3002]\nParameterName=Gain\nDataType=0x0004\nAccessType=rw\nPDOMapping=1\n\
+[6040]\nParameterName=Controlword\nDataType=0x0006\nAccessType=rw\nPDOMapping=1\n\
+[6041]\nParameterName=Statusword\nDataType=0x0006\nAccessType=rw\n";
+        let eds = parse(text);
+        let role = |i: u16| eds.catalog.get(Address::new(i, 0)).unwrap().role;
+        assert!(matches!(role(0x3000), Role::ProcessData(_)));
+        assert!(matches!(role(0x3001), Role::ProcessData(_)));
+        // Mappable alone is no process data: settings are mappable too.
+        assert_eq!(role(0x3002), Role::Configuration);
+        assert!(matches!(role(0x6040), Role::Command(_)));
+        assert_eq!(role(0x6041), Role::Configuration, "what this EDS says");
+        // Merged with the catalog, which knows the statusword is read-only.
+        let merged = eds.merged_with(&Catalog::builtin().unwrap()).catalog;
+        let merged_role = |i: u16| merged.get(Address::new(i, 0)).unwrap().role;
+        assert_eq!(merged_role(0x6041), Role::ReadOnly);
+        assert_eq!(merged_role(0x3002), Role::Configuration);
+        assert!(matches!(merged_role(0x6040), Role::Command(_)));
     }
 }

@@ -5,10 +5,12 @@ pub mod backup;
 mod catalog;
 pub mod eds;
 mod error;
+mod role;
 mod types;
 mod value;
 
 pub use catalog::{BUILTIN_JSON, Catalog, Entry, Group, builtin};
 pub use error::Error;
+pub use role::Role;
 pub use types::{Access, Address, DataType};
 pub use value::Value;

@@ -1,7 +1,9 @@
 //! The object dictionary browser: every known object in a filtered table with its value,
 //! read one at a time, the visible rows or all of them (with progress and cancel), edited
 //! by type with range checks and a confirmation; and backups: save, compare, restore and
-//! store to the device's memory.
+//! store to the device's memory. What a comparison or a restore may touch is judged by the
+//! dictionary shown (`od::backup::skip_reason`): commands, process data, read-only and
+//! unknown objects in a file are listed as skipped, with the reason, and never written.
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -76,7 +78,8 @@ pub struct Restore {
     pub results: Vec<Option<Result<(), String>>>,
     pub running: bool,
     pub confirm: bool,
-    /// Saved objects the device could not read (left alone).
+    /// Saved objects left alone, with the reason: not settings of the dictionary shown
+    /// (commands, process data, read-only, unknown), or unreadable on the device.
     pub skipped: Vec<(Address, String)>,
 }
 
@@ -392,23 +395,34 @@ impl Browser {
             }
             Purpose::Backup { path } => self.finish_backup(&path, &bulk.reads),
             Purpose::Compare(file) => {
-                let differences = backup::compare(&file, &bulk.reads);
-                let differing = differences
-                    .iter()
-                    .filter(|d| d.device != Comparison::Same)
-                    .count();
+                let differences = backup::compare(&file, self.catalog(), &bulk.reads);
+                let count = |f: fn(&Comparison) -> bool| {
+                    differences.iter().filter(|d| f(&d.device)).count()
+                };
+                let differing =
+                    count(|c| matches!(c, Comparison::Differs(_) | Comparison::Unreadable(_)));
+                let skipped = count(|c| matches!(c, Comparison::Skipped(_)));
                 self.message = Some(Ok(format!(
-                    "compared {} objects with the file: {differing} differ or could not be read",
-                    differences.len()
+                    "compared {} objects with the file: {differing} differ or could not be read{}",
+                    differences.len() - skipped,
+                    if skipped > 0 {
+                        format!("; {skipped} entries skipped (not settings, never restored)")
+                    } else {
+                        String::new()
+                    }
                 )));
                 self.comparison = Some((file, differences));
             }
             Purpose::Restore(file) => {
-                let steps = backup::restore_plan(&file, &bulk.reads);
-                let skipped = backup::compare(&file, &bulk.reads)
+                let steps = backup::restore_plan(&file, self.catalog(), &bulk.reads);
+                let skipped = backup::compare(&file, self.catalog(), &bulk.reads)
                     .into_iter()
                     .filter_map(|d| match d.device {
-                        Comparison::Unreadable(reason) => Some((d.address, reason)),
+                        Comparison::Skipped(reason) => Some((d.address, reason)),
+                        Comparison::Unreadable(reason) => Some((
+                            d.address,
+                            format!("cannot be read from the device: {reason}"),
+                        )),
                         _ => None,
                     })
                     .collect();
@@ -712,7 +726,7 @@ fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected:
             && let Some(file) = b.load()
         {
             b.restore = None;
-            let objects = file.objects_to_read();
+            let objects = file.objects_to_read(b.catalog());
             b.read_many(outbox, objects, Purpose::Compare(file));
         }
         if ui
@@ -722,7 +736,7 @@ fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected:
             && let Some(file) = b.load()
         {
             b.comparison = None;
-            let objects = file.objects_to_read();
+            let objects = file.objects_to_read(b.catalog());
             b.read_many(outbox, objects, Purpose::Restore(file));
         }
         if ui
@@ -780,9 +794,13 @@ fn comparison_ui(ui: &mut Ui, b: &mut Browser) {
             .iter()
             .filter(|d| d.device == Comparison::Same)
             .count();
+        let skipped = differences
+            .iter()
+            .filter(|d| matches!(d.device, Comparison::Skipped(_)))
+            .count();
         ui.label(format!(
-            "{same} of {} objects are the same",
-            differences.len()
+            "{same} of {} objects are the same; {skipped} entries of the file skipped (not settings: never compared nor restored)",
+            differences.len() - skipped
         ));
         egui::Grid::new("comparison").striped(true).show(ui, |ui| {
             for title in ["Object", "Name", "File", "Device"] {
@@ -796,6 +814,7 @@ fn comparison_ui(ui: &mut Ui, b: &mut Browser) {
                 match &d.device {
                     Comparison::Differs(v) => ui.colored_label(AMBER, v.to_string()),
                     Comparison::Unreadable(reason) => ui.colored_label(RED, reason),
+                    Comparison::Skipped(reason) => ui.weak(format!("skipped: {reason}")),
                     Comparison::Same => ui.label(""),
                 };
                 ui.end_row();
@@ -856,7 +875,19 @@ fn restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected
                 }
             });
         for (address, reason) in &restore.skipped {
-            ui.colored_label(AMBER, format!("{address} left alone: {reason}"));
+            let name = b
+                .catalog()
+                .get(*address)
+                .map(Entry::full_name)
+                .or_else(|| {
+                    restore
+                        .backup
+                        .entries()
+                        .find(|(a, _)| a == address)
+                        .map(|(_, o)| o.name.clone())
+                })
+                .unwrap_or_default();
+            ui.colored_label(AMBER, format!("{address} {name} skipped: {reason}"));
         }
         let can = connected
             && !restore.running

@@ -1,6 +1,8 @@
 //! `od dump`, `od diff` and `od restore`: a drive's configuration to a file, the drive
-//! compared with a file, and a file written back. The rules (what is saved, how values
-//! compare, the safe order of a restore) are `od::backup`'s, shared with the window.
+//! compared with a file, and a file written back. The rules (what is saved, what a restore
+//! may write, how values compare, the safe order of a restore) are `od::backup`'s, shared
+//! with the window. A file is loaded and checked before the link is opened: a broken,
+//! ambiguous or empty file never reaches the drive.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -78,6 +80,27 @@ fn read_all(
     }
 }
 
+/// The dictionary a command works with: an EDS's (with the catalog's descriptions), or the
+/// built-in catalog. The EDS's warnings go to `warnings`.
+fn dictionary(
+    eds: Option<&Path>,
+    node: Option<u8>,
+    warnings: &mut Vec<String>,
+) -> Result<Catalog, Failure> {
+    match eds {
+        Some(path) => {
+            let eds = load_eds(path, node)?;
+            warnings.extend(
+                eds.warnings
+                    .iter()
+                    .map(|w| format!("{} {w}", path.display())),
+            );
+            Ok(eds.merged_with(od::builtin()).catalog)
+        }
+        None => Ok(od::builtin().clone()),
+    }
+}
+
 fn load_backup(path: &Path) -> Result<Backup, Failure> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| usage(format!("cannot read {}: {e}", path.display())))?;
@@ -103,18 +126,7 @@ pub fn dump(
     trace: bool,
 ) -> Result<bool, Failure> {
     let mut warnings = vec![];
-    let catalog: Catalog = match &args.eds {
-        Some(path) => {
-            let eds = load_eds(path, args.node)?;
-            warnings.extend(
-                eds.warnings
-                    .iter()
-                    .map(|w| format!("{} {w}", path.display())),
-            );
-            eds.merged_with(od::builtin()).catalog
-        }
-        None => od::builtin().clone(),
-    };
+    let catalog = dictionary(args.eds.as_deref(), args.node, &mut warnings)?;
     let mut notes = vec![];
     let mut session = Session::open(link, timeout, trace)?;
     let started = Instant::now();
@@ -160,11 +172,13 @@ pub fn dump(
 struct DiffRow {
     address: String,
     name: String,
-    /// `same`, `differs` or `unreadable`.
+    /// `same`, `differs`, `unreadable` or `skipped`.
     state: &'static str,
     file: String,
     device: Option<String>,
     error: Option<String>,
+    /// Why a skipped entry is neither compared nor ever restored.
+    reason: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -175,6 +189,8 @@ struct DiffReport {
     same: usize,
     differs: usize,
     unreadable: usize,
+    /// Entries of the file that are not settings the dictionary knows: never restored.
+    skipped: usize,
     objects: Vec<DiffRow>,
     notes: Vec<String>,
     warnings: Vec<String>,
@@ -199,7 +215,13 @@ fn identity_warnings(file: &DeviceIdentity, device: &DeviceIdentity) -> Vec<Stri
     }
 }
 
-fn diff_report(path: &Path, file: &Backup, reads: &Reads, all: bool) -> DiffReport {
+fn diff_report(
+    path: &Path,
+    file: &Backup,
+    catalog: &Catalog,
+    reads: &Reads,
+    all: bool,
+) -> DiffReport {
     let device_identity = DeviceIdentity::from_reads(reads);
     let mut report = DiffReport {
         file: path.display().to_string(),
@@ -209,22 +231,27 @@ fn diff_report(path: &Path, file: &Backup, reads: &Reads, all: bool) -> DiffRepo
         same: 0,
         differs: 0,
         unreadable: 0,
+        skipped: 0,
         objects: vec![],
         notes: vec![],
     };
-    for d in backup::compare(file, reads) {
-        let (state, device, error) = match &d.device {
+    for d in backup::compare(file, catalog, reads) {
+        let (state, device, error, reason) = match &d.device {
             Comparison::Same => {
                 report.same += 1;
-                ("same", Some(shown(d.address, &d.file)), None)
+                ("same", Some(shown(d.address, &d.file)), None, None)
             }
             Comparison::Differs(v) => {
                 report.differs += 1;
-                ("differs", Some(shown(d.address, v)), None)
+                ("differs", Some(shown(d.address, v)), None, None)
             }
             Comparison::Unreadable(reason) => {
                 report.unreadable += 1;
-                ("unreadable", None, Some(reason.clone()))
+                ("unreadable", None, Some(reason.clone()), None)
+            }
+            Comparison::Skipped(reason) => {
+                report.skipped += 1;
+                ("skipped", None, None, Some(reason.clone()))
             }
         };
         if all || state != "same" {
@@ -235,6 +262,7 @@ fn diff_report(path: &Path, file: &Backup, reads: &Reads, all: bool) -> DiffRepo
                 file: shown(d.address, &d.file),
                 device,
                 error,
+                reason,
             });
         }
     }
@@ -262,10 +290,11 @@ fn print_diff(report: &DiffReport) {
             "INDEX:SUB", "STATE", "NAME", "FILE"
         );
         for row in &report.objects {
-            let device = match (&row.device, &row.error) {
-                (_, Some(e)) => format!("error: {e}"),
-                (Some(v), None) => v.clone(),
-                (None, None) => String::new(),
+            let device = match (&row.device, &row.error, &row.reason) {
+                (_, _, Some(reason)) => format!("not compared: {reason}"),
+                (_, Some(e), None) => format!("error: {e}"),
+                (Some(v), None, None) => v.clone(),
+                (None, None, None) => String::new(),
             };
             println!(
                 "{:<9}  {:<10}  {:<name_width$}  {:<file_width$}  {device}",
@@ -280,6 +309,12 @@ fn print_diff(report: &DiffReport) {
         report.unreadable,
         report.same
     );
+    if report.skipped > 0 {
+        println!(
+            "{} entries of the file are skipped: not settings of the dictionary in use, never restored",
+            report.skipped
+        );
+    }
 }
 
 /// `od diff FILE`: true when the drive matches the file.
@@ -291,18 +326,21 @@ pub fn diff(
     trace: bool,
 ) -> Result<bool, Failure> {
     let file = load_backup(&args.file)?;
+    let mut warnings = vec![];
+    let catalog = dictionary(args.eds.as_deref(), args.node, &mut warnings)?;
     let mut notes = vec![];
     let mut session = Session::open(link, timeout, trace)?;
     let reads = read_all(
         &mut session,
-        file.objects_to_read(),
+        file.objects_to_read(&catalog),
         "reading",
         timeout,
         &mut notes,
     )?;
     notes.extend(session.take_notes());
-    let mut report = diff_report(&args.file, &file, &reads, args.all);
+    let mut report = diff_report(&args.file, &file, &catalog, &reads, args.all);
     report.notes = notes;
+    report.warnings.splice(0..0, warnings);
     print_lines(&report.notes, &report.warnings);
     if json {
         print_json(&report);
@@ -327,11 +365,23 @@ struct StepRow {
     error: Option<String>,
 }
 
+/// An entry of the file a restore leaves alone, as reported.
+#[derive(Serialize)]
+struct SkippedRow {
+    address: String,
+    name: String,
+    /// The file's value.
+    file: String,
+    reason: String,
+}
+
 #[derive(Serialize)]
 struct RestoreReport {
     file: String,
     dry_run: bool,
     steps: Vec<StepRow>,
+    /// Entries of the file that are not settings of the dictionary in use: never written.
+    skipped: Vec<SkippedRow>,
     written: usize,
     refused: usize,
     /// Whether 1010h:01 stored the parameters.
@@ -359,6 +409,12 @@ fn step_row(step: &Step) -> StepRow {
 }
 
 fn print_restore(report: &RestoreReport) {
+    for row in &report.skipped {
+        println!(
+            "skipped: {:<9}  {} = {}: {}",
+            row.address, row.name, row.file, row.reason
+        );
+    }
     if report.steps.is_empty() {
         println!(
             "the drive already matches {}: nothing to write",
@@ -420,17 +476,19 @@ pub fn restore(
     trace: bool,
 ) -> Result<bool, Failure> {
     let file = load_backup(&args.file)?;
+    let mut warnings = vec![];
+    let catalog = dictionary(args.eds.as_deref(), args.node, &mut warnings)?;
     let mut notes = vec![];
     let mut session = Session::open(link, timeout, trace)?;
     let reads = read_all(
         &mut session,
-        file.objects_to_read(),
+        file.objects_to_read(&catalog),
         "reading",
         timeout,
         &mut notes,
     )?;
     let device = DeviceIdentity::from_reads(&reads);
-    let mut warnings = identity_warnings(&file.identity, &device);
+    warnings.extend(identity_warnings(&file.identity, &device));
     if !file.identity.same_product(&device) && !args.force && !args.dry_run {
         return Err(usage(format!(
             "{}: saved from {}, but the drive is {}; --force restores it anyway",
@@ -439,20 +497,36 @@ pub fn restore(
             device.summary()
         )));
     }
-    let unreadable = backup::compare(&file, &reads)
-        .into_iter()
+    let comparison = backup::compare(&file, &catalog, &reads);
+    let unreadable = comparison
+        .iter()
         .filter(|d| matches!(d.device, Comparison::Unreadable(_)))
         .count();
+    let skipped: Vec<SkippedRow> = comparison
+        .into_iter()
+        .filter_map(|d| match d.device {
+            Comparison::Skipped(reason) => Some(SkippedRow {
+                address: d.address.to_string(),
+                name: catalog
+                    .get(d.address)
+                    .map_or(d.name.clone(), |e| e.full_name()),
+                file: shown(d.address, &d.file),
+                reason,
+            }),
+            _ => None,
+        })
+        .collect();
     if unreadable > 0 {
         warnings.push(format!(
             "{unreadable} saved settings cannot be read from the drive and are left out (od diff lists them)"
         ));
     }
-    let plan = backup::restore_plan(&file, &reads);
+    let plan = backup::restore_plan(&file, &catalog, &reads);
     let mut report = RestoreReport {
         file: args.file.display().to_string(),
         dry_run: args.dry_run,
         steps: plan.iter().map(step_row).collect(),
+        skipped,
         written: 0,
         refused: 0,
         stored: None,
@@ -518,13 +592,13 @@ pub fn restore(
         }
         let again = read_all(
             &mut session,
-            file.objects_to_read(),
+            file.objects_to_read(&catalog),
             "comparing",
             timeout,
             &mut notes,
         )?;
         report.still_differs = Some(
-            backup::compare(&file, &again)
+            backup::compare(&file, &catalog, &again)
                 .iter()
                 .filter(|d| matches!(d.device, Comparison::Differs(_)))
                 .count(),
