@@ -8,7 +8,7 @@
 mod common;
 
 use std::fs;
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::{Arc, Barrier};
@@ -232,16 +232,19 @@ fn a_venv_that_cannot_be_made_gives_the_reason_and_what_to_do() {
         "{err}"
     );
 
-    // pip without network.
+    // pip without network: its errors, not its retry warnings.
     let fake = Fake::new(
         "",
-        "echo 'ERROR: Could not find a version that satisfies the requirement pymodbus==3.16.1' >&2; exit 1",
+        "echo 'WARNING: Retrying after connection broken by NewConnectionError' >&2
+      echo 'ERROR: Could not find a version that satisfies the requirement pymodbus==3.16.1' >&2
+      exit 1",
     );
     let err = fake.venv().provision().expect_err("no network");
     assert!(
         err.contains("pip install -r")
             && err.contains("Could not find a version")
-            && err.contains("network access"),
+            && err.contains("network access")
+            && !err.contains("Retrying"),
         "{err}"
     );
 
@@ -288,42 +291,48 @@ fn child_a_peer_test_without_its_peer() {
     assert!(got.is_none());
 }
 
-/// Run `child_a_peer_test_without_its_peer` in a test binary of its own, as cargo does.
-fn child(run: &Path, require: bool) -> std::process::Output {
+/// Run `child_a_peer_test_without_its_peer` in a test binary of its own, as cargo does:
+/// whether it passed, and its stdout and stderr in one stream, in the order written.
+fn child(run: &Path, require: bool) -> (bool, String) {
+    let (mut reader, writer) = std::io::pipe().expect("pipe");
     let mut command = Command::new(std::env::current_exe().expect("this test binary"));
     command
         .args(["--exact", "child_a_peer_test_without_its_peer"])
         .env("DRIVEDECK_PEER_VENV_CHILD", "1")
         .env("DRIVEDECK_PYTHON", "/nonexistent/python")
         .env("DRIVEDECK_PEER_RUN_DIR", run)
-        .env_remove("DRIVEDECK_REQUIRE_PEERS");
+        .env_remove("DRIVEDECK_REQUIRE_PEERS")
+        .stdout(writer.try_clone().expect("pipe"))
+        .stderr(writer);
     if require {
         command.env("DRIVEDECK_REQUIRE_PEERS", "1");
     }
-    command.output().expect("the child runs")
+    let mut child = command.spawn().expect("the child runs");
+    // The pipe's writing ends are the child's now: it ends when the child does.
+    drop(command);
+    let mut output = String::new();
+    reader.read_to_string(&mut output).expect("its output");
+    (child.wait().expect("the child ends").success(), output)
 }
 
 #[test]
-fn a_test_without_its_peer_says_so_past_the_capture_and_notes_it() {
+fn a_test_without_its_peer_says_so_after_the_results_and_notes_it() {
     let run = TempDir::new("peer-run");
-    let out = child(&run.path, false);
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr),
-    );
-    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let (passed, output) = child(&run.path, false);
+    assert!(passed, "{output}");
     // libtest reports it passed (it cannot do otherwise) and shows nothing it captured...
-    assert!(
-        stdout.contains("test child_a_peer_test_without_its_peer ... ok"),
-        "{stdout}"
+    let ok = output.find("test child_a_peer_test_without_its_peer ... ok\n");
+    let result = output.find("test result: ok. 1 passed");
+    // ...but the skip is in the output all the same, after libtest's result line (not in
+    // the middle of its lines), with the reason and the test's name.
+    let said = output.find(
+        "SKIPPED: 1 test of peer_venv passed without running: no drivedeck_no_such_module: \
+         cannot run /nonexistent/python (DRIVEDECK_PYTHON)",
     );
-    // ...but the skip is in the output all the same, with the test's name and the reason.
+    let named = output.find("\n    peer_venv::child_a_peer_test_without_its_peer\n");
     assert!(
-        stderr.contains(
-            "SKIPPED peer_venv::child_a_peer_test_without_its_peer: passes without running: \
-             no drivedeck_no_such_module: cannot run /nonexistent/python (DRIVEDECK_PYTHON)"
-        ),
-        "{stderr}"
+        ok.is_some() && ok < result && result < said && said < named,
+        "{output}"
     );
     let records = peers::read_records(&run.path);
     assert_eq!(records.len(), 1, "{records:?}");
@@ -347,14 +356,35 @@ fn a_test_without_its_peer_says_so_past_the_capture_and_notes_it() {
 #[test]
 fn with_require_peers_a_test_without_its_peer_fails() {
     let run = TempDir::new("peer-run");
-    let out = child(&run.path, true);
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(!out.status.success(), "{stdout}");
+    let (passed, output) = child(&run.path, true);
+    assert!(!passed, "{output}");
     assert!(
-        stdout.contains("DRIVEDECK_REQUIRE_PEERS=1 and no drivedeck_no_such_module: cannot run"),
-        "{stdout}"
+        output.contains("DRIVEDECK_REQUIRE_PEERS=1 and no drivedeck_no_such_module: cannot run"),
+        "{output}"
     );
-    assert!(stdout.contains("test child_a_peer_test_without_its_peer ... FAILED"));
+    assert!(
+        output.contains("test child_a_peer_test_without_its_peer ... FAILED"),
+        "{output}"
+    );
+    assert!(!output.contains("SKIPPED"), "{output}");
+}
+
+#[test]
+fn a_binarys_skips_are_said_once_per_reason_with_the_tests_it_kept_from_running() {
+    let skips = [
+        ("a".to_owned(), "no pymodbus: x".to_owned()),
+        ("b".to_owned(), "socat is not installed".to_owned()),
+        ("c".to_owned(), "no pymodbus: x".to_owned()),
+    ];
+    assert_eq!(
+        peers::skips_block("modbus_rtu", &skips),
+        "SKIPPED: 2 tests of modbus_rtu passed without running: no pymodbus: x\n\
+         \x20   modbus_rtu::a\n\
+         \x20   modbus_rtu::c\n\
+         SKIPPED: 1 test of modbus_rtu passed without running: socat is not installed\n\
+         \x20   modbus_rtu::b\n"
+    );
+    assert_eq!(peers::skips_block("modbus_rtu", &[]), "");
 }
 
 fn record(binary: &str, test: &str, kind: &str, reason: &str) -> Record {

@@ -18,12 +18,13 @@
 //! `cargo test` reuse it instead of trying again.
 //!
 //! libtest cannot mark a test skipped at run time, and it captures what a passing test
-//! prints. A test that passes without its peer therefore says so on the process's stderr
-//! handle, which libtest does not capture (it captures only the `print!` family, see
-//! rust-lang/rust#90785; `tests/peer_venv.rs` checks that it still shows), and notes it in
-//! this run's directory, from which `tests/peers_status.rs` (harness = false, so nothing
-//! captures it either; cargo runs the test targets in name order, so it comes after the peer
-//! tests) prints one summary.
+//! prints on the test's thread. A test that passes without its peer is therefore said at
+//! the end of its test binary, after libtest's `test result:` line, from an `atexit`
+//! callback on the main thread, to stderr: `SKIPPED: 7 tests of modbus_peers passed
+//! without running: REASON` and their names (`tests/peer_venv.rs` checks that it shows).
+//! It is also noted in this run's directory, from which `tests/peers_status.rs`
+//! (harness = false, so nothing captures it either; cargo runs the test targets in name
+//! order, so it comes after the peer tests) prints one summary of the whole run.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::Write;
@@ -136,14 +137,18 @@ pub fn differences(python: &Path, pins: &[Pin]) -> Result<Vec<String>, String> {
         .collect())
 }
 
-/// The last lines of a command's output, on one line, for a reason.
+/// What a command said, on one line, for a reason: its `ERROR:` lines (pip's, without its
+/// retry warnings) if it has any, else its last lines.
 fn tail(bytes: &[u8]) -> String {
     let text = String::from_utf8_lossy(bytes);
-    let lines: Vec<&str> = text
+    let mut lines: Vec<&str> = text
         .lines()
         .map(str::trim)
         .filter(|l| !l.is_empty())
         .collect();
+    if lines.iter().any(|l| l.starts_with("ERROR:")) {
+        lines.retain(|l| l.starts_with("ERROR:"));
+    }
     let tail = lines[lines.len().saturating_sub(4)..].join(" | ");
     if tail.is_empty() {
         "(no output)".to_owned()
@@ -384,8 +389,9 @@ pub fn prune_runs(root: &Path, keep: &Path, older_than: Duration) -> usize {
     removed
 }
 
-/// Write `line` where `cargo test` shows it, also for a passing test: the stderr handle,
-/// which libtest does not capture (it captures `print!`, `eprint!` and their `ln`s).
+/// Write `line` where `cargo test` shows it, also from a passing test: the stderr handle,
+/// which libtest does not capture (it captures the `print!` family only,
+/// rust-lang/rust#90785).
 pub fn announce(line: &str) {
     let _ = std::io::stderr()
         .lock()
@@ -421,26 +427,71 @@ pub fn record(kind: &str, reason: &str) {
     }
 }
 
+// SAFETY: atexit(3) of the C library, which every Rust program on Linux links, takes any
+// `extern "C" fn()` and calls it when the process exits; no argument can misuse it.
+unsafe extern "C" {
+    safe fn atexit(callback: extern "C" fn()) -> std::ffi::c_int;
+}
+
+/// The skips of this test binary, `(test, reason)`, for [`report_skips`].
+static SKIPS: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
+
 /// Say in `cargo test`'s output that the running test passes without running (all of)
-/// itself, and why, and note it (`kind`) for the summary. Each test binary gives a reason
-/// once in full; later tests with the same reason point to it.
+/// itself, and why, and note it (`kind`) for the summary. The saying waits for the end of
+/// the test binary, after libtest's `test result:` line: a line written meanwhile from a
+/// test's thread would land inside libtest's result lines of the tests finishing at the
+/// same moment (it writes `test NAME ... `, then `ok`).
 pub fn skip_visibly(kind: &str, reason: &str) {
-    static SAID: Mutex<Vec<String>> = Mutex::new(Vec::new());
-    let test = format!("{}::{}", env!("CARGO_CRATE_NAME"), test_name());
-    match SAID.lock() {
-        // Held while announcing, so the full reason comes first.
-        Ok(said) if said.iter().any(|r| r == reason) => {
-            announce(&format!(
-                "SKIPPED {test}: passes without running, for the reason above"
-            ));
-        }
-        Ok(mut said) => {
-            said.push(reason.to_owned());
-            announce(&format!("SKIPPED {test}: passes without running: {reason}"));
-        }
-        Err(_) => announce(&format!("SKIPPED {test}: passes without running: {reason}")),
-    }
     record(kind, reason);
+    let Ok(mut skips) = SKIPS.lock() else {
+        announce(&format!("SKIPPED {}: {reason}", test_name()));
+        return;
+    };
+    if skips.is_empty() {
+        // Runs when the test binary exits (libtest returns from main or calls exit);
+        // if it cannot be registered, say it now rather than never.
+        if atexit(report_skips) != 0 {
+            announce(&format!("SKIPPED {}: {reason}", test_name()));
+        }
+    }
+    skips.push((test_name(), reason.to_owned()));
+}
+
+/// The block [`report_skips`] writes: each reason once, then the tests it kept from
+/// running.
+pub fn skips_block(binary: &str, skips: &[(String, String)]) -> String {
+    let mut reasons: Vec<&str> = vec![];
+    for (_, reason) in skips {
+        if !reasons.contains(&reason.as_str()) {
+            reasons.push(reason);
+        }
+    }
+    let mut out = String::new();
+    for reason in reasons {
+        let tests: Vec<&str> = skips
+            .iter()
+            .filter(|(_, r)| r == reason)
+            .map(|(t, _)| t.as_str())
+            .collect();
+        out.push_str(&format!(
+            "SKIPPED: {} test{} of {binary} passed without running: {reason}\n",
+            tests.len(),
+            if tests.len() == 1 { "" } else { "s" }
+        ));
+        for test in tests {
+            out.push_str(&format!("    {binary}::{test}\n"));
+        }
+    }
+    out
+}
+
+/// Write this binary's skips to stderr (an `atexit` callback: it must not unwind).
+extern "C" fn report_skips() {
+    let block = match SKIPS.lock() {
+        Ok(skips) => skips_block(env!("CARGO_CRATE_NAME"), &skips),
+        Err(_) => return,
+    };
+    let _ = std::io::stderr().lock().write_all(block.as_bytes());
 }
 
 /// One line of a run's notes.
@@ -573,10 +624,10 @@ pub fn summary(
         }
         if without > 0 {
             out.push_str(&format!(
-                "  {without} tests passed without running their peer ({without_where}); each said SKIPPED in its binary's output above\n"
+                "  {without} tests passed without running their peer ({without_where}); each binary named them after its `test result:` line above\n"
             ));
         } else {
-            out.push_str("  the tests that need a missing peer pass without running it, each saying SKIPPED in its binary's output\n");
+            out.push_str("  the tests that need a missing peer pass without running it; each binary names them after its `test result:` line\n");
         }
         if ran > 0 {
             out.push_str(&format!("  {ran} peer tests ran for real ({ran_where})\n"));
