@@ -551,8 +551,8 @@ mod socketcan {
     #[tokio::test(flavor = "current_thread")]
     async fn socketcan_on_vcan0() {
         if !Path::new("/sys/class/net/vcan0").exists() {
-            println!(
-                "skipped: no vcan0 on this machine (modprobe vcan; ip link add vcan0 type vcan; ip link set vcan0 up)"
+            common::skip(
+                "no vcan0 on this machine (modprobe vcan; ip link add vcan0 type vcan; ip link set vcan0 up)",
             );
             return;
         }

@@ -10,8 +10,9 @@
 //!   read and written (the node confirms what it stored), its refusals decoded, and our
 //!   bus scan finding it.
 //!
-//! The peers are optional on a developer's machine (the test prints `skipped: …`) and
-//! required in CI (`DRIVEDECK_REQUIRE_PEERS=1`, set by `.ci/run`).
+//! The peers come from ./.venv, which `cargo test` makes with the versions pinned in
+//! tests/peers/requirements.txt. Without them a test passes without running and says
+//! `SKIPPED …` in the output; with `DRIVEDECK_REQUIRE_PEERS=1` (CI, `.ci/run`) it fails.
 
 mod common;
 mod probe;

@@ -530,7 +530,7 @@ fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
         } => {
             if found.is_empty() {
                 // Some sandboxes drop broadcasts on loopback: say so rather than fail.
-                println!("skipped: no broadcast reached the adapter on lo here");
+                common::skip("no broadcast reached the adapter on lo here");
             } else {
                 assert_eq!(found[0].vendor, Some(0x558), "{found:?}");
                 assert!(
@@ -541,7 +541,7 @@ fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
             }
         }
         Event::Scanned { result: Err(e), .. } => {
-            println!("skipped: no loopback interface to broadcast on ({e})")
+            common::skip(&format!("no loopback interface to broadcast on ({e})"))
         }
         _ => unreachable!(),
     }

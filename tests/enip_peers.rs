@@ -18,8 +18,9 @@
 //! that test serves the adapter on 44818 of a loopback address of its own (127.77.x.y) and
 //! gives pycomm3 that address as `broadcast_address`.
 //!
-//! The peer is optional on a developer's machine (the test prints `skipped: …`) and
-//! required in CI (`DRIVEDECK_REQUIRE_PEERS=1`, set by `.ci/run`, which installs pycomm3).
+//! The peers come from ./.venv, which `cargo test` makes with the versions pinned in
+//! tests/peers/requirements.txt. Without them a test passes without running and says
+//! `SKIPPED …` in the output; with `DRIVEDECK_REQUIRE_PEERS=1` (CI, `.ci/run`) it fails.
 
 mod common;
 

@@ -2,8 +2,9 @@
 //! on one end, with the factory settings (slave 5, 19200 8E1), and on the other our worker
 //! or pymodbus as an independent RTU master.
 //!
-//! socat and the Python peer are optional on a developer's machine (the test prints
-//! `skipped: …`) and required in CI (`DRIVEDECK_REQUIRE_PEERS=1`, set by `.ci/run`).
+//! Without socat or the Python peer (./.venv, which `cargo test` makes with the versions of
+//! tests/peers/requirements.txt) a test passes without running and says `SKIPPED …` in the
+//! output; with `DRIVEDECK_REQUIRE_PEERS=1` (CI, `.ci/run`) it fails.
 
 mod common;
 mod probe;

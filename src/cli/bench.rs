@@ -86,7 +86,7 @@ struct Report {
 const PYMODBUS_FC23: &str = include_str!("../../benches/pymodbus_fc23.py");
 
 /// The Python with pymodbus: --python, else $DRIVEDECK_PYTHON, else ./.venv (what
-/// .ci/run makes), else python3.
+/// `cargo test` makes), else python3.
 fn python(args: &BenchArgs) -> std::path::PathBuf {
     if let Some(p) = &args.python {
         return p.clone();

@@ -3,11 +3,15 @@
 //! `drivedeck sim` run as its own process. Each test file takes what it needs
 //! (`mod common;`).
 //!
-//! Peers are optional on a developer's machine (a test without its peer prints
-//! `skipped: …` and passes) and required in CI, where `.ci/run` installs them and sets
-//! `DRIVEDECK_REQUIRE_PEERS=1`, so a missing peer fails there instead of passing silently.
+//! The Python peers come from `./.venv`, which the first test that needs one makes with
+//! the versions pinned in tests/peers/requirements.txt (see `peers`). A test whose peer
+//! cannot be had passes without running it and says so in `cargo test`'s output
+//! (`SKIPPED name: reason`); with `DRIVEDECK_REQUIRE_PEERS=1`, as `.ci/run` sets, it fails
+//! instead.
 
 #![allow(dead_code)]
+
+pub mod peers;
 
 use std::io::{BufRead, BufReader, Read};
 use std::net::SocketAddr;
@@ -24,12 +28,19 @@ pub fn peers_required() -> bool {
     std::env::var("DRIVEDECK_REQUIRE_PEERS").is_ok_and(|v| v == "1")
 }
 
-/// A test without its peer: skip it here, fail it in CI.
+/// A test without its peer: skip it visibly here, fail it in CI.
 pub fn skip_or_fail(reason: &str) {
     if peers_required() {
         panic!("DRIVEDECK_REQUIRE_PEERS=1 and {reason}");
     }
-    println!("skipped: {reason}");
+    peers::skip_visibly(peers::WITHOUT_PEER, reason);
+}
+
+/// A test that cannot run (all of) itself on this machine for a reason that is no peer
+/// (no vcan0, no broadcast on loopback): it passes, saying so in `cargo test`'s output,
+/// also in CI.
+pub fn skip(reason: &str) {
+    peers::skip_visibly(peers::WITHOUT_OTHER, reason);
 }
 
 fn manifest_dir() -> PathBuf {
@@ -54,22 +65,6 @@ impl Python {
     }
 }
 
-/// The interpreter for the peers: `DRIVEDECK_PYTHON`, else `.venv/bin/python` of this
-/// crate, else `python3`.
-fn python_path() -> PathBuf {
-    match std::env::var_os("DRIVEDECK_PYTHON") {
-        Some(p) if !p.is_empty() => PathBuf::from(p),
-        _ => {
-            let venv = manifest_dir().join(".venv/bin/python");
-            if venv.exists() {
-                venv
-            } else {
-                PathBuf::from("python3")
-            }
-        }
-    }
-}
-
 /// Imports every module named on the command line and prints `{module: version}`.
 const IMPORT_CHECK: &str = "\
 import importlib, json, sys
@@ -81,66 +76,102 @@ print(json.dumps(out))
 ";
 
 /// The Python peer with `modules`, each `(import name, version prefix)`: an empty prefix
-/// takes any version, `"3."` only 3.x. `None` (after `skip_or_fail`) when the
-/// interpreter is missing, cannot import one of them, or has a version the peers were not
-/// written against (`bash .ci/run` makes .venv with the pinned versions).
+/// takes any version, `"3."` only 3.x. `None` (after `skip_or_fail`) when there is no
+/// interpreter for the peers, or it cannot import one of them, or has a version the peers
+/// were not written against.
 pub fn python_with(modules: &[(&str, &str)]) -> Option<Python> {
-    let path = python_path();
+    match check_python(modules) {
+        Ok(python) => {
+            peers::record(peers::RAN, "");
+            Some(python)
+        }
+        Err(reason) => {
+            skip_or_fail(&reason);
+            None
+        }
+    }
+}
+
+/// `python_with` without the skip: the peer, or why it is not there.
+pub fn check_python(modules: &[(&str, &str)]) -> Result<Python, String> {
     let names: Vec<&str> = modules.iter().map(|(m, _)| *m).collect();
-    let out = match Command::new(&path)
+    let no = format!("no {}", names.join(", "));
+    let path = peers::interpreter()
+        .map_err(|e| format!("{no}: {e}; or set DRIVEDECK_PYTHON to a Python that has them"))?;
+    // What to do about an interpreter that lacks them: only one the user chose can.
+    let (who, fix) = if peers::python_from_env().is_some() {
+        (
+            format!("{} (DRIVEDECK_PYTHON)", path.display()),
+            format!(
+                "unset DRIVEDECK_PYTHON to let `cargo test` make .venv with {}",
+                peers::REQUIREMENTS
+            ),
+        )
+    } else {
+        (
+            path.display().to_string(),
+            format!(
+                "its versions are those of {}; remove .venv to have it made again",
+                peers::REQUIREMENTS
+            ),
+        )
+    };
+    let out = Command::new(&path)
         .arg("-c")
         .arg(IMPORT_CHECK)
         .args(&names)
         .output()
-    {
-        Ok(out) => out,
-        Err(e) => {
-            skip_or_fail(&format!("no Python at {}: {e}", path.display()));
-            return None;
-        }
-    };
+        .map_err(|e| format!("{no}: cannot run {who}: {e}; {fix}"))?;
     if !out.status.success() {
-        skip_or_fail(&format!(
-            "{} cannot import {} ({}); `bash .ci/run` makes .venv with them, or set DRIVEDECK_PYTHON",
-            path.display(),
-            names.join(", "),
+        return Err(format!(
+            "{no}: {who} cannot import them ({}); {fix}",
             String::from_utf8_lossy(&out.stderr)
                 .lines()
                 .last()
                 .unwrap_or("")
         ));
-        return None;
     }
-    let reported: serde_json::Value = match serde_json::from_slice(&out.stdout) {
-        Ok(v) => v,
-        Err(e) => {
-            skip_or_fail(&format!(
-                "{} printed no versions ({e}): {}",
-                path.display(),
-                String::from_utf8_lossy(&out.stdout)
-            ));
-            return None;
-        }
-    };
+    let reported: serde_json::Value = serde_json::from_slice(&out.stdout).map_err(|e| {
+        format!(
+            "{no}: {who} printed no versions ({e}): {}",
+            String::from_utf8_lossy(&out.stdout)
+        )
+    })?;
     let mut versions = vec![];
     for (module, prefix) in modules {
         let version = reported[*module].as_str().unwrap_or("?").to_owned();
         if !version.starts_with(prefix) {
-            skip_or_fail(&format!(
-                "{} has {module} {version}; the peers need {prefix}x (`bash .ci/run` installs the pinned versions)",
-                path.display()
+            return Err(format!(
+                "{no}: {who} has {module} {version}, the peers need {prefix}x; {fix}"
             ));
-            return None;
         }
         versions.push(((*module).to_owned(), version));
     }
-    Some(Python { path, versions })
+    Ok(Python { path, versions })
 }
+
+/// The name a peer module is installed under on PyPI (`serial` is pyserial).
+pub fn distribution(module: &str) -> &str {
+    match module {
+        "serial" => "pyserial",
+        "can" => "python-can",
+        other => other,
+    }
+}
+
+/// The pymodbus peer's modules with their version prefixes (pyserial for RTU).
+pub const PYMODBUS: &[(&str, &str)] = &[("pymodbus", "3.")];
+/// The python-canopen peer's: canopen 2.x on python-can 4.x (the slcan interface needs
+/// pyserial).
+pub const PYTHON_CANOPEN: &[(&str, &str)] = &[("canopen", "2."), ("can", "4."), ("serial", "")];
+/// The pycomm3 peer's (EtherNet/IP): 1.2.x, whose `generic_message`, `list_identity`,
+/// `get_module_info` and `discover` the peer script uses.
+pub const PYCOMM3: &[(&str, &str)] = &[("pycomm3", "1.2.")];
 
 /// The pymodbus peer: pymodbus 3.x (`device_id=`, SimDevice) and any other `modules`
 /// (e.g. `serial` for RTU).
 pub fn python(modules: &[&str]) -> Option<Python> {
-    let mut all = vec![("pymodbus", "3.")];
+    let mut all = PYMODBUS.to_vec();
     all.extend(modules.iter().map(|m| (*m, "")));
     python_with(&all)
 }
@@ -148,13 +179,13 @@ pub fn python(modules: &[&str]) -> Option<Python> {
 /// The python-canopen peer: canopen 2.x on python-can 4.x (the slcan interface needs
 /// pyserial).
 pub fn python_canopen() -> Option<Python> {
-    python_with(&[("canopen", "2."), ("can", "4."), ("serial", "")])
+    python_with(PYTHON_CANOPEN)
 }
 
 /// The pycomm3 peer (EtherNet/IP): 1.2.x, whose `generic_message`, `list_identity`,
 /// `get_module_info` and `discover` the peer script uses.
 pub fn python_pycomm3() -> Option<Python> {
-    python_with(&[("pycomm3", "1.2.")])
+    python_with(PYCOMM3)
 }
 
 /// A peer script in tests/peers/.
@@ -164,12 +195,14 @@ pub fn peer_script(name: &str) -> PathBuf {
 
 /// `socat`, or `None` (after `skip_or_fail`).
 pub fn socat() -> Option<PathBuf> {
+    check_socat().map_err(|reason| skip_or_fail(&reason)).ok()
+}
+
+/// `socat`, or why it is not there.
+pub fn check_socat() -> Result<PathBuf, String> {
     match Command::new("socat").arg("-V").output() {
-        Ok(out) if out.status.success() => Some(PathBuf::from("socat")),
-        _ => {
-            skip_or_fail("socat is not installed (apt-get install socat)");
-            None
-        }
+        Ok(out) if out.status.success() => Ok(PathBuf::from("socat")),
+        _ => Err("socat is not installed (apt-get install socat)".to_owned()),
     }
 }
 
