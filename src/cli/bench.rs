@@ -247,13 +247,13 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
     };
     for target in &targets {
         if !json {
-            println!("link {}", target.spec);
+            outln!("link {}", target.spec);
         }
         match runtime.block_on(measure(&target.spec, seconds)) {
             Ok(results) => {
                 if !json {
                     for figures in &results {
-                        println!("  {figures}");
+                        outln!("  {figures}");
                     }
                 }
                 report.links.push(LinkReport {
@@ -274,13 +274,13 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
             match pymodbus_figures(&python(args), server.addr, seconds) {
                 Ok(figures) => {
                     if !json {
-                        println!("  {figures}");
+                        outln!("  {figures}");
                     }
                     report.peer = Some(figures);
                 }
                 Err(why) => {
                     if !json {
-                        println!("  pymodbus comparison skipped: {why}");
+                        outln!("  pymodbus comparison skipped: {why}");
                     }
                     report.peer_skipped = Some(why);
                 }
@@ -289,7 +289,7 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
     }
     if json {
         match serde_json::to_string_pretty(&report) {
-            Ok(text) => println!("{text}"),
+            Ok(text) => outln!("{text}"),
             Err(e) => eprintln!("drivedeck bench: {e}"),
         }
     } else if report.links.len() > 1 || report.peer.is_some() {
@@ -300,15 +300,23 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
 
 /// The PDI exchanges side by side.
 fn print_table(report: &Report) {
-    println!();
-    println!(
+    outln!();
+    outln!(
         "{:<58} {:>10} {:>9} {:>9} {:>9}",
-        "PDI exchange", "cycles/s", "min ms", "median", "p99"
+        "PDI exchange",
+        "cycles/s",
+        "min ms",
+        "median",
+        "p99"
     );
     let row = |name: &str, f: &Figures| {
-        println!(
+        outln!(
             "{:<58} {:>10.0} {:>9.3} {:>9.3} {:>9.3}",
-            name, f.per_second, f.min_ms, f.median_ms, f.p99_ms
+            name,
+            f.per_second,
+            f.min_ms,
+            f.median_ms,
+            f.p99_ms
         );
     };
     for link in &report.links {

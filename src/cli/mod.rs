@@ -1,7 +1,17 @@
 //! The command line: `drivedeck` opens the window; `drivedeck --link URL COMMAND` runs one
 //! action and exits; `drivedeck sim …` serves the simulated drive on real sockets.
 
+/// `println!` that does not panic when stdout is a closed pipe (`drivedeck … | head`):
+/// what the reader no longer takes is dropped.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod bench;
+mod interrupt;
 mod od;
 mod oneshot;
 mod progress;
@@ -17,9 +27,11 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use crate::link::{LinkSpec, spec::FORMS};
 use crate::od::{Address, DataType};
 
-/// Exit codes: 0 success, 1 the drive refused or a command failed, 2 bad usage or no link.
+/// Exit codes: 0 success, 1 the drive refused or a command failed, 2 bad usage or no link,
+/// 130 interrupted (Ctrl-C, SIGTERM, SIGHUP; 128 + SIGINT's number, as shells do).
 pub const EXIT_FAILED: u8 = 1;
 pub const EXIT_USAGE: u8 = 2;
+pub const EXIT_INTERRUPTED: u8 = 130;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -45,6 +57,19 @@ pub struct Cli {
     /// How long to wait for the drive, in seconds (acknowledgement, and completion with --wait).
     #[arg(long, global = true, default_value_t = 30.0, value_name = "SECONDS")]
     pub timeout: f64,
+
+    /// What a command that moves the motor (or records) leaves the drive in when it is
+    /// interrupted (Ctrl-C, SIGTERM, SIGHUP), when its --wait times out, or when the link
+    /// fails during the move: halt (brake on the ramp, stay energised), switch-off (power
+    /// stage off, the motor coasts) or leave (the drive carries on).
+    #[arg(long, global = true, value_enum, default_value_t = OnExit::Halt)]
+    pub on_exit: OnExit,
+
+    /// Exchanges that must fail in a row before the link counts as lost (1 to 100); one
+    /// lost or corrupted reply is sent again and named, not a lost link.
+    #[arg(long, global = true, default_value_t = crate::worker::LOST_AFTER, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub lost_after: u32,
 
     #[command(subcommand)]
     pub command: Option<Command>,
@@ -433,6 +458,27 @@ pub enum Missing {
     Fc43,
 }
 
+/// What an interrupted or timed-out command, or a lost link, leaves the drive in.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OnExit {
+    /// Set the halt bit: the drive brakes on its ramp and stays energised.
+    Halt,
+    /// Switch Off: the power stage goes off and the motor coasts.
+    SwitchOff,
+    /// Leave the drive as it is: it carries on.
+    Leave,
+}
+
+impl OnExit {
+    pub fn action(self) -> crate::worker::LinkLossAction {
+        match self {
+            OnExit::Halt => crate::worker::LinkLossAction::Halt,
+            OnExit::SwitchOff => crate::worker::LinkLossAction::SwitchOff,
+            OnExit::Leave => crate::worker::LinkLossAction::Nothing,
+        }
+    }
+}
+
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CliParity {
     None,
@@ -466,6 +512,10 @@ fn parse_type(text: &str) -> Result<DataType, String> {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_tracing();
+    oneshot::set_policy(oneshot::Policy {
+        on_exit: cli.on_exit.action(),
+        lost_after: cli.lost_after,
+    });
     match cli.command.clone() {
         None => match crate::ui::run_window(cli.link.clone()) {
             Ok(()) => ExitCode::SUCCESS,

@@ -268,7 +268,7 @@ fn print(report: &ListReport, json: bool) {
     }
     if json {
         match serde_json::to_string_pretty(report) {
-            Ok(text) => println!("{text}"),
+            Ok(text) => outln!("{text}"),
             Err(e) => eprintln!("drivedeck: cannot format the list as JSON: {e}"),
         }
         return;
@@ -292,9 +292,14 @@ fn print(report: &ListReport, json: bool) {
         .clamp(7, DEFAULT_WIDTH);
     let with_values = report.link.is_some();
     let last = if with_values { "VALUE" } else { "UNIT" };
-    println!(
+    outln!(
         "{:<9}  {:<7} {:<6} {:<name_width$}  {:<default_width$}  {:<12}  {last}",
-        "INDEX:SUB", "TYPE", "ACCESS", "NAME", "DEFAULT", "LIMITS"
+        "INDEX:SUB",
+        "TYPE",
+        "ACCESS",
+        "NAME",
+        "DEFAULT",
+        "LIMITS"
     );
     for row in &report.objects {
         let unit = row.unit.as_deref().unwrap_or("");
@@ -328,6 +333,6 @@ fn print(report: &ListReport, json: bool) {
             default_text(row),
             limits(row),
         );
-        println!("{}", line.trim_end());
+        outln!("{}", line.trim_end());
     }
 }

@@ -4,20 +4,21 @@
 //! the condition and records `--pre` before and `--duration` after it.
 
 use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 use serde::Serialize;
 
 use super::oneshot::{Failure, Session, failed, usage};
 use super::progress;
-use super::{EXIT_FAILED, RecordArgs, report};
+use super::{EXIT_FAILED, EXIT_INTERRUPTED, RecordArgs, report};
 use crate::link::LinkSpec;
 use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{self, Address};
 use crate::telemetry::{
-    Builtin, CaptureState, Condition, Edge, Kind, Scope, ScopeEvent, Trigger, WatchedObject,
-    metadata, save_recording, watchable,
+    Builtin, CaptureState, Condition, Edge, Kind, Recording, Scope, ScopeEvent, Trigger,
+    WatchedObject, metadata, utc_text, watchable,
 };
 use crate::worker::{Event, MAX_WATCHED, Request};
 
@@ -28,11 +29,21 @@ struct RecordReport {
     seconds: f64,
     /// Samples per second actually taken.
     rate: f64,
+    /// Samples per second asked for.
+    rate_asked: f64,
     signals: Vec<SignalReport>,
     trigger: Option<String>,
     trigger_time_s: Option<f64>,
+    /// Why and when the recording ended before its time (a link loss, a signal, a write
+    /// error); everything taken until then is in the file.
+    ended_early: Option<String>,
+    /// What was done to the drive on the way out after a signal.
+    stopped: Option<String>,
     notes: Vec<String>,
     warnings: Vec<String>,
+    /// The exit code of a run cut short (1; 130 for a signal).
+    #[serde(skip)]
+    code: Option<u8>,
 }
 
 #[derive(Serialize, Debug)]
@@ -53,10 +64,10 @@ pub fn run(
     match record(link, args, timeout, trace) {
         Ok(report) => {
             print(&report, json);
-            if report.signals.iter().all(|s| s.samples > 0) {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::from(EXIT_FAILED)
+            match report.code {
+                Some(code) => ExitCode::from(code),
+                None if report.signals.iter().all(|s| s.samples > 0) => ExitCode::SUCCESS,
+                None => ExitCode::from(EXIT_FAILED),
             }
         }
         Err(f) => {
@@ -211,7 +222,17 @@ fn record(
         None => None,
     };
 
-    let mut session = Session::open_at(link, timeout, trace, args.rate)?;
+    // A place that cannot take the file is found now, not after the whole recording.
+    let path = args.out.to_string_lossy().into_owned();
+    check_writable(&args.out).map_err(usage)?;
+
+    let mut session = Session::open_at(link, timeout, trace, args.rate, true)?;
+    let mut warnings = Vec::new();
+    if let Err(e) = session.catch_signals() {
+        warnings.push(format!(
+            "{e}: Ctrl-C will end drivedeck without saving the recording"
+        ));
+    }
     let (reads, _) = session.read_many(IDENTITY.to_vec(), timeout, |_, _| {});
     let identity = DeviceIdentity::from_reads(&reads);
     scope.meta = metadata(Some(&identity), &link.to_string(), args.rate);
@@ -234,7 +255,7 @@ fn record(
         .unwrap_or(timeout.as_secs_f64());
     let started = Instant::now();
     let total_ms = (duration * 1000.0) as usize;
-    let mut bar = progress::bar(if trigger.is_some() {
+    let bar = progress::bar(if trigger.is_some() {
         "recording after the trigger (ms)"
     } else {
         "recording (ms)"
@@ -246,70 +267,116 @@ fn record(
             scope.meta.trigger.clone().unwrap_or_default()
         );
     }
-    let mut first_t: Option<f64> = None;
-    let mut window: Option<(f64, f64)> = None;
-    let mut fired_at = None;
-    while window.is_none() {
+    let mut taker = Taker {
+        scope,
+        trigger: trigger.is_some(),
+        duration,
+        half_period: 0.5 / args.rate,
+        total_ms,
+        bar,
+        first_t: None,
+        window: None,
+        fired_at: None,
+    };
+    // From the first sample on, the ones that came while connecting included (a slow
+    // rate samples from t = 0).
+    for sample in session.take_early_samples() {
+        taker.take(&sample);
+    }
+    // Why the recording ended before its time, if it did.
+    let mut cut: Option<Failure> = None;
+    while taker.window.is_none() {
         let deadline = Instant::now() + Duration::from_secs(5);
-        let event = session.next_event(deadline)?;
+        let event = match session.next_event(deadline) {
+            Ok(event) => event,
+            Err(f) => {
+                cut = Some(f);
+                break;
+            }
+        };
         let Event::Samples(samples) = event else {
             continue;
         };
         for sample in &samples {
-            let start = *first_t.get_or_insert(sample.t);
-            let event = scope.push(sample);
-            match (&trigger, event) {
-                (None, _) => {
-                    bar(
-                        ((sample.t - start) * 1000.0).min(duration * 1000.0) as usize,
-                        total_ms,
-                    );
-                    if sample.t - start >= duration {
-                        window = Some((start, start + duration));
-                        break;
-                    }
-                }
-                (Some(_), Some(ScopeEvent::Fired(at))) => fired_at = Some(at),
-                (Some(_), Some(ScopeEvent::Recorded)) => {
-                    if let CaptureState::Complete { from, to, .. } = scope.capture_state() {
-                        bar(total_ms, total_ms);
-                        window = Some((from, to));
-                        break;
-                    }
-                }
-                (Some(_), None) => {
-                    if let Some(at) = fired_at {
-                        bar(
-                            ((sample.t - at) * 1000.0).max(0.0) as usize,
-                            total_ms.max(1),
-                        );
-                    } else if started.elapsed().as_secs_f64() > wait {
-                        return Err(failed(format!(
-                            "the trigger did not fire within {wait:.1} s ({})",
-                            scope.meta.trigger.clone().unwrap_or_default()
-                        )));
-                    }
-                }
+            if taker.take(sample) {
+                break;
             }
         }
+        if taker.fired_at.is_none() && trigger.is_some() && started.elapsed().as_secs_f64() > wait {
+            cut = Some(failed(format!(
+                "the trigger did not fire within {wait:.1} s ({})",
+                taker.scope.meta.trigger.clone().unwrap_or_default()
+            )));
+            break;
+        }
     }
-    let (from, to) = window.ok_or_else(|| failed("no samples came"))?;
+    let Taker {
+        scope,
+        window,
+        fired_at,
+        first_t,
+        ..
+    } = taker;
+
     let mut meta = scope.meta.clone();
     meta.trigger_time_s = fired_at;
-    let recording = scope.export(from, to, meta, true);
-    let path = args.out.to_string_lossy().into_owned();
-    let message = save_recording(&recording, &path).map_err(failed)?;
-    let mut notes = session.take_notes();
-    notes.push(message);
+    meta.rate_asked_hz = Some(args.rate);
+    let mut stopped = None;
+    let (from, to) = match (window, &cut) {
+        (Some(window), _) => window,
+        (None, Some(f)) => {
+            // Everything taken until now is kept, with why it ended.
+            let from = scope.ring().first_time().or(first_t).unwrap_or(0.0);
+            let to = scope.ring().last_time().unwrap_or(from);
+            meta.ended_early = Some(format!(
+                "{} at t = {to:.3} s ({})",
+                f.message,
+                utc_text(SystemTime::now())
+            ));
+            if f.signal.is_some() && session.is_moving_or_unknown() {
+                let done = session.stop_drive(policy_on_exit(), timeout.min(STOP_WAIT));
+                meta.ended_early = meta.ended_early.map(|e| format!("{e}; {done}"));
+                stopped = Some(done);
+            }
+            (from, to)
+        }
+        (None, None) => return Err(failed("no samples came")),
+    };
+    let mut recording = scope.export(from, to, meta, true);
     let seconds = recording.duration();
-    let mut warnings = Vec::new();
+    let achieved = if seconds > 0.0 {
+        (recording.len().saturating_sub(1)) as f64 / seconds
+    } else {
+        0.0
+    };
+    // The file says the rate that was achieved, not only the one asked for.
+    recording.meta.rate_hz = Some(round_rate(achieved));
+    if recording.len() > 2 && achieved < 0.9 * args.rate {
+        warnings.push(slow_rate(link, args.rate, achieved));
+    }
+    let mut notes = session.take_notes();
+    let (file, saved) = match save_safely(&recording, &args.out) {
+        Ok(message) => (path.clone(), Ok(message)),
+        Err((why, Some(elsewhere))) => (
+            elsewhere.clone(),
+            Err(format!(
+                "{why}; the recording ({} samples) was saved to {elsewhere} instead",
+                recording.len()
+            )),
+        ),
+        Err((why, None)) => (path.clone(), Err(format!("{why}; the recording is lost"))),
+    };
+    match saved {
+        Ok(message) => notes.push(message),
+        Err(e) => warnings.push(e.clone()),
+    }
     let signals: Vec<SignalReport> = recording
         .channels
         .iter()
         .zip(&recording.columns)
         .map(|(info, column)| {
             let samples = column.iter().filter(|v| !v.is_nan()).count();
-            if samples == 0 {
+            if samples == 0 && !recording.is_empty() {
                 warnings.push(format!(
                     "{}: no samples; this link does not deliver it",
                     info.id
@@ -322,40 +389,217 @@ fn record(
             }
         })
         .collect();
+    let code = match (&cut, file == path) {
+        (Some(f), _) if f.signal.is_some() => Some(EXIT_INTERRUPTED),
+        (Some(_), _) | (None, false) => Some(EXIT_FAILED),
+        (None, true) => None,
+    };
     Ok(RecordReport {
-        file: path,
+        file,
         samples: recording.len(),
         seconds,
-        rate: if seconds > 0.0 {
-            (recording.len().saturating_sub(1)) as f64 / seconds
-        } else {
-            0.0
-        },
+        rate: achieved,
+        rate_asked: args.rate,
         signals,
         trigger: recording.meta.trigger.clone(),
         trigger_time_s: fired_at,
+        ended_early: recording.meta.ended_early.clone(),
+        stopped,
         notes,
         warnings,
+        code,
     })
+}
+
+/// How long the way out waits for a stop to finish.
+const STOP_WAIT: Duration = Duration::from_secs(10);
+
+fn policy_on_exit() -> crate::worker::LinkLossAction {
+    super::oneshot::on_exit()
+}
+
+/// A rate as it is worth writing: 0.1 Hz steps.
+fn round_rate(rate: f64) -> f64 {
+    (rate * 10.0).round() / 10.0
+}
+
+/// Why fewer samples came than asked for, where drivedeck knows.
+fn slow_rate(link: &LinkSpec, asked: f64, achieved: f64) -> String {
+    let why = match link {
+        LinkSpec::Enip { enip, .. } if enip.io != crate::link::EnipIo::Explicit => format!(
+            ": the EtherNet/IP I/O connection delivers one sample per RPI ({} ms, at most {:.0}/s); lower the RPI (rpi=N in the link) for more",
+            enip.rpi_ms,
+            1000.0 / f64::from(enip.rpi_ms.max(1))
+        ),
+        _ => {
+            ": the link cannot exchange faster (see the exchanges per second in `drivedeck bench`)"
+                .to_owned()
+        }
+    };
+    format!("asked for {asked} samples/s, the link delivered {achieved:.1}/s{why}")
+}
+
+/// The samples of a recording as they come: the window to keep once it is complete.
+struct Taker<F: FnMut(usize, usize)> {
+    scope: Scope,
+    trigger: bool,
+    duration: f64,
+    /// Half the sampling period, s.
+    half_period: f64,
+    total_ms: usize,
+    bar: F,
+    first_t: Option<f64>,
+    window: Option<(f64, f64)>,
+    fired_at: Option<f64>,
+}
+
+impl<F: FnMut(usize, usize)> Taker<F> {
+    /// Take one sample; `true` once the recording is complete.
+    fn take(&mut self, sample: &crate::worker::Sample) -> bool {
+        if self.window.is_some() {
+            return true;
+        }
+        let start = *self.first_t.get_or_insert(sample.t);
+        let event = self.scope.push(sample);
+        let (duration, total_ms) = (self.duration, self.total_ms);
+        match (self.trigger, event) {
+            (false, _) => {
+                (self.bar)(
+                    ((sample.t - start) * 1000.0).min(duration * 1000.0) as usize,
+                    total_ms,
+                );
+                // Complete with the sample due at `duration` (half a period early, for
+                // jitter), which belongs in the file.
+                if sample.t - start >= duration - self.half_period {
+                    self.window = Some((start, sample.t.max(start + duration)));
+                }
+            }
+            (true, Some(ScopeEvent::Fired(at))) => self.fired_at = Some(at),
+            (true, Some(ScopeEvent::Recorded)) => {
+                if let CaptureState::Complete { from, to, .. } = self.scope.capture_state() {
+                    (self.bar)(total_ms, total_ms);
+                    self.window = Some((from, to));
+                }
+            }
+            (true, None) => {
+                if let Some(at) = self.fired_at {
+                    (self.bar)(
+                        ((sample.t - at) * 1000.0).max(0.0) as usize,
+                        total_ms.max(1),
+                    );
+                }
+            }
+        }
+        self.window.is_some()
+    }
+}
+
+/// Whether `path` can take the file: an existing file is opened for appending (nothing
+/// is changed), a new one is tried beside it and removed.
+fn check_writable(path: &Path) -> Result<(), String> {
+    let shown = shown_path(path);
+    if path.is_dir() {
+        return Err(format!("--out {shown} is a directory; give a file name"));
+    }
+    if path.exists() {
+        return std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map(|_| ())
+            .map_err(|e| format!("cannot write --out {shown}: {e}; nothing was recorded"));
+    }
+    let probe = sibling(path, "check");
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .map_err(|e| format!("cannot write --out {shown}: {e}; nothing was recorded"))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// A path as the user can find it again: absolute where it can be made so.
+fn shown_path(path: &Path) -> String {
+    std::path::absolute(path)
+        .unwrap_or_else(|_| path.to_path_buf())
+        .display()
+        .to_string()
+}
+
+/// A hidden file beside `path` for `what`.
+fn sibling(path: &Path, what: &str) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "recording".into());
+    path.with_file_name(format!(".{name}.drivedeck-{what}-{}", std::process::id()))
+}
+
+/// Write the recording to `path` whole or not at all (a temporary file beside it, then
+/// renamed over it). When that fails, the recording goes to the temporary directory
+/// instead: `Err((why, Some(where)))`; `Err((why, None))` only if that fails too.
+fn save_safely(recording: &Recording, path: &Path) -> Result<String, (String, Option<String>)> {
+    let shown = shown_path(path);
+    let json = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let text = if json {
+        recording.to_json()
+    } else {
+        recording.to_csv()
+    };
+    let partial = sibling(path, "partial");
+    let written = std::fs::write(&partial, &text).and_then(|()| std::fs::rename(&partial, path));
+    match written {
+        Ok(()) => Ok(format!(
+            "saved {} samples of {} signals ({:.2} s) to {shown}",
+            recording.len(),
+            recording.channels.len(),
+            recording.duration()
+        )),
+        Err(e) => {
+            let _ = std::fs::remove_file(&partial);
+            let why = format!("cannot write {shown}: {e}");
+            let elsewhere = std::env::temp_dir().join(format!(
+                "drivedeck-recording-{}-{}.{}",
+                std::process::id(),
+                SystemTime::now()
+                    .duration_since(SystemTime::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_secs()),
+                if json { "json" } else { "csv" }
+            ));
+            match std::fs::write(&elsewhere, &text) {
+                Ok(()) => Err((why, Some(elsewhere.display().to_string()))),
+                Err(e2) => Err((format!("{why}; nor to {}: {e2}", elsewhere.display()), None)),
+            }
+        }
+    }
 }
 
 fn print(report: &RecordReport, json: bool) {
     if json {
         match serde_json::to_string_pretty(report) {
-            Ok(text) => println!("{text}"),
+            Ok(text) => outln!("{text}"),
             Err(e) => eprintln!("drivedeck: cannot print the report: {e}"),
         }
         return;
     }
-    println!(
-        "recorded {} samples over {:.3} s ({:.0} samples/s) to {}",
-        report.samples, report.seconds, report.rate, report.file
+    outln!(
+        "recorded {} samples over {:.3} s ({:.1} samples/s, {} asked) to {}",
+        report.samples,
+        report.seconds,
+        report.rate,
+        report.rate_asked,
+        report.file
     );
+    if let Some(why) = &report.ended_early {
+        outln!("ended early: {why}");
+    }
     if let (Some(trigger), Some(at)) = (&report.trigger, report.trigger_time_s) {
-        println!("trigger: {trigger}; fired at {at:.3} s");
+        outln!("trigger: {trigger}; fired at {at:.3} s");
     }
     for s in &report.signals {
-        println!(
+        outln!(
             "  {:<18} {:>8} samples{}",
             s.id,
             s.samples,

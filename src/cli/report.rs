@@ -240,7 +240,7 @@ pub fn print(report: &Report, json: bool) {
     }
     if json {
         match serde_json::to_string_pretty(report) {
-            Ok(text) => println!("{text}"),
+            Ok(text) => outln!("{text}"),
             Err(e) => eprintln!("drivedeck: cannot format the report as JSON: {e}"),
         }
         return;
@@ -249,7 +249,7 @@ pub fn print(report: &Report, json: bool) {
         Report::Status(s) => print_status(s),
         Report::Scan(r) => {
             if r.nodes.is_empty() {
-                println!("nothing answered on {}", r.bus);
+                outln!("nothing answered on {}", r.bus);
             }
             let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
             for n in &r.nodes {
@@ -262,7 +262,7 @@ pub fn print(report: &Report, json: bool) {
                             .map_or("?".into(), |r| format!("{}.{}", r >> 16, r & 0xFFFF)),
                     ),
                 };
-                println!(
+                outln!(
                     "{place}  vendor {}  product {}  revision {revision}  serial {}  {:<15} {}",
                     hex(n.vendor),
                     hex(n.product),
@@ -289,7 +289,7 @@ pub fn print(report: &Report, json: bool) {
                 .map(|h| format!(" ({h})"))
                 .unwrap_or_default();
             let verb = if o.written { "written: " } else { "" };
-            println!("{}{name} = {verb}{}{unit}{hex}", o.address, o.text);
+            outln!("{}{name} = {verb}{}{unit}{hex}", o.address, o.text);
         }
         Report::Command(c) => {
             let image = c
@@ -305,24 +305,24 @@ pub fn print(report: &Report, json: bool) {
                 })
                 .unwrap_or_default();
             match c.return_value {
-                Some(rv) => println!("{}{image}: {} (ReturnValue {rv})", c.command, c.outcome),
-                None => println!("{}{image}: {}", c.command, c.outcome),
+                Some(rv) => outln!("{}{image}: {} (ReturnValue {rv})", c.command, c.outcome),
+                None => outln!("{}{image}: {}", c.command, c.outcome),
             }
         }
     }
 }
 
 fn print_status(s: &StatusReport) {
-    println!("link        {}", s.link);
+    outln!("link        {}", s.link);
     match (s.state, s.statusword) {
-        (Some(state), Some(word)) => println!("state       {state} (6041h = {word:04X}h)"),
+        (Some(state), Some(word)) => outln!("state       {state} (6041h = {word:04X}h)"),
         (None, Some(word)) => {
-            println!("state       statusword {word:04X}h matches no CiA 402 state")
+            outln!("state       statusword {word:04X}h matches no CiA 402 state")
         }
-        _ => println!("state       unknown (6041h not readable on this link)"),
+        _ => outln!("state       unknown (6041h not readable on this link)"),
     }
     let on: Vec<&str> = s.bits.iter().filter(|b| b.set).map(|b| b.name).collect();
-    println!(
+    outln!(
         "PDI-Status  {:04X}h{}",
         s.pdi_status,
         if on.is_empty() {
@@ -332,15 +332,15 @@ fn print_status(s: &StatusReport) {
         }
     );
     if s.undefined_bits != 0 {
-        println!("            undefined bits {:04X}h", s.undefined_bits);
+        outln!("            undefined bits {:04X}h", s.undefined_bits);
     }
-    println!("603Fh       {:04X}h {}", s.error_code, s.error_meaning);
+    outln!("603Fh       {:04X}h {}", s.error_code, s.error_meaning);
     match &s.return_error {
-        Some(text) => println!("ReturnValue {:08X}h: {text}", s.return_value as u32),
-        None => println!("ReturnValue {}", s.return_value),
+        Some(text) => outln!("ReturnValue {:08X}h: {text}", s.return_value as u32),
+        None => outln!("ReturnValue {}", s.return_value),
     }
     if let Some(mode) = s.mode {
-        println!("mode        {mode} (6061h)");
+        outln!("mode        {mode} (6061h)");
     }
     let mut actual = vec![];
     if let Some(p) = s.position {
@@ -356,14 +356,14 @@ fn print_status(s: &StatusReport) {
         actual.push(format!("following error {f:.0}"));
     }
     if !actual.is_empty() {
-        println!("actual      {}", actual.join(", "));
+        outln!("actual      {}", actual.join(", "));
     }
 }
 
 pub fn print_error(message: &str, json: bool) {
     if json {
         let body = serde_json::json!({ "error": message });
-        println!("{body}");
+        outln!("{body}");
     } else {
         eprintln!("drivedeck: {message}");
     }

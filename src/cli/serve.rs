@@ -56,7 +56,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
             .await
             .map_err(|e| format!("cannot listen on {addr}: {e}"))?;
         let local = listener.local_addr().map_err(|e| e.to_string())?;
-        println!(
+        outln!(
             "serving the simulated drive on Modbus TCP {local} ({} client{} at a time, {} word first)",
             args.max_clients,
             if args.max_clients == 1 { "" } else { "s" },
@@ -88,7 +88,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
             slave: args.slave,
         };
         let port = modbus::open_serial(&options).map_err(|e| e.to_string())?;
-        println!(
+        outln!(
             "serving the simulated drive on Modbus RTU {path}, slave {}, {} baud, parity {}, {} stop bit(s)",
             options.slave,
             options.baud,
@@ -114,7 +114,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
             .map_err(|e| format!("cannot serve EtherNet/IP on {addr}: {e}"))?;
         let local = sockets.tcp_addr().map_err(|e| e.to_string())?;
         let io = sockets.io_addr().map_err(|e| e.to_string())?;
-        println!(
+        outln!(
             "serving the simulated drive on EtherNet/IP {local} (class 1 I/O on UDP {io}, vendor {:X}h)",
             crate::link::enip::identity::NANOTEC_VENDOR
         );
@@ -132,7 +132,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
     if let Some(path) = &args.slcan {
         let device =
             crate::link::canopen::slcan::SlcanDevice::open(path).map_err(|e| e.to_string())?;
-        println!(
+        outln!(
             "serving the simulated drive as CANopen node {} behind an emulated slcan adapter on {path}",
             args.node
         );
@@ -149,7 +149,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
         {
             let bus = crate::link::canopen::socketcan::SocketCanBus::open(iface)
                 .map_err(|e| e.to_string())?;
-            println!(
+            outln!(
                 "serving the simulated drive as CANopen node {} on {iface}",
                 args.node
             );
@@ -174,7 +174,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
                 ticker.tick().await;
                 let drive = shared.lock();
                 let tx = drive.tx_image();
-                println!(
+                outln!(
                     "{:8.1} s  {}  position {:.0}  velocity {:.0} rpm  PDI-Status {}",
                     drive.time().as_secs_f64(),
                     PowerState::from_statusword(drive.statusword()).map_or("?", PowerState::name),
@@ -187,7 +187,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
     }
     tokio::select! {
         _ = tokio::signal::ctrl_c() => {
-            println!("stopping");
+            outln!("stopping");
         }
         _ = async { while tasks.join_next().await.is_some() {} } => {}
     }

@@ -63,9 +63,16 @@ pub struct Metadata {
     pub trigger: Option<String>,
     /// Time of the trigger, in the recording's time base.
     pub trigger_time_s: Option<f64>,
-    /// Sampling rate.
+    /// Sampling rate achieved (samples per second).
     pub rate_hz: Option<f64>,
+    /// Sampling rate asked for, where it differs in meaning from the one achieved.
+    #[serde(default)]
+    pub rate_asked_hz: Option<f64>,
     pub note: Option<String>,
+    /// Why and when the recording ended before its time (a lost link, Ctrl-C, …): the
+    /// file holds every sample taken until then.
+    #[serde(default)]
+    pub ended_early: Option<String>,
 }
 
 /// One recorded channel.
@@ -122,7 +129,7 @@ fn csv_error(line: usize, what: impl Into<String>) -> RecordingError {
 
 impl Metadata {
     /// The text fields with their CSV keys, in file order.
-    fn text_fields(&self) -> [(&'static str, &Option<String>); 9] {
+    fn text_fields(&self) -> [(&'static str, &Option<String>); 10] {
         [
             ("vendor", &self.vendor),
             ("product", &self.product),
@@ -133,14 +140,16 @@ impl Metadata {
             ("started", &self.started),
             ("trigger", &self.trigger),
             ("note", &self.note),
+            ("ended_early", &self.ended_early),
         ]
     }
 
     /// The number fields with their CSV keys, in file order.
-    fn number_fields(&self) -> [(&'static str, Option<f64>); 2] {
+    fn number_fields(&self) -> [(&'static str, Option<f64>); 3] {
         [
             ("trigger_time_s", self.trigger_time_s),
             ("rate_hz", self.rate_hz),
+            ("rate_asked_hz", self.rate_asked_hz),
         ]
     }
 
@@ -155,6 +164,7 @@ impl Metadata {
             "started" => &mut self.started,
             "trigger" => &mut self.trigger,
             "note" => &mut self.note,
+            "ended_early" => &mut self.ended_early,
             _ => return None,
         })
     }
@@ -163,6 +173,7 @@ impl Metadata {
         Some(match key {
             "trigger_time_s" => &mut self.trigger_time_s,
             "rate_hz" => &mut self.rate_hz,
+            "rate_asked_hz" => &mut self.rate_asked_hz,
             _ => return None,
         })
     }
@@ -822,7 +833,9 @@ mod tests {
                 trigger: Some("position rises through 1000".into()),
                 trigger_time_s: Some(12.5),
                 rate_hz: Some(1000.0),
+                rate_asked_hz: Some(2000.0),
                 note: Some(" back\\slash ".into()),
+                ended_early: Some("the link was lost: no answer | at t = 3.5 s".into()),
             },
             channels: vec![
                 ChannelInfo {
@@ -1029,14 +1042,16 @@ mod tests {
 
     fn recording() -> impl Strategy<Value = Recording> {
         let meta = (
-            prop::collection::vec(prop::option::of(odd_text()), 9),
+            prop::collection::vec(prop::option::of(odd_text()), 10),
+            prop::option::of(finite()),
             prop::option::of(finite()),
             prop::option::of(finite()),
         )
-            .prop_map(|(text, trigger_time_s, rate_hz)| {
+            .prop_map(|(text, trigger_time_s, rate_hz, rate_asked_hz)| {
                 let mut meta = Metadata {
                     trigger_time_s,
                     rate_hz,
+                    rate_asked_hz,
                     ..Metadata::default()
                 };
                 let fields = [
@@ -1049,6 +1064,7 @@ mod tests {
                     &mut meta.started,
                     &mut meta.trigger,
                     &mut meta.note,
+                    &mut meta.ended_early,
                 ];
                 for (field, value) in fields.into_iter().zip(text) {
                     *field = value;

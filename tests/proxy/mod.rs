@@ -243,11 +243,9 @@ fn damaged(mut frame: Vec<u8>, framing: Framing, fault: Fault) -> Vec<u8> {
         }
         // Encapsulation: command(2) length(2) session(4) status(4) context(8) options(4) |
         // data: interface handle(4) timeout(2) item count(2) items…
-        (Framing::Enip, Fault::Corrupt) => {
-            if frame.len() >= 32 {
-                frame[30] = 0x7F;
-                frame[31] = 0x7F;
-            }
+        (Framing::Enip, Fault::Corrupt) if frame.len() >= 32 => {
+            frame[30] = 0x7F;
+            frame[31] = 0x7F;
         }
         (Framing::Enip, Fault::BreakFraming) => {
             frame[2] = 0xFF;

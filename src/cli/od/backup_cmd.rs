@@ -53,7 +53,7 @@ fn print_lines(notes: &[String], warnings: &[String]) {
 
 fn print_json(report: &impl Serialize) {
     match serde_json::to_string_pretty(report) {
-        Ok(text) => println!("{text}"),
+        Ok(text) => outln!("{text}"),
         Err(e) => eprintln!("drivedeck: cannot format the report as JSON: {e}"),
     }
 }
@@ -154,14 +154,14 @@ pub fn dump(
     if json {
         print_json(&report);
     } else {
-        println!(
+        outln!(
             "saved {} settings of {} to {}",
             report.objects,
             file.identity.summary(),
             report.file
         );
         for (address, reason) in &report.unreadable {
-            println!("not saved: {address}: {reason}");
+            outln!("not saved: {address}: {reason}");
         }
     }
     Ok(report.unreadable.is_empty())
@@ -285,9 +285,12 @@ fn print_diff(report: &DiffReport) {
             .max()
             .unwrap_or(4)
             .clamp(4, 32);
-        println!(
+        outln!(
             "{:<9}  {:<10}  {:<name_width$}  {:<file_width$}  DEVICE",
-            "INDEX:SUB", "STATE", "NAME", "FILE"
+            "INDEX:SUB",
+            "STATE",
+            "NAME",
+            "FILE"
         );
         for row in &report.objects {
             let device = match (&row.device, &row.error, &row.reason) {
@@ -296,13 +299,16 @@ fn print_diff(report: &DiffReport) {
                 (Some(v), None, None) => v.clone(),
                 (None, None, None) => String::new(),
             };
-            println!(
+            outln!(
                 "{:<9}  {:<10}  {:<name_width$}  {:<file_width$}  {device}",
-                row.address, row.state, row.name, row.file
+                row.address,
+                row.state,
+                row.name,
+                row.file
             );
         }
     }
-    println!(
+    outln!(
         "{} of {} saved settings differ, {} cannot be read, {} are the same",
         report.differs,
         report.same + report.differs + report.unreadable,
@@ -310,7 +316,7 @@ fn print_diff(report: &DiffReport) {
         report.same
     );
     if report.skipped > 0 {
-        println!(
+        outln!(
             "{} entries of the file are skipped: not settings of the dictionary in use, never restored",
             report.skipped
         );
@@ -410,13 +416,16 @@ fn step_row(step: &Step) -> StepRow {
 
 fn print_restore(report: &RestoreReport) {
     for row in &report.skipped {
-        println!(
+        outln!(
             "skipped: {:<9}  {} = {}: {}",
-            row.address, row.name, row.file, row.reason
+            row.address,
+            row.name,
+            row.file,
+            row.reason
         );
     }
     if report.steps.is_empty() {
-        println!(
+        outln!(
             "the drive already matches {}: nothing to write",
             report.file
         );
@@ -430,7 +439,7 @@ fn print_restore(report: &RestoreReport) {
             (None, false) => format!("  {}", row.result),
         };
         let procedure = row.procedure.map(|p| format!(" ({p})")).unwrap_or_default();
-        println!(
+        outln!(
             "{:>3}. {:<9}  {}: {before} -> {}{procedure}{result}",
             n + 1,
             row.address,
@@ -438,30 +447,30 @@ fn print_restore(report: &RestoreReport) {
             row.value
         );
         if let Some(w) = &row.warning {
-            println!("     warning: {w}");
+            outln!("     warning: {w}");
         }
     }
     if report.dry_run {
-        println!(
+        outln!(
             "dry run: {} writes would be made, nothing was written",
             report.steps.len()
         );
         return;
     }
-    println!(
+    outln!(
         "{} of {} writes done, {} refused",
         report.written,
         report.steps.len(),
         report.refused
     );
     match &report.stored {
-        Some(Ok(())) => println!("stored in the drive (1010h:01): kept after a restart"),
-        Some(Err(e)) => println!("not stored: {e}"),
-        None => println!("not stored: the values are lost at a restart unless stored (--store)"),
+        Some(Ok(())) => outln!("stored in the drive (1010h:01): kept after a restart"),
+        Some(Err(e)) => outln!("not stored: {e}"),
+        None => outln!("not stored: the values are lost at a restart unless stored (--store)"),
     }
     match report.still_differs {
-        Some(0) => println!("compared again: the drive matches the file"),
-        Some(n) => println!("compared again: {n} settings still differ (od diff lists them)"),
+        Some(0) => outln!("compared again: the drive matches the file"),
+        Some(n) => outln!("compared again: {n} settings still differ (od diff lists them)"),
         None => {}
     }
 }
