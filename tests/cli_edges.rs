@@ -1,0 +1,476 @@
+//! The command line at its edges, against a served simulator as a user would meet them:
+//! Ctrl-C, SIGTERM and SIGHUP during a move (the drive is found stopped afterwards, as
+//! `--on-exit` says), a `--wait` that times out, moves that cannot move refused before
+//! anything is sent, recordings cut short by a signal, a lost link or a failed write (the
+//! file is there, whole, and says why), and `--trace` showing the frames of a failure.
+
+mod common;
+
+use std::io::Write;
+use std::net::SocketAddr;
+use std::process::{Command, Output, Stdio};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use common::{Process, Sim, TempDir};
+use drivedeck::telemetry::Recording;
+
+fn bin() -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_drivedeck"));
+    command.env("HOME", std::env::temp_dir());
+    command
+}
+
+fn run(args: &[&str]) -> (i32, String, String) {
+    let out: Output = bin().args(args).output().expect("the binary runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn link(addr: SocketAddr) -> String {
+    format!("modbus-tcp://{addr}")
+}
+
+/// The drive's status as the command line reports it (JSON).
+fn status(addr: SocketAddr) -> serde_json::Value {
+    let (code, stdout, stderr) = run(&["--link", &link(addr), "--json", "status"]);
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    serde_json::from_str(&stdout).expect("JSON status")
+}
+
+fn bits(status: &serde_json::Value) -> Vec<String> {
+    status["bits"]
+        .as_array()
+        .map(|bits| {
+            bits.iter()
+                .filter(|b| b["set"].as_bool() == Some(true))
+                .filter_map(|b| b["name"].as_str().map(str::to_owned))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn velocity(status: &serde_json::Value) -> f64 {
+    status["velocity"].as_f64().unwrap_or(f64::NAN)
+}
+
+fn position(status: &serde_json::Value) -> f64 {
+    status["position"].as_f64().unwrap_or(f64::NAN)
+}
+
+/// Send `signal` (INT, TERM, HUP) to the process.
+fn signal(process: &Process, signal: &str) {
+    let status = Command::new("kill")
+        .arg(format!("-{signal}"))
+        .arg(process.pid().to_string())
+        .status()
+        .expect("kill runs");
+    assert!(status.success(), "kill -{signal} failed");
+}
+
+/// `drivedeck ARGS…` started, with its output collected.
+fn start(args: &[&str]) -> Process {
+    let mut command = bin();
+    command.args(args);
+    Process::spawn("drivedeck", &mut command)
+}
+
+/// The exit code of a process that should end by itself within `timeout`.
+fn exit_code(process: &mut Process, timeout: Duration) -> i32 {
+    match process.wait(timeout) {
+        Some(status) => status.code().unwrap_or(-1),
+        None => panic!("still running after {timeout:?}: {}", process.report()),
+    }
+}
+
+/// A long relative move, well inside the simulated axis's limit switches: eight turns at
+/// one turn a second.
+const LONG_MOVE: [&str; 5] = ["move-rel", "30000", "--speed", "60", "--wait"];
+
+/// Start the long move and let it run for a while (the served drive allows one client at a
+/// time, so the test cannot watch it meanwhile).
+fn moving(addr: SocketAddr, extra: &[&str]) -> Process {
+    let link = link(addr);
+    let mut args = vec!["--link", link.as_str()];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&LONG_MOVE);
+    let process = start(&args);
+    thread::sleep(Duration::from_millis(1200));
+    process
+}
+
+#[test]
+fn ctrl_c_during_a_move_halts_the_drive_says_so_and_exits_130() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    let mut mover = moving(addr, &[]);
+    signal(&mover, "INT");
+    let code = exit_code(&mut mover, Duration::from_secs(15));
+    let report = mover.report();
+    assert_eq!(code, 130, "{report}");
+    assert!(report.contains("interrupted by SIGINT"), "{report}");
+    assert!(
+        report.contains("halt sent; the drive confirmed it: it stands still"),
+        "{report}"
+    );
+    // Found stopped afterwards: the halt bit set, no speed, the position no longer moving.
+    let first = status(addr);
+    assert!(
+        bits(&first).iter().any(|b| b == "PdiStatusQsHaltBit"),
+        "{first}"
+    );
+    assert_eq!(velocity(&first), 0.0, "{first}");
+    thread::sleep(Duration::from_millis(300));
+    let later = status(addr);
+    assert_eq!(position(&first), position(&later), "{first} / {later}");
+    assert!(position(&later) > 100.0, "it had moved: {later}");
+}
+
+#[test]
+fn sigterm_with_on_exit_switch_off_leaves_the_power_stage_off() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    let mut mover = moving(addr, &["--on-exit", "switch-off"]);
+    signal(&mover, "TERM");
+    let code = exit_code(&mut mover, Duration::from_secs(15));
+    let report = mover.report();
+    assert_eq!(code, 130, "{report}");
+    assert!(report.contains("interrupted by SIGTERM"), "{report}");
+    assert!(report.contains("switch-off sent"), "{report}");
+    let after = status(addr);
+    assert!(
+        !bits(&after)
+            .iter()
+            .any(|b| b == "PdiStatusOperationEnabled"),
+        "{after}"
+    );
+}
+
+#[test]
+fn sighup_with_on_exit_leave_leaves_the_drive_moving_and_says_so() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    let mut mover = moving(addr, &["--on-exit", "leave"]);
+    signal(&mover, "HUP");
+    let code = exit_code(&mut mover, Duration::from_secs(15));
+    let report = mover.report();
+    assert_eq!(code, 130, "{report}");
+    assert!(report.contains("interrupted by SIGHUP"), "{report}");
+    assert!(
+        report.contains("left as it is (--on-exit leave): it still turns at 60 rpm"),
+        "{report}"
+    );
+    let after = status(addr);
+    assert!(velocity(&after) > 30.0, "it was left moving: {after}");
+    let (code, _, stderr) = run(&["--link", &link(addr), "halt"]);
+    assert_eq!(code, 0, "{stderr}");
+}
+
+#[test]
+fn a_wait_that_times_out_stops_the_move_and_says_so() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    let link = link(addr);
+    let mut args = vec!["--link", link.as_str(), "--timeout", "1"];
+    args.extend_from_slice(&LONG_MOVE);
+    let (code, stdout, stderr) = run(&args);
+    assert_eq!(code, 1, "{stdout}{stderr}");
+    assert!(stderr.contains("timed out after 1.0 s"), "{stderr}");
+    assert!(
+        stderr.contains("halt sent; the drive confirmed it"),
+        "{stderr}"
+    );
+    let after = status(addr);
+    assert_eq!(velocity(&after), 0.0, "{after}");
+    // Halted, not carried on by a later command: the position stays.
+    thread::sleep(Duration::from_millis(300));
+    assert_eq!(position(&after), position(&status(addr)));
+}
+
+#[test]
+fn a_move_that_cannot_move_is_refused_before_anything_is_sent() {
+    // Max speed 0: refused before connecting (nothing listens at port 1).
+    let (code, _, stderr) = run(&[
+        "--link",
+        "modbus-tcp://127.0.0.1:1",
+        "move-abs",
+        "1000",
+        "--speed",
+        "0",
+    ]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("max speed of 0 rpm"), "{stderr}");
+    assert!(!stderr.contains("cannot connect"), "{stderr}");
+    // A ramp at 0 on the drive: refused after reading it, nothing sent.
+    let (_sim, addr) = Sim::tcp(&[]);
+    let link = link(addr);
+    for (object, name) in [("6083", "acceleration"), ("6084", "deceleration")] {
+        let (code, _, stderr) = run(&["--link", &link, "write", object, "0"]);
+        assert_eq!(code, 0, "{stderr}");
+        for command in [
+            vec!["move-rel", "900", "--speed", "100"],
+            vec!["velocity", "100"],
+        ] {
+            let mut args = vec!["--link", link.as_str()];
+            args.extend_from_slice(&command);
+            let (code, _, stderr) = run(&args);
+            assert_eq!(code, 1, "{command:?}: {stderr}");
+            assert!(
+                stderr.contains(&format!("profile {name} {object}h is 0")),
+                "{stderr}"
+            );
+            assert!(stderr.contains("nothing was sent"), "{stderr}");
+        }
+        let after = status(addr);
+        assert_eq!(after["state"], "Switch on disabled", "nothing ran: {after}");
+        let (code, _, stderr) = run(&["--link", &link, "write", object, "1000"]);
+        assert_eq!(code, 0, "{stderr}");
+    }
+}
+
+/// `drivedeck record` into `dir`, JSON report.
+fn record_args<'a>(link: &'a str, out: &'a str, duration: &'a str) -> Vec<&'a str> {
+    vec![
+        "--link",
+        link,
+        "--json",
+        "record",
+        "--signals",
+        "position,velocity,pdi_status",
+        "--rate",
+        "200",
+        "--duration",
+        duration,
+        "--out",
+        out,
+    ]
+}
+
+fn read_back(path: &str) -> Recording {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    if path.ends_with(".json") {
+        Recording::from_json(&text).expect("JSON recording")
+    } else {
+        Recording::from_csv(&text).expect("CSV recording")
+    }
+}
+
+#[test]
+fn a_recording_cut_short_by_ctrl_c_keeps_every_sample_and_says_why() {
+    let dir = TempDir::new("record-int");
+    let out = dir.path.join("run.csv");
+    let out = out.to_str().expect("utf-8");
+    let mut recorder = start(&record_args("sim", out, "30s"));
+    thread::sleep(Duration::from_millis(1500));
+    signal(&recorder, "INT");
+    let code = exit_code(&mut recorder, Duration::from_secs(10));
+    assert_eq!(code, 130, "{}", recorder.report());
+    let report: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
+    let recording = read_back(out);
+    assert_eq!(report["samples"].as_u64(), Some(recording.len() as u64));
+    // About a second of 200 Hz, from t = 0.
+    assert!(recording.len() > 100, "{} samples", recording.len());
+    assert!(recording.times[0] < 0.1, "starts at {}", recording.times[0]);
+    let why = recording
+        .meta
+        .ended_early
+        .clone()
+        .expect("ended_early line");
+    assert!(why.contains("interrupted by SIGINT"), "{why}");
+    assert!(why.contains("at t = "), "{why}");
+    assert_eq!(report["ended_early"].as_str(), Some(why.as_str()));
+}
+
+#[test]
+fn a_recording_cut_short_by_a_lost_link_keeps_every_sample_and_exits_1() {
+    let dir = TempDir::new("record-lost");
+    let out = dir.path.join("run.json");
+    let out = out.to_str().expect("utf-8");
+    let (sim, addr) = Sim::tcp(&[]);
+    let link = link(addr);
+    let mut args = vec!["--lost-after", "1"];
+    args.extend(record_args(&link, out, "30s"));
+    let mut recorder = start(&args);
+    thread::sleep(Duration::from_millis(1500));
+    drop(sim); // the drive's plug is pulled
+    let code = exit_code(&mut recorder, Duration::from_secs(15));
+    assert_eq!(code, 1, "{}", recorder.report());
+    let recording = read_back(out);
+    assert!(recording.len() > 100, "{} samples", recording.len());
+    let why = recording.meta.ended_early.clone().expect("ended_early");
+    assert!(why.contains("the link was lost"), "{why}");
+    assert!(
+        why.contains("closed the connection") || why.contains("no answer"),
+        "the real cause: {why}"
+    );
+}
+
+#[test]
+fn a_recording_whose_place_goes_away_is_saved_elsewhere_and_says_where() {
+    let dir = TempDir::new("record-gone");
+    let sub = dir.path.join("gone");
+    std::fs::create_dir_all(&sub).expect("dir");
+    let out = sub.join("run.csv");
+    let out = out.to_str().expect("utf-8");
+    let mut recorder = start(&record_args("sim", out, "1s"));
+    thread::sleep(Duration::from_millis(400));
+    std::fs::remove_dir_all(&sub).expect("remove the directory mid-recording");
+    let code = exit_code(&mut recorder, Duration::from_secs(10));
+    assert_eq!(code, 1, "{}", recorder.report());
+    let report: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
+    let elsewhere = report["file"].as_str().expect("file").to_owned();
+    assert_ne!(elsewhere, out);
+    let warnings = report["warnings"].to_string();
+    assert!(warnings.contains("cannot write"), "{warnings}");
+    assert!(warnings.contains(&elsewhere), "{warnings}");
+    let recording = read_back(&elsewhere);
+    assert!(recording.len() > 150, "{} samples", recording.len());
+    let _ = std::fs::remove_file(&elsewhere);
+}
+
+#[test]
+fn a_bad_out_path_fails_before_connecting() {
+    let started = Instant::now();
+    let (code, _, stderr) = run(&[
+        "--link",
+        "modbus-tcp://127.0.0.1:1",
+        "record",
+        "--out",
+        "/nonexistent-dir/run.csv",
+    ]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("cannot write --out /nonexistent-dir/run.csv"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("cannot connect"), "{stderr}");
+    assert!(started.elapsed() < Duration::from_secs(5));
+}
+
+#[test]
+fn a_slow_rate_samples_from_t_0() {
+    let dir = TempDir::new("record-slow");
+    let out = dir.path.join("slow.csv");
+    let out = out.to_str().expect("utf-8");
+    let (code, stdout, stderr) = run(&[
+        "--link",
+        "sim",
+        "record",
+        "--rate",
+        "1",
+        "--duration",
+        "2s",
+        "--out",
+        out,
+    ]);
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    let recording = read_back(out);
+    assert_eq!(recording.len(), 3, "t = 0, 1, 2: {:?}", recording.times);
+    assert!(recording.times[0] < 0.2, "{:?}", recording.times);
+    assert_eq!(recording.meta.rate_hz, Some(1.0));
+}
+
+#[test]
+fn the_file_says_the_rate_an_enip_io_connection_achieved() {
+    let dir = TempDir::new("record-enip");
+    let out = dir.path.join("io.csv");
+    let out = out.to_str().expect("utf-8");
+    let (_sim, addr) = Sim::enip(&[]);
+    let link = format!("enip://{addr}?udp=0&rpi=10");
+    let (code, stdout, stderr) = run(&[
+        "--link",
+        &link,
+        "--json",
+        "record",
+        "--signals",
+        "position,pdi_status",
+        "--rate",
+        "1000",
+        "--duration",
+        "1s",
+        "--out",
+        out,
+    ]);
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    let recording = read_back(out);
+    let rate = recording.meta.rate_hz.expect("rate");
+    assert!((70.0..=115.0).contains(&rate), "{rate} Hz at RPI 10 ms");
+    assert_eq!(recording.meta.rate_asked_hz, Some(1000.0));
+    let report: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    let warnings = report["warnings"].to_string();
+    assert!(warnings.contains("one sample per RPI (10 ms"), "{warnings}");
+}
+
+#[test]
+fn trace_shows_the_frames_of_a_failed_connection_before_the_error() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    // Another client holds the drive's one Modbus TCP connection.
+    let _other = std::net::TcpStream::connect(addr).expect("the first client");
+    thread::sleep(Duration::from_millis(100));
+    let (code, _, stderr) = run(&["--link", &link(addr), "--trace", "status"]);
+    assert_eq!(code, 2, "{stderr}");
+    let request = stderr.find("tx ").expect("the request frame is shown");
+    let error = stderr.find("cannot connect").expect("the error");
+    assert!(request < error, "{stderr}");
+    assert!(stderr.contains("FC 43 request"), "{stderr}");
+}
+
+/// What a served simulator logs (at `DRIVEDECK_LOG=info`) when a second client is turned
+/// away, with `env` set.
+fn refusal_log(env: &[(&str, &str)]) -> String {
+    let mut command = bin();
+    command
+        .args(["sim", "--modbus-tcp", "127.0.0.1:0"])
+        .env("DRIVEDECK_LOG", "info")
+        .env_remove("NO_COLOR");
+    for (key, value) in env {
+        command.env(key, value);
+    }
+    let mut sim = Process::spawn("drivedeck sim", &mut command);
+    let banner = sim.expect_line("the banner", Duration::from_secs(10));
+    let addr: SocketAddr = banner
+        .split("Modbus TCP ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|a| a.parse().ok())
+        .unwrap_or_else(|| panic!("no address in {banner}"));
+    let _first = std::net::TcpStream::connect(addr).expect("first client");
+    thread::sleep(Duration::from_millis(100));
+    let _second = std::net::TcpStream::connect(addr).expect("second client");
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let report = sim.report();
+        if report.contains("refused Modbus TCP client") {
+            return report;
+        }
+        assert!(Instant::now() < deadline, "no log line: {report}");
+        thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn redirected_logs_carry_no_colour_codes() {
+    // stderr is a pipe here, as when redirected to a file.
+    let log = refusal_log(&[]);
+    assert!(
+        !log.contains('\u{1b}'),
+        "escape codes in a redirected log: {log:?}"
+    );
+    let log = refusal_log(&[("NO_COLOR", "1")]);
+    assert!(!log.contains('\u{1b}'), "{log:?}");
+}
+
+#[test]
+fn stdout_to_a_closed_pipe_is_no_panic() {
+    let mut child = bin()
+        .args(["od", "list"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("runs");
+    // Read nothing and close: every later write meets a broken pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("ends");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let _ = std::io::stderr().flush();
+}
