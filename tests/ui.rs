@@ -656,7 +656,7 @@ fn the_window_shows_a_drive_whose_server_died_as_last_seen_and_comes_back_live()
     harness.get_by_label("Position 6064h");
     assert_eq!(
         harness
-            .query_all_by_label_contains("not connected: the link was lost (")
+            .query_all_by_label_contains("not connected: the link was lost")
             .count(),
         2,
         "the status and the commands panel"

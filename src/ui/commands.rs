@@ -5,7 +5,7 @@
 use eframe::egui::{self, Color32, RichText, TextEdit, Ui};
 
 use super::state::{AppState, TORQUE_SLOPE, TorqueWarning};
-use super::widgets::{AMBER, RED, name_widget, named_text_edit};
+use super::widgets::{AMBER, RED, clipped_label, name_widget, named_text_edit};
 use crate::od::{self, Address, DataType, Value};
 use crate::pdi::{Action, FieldSpec, Opcode};
 use crate::sim::SUPPORTED_METHODS;
@@ -173,8 +173,7 @@ pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
     ui.heading("Commands");
     // Why every button below is disabled, on screen as well as in each tooltip.
     if let Some(reason) = state.offline_reason() {
-        ui.colored_label(AMBER, RichText::new(&reason).strong())
-            .on_hover_text("Commands go out again once the link is up; Quickstop and Switch off stay at the top right.");
+        clipped_label(ui, RichText::new(reason).color(AMBER).strong(), 2);
     }
     halt_ui(ui, state);
     super::jog::jog_ui(ui, state);

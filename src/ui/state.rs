@@ -722,18 +722,20 @@ impl AppState {
                 },
                 lost,
             ) => {
-                let retry = retry_in
-                    .map(|d| format!("; retrying in {:.1} s", d.as_secs_f64()))
-                    .unwrap_or_default();
+                // What happens next first, the link's (often long) error text after it.
+                let retry = match retry_in {
+                    Some(d) => format!(", retrying in {:.1} s", d.as_secs_f64()),
+                    None => String::new(),
+                };
                 Some(match lost {
                     // Right after the loss the worker reports the same error again.
                     Some(reason) if reason == error => {
-                        format!("not connected: the link was lost ({reason}){retry}")
+                        format!("not connected: the link was lost{retry} ({reason})")
                     }
                     Some(reason) => format!(
-                        "not connected: the link was lost ({reason}); reconnecting failed: {error}{retry}"
+                        "not connected: the link was lost{retry} ({reason}; reconnecting failed: {error})"
                     ),
-                    None => format!("not connected: {error}{retry}"),
+                    None => format!("not connected: connecting failed{retry} ({error})"),
                 })
             }
         }
@@ -1336,7 +1338,7 @@ mod tests {
         });
         assert_eq!(
             state.offline_reason().as_deref(),
-            Some("not connected: the link was lost (timed out); retrying in 0.5 s")
+            Some("not connected: the link was lost, retrying in 0.5 s (timed out)")
         );
         state.apply(Event::Connecting(LinkSpec::Sim));
         assert_eq!(
@@ -1351,7 +1353,7 @@ mod tests {
         assert_eq!(
             state.offline_reason().as_deref(),
             Some(
-                "not connected: the link was lost (timed out); reconnecting failed: connection refused; retrying in 1.0 s"
+                "not connected: the link was lost, retrying in 1.0 s (timed out; reconnecting failed: connection refused)"
             )
         );
         let line = state.stale_line(SystemTime::now()).expect("stale");

@@ -6,7 +6,7 @@ use std::time::{Duration, SystemTime};
 use eframe::egui::{self, RichText, Ui};
 
 use super::state::AppState;
-use super::widgets::{AMBER, BLUE, GREEN, RED, lamp, value_with_unit};
+use super::widgets::{AMBER, BLUE, GREEN, RED, clipped_label, lamp, value_with_unit};
 use crate::cia::{ErrorCode, PowerState};
 use crate::pdi::StatusBit;
 use crate::sim::Injection;
@@ -100,7 +100,7 @@ fn stale_banner(ui: &mut Ui, line: &str, reason: Option<&str>) {
                      changed since. They come live again when the link does.",
                 );
             if let Some(reason) = reason {
-                ui.colored_label(AMBER, reason);
+                clipped_label(ui, RichText::new(reason).color(AMBER), 3);
             }
         });
 }
