@@ -142,3 +142,77 @@ fn the_changes_tab_lists_what_was_written_and_restores_it() {
         harness.state().state.log
     );
 }
+
+#[test]
+fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
+    use drivedeck::ui::state::Outcome;
+    let mut harness = app_harness();
+    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
+        h.state().state.latest.is_some()
+    });
+    // A long relative move (ten turns at 200 rpm), replaced by the next one while it runs.
+    harness
+        .get_by_label("Move relative: Distance")
+        .set_text_value_accesskit("36000");
+    harness.step();
+    harness.get_by_label("Move relative").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the move to run",
+        Duration::from_secs(3),
+        |h| {
+            h.state()
+                .state
+                .latest
+                .and_then(|s| s.velocity)
+                .is_some_and(|v| v > 50.0)
+        },
+    );
+    harness.get_by_label("Move relative").click();
+    harness.step();
+    let moves = |h: &Harness<'_, App>| -> Vec<Outcome> {
+        h.state()
+            .state
+            .log
+            .iter()
+            .filter(|e| e.what.starts_with("Profile Position relative"))
+            .map(|e| e.outcome.clone())
+            .collect()
+    };
+    step_until(
+        &mut harness,
+        "the first move to be replaced",
+        Duration::from_secs(3),
+        |h| moves(h).first().is_some_and(|o| !o.is_open()),
+    );
+    let first = moves(&harness)[0].clone();
+    assert!(
+        !matches!(first, Outcome::Failed(_) | Outcome::Succeeded(_)),
+        "superseded is neither a failure nor done: {first:?}"
+    );
+    harness.step();
+    assert!(
+        !has(&harness, Origin::Command, "superseded"),
+        "{:#?}",
+        harness.state().state.timeline.entries().collect::<Vec<_>>()
+    );
+
+    // A command the drive refuses (travel while a fault is active) still is a fault.
+    harness.state_mut().state.request(Request::Inject {
+        injection: Injection::OverCurrent,
+        active: true,
+    });
+    step_until(&mut harness, "the fault", Duration::from_secs(3), |h| {
+        window::lamp(h, "Fault")
+    });
+    harness.get_by_label("Velocity").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the refusal on the timeline",
+        Duration::from_secs(3),
+        |h| has(h, Origin::Command, "refused"),
+    );
+    assert!(!has(&harness, Origin::Command, "superseded"));
+}

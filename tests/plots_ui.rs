@@ -221,3 +221,128 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
         "{message:?}"
     );
 }
+
+/// The plot panel alone, fed samples by hand: a position ramp from 0 to 2000 in 2 s.
+fn plots_harness() -> Harness<'static, drivedeck::ui::AppState> {
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1200.0, 800.0))
+        .build_ui_state(
+            |ui, state: &mut drivedeck::ui::AppState| drivedeck::ui::plots::plots_ui(ui, state),
+            drivedeck::ui::AppState::new(Settings::default()),
+        );
+    {
+        let form = &mut harness.state_mut().settings.plot.trigger;
+        form.threshold = true;
+        form.signal = "position".into();
+        form.level = "1000".into();
+        form.edge = Edge::Rising;
+        form.pre_s = "0.2".into();
+        form.post_s = "0.2".into();
+    }
+    harness.step();
+    harness.get_by_label("Arm").click();
+    harness.step();
+    let samples = (0..200)
+        .map(|i| drivedeck::worker::Sample {
+            t: f64::from(i) * 0.01,
+            position: Some(f64::from(i) * 10.0),
+            ..Default::default()
+        })
+        .collect();
+    harness
+        .state_mut()
+        .apply(drivedeck::worker::Event::Samples(samples));
+    harness.step();
+    assert!(
+        harness.state().scope.recording().is_some(),
+        "the trigger fired"
+    );
+    harness
+}
+
+fn message(harness: &Harness<'_, drivedeck::ui::AppState>) -> Result<String, String> {
+    harness.state().plot.message.clone().expect("a message")
+}
+
+#[test]
+fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
+    let mut harness = plots_harness();
+    let recorded = harness.state().scope.recording().map(Recording::len);
+
+    // A directory that does not exist, typed in full.
+    let missing = format!("/nonexistent-drivedeck-{}/run.csv", std::process::id());
+    harness.state_mut().settings.plot.export_path = missing.clone();
+    harness.get_by_label("Save recording").click();
+    harness.step();
+    let error = message(&harness).expect_err("the write fails");
+    assert!(
+        error.starts_with(&format!(
+            "cannot write {missing}: No such file or directory (os error 2)"
+        )),
+        "{error}"
+    );
+    assert!(
+        error.ends_with("the recording is still here — choose another place"),
+        "{error}"
+    );
+    harness.get_by_label(&error);
+    assert_eq!(
+        harness.state().scope.recording().map(Recording::len),
+        recorded
+    );
+
+    // A relative path: the message names the full path it meant.
+    let relative = format!("no-such-dir-{}/run.csv", std::process::id());
+    harness.state_mut().settings.plot.export_path = relative.clone();
+    harness.get_by_label("Save recording").click();
+    harness.step();
+    let error = message(&harness).expect_err("the write fails");
+    let full = std::env::current_dir().expect("cwd").join(&relative);
+    assert!(
+        error.starts_with(&format!("cannot write {}: ", full.display())),
+        "{error}"
+    );
+
+    // A directory where the file should be.
+    let dir = std::env::temp_dir();
+    harness.state_mut().settings.plot.export_path = dir.to_string_lossy().into_owned();
+    harness.get_by_label("Save recording").click();
+    harness.step();
+    let error = message(&harness).expect_err("a directory is not a file");
+    assert!(error.contains("(os error 21)"), "{error}");
+
+    // Another place: the same recording, whole, read back from the file.
+    let good = temp_path("retry.csv");
+    harness.state_mut().settings.plot.export_path = good.clone();
+    harness.get_by_label("Save recording").click();
+    harness.step();
+    let saved = message(&harness).expect("saved");
+    assert!(saved.contains(&good), "{saved}");
+    let text = std::fs::read_to_string(&good).expect("written");
+    let back = Recording::from_csv(&text).expect("reads back");
+    assert_eq!(Some(back.len()), recorded);
+    assert_eq!(back.channels[0].id, "position");
+
+    // Export visible does not write over the recording just saved…
+    harness.get_by_label("Export visible").click();
+    harness.step();
+    let refused = message(&harness).expect_err("refused");
+    assert!(
+        refused.contains("holds the triggered recording"),
+        "{refused}"
+    );
+    assert_eq!(std::fs::read_to_string(&good).expect("still there"), text);
+    // …but writes elsewhere, and Save recording may write its own file again.
+    let visible = temp_path("retry-visible.csv");
+    harness.state_mut().settings.plot.export_path = visible.clone();
+    harness.get_by_label("Export visible").click();
+    harness.step();
+    message(&harness).expect("exported");
+    assert!(std::fs::metadata(&visible).is_ok());
+    harness.state_mut().settings.plot.export_path = good.clone();
+    harness.get_by_label("Save recording").click();
+    harness.step();
+    message(&harness).expect("saved again over its own file");
+    let _ = std::fs::remove_file(good);
+    let _ = std::fs::remove_file(visible);
+}

@@ -411,3 +411,273 @@ fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
         })
     });
 }
+
+/// The status panel, the command panel and the stop strip of a window fed by hand.
+fn panels_harness() -> Harness<'static, AppState> {
+    let harness = Harness::builder()
+        .with_size(egui::vec2(1100.0, 900.0))
+        .build_ui_state(
+            |ui, state: &mut AppState| {
+                drivedeck::ui::connection::stop_strip_ui(ui, state);
+                ui.columns(2, |columns| {
+                    drivedeck::ui::status::status_ui(&mut columns[0], state);
+                    commands::commands_ui(&mut columns[1], state);
+                });
+            },
+            AppState::new(Settings::default()),
+        );
+    // Tooltips at once, so a test can read them.
+    harness
+        .ctx
+        .all_styles_mut(|style| style.interaction.tooltip_delay = 0.0);
+    harness
+}
+
+/// The lamps drawn lit in the last frame (coloured circles), with their alpha.
+fn lit_lamp_alphas(harness: &Harness<'_, AppState>) -> Vec<u8> {
+    harness
+        .output()
+        .shapes
+        .iter()
+        .filter_map(|clipped| match &clipped.shape {
+            egui::Shape::Circle(circle) => Some(circle.fill),
+            _ => None,
+        })
+        .filter(|fill| fill.a() > 0 && !(fill.r() == fill.g() && fill.g() == fill.b()))
+        .map(|fill| fill.a())
+        .collect()
+}
+
+fn operation_enabled_sample(t: f64) -> drivedeck::worker::Sample {
+    use drivedeck::pdi::{Status, TxImage};
+    drivedeck::worker::Sample {
+        t,
+        tx: TxImage {
+            status: Status(StatusBit::OperationEnabled.mask() | StatusBit::TargetReached.mask()),
+            error_code: 0,
+            return_value: 0,
+        },
+        position: Some(1234.0),
+        velocity: Some(0.0),
+        statusword: Some(0x0627),
+        mode: Some(1),
+        ..Default::default()
+    }
+}
+
+fn sim_info() -> LinkInfo {
+    LinkInfo {
+        spec: LinkSpec::Sim,
+        description: "simulated drive".into(),
+        native_objects: true,
+        can_inject: true,
+        pdi: true,
+    }
+}
+
+#[test]
+fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why() {
+    use drivedeck::worker::Event;
+    let mut harness = panels_harness();
+    harness.step();
+    // Never connected: nothing to show, and nothing can be sent.
+    harness.get_by_label_contains("NO LINK — never connected");
+    assert!(
+        harness
+            .get_by_label("Move absolute")
+            .accesskit_node()
+            .is_disabled()
+    );
+
+    harness.state_mut().apply(Event::Connected(sim_info()));
+    harness.step();
+    harness.get_by_label_contains("WAITING FOR DATA");
+    harness
+        .state_mut()
+        .apply(Event::Samples(vec![operation_enabled_sample(1.0)]));
+    harness.step();
+    // Live: no banner, lamps at full strength, the buttons enabled.
+    assert!(harness.query_by_label_contains("NO LINK").is_none());
+    assert!(
+        harness
+            .query_by_label_contains("WAITING FOR DATA")
+            .is_none()
+    );
+    assert!(lamp(&harness, "Operation enabled"));
+    let live = lit_lamp_alphas(&harness);
+    assert!(
+        !live.is_empty() && live.iter().all(|a| *a == 255),
+        "{live:?}"
+    );
+    assert!(
+        !harness
+            .get_by_label("Move absolute")
+            .accesskit_node()
+            .is_disabled()
+    );
+
+    harness.state_mut().apply(Event::Disconnected {
+        reason: Some("connection reset by peer".into()),
+    });
+    harness.step();
+    // The last known state stays, dimmed, with when it was seen.
+    let banner = harness
+        .get_by_label_contains("NO LINK — last seen at ")
+        .accesskit_node()
+        .value()
+        .unwrap_or_default();
+    assert!(
+        banner.contains(" UTC (") && banner.ends_with(" s ago)"),
+        "{banner}"
+    );
+    assert!(
+        lamp(&harness, "Operation enabled"),
+        "the last known lamps stay"
+    );
+    harness.get_by_label("Operation enabled (last known)");
+    harness.get_by_label("1234");
+    let dimmed = lit_lamp_alphas(&harness);
+    assert!(
+        !dimmed.is_empty() && dimmed.iter().all(|a| *a < 160),
+        "lit lamps drawn faint: {dimmed:?}"
+    );
+    // Every button that would send is disabled, and the panel says why.
+    let reason = "not connected: the link was lost (connection reset by peer)";
+    for label in ["Move absolute", "Halt", "Jog +", "Jog -", "Velocity"] {
+        assert!(
+            harness.get_by_label(label).accesskit_node().is_disabled(),
+            "{label}"
+        );
+    }
+    // Quickstop and Switch off stay on screen (disabled: there is no link to send on).
+    assert!(
+        harness
+            .get_by_label("QUICKSTOP (Esc)")
+            .accesskit_node()
+            .is_disabled()
+    );
+    harness.get_by_label("Switch off (Shift+Esc)");
+    assert_eq!(
+        harness.query_all_by_label_contains(reason).count(),
+        2,
+        "status and commands panels"
+    );
+    // The tooltip of a disabled button says the same.
+    harness.get_by_label("Move absolute").hover();
+    harness.step();
+    harness.step();
+    assert_eq!(
+        harness.query_all_by_label_contains(reason).count(),
+        3,
+        "the tooltip of the disabled button"
+    );
+
+    // Reconnecting: still the old values until the first sample of the new link.
+    harness.get_by_label("Drive status").hover();
+    harness.state_mut().apply(Event::Connecting(LinkSpec::Sim));
+    harness.step();
+    harness.get_by_label_contains("NO LINK — last seen at ");
+    assert_eq!(
+        harness
+            .query_all_by_label_contains("reconnecting…: the link was lost")
+            .count(),
+        2
+    );
+    harness.state_mut().apply(Event::Connected(sim_info()));
+    harness.step();
+    harness.get_by_label_contains("WAITING FOR DATA — connected; last seen at ");
+    harness
+        .state_mut()
+        .apply(Event::Samples(vec![operation_enabled_sample(0.01)]));
+    harness.step();
+    assert!(harness.query_by_label_contains("NO LINK").is_none());
+    assert!(
+        harness
+            .query_by_label_contains("WAITING FOR DATA")
+            .is_none()
+    );
+    assert!(harness.query_by_label_contains("not connected").is_none());
+    let live = lit_lamp_alphas(&harness);
+    assert!(
+        !live.is_empty() && live.iter().all(|a| *a == 255),
+        "{live:?}"
+    );
+    assert!(
+        !harness
+            .get_by_label("Move absolute")
+            .accesskit_node()
+            .is_disabled()
+    );
+}
+
+#[test]
+fn the_window_shows_a_drive_whose_server_died_as_last_seen_and_comes_back_live() {
+    use drivedeck::sim::server::ServerThread;
+    use drivedeck::sim::server::modbus::Options;
+    let server = ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
+        .expect("server");
+    let addr = server.addr;
+    let spec: LinkSpec = format!("modbus-tcp://{addr}?unit=0").parse().expect("spec");
+    let mut settings = Settings::default();
+    settings.connection =
+        drivedeck::ui::state::ConnectionForm::from_spec(&spec, settings.connection);
+    let mut harness = harness_with(settings, true, egui::vec2(1366.0, 768.0));
+    window::connected(&mut harness);
+    harness.step();
+    assert!(harness.query_by_label_contains("NO LINK").is_none());
+    assert!(
+        !harness
+            .get_by_label("Move absolute")
+            .accesskit_node()
+            .is_disabled()
+    );
+
+    // The drive's plug pulled: the server and its connections are gone.
+    drop(server);
+    step_until(
+        &mut harness,
+        "the window to show the link lost",
+        Duration::from_secs(5),
+        |h| {
+            h.query_by_label_contains("NO LINK — last seen at ")
+                .is_some()
+        },
+    );
+    assert!(
+        harness
+            .get_by_label("Move absolute")
+            .accesskit_node()
+            .is_disabled()
+    );
+    assert!(harness.get_by_label("Jog +").accesskit_node().is_disabled());
+    assert!(harness.get_by_label("Halt").accesskit_node().is_disabled());
+    harness.get_by_label("QUICKSTOP (Esc)");
+    // The last values stay on screen, and the commands panel says why nothing goes out.
+    harness.get_by_label("Position 6064h");
+    assert_eq!(
+        harness
+            .query_all_by_label_contains("not connected: the link was lost")
+            .count(),
+        2,
+        "the status and the commands panel"
+    );
+
+    // The drive back on the same address: the worker reconnects, the panel is live again.
+    let _server = ServerThread::modbus_tcp(addr, Options::default()).expect("the same port again");
+    step_until(
+        &mut harness,
+        "the window to be live again",
+        Duration::from_secs(15),
+        |h| {
+            h.state().state.is_connected()
+                && h.query_by_label_contains("NO LINK").is_none()
+                && h.query_by_label_contains("WAITING FOR DATA").is_none()
+        },
+    );
+    assert!(
+        !harness
+            .get_by_label("Move absolute")
+            .accesskit_node()
+            .is_disabled()
+    );
+}

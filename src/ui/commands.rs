@@ -5,7 +5,7 @@
 use eframe::egui::{self, Color32, RichText, TextEdit, Ui};
 
 use super::state::{AppState, TORQUE_SLOPE, TorqueWarning};
-use super::widgets::{AMBER, RED, name_widget, named_text_edit};
+use super::widgets::{AMBER, RED, clipped_label, name_widget, named_text_edit};
 use crate::od::{self, Address, DataType, Value};
 use crate::pdi::{Action, FieldSpec, Opcode};
 use crate::sim::SUPPORTED_METHODS;
@@ -171,6 +171,10 @@ const GROUPS: [(&str, &[Opcode]); 3] = [
 
 pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
     ui.heading("Commands");
+    // Why every button below is disabled, on screen as well as in each tooltip.
+    if let Some(reason) = state.offline_reason() {
+        clipped_label(ui, RichText::new(reason).color(AMBER).strong(), 2);
+    }
     halt_ui(ui, state);
     super::jog::jog_ui(ui, state);
     ui.separator();
@@ -209,7 +213,8 @@ pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
 }
 
 fn halt_ui(ui: &mut Ui, state: &mut AppState) {
-    let connected = state.is_connected();
+    let offline = state.offline_reason();
+    let connected = offline.is_none();
     let halted = state.halt_engaged;
     ui.horizontal(|ui| {
         let button = egui::Button::selectable(
@@ -221,7 +226,7 @@ fn halt_ui(ui: &mut Ui, state: &mut AppState) {
         let response = ui
             .add_enabled(connected, button)
             .on_hover_text("Halt bit (PDI-Cmd bit 6): brake to speed 0 with the ramp and stay energised. Click again to continue to the old target.")
-            .on_disabled_hover_text("not connected");
+            .on_disabled_hover_text(offline.unwrap_or_default());
         if response.clicked() {
             state.request(if halted {
                 crate::worker::Request::Resume
@@ -243,18 +248,19 @@ fn halt_ui(ui: &mut Ui, state: &mut AppState) {
 fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
     let specs = opcode.fields();
     let verdict = validate(state, opcode);
-    let connected = state.is_connected();
-    let enabled = connected && verdict.is_ok();
+    let offline = state.offline_reason();
+    let enabled = offline.is_none() && verdict.is_ok();
     let button = egui::Button::new(button_label(opcode)).min_size(egui::vec2(110.0, 0.0));
     let mut response = ui.add_enabled(enabled, button);
     let hint = command_hint(opcode);
     if !hint.is_empty() {
         response = response.on_hover_text(&hint);
     }
-    let reason = match (&verdict, connected) {
-        (Err(reason), _) => reason.clone(),
-        (Ok(_), false) => "not connected to a drive".to_owned(),
-        _ => String::new(),
+    let reason = match (&verdict, offline) {
+        (Err(reason), None) => reason.clone(),
+        (Err(reason), Some(offline)) => format!("{offline}\n{reason}"),
+        (Ok(_), Some(offline)) => offline,
+        (Ok(_), None) => String::new(),
     };
     let response = response.on_disabled_hover_text(&reason);
     if response.clicked()
@@ -388,7 +394,8 @@ fn torque_warning_ui(ui: &mut Ui, state: &mut AppState) {
 fn object_ui(ui: &mut Ui, state: &mut AppState) {
     ui.label(RichText::new("Any object").strong())
         .on_hover_text("Read or write through the link's own object access (SDO, FC 43, direct), any type and length");
-    let connected = state.is_connected();
+    let offline = state.offline_reason();
+    let connected = offline.is_none();
     ui.horizontal(|ui| {
         let address_text = &mut state.settings.object_address;
         named_text_edit(ui, address_text, 70.0, "Object address");
@@ -407,10 +414,9 @@ fn object_ui(ui: &mut Ui, state: &mut AppState) {
         };
         let read = ui
             .add_enabled(connected && address.is_ok(), egui::Button::new("Read"))
-            .on_disabled_hover_text(if connected {
-                name.clone()
-            } else {
-                "not connected".to_owned()
+            .on_disabled_hover_text(match &offline {
+                Some(reason) => reason.clone(),
+                None => name.clone(),
             });
         if read.clicked()
             && let Ok(address) = address.clone()
@@ -437,9 +443,10 @@ fn object_ui(ui: &mut Ui, state: &mut AppState) {
         };
         let write = ui
             .add_enabled(connected && parsed.is_ok(), egui::Button::new("Write"))
-            .on_disabled_hover_text(match &parsed {
-                Err(reason) => reason.clone(),
-                Ok(_) => "not connected".to_owned(),
+            .on_disabled_hover_text(match (&parsed, &offline) {
+                (Err(reason), _) => reason.clone(),
+                (Ok(_), Some(offline)) => offline.clone(),
+                (Ok(_), None) => String::new(),
             });
         if write.clicked()
             && let (Ok(address), Ok((dtype, value))) = (address, parsed.clone())

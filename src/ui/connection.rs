@@ -220,6 +220,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
 
 /// Quickstop and Switch Off, always visible; Esc and Shift+Esc reach them from anywhere.
 pub fn stop_strip_ui(ui: &mut Ui, state: &mut AppState) {
+    let offline = state.offline_reason().unwrap_or_default();
     let connected = state.is_connected();
     ui.horizontal(|ui| {
         let quickstop = egui::Button::new(
@@ -233,7 +234,7 @@ pub fn stop_strip_ui(ui: &mut Ui, state: &mut AppState) {
         if ui
             .add_enabled(connected, quickstop)
             .on_hover_text("PDI-Cmd 3: brake with the quick stop reaction of 605Ah")
-            .on_disabled_hover_text("not connected")
+            .on_disabled_hover_text(&offline)
             .clicked()
         {
             state.request(Request::Command(Action::Quickstop));
@@ -248,7 +249,7 @@ pub fn stop_strip_ui(ui: &mut Ui, state: &mut AppState) {
         if ui
             .add_enabled(connected, switch_off)
             .on_hover_text("PDI-Cmd 1: power stage off, motor de-energised (it coasts)")
-            .on_disabled_hover_text("not connected")
+            .on_disabled_hover_text(&offline)
             .clicked()
         {
             state.request(Request::Command(Action::SwitchOff));

@@ -77,9 +77,9 @@ impl AppState {
 }
 
 pub fn jog_ui(ui: &mut Ui, state: &mut AppState) {
-    let connected = state.is_connected();
+    let offline = state.offline_reason();
     let speed = jog_speed(&state.settings.jog_speed);
-    let usable = connected && speed.is_ok();
+    let usable = offline.is_none() && speed.is_ok();
     let mut held = 0;
     ui.horizontal(|ui| {
         ui.label(RichText::new("Jog").strong());
@@ -90,9 +90,10 @@ pub fn jog_ui(ui: &mut Ui, state: &mut AppState) {
             let response = ui
                 .add_enabled(usable, button)
                 .on_hover_text("Hold to move at the jog speed; release to halt")
-                .on_disabled_hover_text(match &speed {
-                    Err(e) => e.as_str(),
-                    Ok(_) => "not connected",
+                .on_disabled_hover_text(match (&offline, &speed) {
+                    (Some(offline), _) => offline.as_str(),
+                    (None, Err(e)) => e.as_str(),
+                    (None, Ok(_)) => "",
                 });
             name_widget(&response, egui::accesskit::Role::Button, label);
             if usable && response.is_pointer_button_down_on() {

@@ -83,6 +83,9 @@ pub fn log_ui(ui: &mut Ui, state: &mut AppState) {
                             Outcome::Accepted => ui.colored_label(AMBER, "accepted, running"),
                             Outcome::Succeeded(text) => ui.colored_label(GREEN, text),
                             Outcome::Failed(text) => ui.colored_label(RED, RichText::new(text).strong()),
+                            Outcome::Superseded(text) => ui.weak(text).on_hover_text(
+                                "A newer command took its place; not a fault",
+                            ),
                             Outcome::Info => ui.weak("·"),
                         };
                         ui.end_row();

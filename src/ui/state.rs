@@ -2,7 +2,7 @@
 //! through `apply`; panels read it and put the user's intents into `outbox`.
 
 use std::collections::{BTreeMap, VecDeque};
-use std::time::Duration;
+use std::time::{Duration, SystemTime};
 
 use serde::{Deserialize, Serialize};
 
@@ -391,6 +391,9 @@ pub enum Outcome {
     Accepted,
     Succeeded(String),
     Failed(String),
+    /// A newer command took its place (a relative move followed by the next): not a
+    /// fault, the drive did what it was told last.
+    Superseded(String),
     /// Not tied to a request (connection changes, notices).
     Info,
 }
@@ -419,8 +422,16 @@ pub struct TorqueWarning {
 pub struct AppState {
     pub settings: Settings,
     pub connection: Connection,
-    /// The newest known value of every signal (merged over recent samples).
+    /// The newest known value of every signal (merged over recent samples). Kept when
+    /// the link goes: the status panel shows it dimmed, as last seen.
     pub latest: Option<Sample>,
+    /// When the reducer took the last `Samples` event (wall clock): "last seen at".
+    pub last_sample_at: Option<SystemTime>,
+    /// A sample came on the link connected now; until then `latest` is from before.
+    pub sampled_since_connect: bool,
+    /// Why the link went, when it was lost rather than closed (cleared on connecting
+    /// again and on the user's disconnect).
+    pub link_lost: Option<String>,
     pub health: Option<Health>,
     /// The plots' history, markers, trigger and recording.
     pub scope: Scope,
@@ -514,6 +525,9 @@ impl AppState {
             settings,
             connection: Connection::Disconnected,
             latest: None,
+            last_sample_at: None,
+            sampled_since_connect: false,
+            link_lost: None,
             health: None,
             scope,
             plot: super::plots::PlotView::default(),
@@ -688,6 +702,89 @@ impl AppState {
         }
     }
 
+    /// Why nothing can be sent to the drive now, in words for a disabled button's tooltip
+    /// and the panels; `None` while connected.
+    pub fn offline_reason(&self) -> Option<String> {
+        let lost = self.link_lost.as_deref();
+        match (&self.connection, lost) {
+            (Connection::Connected(_), _) => None,
+            (Connection::Connecting(_), None) => Some("connecting…".into()),
+            (Connection::Connecting(_), Some(reason)) => {
+                Some(format!("reconnecting…: the link was lost ({reason})"))
+            }
+            (Connection::Disconnected, None) => Some("not connected".into()),
+            (Connection::Disconnected, Some(reason)) => {
+                Some(format!("not connected: the link was lost ({reason})"))
+            }
+            (
+                Connection::Failed {
+                    error, retry_in, ..
+                },
+                lost,
+            ) => {
+                // What happens next first, the link's (often long) error text after it.
+                let retry = match retry_in {
+                    Some(d) => format!(", retrying in {:.1} s", d.as_secs_f64()),
+                    None => String::new(),
+                };
+                Some(match lost {
+                    // Right after the loss the worker reports the same error again.
+                    Some(reason) if reason == error => {
+                        format!("not connected: the link was lost{retry} ({reason})")
+                    }
+                    Some(reason) => format!(
+                        "not connected: the link was lost{retry} ({reason}; reconnecting failed: {error})"
+                    ),
+                    None => format!("not connected: connecting failed{retry} ({error})"),
+                })
+            }
+        }
+    }
+
+    /// Whether what the status panel shows is the drive now: connected, a sample taken on
+    /// this link, and the last one no older than `STALE_AFTER` (or three cycles at a slow
+    /// poll rate) at `now`.
+    pub fn is_live(&self, now: SystemTime) -> bool {
+        self.is_connected() && self.sampled_since_connect && !self.is_silent(now)
+    }
+
+    /// Connected, but no samples came for longer than they should.
+    fn is_silent(&self, now: SystemTime) -> bool {
+        let limit = STALE_AFTER.max(3.0 / self.settings.poll_rate.max(0.1));
+        self.sample_age(now).is_some_and(|age| age > limit)
+    }
+
+    /// Seconds since the last sample came, at `now`.
+    pub fn sample_age(&self, now: SystemTime) -> Option<f64> {
+        self.last_sample_at
+            .map(|at| now.duration_since(at).map_or(0.0, |d| d.as_secs_f64()))
+    }
+
+    /// The status panel's headline while it does not show the drive live: "NO LINK — last
+    /// seen at 14:02:11 UTC (3.2 s ago)"; `None` while live.
+    pub fn stale_line(&self, now: SystemTime) -> Option<String> {
+        if self.is_live(now) {
+            return None;
+        }
+        let seen = match (self.last_sample_at, self.sample_age(now)) {
+            (Some(at), Some(age)) => {
+                format!("last seen at {} ({})", clock_text(at), age_text(age))
+            }
+            _ => "never connected".to_owned(),
+        };
+        Some(match &self.connection {
+            Connection::Connected(_) if !self.sampled_since_connect => {
+                if self.latest.is_some() {
+                    format!("WAITING FOR DATA — connected; {seen}")
+                } else {
+                    "WAITING FOR DATA — connected, no sample yet".to_owned()
+                }
+            }
+            Connection::Connected(_) => format!("NO DATA — the drive stopped answering; {seen}"),
+            _ => format!("NO LINK — {seen}"),
+        })
+    }
+
     /// Whether a status bit is set in the newest sample.
     pub fn bit(&self, bit: StatusBit) -> bool {
         self.latest.is_some_and(|s| s.tx.status.is_set(bit))
@@ -812,6 +909,8 @@ impl AppState {
                 let link = info.spec.to_string();
                 let spec = info.spec.clone();
                 self.connection = Connection::Connected(info);
+                self.link_lost = None;
+                self.sampled_since_connect = false;
                 self.halt_engaged = false;
                 self.torque_slope = None;
                 self.injected.clear();
@@ -881,6 +980,7 @@ impl AppState {
                     None => self.info("disconnected"),
                 }
                 self.connection = Connection::Disconnected;
+                self.link_lost = reason;
                 self.health = None;
                 self.link_changes.clear();
                 self.jog = None;
@@ -932,7 +1032,10 @@ impl AppState {
                         self.halt_engaged = false;
                     }
                 }
+                // A command a newer one replaced ended as the user wanted: not a fault.
+                let superseded = matches!(progress, CommandProgress::Superseded);
                 if !progress.is_success()
+                    && !superseded
                     && let Some(what) = self.entry(id).map(|e| e.what.clone())
                 {
                     let t = self.sample_time();
@@ -947,6 +1050,7 @@ impl AppState {
                     entry.outcome = match &progress {
                         CommandProgress::Accepted => Outcome::Accepted,
                         CommandProgress::Done { .. } => Outcome::Succeeded(progress.to_string()),
+                        CommandProgress::Superseded => Outcome::Superseded(progress.to_string()),
                         _ => Outcome::Failed(progress.to_string()),
                     };
                 }
@@ -1030,6 +1134,10 @@ impl AppState {
                 });
             }
             Event::Samples(samples) => {
+                if !samples.is_empty() {
+                    self.last_sample_at = Some(SystemTime::now());
+                    self.sampled_since_connect = true;
+                }
                 for sample in &samples {
                     if self.timeline.observe(sample) {
                         self.want_diagnosis();
@@ -1125,6 +1233,34 @@ impl AppState {
     }
 }
 
+/// With the link up, samples older than this make the status panel stale (a drive that
+/// stopped answering before the link times out).
+pub const STALE_AFTER: f64 = 1.0;
+
+/// A wall-clock time as `14:02:11 UTC`: the clock the fault timeline writes (no time
+/// zone database, so UTC, said so).
+pub fn clock_text(at: SystemTime) -> String {
+    let text = crate::telemetry::utc_text(at);
+    // `2026-12-01T18:48:28Z`: the time of day is characters 11 to 19.
+    match text.get(11..19) {
+        Some(time) => format!("{time} UTC"),
+        None => text,
+    }
+}
+
+/// How long ago, for the stale status: "3.2 s ago", "4 min 10 s ago".
+pub fn age_text(seconds: f64) -> String {
+    if seconds < 60.0 {
+        format!("{seconds:.1} s ago")
+    } else if seconds < 3600.0 {
+        let whole = seconds as u64;
+        format!("{} min {} s ago", whole / 60, whole % 60)
+    } else {
+        let whole = seconds as u64;
+        format!("{} h {} min ago", whole / 3600, whole / 60 % 60)
+    }
+}
+
 /// 6087h, Torque Slope: read on connect, so a torque command with slope 0 can be warned
 /// about before it is sent.
 pub const TORQUE_SLOPE: Address = Address::new(0x6087, 0);
@@ -1132,6 +1268,134 @@ pub const TORQUE_SLOPE: Address = Address::new(0x6087, 0);
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn info() -> LinkInfo {
+        LinkInfo {
+            spec: LinkSpec::Sim,
+            description: "simulated drive".into(),
+            native_objects: true,
+            can_inject: true,
+            pdi: true,
+        }
+    }
+
+    #[test]
+    fn wall_clock_and_age_read_as_people_say_them() {
+        let at = SystemTime::UNIX_EPOCH + Duration::from_secs(1_780_000_000 + 50_531);
+        assert_eq!(crate::telemetry::utc_text(at), "2026-05-29T10:28:51Z");
+        assert_eq!(clock_text(at), "10:28:51 UTC");
+        assert_eq!(age_text(3.24), "3.2 s ago");
+        assert_eq!(age_text(250.0), "4 min 10 s ago");
+        assert_eq!(age_text(7300.0), "2 h 1 min ago");
+    }
+
+    #[test]
+    fn a_drive_that_stops_answering_is_stale_before_the_link_gives_up() {
+        let mut state = AppState::new(Settings::default());
+        state.apply(Event::Connected(info()));
+        state.apply(Event::Samples(vec![Sample::default()]));
+        let seen = state.last_sample_at.expect("taken now");
+        let at = |s: f64| seen + Duration::from_secs_f64(s);
+        assert!(state.is_live(at(0.5)));
+        assert_eq!(state.stale_line(at(0.5)), None);
+        assert_eq!(state.offline_reason(), None);
+        // At 100 Hz a second without samples is a silent drive, though the link is up.
+        let line = state.stale_line(at(2.5)).expect("stale");
+        assert!(
+            line.starts_with("NO DATA — the drive stopped answering; last seen at ")
+                && line.ends_with("UTC (2.5 s ago)"),
+            "{line}"
+        );
+        // At 1 Hz three missed cycles make it so.
+        state.settings.poll_rate = 1.0;
+        assert!(state.is_live(at(2.5)));
+        assert!(!state.is_live(at(3.5)));
+    }
+
+    #[test]
+    fn the_reason_nothing_can_be_sent_follows_the_link() {
+        let mut state = AppState::new(Settings::default());
+        assert_eq!(state.offline_reason().as_deref(), Some("not connected"));
+        assert_eq!(
+            state.stale_line(SystemTime::now()).as_deref(),
+            Some("NO LINK — never connected")
+        );
+        state.apply(Event::Connecting(LinkSpec::Sim));
+        assert_eq!(state.offline_reason().as_deref(), Some("connecting…"));
+        state.apply(Event::Connected(info()));
+        state.apply(Event::Samples(vec![Sample::default()]));
+        state.apply(Event::Disconnected {
+            reason: Some("timed out".into()),
+        });
+        assert_eq!(
+            state.offline_reason().as_deref(),
+            Some("not connected: the link was lost (timed out)")
+        );
+        state.apply(Event::ConnectFailed {
+            spec: LinkSpec::Sim,
+            error: "timed out".into(),
+            retry_in: Some(Duration::from_millis(500)),
+        });
+        assert_eq!(
+            state.offline_reason().as_deref(),
+            Some("not connected: the link was lost, retrying in 0.5 s (timed out)")
+        );
+        state.apply(Event::Connecting(LinkSpec::Sim));
+        assert_eq!(
+            state.offline_reason().as_deref(),
+            Some("reconnecting…: the link was lost (timed out)")
+        );
+        state.apply(Event::ConnectFailed {
+            spec: LinkSpec::Sim,
+            error: "connection refused".into(),
+            retry_in: Some(Duration::from_secs(1)),
+        });
+        assert_eq!(
+            state.offline_reason().as_deref(),
+            Some(
+                "not connected: the link was lost, retrying in 1.0 s (timed out; reconnecting failed: connection refused)"
+            )
+        );
+        let line = state.stale_line(SystemTime::now()).expect("stale");
+        assert!(line.starts_with("NO LINK — last seen at "), "{line}");
+        // The user's own disconnect is no loss.
+        state.apply(Event::Disconnected { reason: None });
+        assert_eq!(state.offline_reason().as_deref(), Some("not connected"));
+    }
+
+    #[test]
+    fn a_superseded_command_is_logged_as_such_and_kept_off_the_timeline() {
+        let mut state = AppState::new(Settings::default());
+        state.apply(Event::Connected(info()));
+        let first = Request::Command(Action::MoveRelative {
+            distance: 3600,
+            speed: 200,
+        });
+        state.note_queued(1, &first);
+        state.note_queued(2, &first);
+        state.apply(Event::Progress {
+            id: 1,
+            progress: CommandProgress::Superseded,
+        });
+        assert_eq!(
+            state
+                .log
+                .iter()
+                .find(|e| e.id == Some(1))
+                .map(|e| &e.outcome),
+            Some(&Outcome::Superseded("superseded by a newer command".into()))
+        );
+        assert!(
+            state.timeline.is_empty(),
+            "{:?}",
+            state.timeline.entries().collect::<Vec<_>>()
+        );
+        state.apply(Event::Progress {
+            id: 2,
+            progress: CommandProgress::LinkLost,
+        });
+        assert_eq!(state.timeline.len(), 1, "a real failure still is");
+    }
 
     #[test]
     fn every_connection_string_survives_the_connection_bar() {

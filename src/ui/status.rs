@@ -1,14 +1,16 @@
 //! The status panel: every PDI-Status bit as a lamp, 603Fh with its meaning, ReturnValue,
 //! the CiA 402 state from 6041h and the actual values.
 
+use std::time::{Duration, SystemTime};
+
 use eframe::egui::{self, RichText, Ui};
 
 use super::state::AppState;
-use super::widgets::{AMBER, BLUE, GREEN, RED, lamp, value_with_unit};
+use super::widgets::{AMBER, BLUE, GREEN, RED, clipped_label, lamp, value_with_unit};
 use crate::cia::{ErrorCode, PowerState};
 use crate::pdi::StatusBit;
 use crate::sim::Injection;
-use crate::worker::Request;
+use crate::worker::{Request, Sample};
 
 fn lamp_color(bit: StatusBit) -> egui::Color32 {
     match bit {
@@ -47,8 +49,22 @@ fn mode_name(mode: i8) -> &'static str {
     }
 }
 
+/// How strongly the last known state is drawn while it is not the drive now.
+pub const STALE_OPACITY: f32 = 0.4;
+
 pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
     ui.heading("Drive status");
+    let now = SystemTime::now();
+    let stale = state.stale_line(now);
+    if let Some(line) = &stale {
+        stale_banner(ui, line, state.offline_reason().as_deref());
+        // The "… s ago" keeps counting while nothing else repaints the window.
+        let age = state.sample_age(now).unwrap_or(f64::INFINITY);
+        if age < 3600.0 {
+            ui.ctx()
+                .request_repaint_after(Duration::from_millis(if age < 60.0 { 100 } else { 1000 }));
+        }
+    }
     if state.link_info().is_some_and(|i| !i.pdi) {
         ui.colored_label(
             AMBER,
@@ -59,6 +75,38 @@ pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
         ui.label("No status yet: connect to a drive.");
         return;
     };
+    // The last known state stays readable, but dimmed: it is not the drive now.
+    ui.scope(|ui| {
+        if stale.is_some() {
+            ui.multiply_opacity(STALE_OPACITY);
+        }
+        sample_ui(ui, &sample, stale.is_some());
+    });
+    inject_ui(ui, state);
+}
+
+/// "NO LINK — last seen at …" and why, above the dimmed values.
+fn stale_banner(ui: &mut Ui, line: &str, reason: Option<&str>) {
+    egui::Frame::new()
+        .fill(RED.gamma_multiply(0.18))
+        .stroke(egui::Stroke::new(1.0, RED.gamma_multiply(0.7)))
+        .corner_radius(4.0)
+        .inner_margin(egui::Margin::symmetric(8, 5))
+        .show(ui, |ui| {
+            ui.set_width(ui.available_width());
+            ui.label(RichText::new(line).color(RED).strong().size(15.0))
+                .on_hover_text(
+                    "The values below are the last ones received, dimmed: the drive may have \
+                     changed since. They come live again when the link does.",
+                );
+            if let Some(reason) = reason {
+                clipped_label(ui, RichText::new(reason).color(AMBER), 3);
+            }
+        });
+}
+
+/// The sample's status: power state, lamps, 603Fh, ReturnValue, actual values.
+fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
     let status = sample.tx.status;
 
     // The CiA 402 power state first: it says why a command is refused.
@@ -71,7 +119,12 @@ pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
                 PowerState::QuickStopActive => AMBER,
                 _ => ui.visuals().text_color(),
             };
-            ui.label(RichText::new(power.name()).size(18.0).color(color).strong())
+            let name = if stale {
+                format!("{} (last known)", power.name())
+            } else {
+                power.name().to_owned()
+            };
+            ui.label(RichText::new(name).size(18.0).color(color).strong())
                 .on_hover_text(power.meaning());
             ui.small(power.meaning());
             ui.add_space(4.0);
@@ -192,7 +245,10 @@ pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
                 }
             });
     }
+}
 
+/// The simulator's fault injection, while connected to it.
+fn inject_ui(ui: &mut Ui, state: &mut AppState) {
     if state.link_info().is_some_and(|i| i.can_inject) {
         ui.add_space(8.0);
         ui.collapsing("Simulator: inject faults", |ui| {

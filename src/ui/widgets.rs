@@ -59,3 +59,16 @@ pub fn named_text_edit(ui: &mut Ui, text: &mut String, width: f32, name: &str) -
     name_widget(&response, egui::accesskit::Role::TextInput, name);
     response
 }
+
+/// A wrapped label of at most `max_rows` rows, elided with "…" beyond; the whole text on
+/// hover (and to screen readers). For reasons that can run long (a link's error text).
+pub fn clipped_label(ui: &mut Ui, text: RichText, max_rows: usize) -> Response {
+    let job = egui::WidgetText::from(text).into_layout_job(
+        ui.style(),
+        egui::FontSelection::Default,
+        ui.text_valign(),
+    );
+    let mut job = std::sync::Arc::unwrap_or_clone(job);
+    job.wrap.max_rows = max_rows;
+    ui.add(egui::Label::new(job).wrap())
+}

@@ -65,7 +65,7 @@ pub fn connected(harness: &mut Harness<'_, App>) {
 }
 
 /// Whether a status lamp is lit (lamps are read-only checkboxes to accessibility).
-pub fn lamp(harness: &Harness<'_, App>, label: &str) -> bool {
+pub fn lamp<State>(harness: &Harness<'_, State>, label: &str) -> bool {
     harness
         .get_by_role_and_label(egui::accesskit::Role::CheckBox, label)
         .accesskit_node()

@@ -2,15 +2,16 @@
 //! time) and the exports: the triggered recording or the visible window to CSV or JSON
 //! with the device's identity and units in the header, and the plots to PNG.
 
-use std::path::Path;
-use std::sync::{Arc, Mutex};
+use std::path::{Path, PathBuf};
 
 use eframe::egui::{self, Ui};
 use serde::{Deserialize, Serialize};
 
 use super::super::state::AppState;
 use super::super::widgets::{GREEN, RED};
-use crate::telemetry::{Builtin, CaptureState, Condition, Edge, Kind, Trigger, bit_name};
+use crate::telemetry::{
+    Builtin, CaptureState, Condition, Edge, Kind, Recording, Trigger, bit_name,
+};
 
 /// The trigger as typed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -247,24 +248,22 @@ fn trigger_row(ui: &mut Ui, state: &mut AppState) {
 
 fn export_row(ui: &mut Ui, state: &mut AppState) {
     ui.label("Export to");
-    ui.add(
-        egui::TextEdit::singleline(&mut state.settings.plot.export_path)
-            .desired_width(220.0)
-            .hint_text("file.csv or file.json"),
-    )
-    .on_hover_text("A path ending in .json writes JSON, anything else CSV; PNG goes beside it");
+    let path_box = ui
+        .add(
+            egui::TextEdit::singleline(&mut state.settings.plot.export_path)
+                .desired_width(220.0)
+                .hint_text("file.csv or file.json"),
+        )
+        .on_hover_text("A path ending in .json writes JSON, anything else CSV; PNG goes beside it");
+    crate::ui::widgets::name_widget(&path_box, egui::accesskit::Role::TextInput, "Export path");
     let has_recording = state.scope.recording().is_some();
     if ui
         .add_enabled(has_recording, egui::Button::new("Save recording"))
         .on_hover_text("The triggered recording, every signal")
         .on_disabled_hover_text("Arm the trigger first: a recording comes when it fires")
         .clicked()
-        && let Some(recording) = state.scope.recording()
     {
-        let path = state.settings.plot.export_path.clone();
-        let mut recording = recording.clone();
-        recording.meta.rate_hz = Some(state.settings.poll_rate);
-        state.plot.message = Some(crate::telemetry::save_recording(&recording, &path));
+        state.plot.message = Some(save_triggered(state));
     }
     if ui
         .button("Export visible")
@@ -278,25 +277,123 @@ fn export_row(ui: &mut Ui, state: &mut AppState) {
         .on_hover_text("A picture of the plots, beside the export file")
         .clicked()
     {
-        let path = Path::new(&state.settings.plot.export_path).with_extension("png");
-        request_png(ui.ctx(), state, path.to_string_lossy().into_owned());
+        let png = Path::new(&state.settings.plot.export_path).with_extension("png");
+        match target(&png.to_string_lossy())
+            .and_then(|path| may_write(&state.plot, &path, Export::Png).map(|()| path))
+        {
+            Ok(path) => request_png(ui.ctx(), state, path),
+            Err(e) => state.plot.message = Some(Err(e)),
+        }
     }
 }
 
+/// What an export button writes; each remembers the files it wrote this session, so
+/// another button does not write over them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Export {
+    Recording,
+    Visible,
+    Png,
+}
+
+impl Export {
+    pub fn button(self) -> &'static str {
+        match self {
+            Export::Recording => "Save recording",
+            Export::Visible => "Export visible",
+            Export::Png => "Save PNG",
+        }
+    }
+
+    fn what(self) -> &'static str {
+        match self {
+            Export::Recording => "the triggered recording",
+            Export::Visible => "an export of the visible window",
+            Export::Png => "the picture of the plots",
+        }
+    }
+
+    /// What to do after a failed write; nothing was lost.
+    fn retry(self) -> &'static str {
+        match self {
+            Export::Recording => "the recording is still here — choose another place",
+            Export::Visible => "the samples are still in the plots — choose another place",
+            Export::Png => "the plots are unchanged — choose another place",
+        }
+    }
+}
+
+/// The export path as typed, made absolute so every message names the full path.
+fn target(typed: &str) -> Result<PathBuf, String> {
+    if typed.trim().is_empty() {
+        return Err("type the file to export to in the box first".into());
+    }
+    std::path::absolute(typed).map_err(|e| format!("'{typed}' is not a usable path: {e}"))
+}
+
+/// Refuse to write over a file another export button wrote this session (Export visible
+/// over the recording saved a moment ago, say). The same button writes its file anew.
+fn may_write(plot: &super::PlotView, path: &Path, kind: Export) -> Result<(), String> {
+    match plot.written.iter().find(|(p, _)| p == path) {
+        Some((_, other)) if *other != kind && path.exists() => Err(format!(
+            "{} holds {} ({} wrote it this session): {} does not write over it — choose another name",
+            path.display(),
+            other.what(),
+            other.button(),
+            kind.button()
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Remember that `kind` wrote `path`.
+pub fn note_written(plot: &mut super::PlotView, path: PathBuf, kind: Export) {
+    plot.written.retain(|(p, _)| *p != path);
+    plot.written.push((path, kind));
+}
+
+/// Write `recording` to the export path. A failed write names the full path and the
+/// system's reason, and leaves the data where it was, to be saved elsewhere.
+fn save(state: &mut AppState, recording: &Recording, kind: Export) -> Result<String, String> {
+    if recording.is_empty() {
+        return Err("nothing to export: no samples in that span".into());
+    }
+    let path = target(&state.settings.plot.export_path)?;
+    may_write(&state.plot, &path, kind)?;
+    let text = path
+        .to_str()
+        .map_or_else(|| state.settings.plot.export_path.clone(), str::to_owned);
+    let message = crate::telemetry::save_recording(recording, &text)
+        .map_err(|e| format!("{e}; {}", kind.retry()))?;
+    note_written(&mut state.plot, path, kind);
+    Ok(message)
+}
+
+/// The triggered recording to the export file; it stays in memory whatever happens.
+fn save_triggered(state: &mut AppState) -> Result<String, String> {
+    let mut recording = state
+        .scope
+        .recording()
+        .cloned()
+        .ok_or("no recording yet: arm the trigger, it records when it fires")?;
+    recording.meta.rate_hz = Some(state.settings.poll_rate);
+    save(state, &recording, Export::Recording)
+}
+
 /// The visible time span of the shown signals to the export file.
-pub fn export_visible(state: &AppState) -> Result<String, String> {
+pub fn export_visible(state: &mut AppState) -> Result<String, String> {
     let (from, to) = super::time_range(state).ok_or("nothing recorded yet")?;
     let mut meta = state.scope.meta.clone();
     meta.rate_hz = Some(state.settings.poll_rate);
     meta.note = Some("the visible window of the plots".into());
     let recording = state.scope.export(from, to, meta, true);
-    crate::telemetry::save_recording(&recording, &state.settings.plot.export_path)
+    save(state, &recording, Export::Visible)
 }
 
 /// Ask egui for a screenshot; the plots' part of it is written when it arrives.
-fn request_png(ctx: &egui::Context, state: &mut AppState, path: String) {
+fn request_png(ctx: &egui::Context, state: &mut AppState, path: PathBuf) {
     let rect = state.plot.plots_rect;
-    let result: Arc<Mutex<Option<Result<String, String>>>> = state.plot.png_result.clone();
+    let result = state.plot.png_result.clone();
     let repaint = ctx.clone();
     let pixels_per_point = ctx.pixels_per_point();
     ctx.send_viewport_cmd(egui::ViewportCommand::Screenshot(
@@ -310,14 +407,19 @@ fn request_png(ctx: &egui::Context, state: &mut AppState, path: String) {
                 Some(r) if r.is_positive() => image.region(&r, Some(pixels_per_point)),
                 _ => (*image).clone(),
             };
-            let outcome = write_png(&image, &path);
+            let outcome = save_png(&image, &path);
             if let Ok(mut slot) = result.lock() {
-                *slot = Some(outcome);
+                *slot = Some((path, outcome));
             }
             repaint.request_repaint();
         }),
     ));
     state.plot.message = Some(Ok("taking a picture of the plots…".into()));
+}
+
+/// The picture to `path`, a failure said with what to do.
+fn save_png(image: &egui::ColorImage, path: &Path) -> Result<String, String> {
+    write_png(image, &path.to_string_lossy()).map_err(|e| format!("{e}; {}", Export::Png.retry()))
 }
 
 /// An RGBA PNG of `image`.
@@ -335,4 +437,43 @@ pub fn write_png(image: &egui::ColorImage, path: &str) -> Result<String, String>
     Ok(format!(
         "saved a {width}x{height} picture of the plots to {path}"
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_png_that_cannot_be_written_names_the_full_path_and_the_reason() {
+        let image = egui::ColorImage::new([4, 3], vec![egui::Color32::RED; 12]);
+        let path = target("no-such-dir-for-a-png/plots.png").expect("a path");
+        assert!(path.is_absolute());
+        let error = save_png(&image, &path).expect_err("no such directory");
+        assert_eq!(
+            error,
+            format!(
+                "cannot write {}: No such file or directory (os error 2); the plots are unchanged — choose another place",
+                path.display()
+            )
+        );
+        assert!(target("  ").is_err());
+    }
+
+    #[test]
+    fn a_button_does_not_write_over_the_file_another_one_wrote() {
+        let mut plot = super::super::PlotView::default();
+        let path = std::env::temp_dir().join(format!("drivedeck-guard-{}.csv", std::process::id()));
+        std::fs::write(&path, "recording").expect("temp file");
+        note_written(&mut plot, path.clone(), Export::Recording);
+        assert_eq!(may_write(&plot, &path, Export::Recording), Ok(()));
+        let refused = may_write(&plot, &path, Export::Visible).expect_err("refused");
+        assert!(
+            refused
+                .contains("holds the triggered recording (Save recording wrote it this session)"),
+            "{refused}"
+        );
+        // Gone from the disk (deleted, moved): nothing to protect.
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(may_write(&plot, &path, Export::Visible), Ok(()));
+    }
 }

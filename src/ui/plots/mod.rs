@@ -14,7 +14,10 @@ use super::state::AppState;
 use crate::od::backup::DeviceIdentity;
 use crate::telemetry::{DEFAULT_HISTORY_ROWS, Kind, WatchedObject};
 
-pub use capture::TriggerForm;
+pub use capture::{Export, TriggerForm};
+
+/// Where the PNG writer puts its outcome for the next frame: the path and the message.
+pub type PngResult = Arc<Mutex<Option<(std::path::PathBuf, Result<String, String>)>>>;
 
 /// What the plot panel remembers between runs.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -67,8 +70,11 @@ pub struct PlotView {
     pub rows_text: String,
     /// Where the plots were drawn (for the PNG export).
     pub plots_rect: Option<Rect>,
-    /// What the PNG writer reported (it runs when the screenshot arrives).
-    pub png_result: Arc<Mutex<Option<Result<String, String>>>>,
+    /// What the PNG writer reported (it runs when the screenshot arrives), and where.
+    pub png_result: PngResult,
+    /// The files the export buttons wrote this session, and which button (the newest
+    /// writer of each path).
+    pub written: Vec<(std::path::PathBuf, Export)>,
 }
 
 impl Default for PlotView {
@@ -86,6 +92,7 @@ impl Default for PlotView {
             rows_text: String::new(),
             plots_rect: None,
             png_result: Arc::default(),
+            written: Vec::new(),
         }
     }
 }
@@ -113,9 +120,16 @@ pub fn time_range(state: &AppState) -> Option<(f64, f64)> {
 }
 
 pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
-    if let Ok(mut result) = state.plot.png_result.lock()
-        && let Some(result) = result.take()
-    {
+    let png = state
+        .plot
+        .png_result
+        .lock()
+        .ok()
+        .and_then(|mut result| result.take());
+    if let Some((path, result)) = png {
+        if result.is_ok() {
+            capture::note_written(&mut state.plot, path, Export::Png);
+        }
         state.plot.message = Some(result);
     }
     toolbar(ui, state);
