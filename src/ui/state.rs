@@ -1392,7 +1392,10 @@ mod tests {
         );
         state.apply(Event::Progress {
             id: 2,
-            progress: CommandProgress::LinkLost,
+            progress: CommandProgress::LinkLost {
+                reason: "3 exchanges failed in a row; a halt was sent and the drive confirmed it"
+                    .into(),
+            },
         });
         assert_eq!(state.timeline.len(), 1, "a real failure still is");
     }
