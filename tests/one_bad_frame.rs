@@ -364,3 +364,44 @@ fn slcan_a_garbled_line_is_skipped() {
         vec![Noise::Garbage, Noise::Flip, Noise::Lost, Noise::Before]
     );
 }
+
+mod window;
+
+/// The window's "after N failures" setting reaches the worker: with 1, one exchange whose
+/// three tries all go unanswered loses the link; with the default 3 the same is got over.
+#[test]
+fn the_windows_lost_after_setting_decides_when_the_link_counts_as_lost() {
+    use drivedeck::ui::Settings;
+    use drivedeck::ui::state::{Connection, ConnectionForm};
+    for (lost_after, survives) in [(1u32, false), (3, true)] {
+        let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+        let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
+        let mut settings = Settings::default();
+        settings.connection = ConnectionForm::from_spec(&modbus(proxy.addr), settings.connection);
+        settings.lost_after = lost_after;
+        let mut harness = window::harness_with(settings, true, eframe::egui::vec2(1366.0, 768.0));
+        window::connected(&mut harness);
+        // Let the setting go out before the trouble starts.
+        window::step_for(&mut harness, Duration::from_millis(200));
+        proxy.drop_next(3);
+        window::step_until(
+            &mut harness,
+            "the three lost replies",
+            Duration::from_secs(5),
+            |_| proxy.dropped() >= 3,
+        );
+        window::step_for(&mut harness, Duration::from_millis(700));
+        let state = &harness.state().state;
+        let lost = state.log.iter().any(|e| e.what.starts_with("link lost"));
+        assert_eq!(
+            !lost, survives,
+            "lost after {lost_after}: {:?}; {:#?}",
+            state.connection, state.log
+        );
+        if survives {
+            assert!(matches!(state.connection, Connection::Connected(_)));
+        }
+        drop(harness);
+        drop(server);
+    }
+}

@@ -177,6 +177,21 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
         loss.response.on_hover_text(
             "What the worker does when the link fails while the motor may be moving: one last try to halt (default) or switch off, or nothing; the log says whether it reached the drive",
         );
+        let after = ui.add(
+            egui::DragValue::new(&mut state.settings.lost_after)
+                .range(1..=crate::worker::MAX_LOST_AFTER)
+                .speed(0.1)
+                .prefix("after ")
+                .suffix(" failures"),
+        );
+        name_widget(
+            &after,
+            egui::accesskit::Role::SpinButton,
+            "Failed exchanges before the link counts as lost",
+        );
+        after.on_hover_text(
+            "How many exchanges must fail in a row before the link counts as lost. A lost, late or corrupted reply is first sent again (three tries within the timeout); fewer failures than this are retried and named in the log",
+        );
         match &state.connection {
             Connection::Disconnected => {
                 ui.weak("disconnected");
@@ -189,8 +204,13 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
                 ui.colored_label(GREEN, "connected:");
                 ui.label(&info.description);
                 if let Some(health) = state.health {
+                    let recovered = if health.recovered > 0 {
+                        format!(", {} replies sent again", health.recovered)
+                    } else {
+                        String::new()
+                    };
                     ui.weak(format!(
-                        "{:.0} cycles/s, RTT {:.2} ms (max {:.2}), {} errors",
+                        "{:.0} cycles/s, RTT {:.2} ms (max {:.2}), {} errors{recovered}",
                         health.cycles_per_second,
                         health.rtt_mean.as_secs_f64() * 1e3,
                         health.rtt_max.as_secs_f64() * 1e3,

@@ -35,6 +35,7 @@ pub struct App {
     last_poll_rate: f64,
     last_record_frames: bool,
     last_link_loss: Option<worker::LinkLossAction>,
+    last_lost_after: Option<u32>,
     /// Leaving is done: let the window close.
     may_close: bool,
 }
@@ -63,6 +64,7 @@ impl App {
             last_poll_rate,
             last_record_frames: false,
             last_link_loss: None,
+            last_lost_after: None,
             may_close: false,
         };
         if connect {
@@ -99,6 +101,15 @@ impl App {
             self.state
                 .outbox
                 .push(Request::SetLinkLoss(self.state.settings.on_link_loss));
+        }
+        let lost_after = self
+            .state
+            .settings
+            .lost_after
+            .clamp(1, worker::MAX_LOST_AFTER);
+        if self.last_lost_after != Some(lost_after) {
+            self.last_lost_after = Some(lost_after);
+            self.state.outbox.push(Request::SetLostAfter(lost_after));
         }
         if self.state.settings.poll_rate != self.last_poll_rate {
             self.last_poll_rate = self.state.settings.poll_rate;

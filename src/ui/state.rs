@@ -311,6 +311,8 @@ pub struct Settings {
     pub timeline_path: String,
     /// What the worker does when the link fails during a move.
     pub on_link_loss: crate::worker::LinkLossAction,
+    /// Exchanges that must fail in a row before the link counts as lost.
+    pub lost_after: u32,
 }
 
 /// The middle of the window: the plots or the object dictionary.
@@ -353,6 +355,7 @@ impl Default for Settings {
             jog_speed: "100".into(),
             timeline_path: "drivedeck-faults.csv".into(),
             on_link_loss: crate::worker::LinkLossAction::Halt,
+            lost_after: crate::worker::LOST_AFTER,
         }
     }
 }
@@ -843,6 +846,7 @@ impl AppState {
             request,
             Request::SetPollRate(_)
                 | Request::SetLinkLoss(_)
+                | Request::SetLostAfter(_)
                 | Request::Connect(_)
                 | Request::Disconnect
                 | Request::Inject { .. }

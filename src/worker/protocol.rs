@@ -177,7 +177,10 @@ impl fmt::Display for Request {
             }
             Request::SetPollRate(hz) => write!(f, "poll at {hz} Hz"),
             Request::SetLinkLoss(action) => write!(f, "on link loss: {}", action.name()),
-            Request::SetLostAfter(n) => write!(f, "link lost after {n} failed exchanges in a row"),
+            Request::SetLostAfter(n) => write!(
+                f,
+                "count the link as lost after {n} failed exchanges in a row"
+            ),
             Request::Scan(spec) => write!(f, "scan {}", spec.bus_name()),
             Request::ReadMany { objects, .. } => write!(f, "read {} objects", objects.len()),
             Request::Cancel(id) => write!(f, "cancel request {id}"),
