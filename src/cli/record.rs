@@ -4,7 +4,7 @@
 //! the condition and records `--pre` before and `--duration` after it.
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 use std::time::{Duration, Instant, SystemTime};
 
@@ -18,7 +18,7 @@ use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{self, Address};
 use crate::telemetry::{
     Builtin, CaptureState, Condition, Edge, Kind, Recording, Scope, ScopeEvent, Trigger,
-    WatchedObject, metadata, utc_text, watchable,
+    WatchedObject, hidden_beside, metadata, recording_text, utc_text, watchable, write_whole,
 };
 use crate::worker::{Event, MAX_WATCHED, Request};
 
@@ -508,7 +508,7 @@ fn check_writable(path: &Path) -> Result<(), String> {
             .map(|_| ())
             .map_err(|e| format!("cannot write --out {shown}: {e}; nothing was recorded"));
     }
-    let probe = sibling(path, "check");
+    let probe = hidden_beside(path, "check");
     std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
@@ -526,31 +526,13 @@ fn shown_path(path: &Path) -> String {
         .to_string()
 }
 
-/// A hidden file beside `path` for `what`.
-fn sibling(path: &Path, what: &str) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "recording".into());
-    path.with_file_name(format!(".{name}.drivedeck-{what}-{}", std::process::id()))
-}
-
-/// Write the recording to `path` whole or not at all (a temporary file beside it, then
-/// renamed over it). When that fails, the recording goes to the temporary directory
-/// instead: `Err((why, Some(where)))`; `Err((why, None))` only if that fails too.
+/// Write the recording to `path` whole or not at all. When that fails, the recording goes
+/// to the temporary directory instead: `Err((why, Some(where)))`; `Err((why, None))` only
+/// if that fails too.
 fn save_safely(recording: &Recording, path: &Path) -> Result<String, (String, Option<String>)> {
     let shown = shown_path(path);
-    let json = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    let text = if json {
-        recording.to_json()
-    } else {
-        recording.to_csv()
-    };
-    let partial = sibling(path, "partial");
-    let written = std::fs::write(&partial, &text).and_then(|()| std::fs::rename(&partial, path));
-    match written {
+    let text = recording_text(recording, path);
+    match write_whole(path, &text) {
         Ok(()) => Ok(format!(
             "saved {} samples of {} signals ({:.2} s) to {shown}",
             recording.len(),
@@ -558,17 +540,18 @@ fn save_safely(recording: &Recording, path: &Path) -> Result<String, (String, Op
             recording.duration()
         )),
         Err(e) => {
-            let _ = std::fs::remove_file(&partial);
             let why = format!("cannot write {shown}: {e}");
+            let extension = path
+                .extension()
+                .map_or("csv".into(), |e| e.to_string_lossy().into_owned());
             let elsewhere = std::env::temp_dir().join(format!(
-                "drivedeck-recording-{}-{}.{}",
+                "drivedeck-recording-{}-{}.{extension}",
                 std::process::id(),
                 SystemTime::now()
                     .duration_since(SystemTime::UNIX_EPOCH)
                     .map_or(0, |d| d.as_secs()),
-                if json { "json" } else { "csv" }
             ));
-            match std::fs::write(&elsewhere, &text) {
+            match write_whole(&elsewhere, &text) {
                 Ok(()) => Err((why, Some(elsewhere.display().to_string()))),
                 Err(e2) => Err((format!("{why}; nor to {}: {e2}", elsewhere.display()), None)),
             }

@@ -11,6 +11,7 @@ pub use recording::{ChannelInfo, Marker, Metadata, Recording, RecordingError};
 pub use ring::{BitSpan, PushError, Ring};
 pub use scope::{
     Builtin, DEFAULT_HISTORY_ROWS, Kind, Scope, ScopeEvent, SignalDef, Source, WatchedObject,
-    bit_name, format_number, metadata, save_recording, utc_text, watchable,
+    bit_name, format_number, hidden_beside, metadata, recording_text, save_recording, utc_text,
+    watchable, write_whole,
 };
 pub use trigger::{Capture, CaptureEvent, CaptureState, Condition, Edge, Trigger};

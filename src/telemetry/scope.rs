@@ -497,20 +497,47 @@ pub fn metadata(identity: Option<&DeviceIdentity>, link: &str, rate_hz: f64) -> 
     }
 }
 
-/// Write a recording as CSV, or JSON for a `.json` path.
+/// The recording as the file at `path` wants it: JSON for a `.json` path, CSV otherwise.
+pub fn recording_text(recording: &Recording, path: &std::path::Path) -> String {
+    let json = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if json {
+        recording.to_json()
+    } else {
+        recording.to_csv()
+    }
+}
+
+/// A hidden file beside `path`, for `what` (a write in progress, a check).
+pub fn hidden_beside(path: &std::path::Path, what: &str) -> std::path::PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "recording".into());
+    path.with_file_name(format!(".{name}.drivedeck-{what}-{}", std::process::id()))
+}
+
+/// Write `text` to `path` whole or not at all: into a hidden file beside it, then renamed
+/// over it, so that a failure midway (a full disk, a vanished directory) never leaves half
+/// a file nor spoils the one that was there.
+pub fn write_whole(path: &std::path::Path, text: &str) -> std::io::Result<()> {
+    let partial = hidden_beside(path, "partial");
+    let written = std::fs::write(&partial, text).and_then(|()| std::fs::rename(&partial, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&partial);
+    }
+    written
+}
+
+/// Write a recording as CSV, or JSON for a `.json` path, whole or not at all.
 pub fn save_recording(recording: &Recording, path: &str) -> Result<String, String> {
     if recording.is_empty() {
         return Err("nothing to export: no samples in that span".into());
     }
-    let json = std::path::Path::new(path)
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    let text = if json {
-        recording.to_json()
-    } else {
-        recording.to_csv()
-    };
-    std::fs::write(path, text).map_err(|e| format!("cannot write {path}: {e}"))?;
+    let file = std::path::Path::new(path);
+    write_whole(file, &recording_text(recording, file))
+        .map_err(|e| format!("cannot write {path}: {e}"))?;
     Ok(format!(
         "saved {} samples of {} signals ({:.2} s) to {path}",
         recording.len(),

@@ -168,22 +168,47 @@ impl Session {
     /// timeout); a reply with another session handle or command code is rejected by name.
     pub async fn exchange(&mut self, command: Command, data: Vec<u8>) -> Result<Packet, Error> {
         let what = format!("{} to {}", command.name(), self.peer);
-        let started = Instant::now();
-        let deadline = started + self.timeout;
+        self.with_tries(command, &data, what, |reply| Ok(Ok(reply)))
+            .await
+    }
+
+    /// Send `data` until `accept` takes a reply: `Ok(Ok(_))` the answer, `Ok(Err(_))` an
+    /// answer that ends the request (a refusal), `Err(why)` a reply not worth keeping,
+    /// so the message goes out again. Every try's trouble is named if all fail.
+    async fn with_tries<T>(
+        &mut self,
+        command: Command,
+        data: &[u8],
+        what: String,
+        mut accept: impl FnMut(Packet) -> Result<Result<T, Error>, String>,
+    ) -> Result<T, Error> {
+        let deadline = Instant::now() + self.timeout;
         let mut troubles = Vec::new();
         let mut contexts = Vec::new();
         for attempt in 1..=TRIES {
             let try_deadline = try_deadline(attempt, self.timeout, deadline);
-            match self
-                .exchange_once(command, &data, &what, try_deadline, &mut contexts)
+            let reply = match self
+                .exchange_once(command, data, &what, try_deadline, &mut contexts)
                 .await
             {
-                Ok(reply) => {
-                    self.note_recovered(&what, &troubles, attempt);
-                    return Ok(reply);
+                Ok(reply) => reply,
+                Err(Trouble::Retry(text)) => {
+                    troubles.push(text);
+                    continue;
                 }
-                Err(Trouble::Retry(text)) => troubles.push(text),
                 Err(Trouble::Fatal(error)) => return Err(error),
+            };
+            match accept(reply) {
+                Ok(answer) => {
+                    if answer.is_ok() && !troubles.is_empty() {
+                        self.recovered.push(format!(
+                            "{what}: {} (answered on try {attempt})",
+                            troubles.join("; ")
+                        ));
+                    }
+                    return answer;
+                }
+                Err(text) => troubles.push(format!("a corrupted reply ({text})")),
             }
         }
         Err(gave_up(what, troubles, self.timeout, ""))
@@ -286,15 +311,6 @@ impl Session {
         std::mem::take(&mut self.recovered)
     }
 
-    fn note_recovered(&mut self, what: &str, troubles: &[String], attempt: u32) {
-        if !troubles.is_empty() {
-            self.recovered.push(format!(
-                "{what}: {} (answered on try {attempt})",
-                troubles.join("; ")
-            ));
-        }
-    }
-
     /// An explicit request in SendRRData, with `items` after the data item (e.g. a T→O
     /// sockaddr for Forward_Open). Returns the Message Router reply and the other items.
     /// A reply whose CIP part is corrupted, or answers another service, is asked again.
@@ -312,50 +328,23 @@ impl Session {
             request.service,
             self.peer
         );
-        let started = Instant::now();
-        let deadline = started + self.timeout;
-        let mut troubles = Vec::new();
-        let mut contexts = Vec::new();
-        for attempt in 1..=TRIES {
-            let try_deadline = try_deadline(attempt, self.timeout, deadline);
-            let reply = match self
-                .exchange_once(
-                    Command::SEND_RR_DATA,
-                    &body,
-                    &what,
-                    try_deadline,
-                    &mut contexts,
-                )
-                .await
-            {
-                Ok(reply) => reply,
-                Err(Trouble::Retry(text)) => {
-                    troubles.push(text);
-                    continue;
-                }
-                Err(Trouble::Fatal(error)) => return Err(error),
-            };
+        let named = what.clone();
+        self.with_tries(Command::SEND_RR_DATA, &body, what, |reply| {
             if reply.status == Status::INVALID_SESSION {
-                return Err(Error::Disconnected(format!(
-                    "{what}: the adapter no longer knows our session ({})",
+                return Ok(Err(Error::Disconnected(format!(
+                    "{named}: the adapter no longer knows our session ({})",
                     reply.status
-                )));
+                ))));
             }
             if reply.status != Status::SUCCESS {
-                return Err(Error::Answer(format!(
-                    "{what}: the adapter answered {}",
+                return Ok(Err(Error::Answer(format!(
+                    "{named}: the adapter answered {}",
                     reply.status
-                )));
+                ))));
             }
-            match decode_router(request, &reply.data) {
-                Ok(decoded) => {
-                    self.note_recovered(&what, &troubles, attempt);
-                    return Ok(decoded);
-                }
-                Err(text) => troubles.push(format!("a corrupted reply ({text})")),
-            }
-        }
-        Err(gave_up(what, troubles, self.timeout, ""))
+            decode_router(request, &reply.data).map(Ok)
+        })
+        .await
     }
 
     /// ListIdentity over this TCP connection.
