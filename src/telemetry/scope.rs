@@ -587,6 +587,29 @@ mod tests {
     use crate::pdi::{Status, TxImage};
     use crate::telemetry::trigger::{Condition, Edge};
 
+    #[test]
+    fn a_file_is_written_whole_or_not_at_all() {
+        let dir = std::env::temp_dir().join(format!("drivedeck-whole-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("run.csv");
+        std::fs::write(&path, "old").expect("old file");
+        write_whole(&path, "new").expect("written");
+        assert_eq!(std::fs::read_to_string(&path).expect("read"), "new");
+        // Nothing half-written is left beside it.
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .expect("list")
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name())
+            .collect();
+        assert_eq!(left.len(), 1, "{left:?}");
+        // A place that is gone: an error, and no stray file anywhere.
+        let gone = dir.join("gone").join("run.csv");
+        let error = write_whole(&gone, "text").expect_err("no such directory");
+        assert_eq!(error.kind(), std::io::ErrorKind::NotFound);
+        assert_eq!(std::fs::read_to_string(&path).expect("read"), "new");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     fn sample(t: f64, position: f64, status: u16) -> Sample {
         Sample {
             t,
