@@ -62,7 +62,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
             }
             Bus::ModbusTcp => {
                 field(ui, "Host", &mut form.tcp_host, 110.0);
-                field(ui, "Port", &mut form.tcp_port, 44.0);
+                field(ui, "Port", &mut form.tcp_port, 52.0);
                 field(ui, "Unit", &mut form.unit, 28.0);
             }
             Bus::ModbusRtu => {
@@ -98,7 +98,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
             }
             Bus::Enip => {
                 field(ui, "Host", &mut form.enip_host, 110.0);
-                field(ui, "Port", &mut form.enip_port, 48.0);
+                field(ui, "Port", &mut form.enip_port, 52.0);
                 let io = egui::ComboBox::from_id_salt("enip_io")
                     .selected_text(form.enip_io.name())
                     .width(70.0)
