@@ -476,3 +476,55 @@ fn stdout_to_a_closed_pipe_is_no_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     let _ = std::io::stderr().flush();
 }
+
+#[test]
+fn trace_shows_the_frames_of_a_failed_exchange_before_the_error() {
+    let (sim, addr) = Sim::tcp(&[]);
+    let link = link(addr);
+    let mut mover = start(&[
+        "--link",
+        &link,
+        "--trace",
+        "--lost-after",
+        "1",
+        "move-rel",
+        "30000",
+        "--speed",
+        "60",
+        "--wait",
+    ]);
+    thread::sleep(Duration::from_millis(800));
+    // A frozen drive: the socket stays open, nothing answers.
+    let frozen = Command::new("kill")
+        .args(["-STOP", &sim.process.pid().to_string()])
+        .status()
+        .expect("kill");
+    assert!(frozen.success());
+    let code = exit_code(&mut mover, Duration::from_secs(15));
+    let _ = Command::new("kill")
+        .args(["-CONT", &sim.process.pid().to_string()])
+        .status();
+    let report = mover.report();
+    assert_eq!(code, 1, "{report}");
+    let lines: Vec<&str> = report.lines().collect();
+    let error = lines
+        .iter()
+        .position(|l| l.contains("the link was lost"))
+        .unwrap_or_else(|| panic!("no error: {report}"));
+    // The three tries of the failed exchange, sent and never answered, come before it.
+    let tries: Vec<&&str> = lines[..error]
+        .iter()
+        .rev()
+        .take_while(|l| l.starts_with("tx "))
+        .collect();
+    assert!(tries.len() >= 3, "{report}");
+    assert!(
+        tries.iter().all(|l| l.contains("FC 23 request")),
+        "{report}"
+    );
+    assert!(
+        lines[error].contains("no answer within 500 ms"),
+        "the real cause: {}",
+        lines[error]
+    );
+}
