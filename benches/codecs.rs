@@ -6,10 +6,10 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use drivedeck::link::canopen::{CanFrame, sdo, slcan};
-use drivedeck::link::enip::{cpf, encap, io};
-use drivedeck::link::modbus::{frame, pdu};
 use drivedeck::pdi::{RxImage, TxImage};
+use drivedeck::proto::canopen::{CanFrame, sdo, slcan};
+use drivedeck::proto::enip::{cpf, encap, io};
+use drivedeck::proto::modbus::{frame, pdu};
 
 fn modbus(c: &mut Criterion) {
     let mut g = c.benchmark_group("modbus");

@@ -11,6 +11,7 @@ pub mod link;
 pub mod number;
 pub mod od;
 pub mod pdi;
+pub mod proto;
 pub mod sim;
 pub mod telemetry;
 pub mod ui;

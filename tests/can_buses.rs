@@ -17,10 +17,12 @@ use std::future::Future;
 use std::time::Duration;
 
 use drivedeck::link::Error;
-use drivedeck::link::canopen::slcan::{
-    LineSplitter, MAX_LINE, SlcanBus, SlcanDevice, SlcanError, SlcanLine, decode_line, encode_frame,
+use drivedeck::link::canopen::CanBus;
+use drivedeck::link::canopen::slcan::{SlcanBus, SlcanDevice};
+use drivedeck::proto::canopen::CanFrame;
+use drivedeck::proto::canopen::slcan::{
+    LineSplitter, MAX_LINE, SlcanError, SlcanLine, decode_line, encode_frame,
 };
-use drivedeck::link::canopen::{CanBus, CanFrame};
 use proptest::prelude::*;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio_serial::SerialStream;

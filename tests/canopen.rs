@@ -7,11 +7,11 @@ use std::time::{Duration, Instant};
 
 use drivedeck::cia::AbortCode;
 use drivedeck::link::canopen::client::CanopenLink;
-use drivedeck::link::canopen::sdo::{SdoClient, SdoEvent};
 use drivedeck::link::canopen::{CanBus, MemoryBus};
 use drivedeck::link::{CanopenOptions, Link, LinkSpec};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, RxImage, StatusBit};
+use drivedeck::proto::canopen::sdo::{SdoClient, SdoEvent};
 use drivedeck::sim::Drive;
 use drivedeck::sim::Injection;
 use drivedeck::sim::server::SharedDrive;
@@ -249,7 +249,7 @@ fn a_node_without_the_pdi_still_gives_its_objects() {
     runtime().block_on(async {
         // A bare SDO server with a tiny dictionary: an independent CANopen device.
         struct Tiny;
-        impl drivedeck::link::canopen::sdo::ObjectAccess for Tiny {
+        impl drivedeck::proto::canopen::sdo::ObjectAccess for Tiny {
             fn read(&mut self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
                 match (index, sub) {
                     (0x1018, 1) => Ok(vec![0x78, 0x56, 0x34, 0x12]),
@@ -264,7 +264,7 @@ fn a_node_without_the_pdi_still_gives_its_objects() {
         let bus = MemoryBus::new();
         let mut port = bus.port();
         tokio::spawn(async move {
-            let mut server = drivedeck::link::canopen::sdo::SdoServer::new(9);
+            let mut server = drivedeck::proto::canopen::sdo::SdoServer::new(9);
             while let Ok(frame) = port.recv().await {
                 if let Some(answer) = server.on_request(&frame, &mut Tiny) {
                     let _ = port.send(&answer).await;

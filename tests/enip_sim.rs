@@ -9,21 +9,21 @@ use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpStream, UdpSocket};
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
-use drivedeck::link::enip::assembly::{self, CmdOffset, CommonIn, CommonOut};
-use drivedeck::link::enip::cip::{
+use drivedeck::od::{Access, Address, Entry, Group, Value};
+use drivedeck::pdi::{Command as PdiCommand, Opcode, RxImage, SetValues, TxImage};
+use drivedeck::proto::enip::assembly::{self, CmdOffset, CommonIn, CommonOut};
+use drivedeck::proto::enip::cip::{
     GeneralStatus, Path, Reply, Request, Segment, UnconnectedSend, class, service,
 };
-use drivedeck::link::enip::connection::{
+use drivedeck::proto::enip::connection::{
     ForwardClose, ForwardOpen, ForwardOpenReply, NetworkParams, TRANSPORT_CLASS1_CYCLIC,
     encode_forward_close_reply, extended,
 };
-use drivedeck::link::enip::cpf::{self, Item, SockAddr};
-use drivedeck::link::enip::encap::{self, Command, HEADER_LEN, Header, Packet, RrData, Status};
-use drivedeck::link::enip::identity::Identity;
-use drivedeck::link::enip::io::IoPacket;
-use drivedeck::link::enip::nanotec::{self, Typed};
-use drivedeck::od::{Access, Address, Entry, Group, Value};
-use drivedeck::pdi::{Command as PdiCommand, Opcode, RxImage, SetValues, TxImage};
+use drivedeck::proto::enip::cpf::{self, Item, SockAddr};
+use drivedeck::proto::enip::encap::{self, Command, HEADER_LEN, Header, Packet, RrData, Status};
+use drivedeck::proto::enip::identity::Identity;
+use drivedeck::proto::enip::io::IoPacket;
+use drivedeck::proto::enip::nanotec::{self, Typed};
 use drivedeck::sim::server::enip::Options;
 use drivedeck::sim::server::{ServerThread, SharedDrive};
 use drivedeck::sim::{Drive, World};

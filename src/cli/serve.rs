@@ -6,7 +6,7 @@ use std::time::Duration;
 use super::{CliParity, CliWords, EXIT_FAILED, EXIT_USAGE, Missing, SimArgs};
 use crate::cia::PowerState;
 use crate::link::Parity;
-use crate::link::modbus::registers::WordOrder;
+use crate::proto::modbus::registers::WordOrder;
 use crate::sim::Drive;
 use crate::sim::server::SharedDrive;
 use crate::sim::server::enip;
@@ -116,7 +116,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
         let io = sockets.io_addr().map_err(|e| e.to_string())?;
         outln!(
             "serving the simulated drive on EtherNet/IP {local} (class 1 I/O on UDP {io}, vendor {:X}h)",
-            crate::link::enip::identity::NANOTEC_VENDOR
+            crate::proto::enip::identity::NANOTEC_VENDOR
         );
         let options = enip::Options {
             max_sessions: args.max_sessions.max(1),

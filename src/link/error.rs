@@ -143,7 +143,7 @@ impl fmt::Display for Refusal {
                 status,
                 additional,
             } => {
-                let general = super::enip::cip::GeneralStatus(*status);
+                let general = crate::proto::enip::cip::GeneralStatus(*status);
                 write!(f, "{what}: {general}")?;
                 if !additional.is_empty() {
                     let words: Vec<String> =
@@ -165,5 +165,5 @@ impl fmt::Display for Refusal {
 
 /// The standard text of a Modbus exception code.
 pub fn modbus_exception_text(code: u8) -> &'static str {
-    super::modbus::pdu::Exception::Standard { function: 0, code }.text()
+    crate::proto::modbus::pdu::Exception::Standard { function: 0, code }.text()
 }

@@ -56,7 +56,7 @@ pub struct TraceRecord {
     /// What it means: "SDO request node 1: upload 1018h:01h".
     pub text: String,
     /// The CAN frame and its interface name (`can0`, `slcan0`), for candump logs.
-    pub can: Option<(canopen::CanFrame, String)>,
+    pub can: Option<(crate::proto::canopen::CanFrame, String)>,
 }
 
 impl TraceRecord {
@@ -72,7 +72,7 @@ impl TraceRecord {
     pub fn log_line(&self) -> String {
         match &self.can {
             Some((frame, interface)) => {
-                canopen::describe::candump_line(self.unix_seconds(), interface, frame)
+                crate::proto::canopen::describe::candump_line(self.unix_seconds(), interface, frame)
             }
             None => format!(
                 "({:.6}) {} {}  {}",

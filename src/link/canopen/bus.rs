@@ -2,8 +2,8 @@
 
 use tokio::sync::broadcast;
 
-use super::CanFrame;
 use crate::link::Error;
+use crate::proto::canopen::CanFrame;
 
 /// One node's connection to a CAN bus: send frames, receive every frame others send.
 #[allow(async_fn_in_trait)]

@@ -6,17 +6,18 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use super::emcy::Emcy;
-use super::nmt::{self, NmtCommand};
-use super::pdo::{self, PdoComm, PdoKind, SdoWrite};
-use super::sdo::{SdoClient, SdoEvent};
-use super::{CanBus, CanFrame};
+use super::CanBus;
 use crate::cia::{AbortCode, ErrorCode};
 use crate::link::{
     CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals, TraceRecord,
 };
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
+use crate::proto::canopen::CanFrame;
+use crate::proto::canopen::emcy::Emcy;
+use crate::proto::canopen::nmt::{self, NmtCommand};
+use crate::proto::canopen::pdo::{self, PdoComm, PdoKind, SdoWrite};
+use crate::proto::canopen::sdo::{SdoClient, SdoEvent};
 
 /// How long one SDO request may wait for its answer.
 pub const SDO_TIMEOUT: Duration = Duration::from_millis(500);
@@ -167,7 +168,7 @@ impl<B: CanBus> CanopenLink<B> {
             at: std::time::SystemTime::now(),
             sent,
             raw: frame.to_string(),
-            text: super::describe::describe(frame),
+            text: crate::proto::canopen::describe::describe(frame),
             can: Some((*frame, self.interface.clone())),
         });
     }

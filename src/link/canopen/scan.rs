@@ -7,10 +7,11 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use super::nmt::{self, NmtState};
-use super::sdo::{SdoClient, SdoEvent};
-use super::{CanBus, CanFrame};
+use super::CanBus;
 use crate::link::{Error, FoundDevice};
+use crate::proto::canopen::CanFrame;
+use crate::proto::canopen::nmt::{self, NmtState};
+use crate::proto::canopen::sdo::{SdoClient, SdoEvent};
 
 /// How long the scan listens for the answers to its 127 identity reads.
 pub const ANSWER_WINDOW: Duration = Duration::from_millis(300);

@@ -1,8 +1,9 @@
 //! `canopen+sim`: the built-in simulated drive as a CANopen node on an in-memory CAN bus,
 //! so the whole CANopen path (NMT, SDO, PDO mapping, PDOs, EMCY) runs without hardware.
 
-use super::{CanBus, CanFrame, MemoryBus, MemoryPort};
+use super::{CanBus, MemoryBus, MemoryPort};
 use crate::link::Error;
+use crate::proto::canopen::CanFrame;
 use crate::sim::Drive;
 use crate::sim::server::SharedDrive;
 

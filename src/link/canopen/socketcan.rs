@@ -20,8 +20,9 @@ use ::socketcan::{
 use tokio::io::Interest;
 use tokio::io::unix::AsyncFd;
 
-use super::{CanBus, CanFrame};
+use super::CanBus;
 use crate::link::Error;
+use crate::proto::canopen::CanFrame;
 
 // Linux errno values (the kernel's, the same on every architecture drivedeck runs on).
 const ENODEV: i32 = 19;
@@ -114,7 +115,7 @@ fn to_wire(frame: &CanFrame) -> Option<WireFrame> {
 }
 
 /// A data or remote frame from the socketcan crate.
-fn from_wire(frame: &impl Frame) -> Result<CanFrame, super::FrameError> {
+fn from_wire(frame: &impl Frame) -> Result<CanFrame, crate::proto::canopen::FrameError> {
     let remote = frame.is_remote_frame();
     let zeros = [0u8; 8];
     let data = if remote {

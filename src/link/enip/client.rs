@@ -15,23 +15,23 @@ use std::time::{Duration, SystemTime};
 
 use tokio::net::UdpSocket;
 
-use super::assembly::{self, AssemblySet, CmdOffset, CommonIn, CommonOut};
-use super::cip::{self, Path, Segment, class, service};
-use super::connection::{
-    self, ForwardClose, ForwardOpen, ForwardOpenReply, NetworkParams, TRANSPORT_CLASS1_CYCLIC,
-    Triad,
-};
-use super::cpf::{Item, SockAddr};
-use super::encap::UDP_IO_PORT;
-use super::identity::{Identity, NANOTEC_VENDOR};
 use super::implicit::{IoConfig, IoHandle};
-use super::io;
-use super::nanotec::{self, Typed};
 use super::session::Session;
 use crate::link::spec::{EnipIo, EnipOptions};
 use crate::link::{Error, Exchange, FoundDevice, Link, LinkInfo, LinkSpec, Refusal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
+use crate::proto::enip::assembly::{self, AssemblySet, CmdOffset, CommonIn, CommonOut};
+use crate::proto::enip::cip::{self, Path, Segment, class, service};
+use crate::proto::enip::connection::{
+    self, ForwardClose, ForwardOpen, ForwardOpenReply, NetworkParams, TRANSPORT_CLASS1_CYCLIC,
+    Triad,
+};
+use crate::proto::enip::cpf::{Item, SockAddr};
+use crate::proto::enip::encap::UDP_IO_PORT;
+use crate::proto::enip::identity::{Identity, NANOTEC_VENDOR};
+use crate::proto::enip::io;
+use crate::proto::enip::nanotec::{self, Typed};
 
 /// How long an explicit request may take.
 pub const EXPLICIT_TIMEOUT: Duration = Duration::from_millis(1000);

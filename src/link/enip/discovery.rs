@@ -8,11 +8,10 @@ use std::time::Duration;
 use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
 
-use super::cpf::{self, Item};
-use super::encap::{Command, Packet, TCP_PORT};
-use super::identity::{Identity, state_text};
 use super::session::Session;
 use crate::link::{Error, FoundDevice};
+use crate::proto::enip::encap::{Command, Packet, TCP_PORT};
+use crate::proto::enip::identity::{Identity, decode_list_identity_reply, state_text};
 
 /// An IPv4 interface of this computer.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -77,24 +76,6 @@ impl Default for Discovery {
 
 fn list_identity_request() -> Vec<u8> {
     Packet::new(Command::LIST_IDENTITY, 0, *b"ddscan\0\0", vec![]).encode()
-}
-
-/// The identities in a ListIdentity reply datagram.
-pub fn decode_reply(bytes: &[u8]) -> Vec<Identity> {
-    let Ok(packet) = Packet::decode(bytes) else {
-        return vec![];
-    };
-    if packet.command != Command::LIST_IDENTITY {
-        return vec![];
-    }
-    cpf::decode(&packet.data)
-        .unwrap_or_default()
-        .into_iter()
-        .filter_map(|i| match i {
-            Item::Identity(identity) => Some(*identity),
-            _ => None,
-        })
-        .collect()
 }
 
 fn found(identity: &Identity, from: SocketAddr) -> (SocketAddrV4, FoundDevice) {
@@ -196,7 +177,7 @@ pub async fn discover(discovery: &Discovery) -> Result<Vec<FoundDevice>, Error> 
         tcp.spawn(async move {
             let mut buffer = vec![0u8; 1500];
             while let Ok((n, from)) = socket.recv_from(&mut buffer).await {
-                for identity in decode_reply(&buffer[..n]) {
+                for identity in decode_list_identity_reply(&buffer[..n]) {
                     let _ = tx.send((from, identity));
                 }
             }
@@ -222,10 +203,10 @@ pub async fn discover(discovery: &Discovery) -> Result<Vec<FoundDevice>, Error> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::enip::cpf::SockAddr;
+    use crate::proto::enip::cpf::SockAddr;
 
     #[test]
-    fn a_reply_datagram_lists_its_identities() {
+    fn a_found_adapter_is_reported_at_the_address_it_answered_from() {
         let identity = Identity {
             encap_version: 1,
             socket: SockAddr::new("0.0.0.0:44818".parse().unwrap()),
@@ -238,11 +219,6 @@ mod tests {
             product_name: "PD4-E".into(),
             state: 3,
         };
-        let mut data = vec![];
-        cpf::encode(&[Item::Identity(Box::new(identity.clone()))], &mut data);
-        let bytes = Packet::new(Command::LIST_IDENTITY, 0, [0; 8], data).encode();
-        assert_eq!(decode_reply(&bytes), vec![identity.clone()]);
-        assert!(decode_reply(&bytes[..30]).is_empty());
         let (address, device) = found(&identity, "10.1.2.3:44818".parse().unwrap());
         assert_eq!(address.to_string(), "10.1.2.3:44818");
         assert_eq!(device.vendor_name(), "Nanotec (ODVA 558h)");

@@ -10,10 +10,10 @@ use std::time::{Duration, Instant, SystemTime};
 use tokio::net::UdpSocket;
 use tokio::sync::Notify;
 
-use super::io::IoPacket;
 use super::session::TRACE_LIMIT;
-use super::wire::hex;
 use crate::link::TraceRecord;
+use crate::proto::enip::io::IoPacket;
+use crate::proto::enip::wire::hex;
 
 /// What the I/O task needs to know.
 #[derive(Clone, Debug)]

@@ -8,13 +8,14 @@ use std::time::{Duration, Instant, SystemTime};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 
-use super::cip::{self, Reply, Request};
-use super::cpf::Item;
-use super::encap::{self, Command, Framed, Packet, RrData, Status};
-use super::identity::Identity;
-use super::wire::hex;
 use crate::link::error::{NO_ANSWER, TRIES, Trouble, gave_up};
 use crate::link::{Error, TraceRecord};
+use crate::proto::enip::cip::{self, Reply, Request};
+use crate::proto::enip::cpf::Item;
+use crate::proto::enip::describe::describe;
+use crate::proto::enip::encap::{self, Command, Framed, Packet, RrData, Status};
+use crate::proto::enip::identity::Identity;
+use crate::proto::enip::wire::hex;
 
 /// Frames kept for the log between two `take_trace` calls.
 pub const TRACE_LIMIT: usize = 4096;
@@ -350,7 +351,7 @@ impl Session {
     /// ListIdentity over this TCP connection.
     pub async fn list_identity(&mut self) -> Result<Identity, Error> {
         let reply = self.exchange(Command::LIST_IDENTITY, vec![]).await?;
-        let items = super::cpf::decode(&reply.data)
+        let items = crate::proto::enip::cpf::decode(&reply.data)
             .map_err(|e| Error::Protocol(format!("ListIdentity from {}: {e}", self.peer)))?;
         items
             .into_iter()
@@ -401,55 +402,4 @@ fn decode_router(request: &Request, data: &[u8]) -> Result<(Reply, Vec<Item>), S
         .filter(|i| !matches!(i, Item::Null | Item::UnconnectedData(_)))
         .collect();
     Ok((decoded, others))
-}
-
-/// One line for the frame log: the command, and the CIP service or reply inside.
-pub fn describe(packet: &Packet) -> String {
-    let mut text = packet.command.name().to_owned();
-    if packet.status != Status::SUCCESS {
-        text.push_str(&format!(": {}", packet.status));
-        return text;
-    }
-    if packet.command == Command::SEND_RR_DATA
-        && let Ok(data) = RrData::decode(&packet.data)
-        && let Some(router) = data.unconnected()
-    {
-        match router.first() {
-            Some(s) if s & cip::service::REPLY != 0 => {
-                if let Ok(reply) = Reply::decode(router) {
-                    text.push_str(&format!(
-                        " reply {}: {}",
-                        cip::service::name(reply.service),
-                        reply.status_text()
-                    ));
-                    if !reply.data.is_empty() {
-                        text.push_str(&format!(", data {}", hex(&reply.data)));
-                    }
-                }
-            }
-            Some(_) => {
-                if let Ok(request) = Request::decode(router) {
-                    text.push_str(&format!(
-                        " {} ({:02X}h)",
-                        cip::service::name(request.service),
-                        request.service
-                    ));
-                    if let Ok(path) = request.path() {
-                        text.push_str(&format!(" to {path}"));
-                    }
-                    if let (0x64, Ok((address, value))) = (
-                        request.path().ok().and_then(|p| p.class()).unwrap_or(0),
-                        super::nanotec::decode_request_data(&request.data),
-                    ) {
-                        text.push_str(&format!(" {address}"));
-                        if !value.is_empty() {
-                            text.push_str(&format!(" = {}", hex(value)));
-                        }
-                    }
-                }
-            }
-            None => {}
-        }
-    }
-    text
 }

@@ -11,12 +11,14 @@
 
 use std::time::Duration;
 
-use super::pdu::{CanopenRequest, Exception, Request, Response, exception};
-use super::registers::{self, ImageLayout, Mapped, PDI_REGISTERS, PDI_RX, PDI_TX, WordOrder};
 use super::transport::{Endpoint, Transport};
 use crate::link::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
+use crate::proto::modbus::pdu::{CanopenRequest, Exception, Request, Response, exception};
+use crate::proto::modbus::registers::{
+    self, ImageLayout, Mapped, PDI_REGISTERS, PDI_RX, PDI_TX, WordOrder,
+};
 
 /// How long a Modbus request may take before the link reports a timeout.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(500);

@@ -9,10 +9,10 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 use tokio_serial::{SerialPort, SerialPortBuilderExt, SerialStream};
 
-use super::frame::{self, Direction};
-use super::pdu::{Exception, Request, Response};
 use crate::link::error::{NO_ANSWER, TRIES, Trouble, gave_up};
 use crate::link::{Error, LinkSpec, Parity, TraceRecord};
+use crate::proto::modbus::frame::{self, Direction};
+use crate::proto::modbus::pdu::{Exception, Request, Response};
 
 /// Frames kept for diagnostics (the log panel and error messages).
 const TRACE_LIMIT: usize = 4096;

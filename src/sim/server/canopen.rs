@@ -9,12 +9,13 @@ use std::time::{Duration, Instant};
 
 use super::SharedDrive;
 use crate::cia::AbortCode;
-use crate::link::canopen::emcy::Emcy;
-use crate::link::canopen::nmt::{self, NmtCommand, NmtState};
-use crate::link::canopen::pdo::MappedObject;
-use crate::link::canopen::sdo::{ObjectAccess, SdoServer};
-use crate::link::canopen::{CanBus, CanFrame};
+use crate::link::canopen::CanBus;
 use crate::od::{Address, DataType, Value};
+use crate::proto::canopen::CanFrame;
+use crate::proto::canopen::emcy::Emcy;
+use crate::proto::canopen::nmt::{self, NmtCommand, NmtState};
+use crate::proto::canopen::pdo::MappedObject;
+use crate::proto::canopen::sdo::{ObjectAccess, SdoServer};
 use crate::sim::{Drive, wrap_integer};
 
 /// Bit 31 of a PDO COB-ID: the PDO is invalid (off).

@@ -112,21 +112,21 @@ use tokio::sync::Notify;
 
 use super::SharedDrive;
 use crate::cia::AbortCode;
-use crate::link::enip::assembly::{self, AssemblySet, CmdOffset, CommonIn, CommonOut};
-use crate::link::enip::cip::{
+use crate::od::{Address, Value};
+use crate::proto::enip::assembly::{self, AssemblySet, CmdOffset, CommonIn, CommonOut};
+use crate::proto::enip::cip::{
     GeneralStatus, Path, Reply, Segment, UnconnectedSend, class, service,
 };
-use crate::link::enip::connection::{
+use crate::proto::enip::connection::{
     ConnectionType, ForwardClose, ForwardOpen, ForwardOpenFailure, ForwardOpenReply,
     TRANSPORT_CLASS1_CYCLIC, Triad, encode_forward_close_reply, extended,
 };
-use crate::link::enip::cpf::{self, Item, SockAddr};
-use crate::link::enip::encap::{self, Command, Framed, Packet, RrData, Status};
-use crate::link::enip::identity::{Identity, NANOTEC_VENDOR};
-use crate::link::enip::io::{IoPacket, RUN_IDLE_LEN, SEQUENCE_COUNT_LEN};
-use crate::link::enip::nanotec::{self, Typed};
-use crate::link::enip::wire::{DecodeError, Put};
-use crate::od::{Address, Value};
+use crate::proto::enip::cpf::{self, Item, SockAddr};
+use crate::proto::enip::encap::{self, Command, Framed, Packet, RrData, Status};
+use crate::proto::enip::identity::{Identity, NANOTEC_VENDOR};
+use crate::proto::enip::io::{IoPacket, RUN_IDLE_LEN, SEQUENCE_COUNT_LEN};
+use crate::proto::enip::nanotec::{self, Typed};
+use crate::proto::enip::wire::{DecodeError, Put};
 use crate::sim::{Drive, wrap_integer};
 
 /// Device type 2Bh, generic device (keyable). Nanotec's own is not public.
@@ -1574,9 +1574,9 @@ async fn answer_discovery(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::enip::cip::Request;
-    use crate::link::enip::connection::NetworkParams;
     use crate::pdi::{Command as PdiCommand, Opcode, RxImage, SetValues};
+    use crate::proto::enip::cip::Request;
+    use crate::proto::enip::connection::NetworkParams;
     use proptest::prelude::*;
 
     const B_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 2);

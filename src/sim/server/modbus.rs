@@ -26,16 +26,16 @@ use tokio_serial::{SerialPortBuilderExt, SerialStream};
 use super::SharedDrive;
 use crate::cia::AbortCode;
 use crate::link::Parity;
-use crate::link::modbus::frame::{self, Direction};
-use crate::link::modbus::pdu::{
+use crate::od::{Address, DataType, Value};
+use crate::proto::modbus::frame::{self, Direction};
+use crate::proto::modbus::pdu::{
     CanopenRequest, CanopenResponse, DictionaryFrame, Exception, MAX_PDU, Request, Response,
     exception,
 };
-use crate::link::modbus::registers::{
+use crate::proto::modbus::registers::{
     self, ImageLayout, NANOJ_INPUTS, NANOJ_OUTPUTS, NANOJ_REGISTERS, PDI_REGISTERS, PDI_RX, PDI_TX,
     WordOrder,
 };
-use crate::od::{Address, DataType, Value};
 use crate::sim::Drive;
 use crate::sim::wrap_integer;
 
@@ -216,7 +216,7 @@ fn canopen(drive: &mut Drive, request: &CanopenRequest) -> Result<Response, Exce
     let h = &request.header;
     let address = Address::new(h.index, h.subindex);
     let abort = |code: AbortCode| Exception::Extended {
-        function: crate::link::modbus::pdu::fc::ENCAPSULATED,
+        function: crate::proto::modbus::pdu::fc::ENCAPSULATED,
         abort: code.0,
     };
     if h.extend || h.start != 0 {
@@ -298,15 +298,15 @@ fn dictionary(drive: &Drive, session: &mut Session, restart: bool) -> Result<Res
     }
     if frames.is_empty() {
         return Err(Exception::Extended {
-            function: crate::link::modbus::pdu::fc::READ_DICTIONARY,
+            function: crate::proto::modbus::pdu::fc::READ_DICTIONARY,
             abort: AbortCode::NO_DATA.0,
         });
     }
     Ok(Response::Dictionary {
         sub: if restart {
-            crate::link::modbus::pdu::DICTIONARY_RESTART
+            crate::proto::modbus::pdu::DICTIONARY_RESTART
         } else {
-            crate::link::modbus::pdu::DICTIONARY_NEXT
+            crate::proto::modbus::pdu::DICTIONARY_NEXT
         },
         frames,
     })

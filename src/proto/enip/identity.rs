@@ -3,7 +3,8 @@
 
 use std::net::{Ipv4Addr, SocketAddrV4};
 
-use super::cpf::SockAddr;
+use super::cpf::{self, Item, SockAddr};
+use super::encap::{Command, Packet};
 use super::wire::{DecodeError, Put, Reader};
 
 /// Nanotec's ODVA vendor id: 1368 (558h), "Nanotec Electronic GmbH & Co. KG" in ODVA's
@@ -108,9 +109,48 @@ impl Identity {
     }
 }
 
+/// The identities in a ListIdentity reply datagram.
+pub fn decode_list_identity_reply(bytes: &[u8]) -> Vec<Identity> {
+    let Ok(packet) = Packet::decode(bytes) else {
+        return vec![];
+    };
+    if packet.command != Command::LIST_IDENTITY {
+        return vec![];
+    }
+    cpf::decode(&packet.data)
+        .unwrap_or_default()
+        .into_iter()
+        .filter_map(|i| match i {
+            Item::Identity(identity) => Some(*identity),
+            _ => None,
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_reply_datagram_lists_its_identities() {
+        let identity = Identity {
+            encap_version: 1,
+            socket: SockAddr::new("0.0.0.0:44818".parse().expect("address")),
+            vendor: 0x558,
+            device_type: 0x2B,
+            product_code: 7,
+            revision: (2, 5),
+            status: 0,
+            serial: 99,
+            product_name: "PD4-E".into(),
+            state: 3,
+        };
+        let mut data = vec![];
+        cpf::encode(&[Item::Identity(Box::new(identity.clone()))], &mut data);
+        let bytes = Packet::new(Command::LIST_IDENTITY, 0, [0; 8], data).encode();
+        assert_eq!(decode_list_identity_reply(&bytes), vec![identity.clone()]);
+        assert!(decode_list_identity_reply(&bytes[..30]).is_empty());
+    }
 
     fn sample() -> Identity {
         Identity {

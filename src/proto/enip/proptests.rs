@@ -90,9 +90,9 @@ proptest! {
         let _ = assembly::decode_pdi_ot(&data, CmdOffset::Seven);
         let _ = assembly::decode_pdi_ot(&data, CmdOffset::Eight);
         let _ = super::nanotec::decode_request_data(&data);
-        let _ = super::discovery::decode_reply(&data);
+        let _ = super::identity::decode_list_identity_reply(&data);
         if let Ok(packet) = Packet::decode(&data) {
-            let _ = super::session::describe(&packet);
+            let _ = super::describe::describe(&packet);
         }
     }
 
@@ -113,7 +113,7 @@ proptest! {
         let packet = &packet[..cut];
         let _ = encap::split(packet);
         if let Ok(p) = Packet::decode(packet) {
-            let _ = super::session::describe(&p);
+            let _ = super::describe::describe(&p);
             if let Ok(rr) = encap::RrData::decode(&p.data)
                 && let Some(router) = rr.unconnected()
             {

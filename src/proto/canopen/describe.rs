@@ -351,9 +351,9 @@ mod tests {
 
     use super::*;
     use crate::cia::AbortCode;
-    use crate::link::canopen::emcy::Emcy;
-    use crate::link::canopen::nmt::{NmtCommand, command_frame, heartbeat_frame};
-    use crate::link::canopen::sdo::abort_frame;
+    use crate::proto::canopen::emcy::Emcy;
+    use crate::proto::canopen::nmt::{NmtCommand, command_frame, heartbeat_frame};
+    use crate::proto::canopen::sdo::abort_frame;
 
     fn frame(id: u16, data: &[u8]) -> CanFrame {
         CanFrame::new(id, data).unwrap()
