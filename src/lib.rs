@@ -6,7 +6,9 @@
 
 pub mod cia;
 pub mod cli;
+pub mod connect;
 pub mod diagnostics;
+pub mod injection;
 pub mod link;
 pub mod number;
 pub mod od;

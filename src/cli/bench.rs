@@ -330,7 +330,7 @@ fn print_table(report: &Report) {
 }
 
 async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Figures>, link::Error> {
-    let mut link = link::open(spec).await?;
+    let mut link = crate::connect::open(spec).await?;
     // Write back what the drive holds: the bench never commands anything.
     let rx = link.read_rx().await?;
     let mut results = vec![];

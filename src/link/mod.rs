@@ -9,19 +9,15 @@ pub mod canopen;
 pub mod enip;
 pub(crate) mod error;
 pub mod modbus;
-mod open;
-pub mod sim;
 pub mod spec;
 
 use std::fmt;
 
 pub use error::{Error, Refusal, modbus_exception_text};
-pub use open::{AnyLink, open, open_traced, scan};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
 
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
-use crate::sim::Injection;
 
 /// What a link tells about itself, for the connection bar and the log.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -181,14 +177,6 @@ pub trait Link {
         dtype: DataType,
         value: &Value,
     ) -> Result<Result<(), Refusal>, Error>;
-
-    /// Inject or withdraw a simulated fault. Only the simulator can.
-    async fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
-        let _ = (injection, active);
-        Err(Error::Unsupported(
-            "fault injection works only on the simulated drive".into(),
-        ))
-    }
 
     /// Find the devices on this link's bus (CANopen node scan).
     async fn scan(&mut self) -> Result<Vec<FoundDevice>, Error> {

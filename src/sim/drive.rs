@@ -29,10 +29,10 @@ use crate::pdi::{
 };
 
 use super::dictionary::{Dictionary, wrap_integer};
-use super::faults::Injection;
 use super::homing::{HomingRun, HomingStep};
 use super::motion::{Demand, rpm_to_units, step_position, step_velocity, units_to_rpm};
 use super::world::World;
+use crate::injection::Injection;
 
 /// The simulation step: every `tick` is cut into steps of at most this length.
 pub const STEP: Duration = Duration::from_millis(1);

@@ -6,10 +6,10 @@ use std::time::{Duration, SystemTime};
 
 use serde::{Deserialize, Serialize};
 
+use crate::injection::Injection;
 use crate::link::{EnipIo, LinkInfo, LinkSpec, Parity};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Opcode, RxImage, StatusBit};
-use crate::sim::Injection;
 use crate::telemetry::{Scope, ScopeEvent};
 use crate::worker::{CommandProgress, Event, Health, ObjectPath, Request, RequestId, Sample};
 

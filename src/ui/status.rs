@@ -8,8 +8,8 @@ use eframe::egui::{self, RichText, Ui};
 use super::state::AppState;
 use super::widgets::{AMBER, BLUE, GREEN, RED, clipped_label, lamp, value_with_unit};
 use crate::cia::{ErrorCode, PowerState};
+use crate::injection::Injection;
 use crate::pdi::StatusBit;
-use crate::sim::Injection;
 use crate::worker::{Request, Sample};
 
 fn lamp_color(bit: StatusBit) -> egui::Color32 {

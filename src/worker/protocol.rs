@@ -3,10 +3,10 @@
 use std::fmt;
 use std::time::Duration;
 
+use crate::injection::Injection;
 use crate::link::{FoundDevice, LinkInfo, LinkSpec, TraceRecord};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Failure, RxImage, TxImage, Waiting};
-use crate::sim::Injection;
 
 /// Identifies a request in the events it causes.
 pub type RequestId = u64;

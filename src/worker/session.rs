@@ -13,7 +13,8 @@ use super::protocol::{
 };
 use super::sink::EventSink;
 use super::{Config, Envelope};
-use crate::link::{self, AnyLink, Link, LinkSpec, Refusal};
+use crate::connect::{self, AnyLink};
+use crate::link::{self, Link, LinkSpec, Refusal};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, PdiMaster, Progress};
 
@@ -460,7 +461,7 @@ impl Worker {
                     .is_some_and(|s| same_bus(&s.link.info().spec, &spec));
                 let result = match self.session.as_mut() {
                     Some(s) if same_bus => s.link.scan().await,
-                    _ => link::scan(&spec).await,
+                    _ => connect::scan(&spec).await,
                 };
                 sink.emit(Event::Scanned {
                     id,
@@ -525,7 +526,7 @@ impl Worker {
                 });
             }
             Request::Inject { injection, active } => match self.session.as_mut() {
-                Some(s) => match s.link.inject(injection, active).await {
+                Some(s) => match s.link.inject(injection, active) {
                     Ok(()) => sink.emit(Event::Notice(format!(
                         "{request}: {}",
                         injection.describe()
@@ -588,7 +589,7 @@ impl Worker {
                     Err((e, trace))
                 }
             },
-            None => match link::open_traced(spec).await {
+            None => match connect::open_traced(spec).await {
                 Ok(link) => Session::start(link, &self.config, &self.watch).await,
                 Err(failed) => Err(failed),
             },

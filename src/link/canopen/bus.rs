@@ -14,18 +14,6 @@ pub trait CanBus {
     async fn recv(&mut self) -> Result<CanFrame, Error>;
     /// For messages: `can0`, `slcan /dev/ttyACM0 at 1 Mbit/s`, `memory bus`.
     fn describe(&self) -> String;
-
-    /// Inject a fault into a simulated node on this bus. Only the simulated bus can.
-    async fn inject(
-        &mut self,
-        injection: crate::sim::Injection,
-        active: bool,
-    ) -> Result<(), Error> {
-        let _ = (injection, active);
-        Err(Error::Unsupported(
-            "fault injection works only on the simulated drive".into(),
-        ))
-    }
 }
 
 /// An in-memory CAN bus: every port receives what every other port sends. Cheap to clone

@@ -160,6 +160,11 @@ impl<B: CanBus> CanopenLink<B> {
         Ok(())
     }
 
+    /// The bus under the link (the simulated one takes fault injections).
+    pub fn bus_mut(&mut self) -> &mut B {
+        &mut self.bus
+    }
+
     fn trace(&mut self, sent: bool, frame: &CanFrame) {
         if self.trace.len() >= TRACE_LIMIT {
             self.trace.pop_front();
@@ -637,14 +642,6 @@ impl<B: CanBus> Link for CanopenLink<B> {
 
     fn take_trace(&mut self) -> Vec<TraceRecord> {
         self.trace.drain(..).collect()
-    }
-
-    async fn inject(
-        &mut self,
-        injection: crate::sim::Injection,
-        active: bool,
-    ) -> Result<(), Error> {
-        self.bus.inject(injection, active).await
     }
 
     async fn scan(&mut self) -> Result<Vec<crate::link::FoundDevice>, Error> {

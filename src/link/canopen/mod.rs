@@ -5,7 +5,6 @@
 mod bus;
 pub mod client;
 pub mod scan;
-pub mod simbus;
 pub mod slcan;
 #[cfg(target_os = "linux")]
 pub mod socketcan;

@@ -1,8 +1,8 @@
 //! `canopen+sim`: the built-in simulated drive as a CANopen node on an in-memory CAN bus,
 //! so the whole CANopen path (NMT, SDO, PDO mapping, PDOs, EMCY) runs without hardware.
 
-use super::{CanBus, MemoryBus, MemoryPort};
 use crate::link::Error;
+use crate::link::canopen::{CanBus, MemoryBus, MemoryPort};
 use crate::proto::canopen::CanFrame;
 use crate::sim::Drive;
 use crate::sim::server::SharedDrive;
@@ -34,6 +34,23 @@ impl SimCanBus {
         }
     }
 
+    /// Inject or withdraw a fault in the simulated node (a link loss is simulated on the
+    /// in-process link only).
+    pub fn inject(&mut self, injection: crate::sim::Injection, active: bool) -> Result<(), Error> {
+        if injection.is_link() {
+            return Err(Error::Unsupported(
+                "a link loss is simulated on the in-process simulator link (sim), not on the CAN bus".into(),
+            ));
+        }
+        let mut drive = self.drive.lock();
+        if active {
+            drive.inject(injection);
+        } else {
+            drive.withdraw(injection);
+        }
+        Ok(())
+    }
+
     /// The simulated drive behind the node.
     pub fn drive(&self) -> &SharedDrive {
         &self.drive
@@ -57,24 +74,5 @@ impl CanBus for SimCanBus {
 
     fn describe(&self) -> String {
         "the simulated CAN bus".into()
-    }
-
-    async fn inject(
-        &mut self,
-        injection: crate::sim::Injection,
-        active: bool,
-    ) -> Result<(), Error> {
-        if injection.is_link() {
-            return Err(Error::Unsupported(
-                "a link loss is simulated on the in-process simulator link (sim), not on the CAN bus".into(),
-            ));
-        }
-        let mut drive = self.drive.lock();
-        if active {
-            drive.inject(injection);
-        } else {
-            drive.withdraw(injection);
-        }
-        Ok(())
     }
 }

@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use super::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals};
+use crate::link::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
 use crate::sim::{Drive, Injection};
@@ -36,6 +36,21 @@ pub struct SimLink {
 }
 
 impl SimLink {
+    /// Inject or withdraw a fault: in the drive, or (a link loss) in the simulated cable.
+    pub fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
+        if injection.is_link() {
+            self.cut_until = active.then(|| Instant::now() + LINK_LOSS_TIME);
+            return Ok(());
+        }
+        self.catch_up()?;
+        if active {
+            self.drive.inject(injection);
+        } else {
+            self.drive.withdraw(injection);
+        }
+        Ok(())
+    }
+
     /// A fresh simulated drive on real time.
     pub fn new() -> Self {
         Self::with_drive(Drive::new())
@@ -190,19 +205,5 @@ impl Link for SimLink {
 
     async fn reconnect(&mut self) -> Result<(), Error> {
         self.catch_up()
-    }
-
-    async fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
-        if injection.is_link() {
-            self.cut_until = active.then(|| Instant::now() + LINK_LOSS_TIME);
-            return Ok(());
-        }
-        self.catch_up()?;
-        if active {
-            self.drive.inject(injection);
-        } else {
-            self.drive.withdraw(injection);
-        }
-        Ok(())
     }
 }

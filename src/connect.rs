@@ -1,15 +1,16 @@
-//! Opening a link from its connection string.
+//! Opening any link from its connection string: the one place that knows every back end,
+//! the simulated drive's included. It sits above both `link` (the buses) and `sim` (the
+//! simulated drive and its in-process link and CAN bus), so neither imports the other.
 
-use super::canopen::client::CanopenLink;
-use super::canopen::simbus::SimCanBus;
-use super::canopen::slcan::SlcanBus;
-use super::enip::client::EnipLink;
-use super::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
-use super::sim::SimLink;
-use super::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Traced};
+use crate::injection::Injection;
+use crate::link::canopen::client::CanopenLink;
+use crate::link::canopen::slcan::SlcanBus;
+use crate::link::enip::client::EnipLink;
+use crate::link::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
+use crate::link::{self as super_link, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Traced};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
-use crate::sim::Injection;
+use crate::sim::{SimCanBus, SimLink};
 
 /// Every link the tool can open, so the worker can hold whichever the user picked.
 #[derive(Debug)]
@@ -20,7 +21,7 @@ pub enum AnyLink {
     CanopenSim(Box<CanopenLink<SimCanBus>>),
     CanopenSlcan(Box<CanopenLink<SlcanBus<tokio_serial::SerialStream>>>),
     #[cfg(target_os = "linux")]
-    CanopenSocketcan(Box<CanopenLink<super::canopen::socketcan::SocketCanBus>>),
+    CanopenSocketcan(Box<CanopenLink<crate::link::canopen::socketcan::SocketCanBus>>),
 }
 
 /// Open the link a connection string names.
@@ -50,7 +51,7 @@ pub async fn open_traced(spec: &LinkSpec) -> Traced<AnyLink> {
         }
         #[cfg(target_os = "linux")]
         LinkSpec::CanopenSocketcan { iface, can } => {
-            let bus = super::canopen::socketcan::SocketCanBus::open(iface).map_err(bare)?;
+            let bus = crate::link::canopen::socketcan::SocketCanBus::open(iface).map_err(bare)?;
             Ok(AnyLink::CanopenSocketcan(Box::new(
                 CanopenLink::connect_traced(spec.clone(), bus, *can).await?,
             )))
@@ -73,25 +74,25 @@ impl From<SimLink> for AnyLink {
 }
 
 /// Scan the bus a connection string names, without connecting to a node.
-pub async fn scan(spec: &LinkSpec) -> Result<Vec<super::FoundDevice>, Error> {
+pub async fn scan(spec: &LinkSpec) -> Result<Vec<super_link::FoundDevice>, Error> {
     match spec {
         LinkSpec::CanopenSim { can } => {
             let mut bus = SimCanBus::start(can.node);
             // Let the simulated node boot.
             tokio::time::sleep(std::time::Duration::from_millis(20)).await;
-            super::canopen::scan::scan(&mut bus).await
+            crate::link::canopen::scan::scan(&mut bus).await
         }
         LinkSpec::CanopenSlcan { path, bitrate, .. } => {
             let mut bus = SlcanBus::open(path, *bitrate).await?;
-            super::canopen::scan::scan(&mut bus).await
+            crate::link::canopen::scan::scan(&mut bus).await
         }
         #[cfg(target_os = "linux")]
         LinkSpec::CanopenSocketcan { iface, .. } => {
-            let mut bus = super::canopen::socketcan::SocketCanBus::open(iface)?;
-            super::canopen::scan::scan(&mut bus).await
+            let mut bus = crate::link::canopen::socketcan::SocketCanBus::open(iface)?;
+            crate::link::canopen::scan::scan(&mut bus).await
         }
         LinkSpec::Enip { host, port, .. } => {
-            super::enip::discovery::discover(&super::enip::discovery::Discovery {
+            crate::link::enip::discovery::discover(&crate::link::enip::discovery::Discovery {
                 port: *port,
                 unicast: vec![host.clone()],
                 ..Default::default()
@@ -102,6 +103,19 @@ pub async fn scan(spec: &LinkSpec) -> Result<Vec<super::FoundDevice>, Error> {
             "{} has no bus scan: scanning works on CANopen buses and EtherNet/IP networks",
             spec.bus_name()
         ))),
+    }
+}
+
+impl AnyLink {
+    /// Inject or withdraw a simulated fault. Only the simulated drive takes them.
+    pub fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
+        match self {
+            AnyLink::Sim(l) => l.inject(injection, active),
+            AnyLink::CanopenSim(l) => l.bus_mut().inject(injection, active),
+            _ => Err(Error::Unsupported(
+                "fault injection works only on the simulated drive".into(),
+            )),
+        }
     }
 }
 
@@ -175,19 +189,7 @@ impl Link for AnyLink {
         }
     }
 
-    async fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
-        match self {
-            AnyLink::Sim(l) => l.inject(injection, active).await,
-            AnyLink::Modbus(l) => l.inject(injection, active).await,
-            AnyLink::Enip(l) => l.inject(injection, active).await,
-            AnyLink::CanopenSim(l) => l.inject(injection, active).await,
-            AnyLink::CanopenSlcan(l) => l.inject(injection, active).await,
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.inject(injection, active).await,
-        }
-    }
-
-    async fn scan(&mut self) -> Result<Vec<super::FoundDevice>, Error> {
+    async fn scan(&mut self) -> Result<Vec<super_link::FoundDevice>, Error> {
         match self {
             AnyLink::Sim(l) => l.scan().await,
             AnyLink::Modbus(l) => l.scan().await,
@@ -199,7 +201,7 @@ impl Link for AnyLink {
         }
     }
 
-    fn take_trace(&mut self) -> Vec<super::TraceRecord> {
+    fn take_trace(&mut self) -> Vec<super_link::TraceRecord> {
         match self {
             AnyLink::Sim(l) => l.take_trace(),
             AnyLink::Modbus(l) => l.take_trace(),

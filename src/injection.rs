@@ -1,4 +1,6 @@
-//! Faults and warnings that can be injected into the simulated drive for demos and tests.
+//! Faults and warnings that can be injected into the simulated drive for demos and tests:
+//! the vocabulary the window, the worker and the simulator share (each condition with the
+//! CiA error code the drive reports for it).
 
 use std::fmt;
 use std::str::FromStr;
