@@ -125,7 +125,11 @@ impl Link for AnyLink {
             AnyLink::Sim(l) => l.info(),
             AnyLink::Modbus(l) => l.info(),
             AnyLink::Enip(l) => l.info(),
-            AnyLink::CanopenSim(l) => l.info(),
+            // The node on the simulated bus is the simulated drive: its methods are known.
+            AnyLink::CanopenSim(l) => LinkInfo {
+                homing_methods: Some(crate::sim::SUPPORTED_METHODS.to_vec()),
+                ..l.info()
+            },
             AnyLink::CanopenSlcan(l) => l.info(),
             #[cfg(target_os = "linux")]
             AnyLink::CanopenSocketcan(l) => l.info(),

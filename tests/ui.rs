@@ -126,6 +126,7 @@ fn commands_harness() -> Harness<'static, AppState> {
         native_objects: true,
         can_inject: true,
         pdi: true,
+        homing_methods: None,
     });
     state.torque_slope = Some(1000);
     Harness::builder()
@@ -472,6 +473,7 @@ fn sim_info() -> LinkInfo {
         native_objects: true,
         can_inject: true,
         pdi: true,
+        homing_methods: None,
     }
 }
 

@@ -452,3 +452,44 @@ fn many_objects_are_read_in_order_and_a_cancel_drops_the_rest() {
         "{refused:?}"
     );
 }
+
+#[test]
+fn the_machines_ports_and_interfaces_come_from_the_worker() {
+    // The window asks; it never lists them itself (that is I/O).
+    let mut probe = Probe::new();
+    probe.send(Request::ListInterfaces);
+    let interfaces = probe.wait("the interfaces", Duration::from_secs(5), |e| {
+        matches!(e, Event::Interfaces(_))
+    });
+    let Event::Interfaces(interfaces) = interfaces else {
+        unreachable!()
+    };
+    assert!(
+        interfaces.iter().any(|i| i.ip.is_loopback()),
+        "loopback is an interface: {interfaces:?}"
+    );
+    probe.send(Request::ListSerialPorts);
+    probe.wait("the serial ports", Duration::from_secs(5), |e| {
+        matches!(e, Event::SerialPorts(_))
+    });
+}
+
+#[test]
+fn the_simulated_drive_says_which_homing_methods_it_has() {
+    let probe = Probe::connected(LinkSpec::Sim);
+    let info = probe
+        .seen
+        .iter()
+        .find_map(|e| match e {
+            Event::Connected(info) => Some(info.clone()),
+            _ => None,
+        })
+        .expect("connected");
+    let methods = info
+        .homing_methods
+        .expect("the simulator knows its methods");
+    assert!(
+        methods.contains(&19) && methods.contains(&35),
+        "{methods:?}"
+    );
+}

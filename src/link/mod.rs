@@ -33,6 +33,9 @@ pub struct LinkInfo {
     /// Whether the device has the Plug & Drive interface (2291h/2292h). Without it (a
     /// generic CANopen node, say) the link gives object access only.
     pub pdi: bool,
+    /// The homing methods the device is known to support (the simulated drive's list);
+    /// `None` when the link cannot tell, and any CiA 402 method may work.
+    pub homing_methods: Option<Vec<i8>>,
 }
 
 impl fmt::Display for LinkInfo {
@@ -216,6 +219,21 @@ pub trait Link {
     /// Close the connection politely (release the one TCP connection a drive allows).
     async fn close(&mut self) -> Result<(), Error> {
         Ok(())
+    }
+}
+
+/// An IPv4 interface of this computer (for EtherNet/IP discovery).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NetworkInterface {
+    pub name: String,
+    pub ip: std::net::Ipv4Addr,
+    pub broadcast: Option<std::net::Ipv4Addr>,
+}
+
+impl NetworkInterface {
+    /// "eth0 192.168.2.10" for a picker.
+    pub fn label(&self) -> String {
+        format!("{} {}", self.name, self.ip)
     }
 }
 

@@ -131,6 +131,7 @@ impl Link for SimLink {
             native_objects: true,
             can_inject: true,
             pdi: true,
+            homing_methods: Some(crate::sim::SUPPORTED_METHODS.to_vec()),
         }
     }
 

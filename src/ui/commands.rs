@@ -8,7 +8,6 @@ use super::state::{AppState, TORQUE_SLOPE, TorqueWarning};
 use super::widgets::{AMBER, RED, clipped_label, name_widget, named_text_edit};
 use crate::od::{self, Address, DataType, Value};
 use crate::pdi::{Action, FieldSpec, Opcode};
-use crate::sim::SUPPORTED_METHODS;
 use crate::worker::{ObjectPath, Request};
 
 /// The button text of a command.
@@ -35,12 +34,19 @@ pub fn field_label(opcode: Opcode, spec: &FieldSpec) -> String {
     format!("{}: {}", button_label(opcode), spec.label)
 }
 
-fn command_hint(opcode: Opcode) -> String {
+fn command_hint(opcode: Opcode, methods: Option<&[i8]>) -> String {
     match opcode {
-        Opcode::Homing => format!(
-            "Homing method in SetValue3. The simulator supports {}.",
-            SUPPORTED_METHODS.map(|m| m.to_string()).join(", ")
-        ),
+        Opcode::Homing => match methods {
+            Some(methods) => format!(
+                "Homing method in SetValue3. This device supports {}.",
+                methods
+                    .iter()
+                    .map(|m| m.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            None => "Homing method in SetValue3 (a CiA 402 method the drive supports, e.g. 17 to 35; see its manual or 60E3h).".into(),
+        },
         Opcode::Torque => "Ramps at the torque slope 6087h; the drive's default slope is 0, which never builds up torque.".into(),
         Opcode::AutoSetup => "Identifies the motor; it moves. Restart the device afterwards: the coordinate system is no longer valid.".into(),
         Opcode::HomeHere => "Sets the actual position to this value without moving.".into(),
@@ -137,9 +143,14 @@ fn caution(state: &AppState, request: &Request) -> Option<String> {
             None => Some("Torque slope 6087h unknown: read it before sending.".into()),
             Some(_) => None,
         },
-        Request::Command(Action::Homing { method }) if !SUPPORTED_METHODS.contains(method) => Some(
-            format!("Method {method} is not one the simulator supports; a real drive may."),
-        ),
+        Request::Command(Action::Homing { method })
+            if state
+                .link_info()
+                .and_then(|i| i.homing_methods.as_ref())
+                .is_some_and(|methods| !methods.contains(method)) =>
+        {
+            Some(format!("Method {method} is not one this device supports."))
+        }
         _ => None,
     }
 }
@@ -252,7 +263,8 @@ fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
     let enabled = offline.is_none() && verdict.is_ok();
     let button = egui::Button::new(button_label(opcode)).min_size(egui::vec2(110.0, 0.0));
     let mut response = ui.add_enabled(enabled, button);
-    let hint = command_hint(opcode);
+    let methods = state.link_info().and_then(|i| i.homing_methods.clone());
+    let hint = command_hint(opcode, methods.as_deref());
     if !hint.is_empty() {
         response = response.on_hover_text(&hint);
     }

@@ -18,16 +18,18 @@ fn combo_name(response: &egui::Response, name: &str) {
     name_widget(response, egui::accesskit::Role::ComboBox, name);
 }
 
-/// A serial port: typed, or picked from the ports this machine has.
-fn port_field(ui: &mut Ui, path: &mut String, ports: &mut Option<Vec<String>>) {
+/// A serial port: typed, or picked from the ports this machine has (the worker lists
+/// them). `true` when the list should be asked for (again).
+fn port_field(ui: &mut Ui, path: &mut String, ports: &Option<Vec<String>>) -> bool {
     ui.label("Port");
     named_text_edit(ui, path, 110.0, "Connection: Port");
-    let found = ports.get_or_insert_with(crate::link::serial_ports);
+    let mut ask = ports.is_none();
+    let found = ports.clone().unwrap_or_default();
     let picked = egui::ComboBox::from_id_salt("serial_ports")
-        .selected_text(if found.is_empty() {
-            "none found"
-        } else {
-            "pick"
+        .selected_text(match ports {
+            None => "looking…",
+            Some(found) if found.is_empty() => "none found",
+            Some(_) => "pick",
         })
         .width(80.0)
         .show_ui(ui, |ui| {
@@ -41,11 +43,13 @@ fn port_field(ui: &mut Ui, path: &mut String, ports: &mut Option<Vec<String>>) {
         .on_hover_text("Look for serial ports again (USB adapters plugged in since)")
         .clicked()
     {
-        *ports = Some(crate::link::serial_ports());
+        ask = true;
     }
+    ask
 }
 
 pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
+    let mut want_ports = false;
     ui.horizontal_wrapped(|ui| {
         let form = &mut state.settings.connection;
         let bus = egui::ComboBox::from_id_salt("bus")
@@ -66,7 +70,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
                 field(ui, "Unit", &mut form.unit, 28.0);
             }
             Bus::ModbusRtu => {
-                port_field(ui, &mut form.rtu_path, &mut state.serial_ports);
+                want_ports |= port_field(ui, &mut form.rtu_path, &state.serial_ports);
                 field(ui, "Baud", &mut form.baud, 56.0);
                 let parity = egui::ComboBox::from_id_salt("parity")
                     .selected_text(form.parity.name())
@@ -91,7 +95,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
                 ui.weak("simulated drive on an in-memory CAN bus");
             }
             Bus::CanopenSlcan => {
-                port_field(ui, &mut form.slcan_path, &mut state.serial_ports);
+                want_ports |= port_field(ui, &mut form.slcan_path, &state.serial_ports);
                 field(ui, "Bit rate", &mut form.bitrate, 70.0);
                 field(ui, "Node", &mut form.node, 32.0);
                 field(ui, "PDO", &mut form.pdo, 20.0);
@@ -236,6 +240,9 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
             }
         }
     });
+    if want_ports {
+        state.ask_serial_ports();
+    }
 }
 
 /// Quickstop and Switch Off, always visible; Esc and Shift+Esc reach them from anywhere.
@@ -296,10 +303,10 @@ pub fn stop_keys(ctx: &egui::Context, state: &mut AppState) {
 
 /// EtherNet/IP discovery: the interface to broadcast on, and the button.
 fn discover_ui(ui: &mut Ui, state: &mut AppState) {
-    let interfaces = state
-        .interfaces
-        .get_or_insert_with(crate::link::enip::discovery::interfaces)
-        .clone();
+    if state.interfaces.is_none() {
+        state.ask_interfaces();
+    }
+    let interfaces = state.interfaces.clone().unwrap_or_default();
     let form = &mut state.settings.connection;
     let shown = if form.discover_interface.is_empty() {
         "all interfaces".to_owned()

@@ -469,7 +469,11 @@ pub struct AppState {
     pub link_changes: Vec<String>,
     changes_link: Option<LinkSpec>,
     /// The IPv4 interfaces, for EtherNet/IP discovery (found once, on first use).
-    pub interfaces: Option<Vec<crate::link::enip::discovery::Interface>>,
+    pub interfaces: Option<Vec<crate::link::NetworkInterface>>,
+    /// Whether the lists of serial ports and interfaces were asked of the worker and not
+    /// answered yet.
+    serial_ports_asked: bool,
+    interfaces_asked: bool,
     /// The object dictionary browser.
     pub browser: super::browser::Browser,
     /// The last bus scan's result.
@@ -546,6 +550,8 @@ impl AppState {
             scan: None,
             browser: super::browser::Browser::new(),
             interfaces: None,
+            serial_ports_asked: false,
+            interfaces_asked: false,
             frames: VecDeque::new(),
             bottom: Bottom::Commands,
             timeline: crate::diagnostics::Timeline::default(),
@@ -816,6 +822,22 @@ impl AppState {
         self.outbox.push(request);
     }
 
+    /// Ask the worker for the serial ports (once until it answers).
+    pub fn ask_serial_ports(&mut self) {
+        if !self.serial_ports_asked {
+            self.serial_ports_asked = true;
+            self.outbox.push(Request::ListSerialPorts);
+        }
+    }
+
+    /// Ask the worker for the network interfaces (once until it answers).
+    pub fn ask_interfaces(&mut self) {
+        if !self.interfaces_asked {
+            self.interfaces_asked = true;
+            self.outbox.push(Request::ListInterfaces);
+        }
+    }
+
     /// Record that the app handed a request to the worker.
     pub fn note_queued(&mut self, id: RequestId, request: &Request) {
         if self.identity_request.is_none()
@@ -847,6 +869,8 @@ impl AppState {
             Request::SetPollRate(_)
                 | Request::SetLinkLoss(_)
                 | Request::SetLostAfter(_)
+                | Request::ListSerialPorts
+                | Request::ListInterfaces
                 | Request::Connect(_)
                 | Request::Disconnect
                 | Request::Inject { .. }
@@ -1192,6 +1216,14 @@ impl AppState {
                     self.frames.push_back(frame);
                 }
             }
+            Event::SerialPorts(ports) => {
+                self.serial_ports = Some(ports);
+                self.serial_ports_asked = false;
+            }
+            Event::Interfaces(interfaces) => {
+                self.interfaces = Some(interfaces);
+                self.interfaces_asked = false;
+            }
             Event::Scanned { result, .. } => {
                 match &result {
                     Ok(found) => self.info(format!("bus scan: {} device(s) found", found.len())),
@@ -1280,6 +1312,7 @@ mod tests {
             native_objects: true,
             can_inject: true,
             pdi: true,
+            homing_methods: None,
         }
     }
 

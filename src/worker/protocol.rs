@@ -4,7 +4,7 @@ use std::fmt;
 use std::time::Duration;
 
 use crate::injection::Injection;
-use crate::link::{FoundDevice, LinkInfo, LinkSpec, TraceRecord};
+use crate::link::{FoundDevice, LinkInfo, LinkSpec, NetworkInterface, TraceRecord};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Failure, RxImage, TxImage, Waiting};
 
@@ -133,6 +133,12 @@ pub enum Request {
     Watch(Vec<(Address, DataType)>),
     /// Drop what is still queued of request `id` (a `ReadMany`); reported by `Cancelled`.
     Cancel(RequestId),
+    /// List the serial ports of this machine (for Modbus RTU and slcan adapters):
+    /// answered by `SerialPorts`.
+    ListSerialPorts,
+    /// List the IPv4 interfaces of this machine (for EtherNet/IP discovery): answered by
+    /// `Interfaces`.
+    ListInterfaces,
     /// Find EtherNet/IP adapters: ListIdentity broadcast on `interface` (a name or IPv4
     /// address; `None`: every interface) and asked directly at `host`.
     Discover {
@@ -189,6 +195,8 @@ impl fmt::Display for Request {
                 "discover EtherNet/IP adapters on {}",
                 interface.as_deref().unwrap_or("every interface")
             ),
+            Request::ListSerialPorts => f.write_str("list the serial ports"),
+            Request::ListInterfaces => f.write_str("list the network interfaces"),
             Request::SetTrace(on) => write!(f, "frame trace {}", if *on { "on" } else { "off" }),
             Request::Watch(objects) => write!(f, "sample {} object(s) cyclically", objects.len()),
         }
@@ -385,6 +393,10 @@ pub enum Event {
         id: RequestId,
         dropped: usize,
     },
+    /// The serial ports of this machine, by name.
+    SerialPorts(Vec<String>),
+    /// The IPv4 interfaces of this machine, loopback last.
+    Interfaces(Vec<NetworkInterface>),
     /// What a bus scan found.
     Scanned {
         id: RequestId,

@@ -468,6 +468,10 @@ impl Worker {
                     result: result.map_err(|e| e.to_string()),
                 });
             }
+            Request::ListSerialPorts => sink.emit(Event::SerialPorts(link::serial_ports())),
+            Request::ListInterfaces => {
+                sink.emit(Event::Interfaces(link::enip::discovery::interfaces()))
+            }
             Request::Discover {
                 interface,
                 host,

@@ -505,6 +505,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
             native_objects: true,
             can_inject: false,
             pdi: self.path != PdiPath::Absent,
+            homing_methods: None,
         }
     }
 

@@ -627,6 +627,7 @@ impl Link for EnipLink {
             native_objects: true,
             can_inject: false,
             pdi: self.pdi,
+            homing_methods: None,
         }
     }
 

@@ -13,20 +13,7 @@ use crate::link::{Error, FoundDevice};
 use crate::proto::enip::encap::{Command, Packet, TCP_PORT};
 use crate::proto::enip::identity::{Identity, decode_list_identity_reply, state_text};
 
-/// An IPv4 interface of this computer.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Interface {
-    pub name: String,
-    pub ip: Ipv4Addr,
-    pub broadcast: Option<Ipv4Addr>,
-}
-
-impl Interface {
-    /// "eth0 192.168.2.10" for a picker.
-    pub fn label(&self) -> String {
-        format!("{} {}", self.name, self.ip)
-    }
-}
+pub use crate::link::NetworkInterface as Interface;
 
 /// The IPv4 interfaces, loopback last.
 pub fn interfaces() -> Vec<Interface> {

@@ -343,6 +343,7 @@ impl Link for ModbusLink {
             native_objects: self.fc43 != Support::No,
             can_inject: false,
             pdi: true,
+            homing_methods: None,
         }
     }
 
