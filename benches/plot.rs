@@ -8,6 +8,7 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use drivedeck::pdi::{Status, TxImage};
+use drivedeck::signal::{Signal, Signals};
 use drivedeck::ui::{AppState, Settings};
 use drivedeck::worker::Sample;
 use eframe::egui;
@@ -26,10 +27,11 @@ fn state_with(rows: usize) -> AppState {
         let spike = if i % 100_003 == 0 { 5000.0 } else { 0.0 };
         state.scope.push(&Sample {
             t,
-            position: Some((t * 0.7).sin() * 36_000.0 + noise + spike),
-            velocity: Some((t * 0.7).cos() * 2_500.0 + noise),
-            torque: Some((t * 3.0).sin() * 400.0 + noise),
-            following_error: Some(noise),
+            signals: Signals::default()
+                .with(Signal::Position, (t * 0.7).sin() * 36_000.0 + noise + spike)
+                .with(Signal::Velocity, (t * 0.7).cos() * 2_500.0 + noise)
+                .with(Signal::Torque, (t * 3.0).sin() * 400.0 + noise)
+                .with(Signal::FollowingError, noise),
             tx: TxImage {
                 status: Status(if (i / 1500) % 2 == 0 { 0x0009 } else { 0x0001 }),
                 error_code: 0,

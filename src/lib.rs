@@ -14,6 +14,7 @@ pub mod number;
 pub mod od;
 pub mod pdi;
 pub mod proto;
+pub mod signal;
 pub mod sim;
 pub mod telemetry;
 pub mod ui;

@@ -374,8 +374,8 @@ fn the_worker_moves_the_motor_over_canopen_and_reads_strings() {
     assert!(missing.expect_err("no such sub").contains("06090011h"));
     // Statusword, position, velocity… come by SDO in turn.
     let deadline = Instant::now() + Duration::from_secs(2);
-    while probe.last.and_then(|s| s.statusword).is_none()
-        || probe.last.and_then(|s| s.position).is_none()
+    while probe.last.and_then(|s| s.statusword()).is_none()
+        || probe.last.and_then(|s| s.position()).is_none()
     {
         assert!(Instant::now() < deadline, "signals never arrived");
         let _ = probe
@@ -386,7 +386,7 @@ fn the_worker_moves_the_motor_over_canopen_and_reads_strings() {
             matches!(e, Event::Samples(_))
         });
     }
-    assert_eq!(probe.last.and_then(|s| s.position), Some(2000.0));
+    assert_eq!(probe.last.and_then(|s| s.position()), Some(2000.0));
 }
 
 #[test]

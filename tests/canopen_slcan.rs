@@ -112,7 +112,7 @@ fn the_worker_moves_the_motor_over_slcan_pdos_and_reads_a_string() {
     assert!(missing.contains("06090011h"), "{missing}");
     // The motor's position follows over the bus, by whatever path the link has for it.
     probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
-        s.position == Some(2000.0)
+        s.position() == Some(2000.0)
     });
 }
 

@@ -89,7 +89,7 @@ fn a_move_over_class_1_pdi_io_reaches_its_target() {
     assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
     // The position comes by GetOD in turn (the PDI set carries only the PDI).
     probe.sample_where("the position", Duration::from_secs(5), |s| {
-        s.position == Some(2000.0)
+        s.position() == Some(2000.0)
     });
 }
 
@@ -108,24 +108,26 @@ fn the_common_set_brings_position_inputs_analog_input_and_following_error_with_e
     }));
     // Mid-move, every sample has the extra process values of assembly 100.
     let moving = probe.sample_where("a sample mid-move", Duration::from_secs(5), |s| {
-        s.velocity.is_some_and(|v| v > 0.0)
+        s.velocity().is_some_and(|v| v > 0.0)
     });
     assert!(
-        moving.position.is_some_and(|p| (0.0..3000.0).contains(&p)),
+        moving
+            .position()
+            .is_some_and(|p| (0.0..3000.0).contains(&p)),
         "{moving:?}"
     );
-    assert!(moving.digital_inputs.is_some());
-    assert!(moving.analog_input.is_some());
-    assert!(moving.following_error.is_some());
-    assert!(moving.torque.is_some());
+    assert!(moving.digital_inputs().is_some());
+    assert!(moving.analog_input().is_some());
+    assert!(moving.following_error().is_some());
+    assert!(moving.torque().is_some());
     assert_eq!(
         probe.outcome(id, Duration::from_secs(15)),
         CommandProgress::Done { return_value: 3000 }
     );
     let done = probe.sample_where("the target", Duration::from_secs(5), |s| {
-        s.position == Some(3000.0)
+        s.position() == Some(3000.0)
     });
-    assert_eq!(done.velocity, Some(0.0));
+    assert_eq!(done.velocity(), Some(0.0));
 }
 
 #[test]
@@ -667,7 +669,7 @@ fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
         Duration::from_secs(15),
         |h| {
             lamp(h, "Target reached")
-                && h.state().state.latest.and_then(|s| s.position) == Some(2000.0)
+                && h.state().state.latest.and_then(|s| s.position()) == Some(2000.0)
         },
     );
     // The Common set's extra values are on the status panel, and analog input and

@@ -165,7 +165,7 @@ fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
             h.state()
                 .state
                 .latest
-                .and_then(|s| s.velocity)
+                .and_then(|s| s.velocity())
                 .is_some_and(|v| v > 50.0)
         },
     );

@@ -40,9 +40,9 @@ fn the_motor_jogs_while_the_keep_alives_come_and_halts_when_they_stop() {
     hold(&mut probe, Duration::from_millis(1200));
     let moving = probe.settle(Duration::from_millis(20));
     assert!(
-        moving.velocity.is_some_and(|v| v > 250.0),
+        moving.velocity().is_some_and(|v| v > 250.0),
         "still jogging after 1.2 s of keep-alives: {:?}",
-        moving.velocity
+        moving.velocity()
     );
     assert!(
         !probe.notices().iter().any(|n| n.contains("jog halted")),
@@ -59,7 +59,7 @@ fn the_motor_jogs_while_the_keep_alives_come_and_halts_when_they_stop() {
     let noticed = frozen.elapsed();
     assert!(noticed < Duration::from_millis(1500), "{noticed:?}");
     let stopped = probe.sample_where("the motor at rest", Duration::from_secs(5), |s| {
-        s.velocity == Some(0.0)
+        s.velocity() == Some(0.0)
     });
     assert!(stopped.tx.status.is_set(StatusBit::QsHaltBit));
     assert!(
@@ -73,7 +73,7 @@ fn releasing_the_jog_halts_at_once() {
     let (mut probe, _) = jogging(-200);
     hold(&mut probe, Duration::from_millis(400));
     let moving = probe.settle(Duration::from_millis(20));
-    assert!(moving.velocity.is_some_and(|v| v < -150.0), "{moving:?}");
+    assert!(moving.velocity().is_some_and(|v| v < -150.0), "{moving:?}");
     let stop = probe.send(Request::JogStop);
     let outcome = probe.outcome(stop, Duration::from_secs(3));
     assert!(
@@ -81,7 +81,7 @@ fn releasing_the_jog_halts_at_once() {
         "{outcome:?}"
     );
     let stopped = probe.sample_where("the motor at rest", Duration::from_secs(3), |s| {
-        s.velocity == Some(0.0)
+        s.velocity() == Some(0.0)
     });
     assert!(stopped.tx.status.is_set(StatusBit::QsHaltBit));
     // Nothing more from the keep-alive watch: the jog is over.
@@ -121,7 +121,7 @@ fn a_link_lost_mid_jog_gets_a_halt_attempt_and_an_honest_report() {
         matches!(e, Event::Connected(_))
     });
     let after = probe.settle(Duration::from_millis(200));
-    assert!(after.velocity.is_some_and(|v| v > 50.0), "{after:?}");
+    assert!(after.velocity().is_some_and(|v| v > 50.0), "{after:?}");
 }
 
 #[test]

@@ -22,7 +22,7 @@ fn velocity(harness: &Harness<'_, App>) -> f64 {
         .state()
         .state
         .latest
-        .and_then(|s| s.velocity)
+        .and_then(|s| s.velocity())
         .unwrap_or(f64::NAN)
 }
 

@@ -49,7 +49,7 @@ fn turning(server: &ServerThread) -> Harness<'static, App> {
             h.state()
                 .state
                 .latest
-                .and_then(|s| s.velocity)
+                .and_then(|s| s.velocity())
                 .is_some_and(|v| v > 250.0)
         },
     );

@@ -303,7 +303,7 @@ fn our_client_writes_the_pdi_high_word_first_as_pymodbus_decodes_it() {
     );
     let s = seen.exchange.signals;
     assert_eq!(
-        (s.statusword, s.mode, s.position, s.digital_inputs),
+        (s.statusword(), s.mode(), s.position(), s.digital_inputs()),
         (Some(0x0637), Some(1), Some(100_000.0), Some(0x0001_0000))
     );
     // pymodbus has no FC 43 (MEI 0Dh): asked once (for 3602h), refused with exception 01,
@@ -342,7 +342,7 @@ fn our_client_with_words_low_puts_the_low_word_first_and_uses_the_unit() {
     assert_eq!(tx.return_value, 0xFFFE_FFFFu32 as i32);
     let s = seen.exchange.signals;
     assert_eq!(
-        (s.position, s.digital_inputs),
+        (s.position(), s.digital_inputs()),
         (Some(f64::from(0x86A0_0001u32 as i32)), Some(0x0000_0001))
     );
 }

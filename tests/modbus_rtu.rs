@@ -76,9 +76,9 @@ fn a_move_and_objects_over_modbus_rtu_with_the_factory_settings() {
         s.tx.status.is_set(StatusBit::TargetReached)
     });
     // Position, statusword and mode from the process image at 5000, over RTU.
-    assert_eq!(sample.position, Some(2000.0));
-    assert_eq!(sample.statusword.map(|w| w & 0x6F), Some(0x27));
-    assert_eq!(sample.mode, Some(1));
+    assert_eq!(sample.position(), Some(2000.0));
+    assert_eq!(sample.statusword().map(|w| w & 0x6F), Some(0x27));
+    assert_eq!(sample.mode(), Some(1));
     // FC 43 (CANopen objects, data little-endian inside a big-endian frame).
     assert_eq!(
         probe.read(

@@ -38,11 +38,11 @@ fn a_move_over_modbus_tcp_reaches_its_target() {
     );
     // Statusword, mode and position come along in the process image at 5000.
     let sample = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
-        s.position == Some(2000.0)
+        s.position() == Some(2000.0)
     });
     assert!(sample.tx.status.is_set(StatusBit::TargetReached));
-    assert_eq!(sample.statusword.map(|w| w & 0x6F), Some(0x27));
-    assert_eq!(sample.mode, Some(1));
+    assert_eq!(sample.statusword().map(|w| w & 0x6F), Some(0x27));
+    assert_eq!(sample.mode(), Some(1));
     // The simulated drive agrees.
     assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
     // Velocity and torque are not in the factory image: they come over FC 43, in turn,
@@ -58,11 +58,11 @@ fn a_move_over_modbus_tcp_reaches_its_target() {
         .collect();
     let with = |f: fn(&Sample) -> bool| samples.iter().filter(|s| f(s)).count();
     assert!(
-        with(|s| s.velocity.is_some_and(|v| v > 10.0)) > 5,
+        with(|s| s.velocity().is_some_and(|v| v > 10.0)) > 5,
         "velocity during the move"
     );
-    assert!(with(|s| s.torque.is_some()) > 5, "torque");
-    assert!(with(|s| s.velocity.is_none()) > 5, "not every cycle");
+    assert!(with(|s| s.torque().is_some()) > 5, "torque");
+    assert!(with(|s| s.velocity().is_none()) > 5, "not every cycle");
 }
 
 #[test]

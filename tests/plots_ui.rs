@@ -245,7 +245,8 @@ fn plots_harness() -> Harness<'static, drivedeck::ui::AppState> {
     let samples = (0..200)
         .map(|i| drivedeck::worker::Sample {
             t: f64::from(i) * 0.01,
-            position: Some(f64::from(i) * 10.0),
+            signals: drivedeck::signal::Signals::default()
+                .with(drivedeck::signal::Signal::Position, f64::from(i) * 10.0),
             ..Default::default()
         })
         .collect();

@@ -43,7 +43,7 @@ fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
         Duration::from_secs(5),
         |h| {
             lamp(h, "Target reached")
-                && h.state().state.latest.and_then(|s| s.position) == Some(2000.0)
+                && h.state().state.latest.and_then(|s| s.position()) == Some(2000.0)
         },
     );
     let state = &harness.state().state;
@@ -85,7 +85,7 @@ fn halt_toggle_stops_and_resumes_the_move() {
             h.state()
                 .state
                 .latest
-                .and_then(|s| s.velocity)
+                .and_then(|s| s.velocity())
                 .is_some_and(|v| v > 100.0)
         },
     );
@@ -94,7 +94,7 @@ fn halt_toggle_stops_and_resumes_the_move() {
     step_until(&mut harness, "the halt", Duration::from_secs(5), |h| {
         lamp(h, "Quick stop / halt")
             && lamp(h, "Target reached")
-            && h.state().state.latest.and_then(|s| s.velocity) == Some(0.0)
+            && h.state().state.latest.and_then(|s| s.velocity()) == Some(0.0)
     });
     assert_eq!(
         harness.get_by_label("Halt").accesskit_node().toggled(),
@@ -111,7 +111,7 @@ fn halt_toggle_stops_and_resumes_the_move() {
                 && h.state()
                     .state
                     .latest
-                    .and_then(|s| s.velocity)
+                    .and_then(|s| s.velocity())
                     .is_some_and(|v| v > 50.0)
         },
     );
@@ -223,7 +223,7 @@ fn escape_sends_quickstop_from_anywhere() {
             h.state()
                 .state
                 .latest
-                .and_then(|s| s.velocity)
+                .and_then(|s| s.velocity())
                 .is_some_and(|v| v > 50.0)
         },
     );
@@ -318,7 +318,7 @@ fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor()
         |h| {
             lamp(h, "Target reached")
                 && lamp(h, "Operation enabled")
-                && h.state().state.latest.and_then(|s| s.position) == Some(2000.0)
+                && h.state().state.latest.and_then(|s| s.position()) == Some(2000.0)
         },
     );
     assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
@@ -451,6 +451,7 @@ fn lit_lamp_alphas(harness: &Harness<'_, AppState>) -> Vec<u8> {
 
 fn operation_enabled_sample(t: f64) -> drivedeck::worker::Sample {
     use drivedeck::pdi::{Status, TxImage};
+    use drivedeck::signal::Signal;
     drivedeck::worker::Sample {
         t,
         tx: TxImage {
@@ -458,10 +459,11 @@ fn operation_enabled_sample(t: f64) -> drivedeck::worker::Sample {
             error_code: 0,
             return_value: 0,
         },
-        position: Some(1234.0),
-        velocity: Some(0.0),
-        statusword: Some(0x0627),
-        mode: Some(1),
+        signals: drivedeck::signal::Signals::default()
+            .with(Signal::Position, 1234.0)
+            .with(Signal::Velocity, 0.0)
+            .with(Signal::Statusword, f64::from(0x0627))
+            .with(Signal::Mode, 1.0),
         ..Default::default()
     }
 }

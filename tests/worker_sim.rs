@@ -34,11 +34,11 @@ fn a_move_reaches_its_target_and_raises_target_reached() {
     let outcome = probe.outcome(id, Duration::from_secs(10));
     assert_eq!(outcome, CommandProgress::Done { return_value: 2000 });
     let sample = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
-        s.position == Some(2000.0)
+        s.position() == Some(2000.0)
     });
     assert!(sample.tx.status.is_set(StatusBit::TargetReached));
     assert!(sample.tx.status.is_set(StatusBit::OperationEnabled));
-    assert_eq!(sample.statusword.map(|w| w & 0x6F), Some(0x27));
+    assert_eq!(sample.statusword().map(|w| w & 0x6F), Some(0x27));
 }
 
 #[test]
@@ -58,10 +58,10 @@ fn halt_stops_and_resume_continues() {
     let halted = probe.outcome(halt, Duration::from_secs(5));
     assert!(matches!(halted, CommandProgress::Done { .. }), "{halted:?}");
     let stopped = probe.sample_where("the motor at rest", Duration::from_secs(5), |s| {
-        s.velocity == Some(0.0)
+        s.velocity() == Some(0.0)
     });
     assert!(stopped.tx.status.is_set(StatusBit::QsHaltBit));
-    let at = stopped.position.expect("position");
+    let at = stopped.position().expect("position");
     assert!(at > 0.0 && at < 20_000.0, "{at}");
     // The halt reported where the motor came to rest.
     assert!(
@@ -304,7 +304,7 @@ fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
     );
     let before = probe
         .settle(Duration::from_millis(300))
-        .position
+        .position()
         .expect("position");
     assert!(before > 0.0);
     probe.send(Request::Inject {
@@ -342,7 +342,7 @@ fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
     });
     // The same simulated drive: the move went on while the cable was out.
     let after = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
-        s.position == Some(20_000.0)
+        s.position() == Some(20_000.0)
     });
     assert!(after.tx.status.is_set(StatusBit::TargetReached));
 }

@@ -419,7 +419,7 @@ impl Session {
     /// its power stage is on and this link does not deliver the velocity.
     pub(super) fn is_moving_or_unknown(&self) -> bool {
         match self.latest {
-            Some(s) if s.velocity.is_none() => s.tx.status.is_set(StatusBit::OperationEnabled),
+            Some(s) if s.velocity().is_none() => s.tx.status.is_set(StatusBit::OperationEnabled),
             Some(_) => self.is_moving(),
             None => false,
         }
@@ -428,7 +428,7 @@ impl Session {
     /// Whether the newest sample shows the motor turning.
     pub(super) fn is_moving(&self) -> bool {
         self.latest
-            .and_then(|s| s.velocity)
+            .and_then(|s| s.velocity())
             .is_some_and(|v| v.abs() >= 1.0)
     }
 
@@ -447,7 +447,7 @@ impl Session {
         } else {
             ""
         };
-        match sample.velocity {
+        match sample.velocity() {
             Some(v) if v.abs() < 1.0 => format!("it stands still ({power}{halted})"),
             Some(v) => format!("it still turns at {v:.0} rpm ({power}{halted})"),
             None => format!("{power}{halted}"),

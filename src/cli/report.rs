@@ -177,18 +177,18 @@ pub fn status(link: &LinkSpec, sample: Option<Sample>) -> StatusReport {
         return_error: status
             .is_set(StatusBit::Error)
             .then(|| AbortCode(sample.tx.return_value as u32).to_string()),
-        statusword: sample.statusword,
+        statusword: sample.statusword(),
         state: sample
-            .statusword
+            .statusword()
             .and_then(PowerState::from_statusword)
             .map(PowerState::name),
-        mode: sample.mode,
-        position: sample.position,
-        velocity: sample.velocity,
-        torque: sample.torque,
-        following_error: sample.following_error,
-        digital_inputs: sample.digital_inputs,
-        analog_input: sample.analog_input,
+        mode: sample.mode(),
+        position: sample.position(),
+        velocity: sample.velocity(),
+        torque: sample.torque(),
+        following_error: sample.following_error(),
+        digital_inputs: sample.digital_inputs(),
+        analog_input: sample.analog_input(),
         warnings: vec![],
         notes: vec![],
     }

@@ -8,7 +8,7 @@ use std::time::SystemTime;
 
 use crate::cia::{ErrorCode, HistoryEntry, error_register_text};
 use crate::pdi::{Status, StatusBit};
-use crate::worker::Sample;
+use crate::signal::Sample;
 
 /// Entries kept (the oldest go first).
 pub const TIMELINE_LIMIT: usize = 5000;

@@ -13,6 +13,7 @@ pub mod spec;
 
 use std::fmt;
 
+pub use crate::signal::{Signal, Signals};
 pub use error::{Error, Refusal, modbus_exception_text};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
 
@@ -120,28 +121,6 @@ impl FoundDevice {
             (None, _) => "?".into(),
         }
     }
-}
-
-/// The plot and status signals besides the PDI, each `None` when the link cannot get it
-/// cheaply (a link delivers what its process image or a direct read gives for free).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Signals {
-    /// 6064h, user units (0.1°)
-    pub position: Option<f64>,
-    /// 606Ch, user units (rpm)
-    pub velocity: Option<f64>,
-    /// 6077h, ‰ of rated torque
-    pub torque: Option<f64>,
-    /// 60F4h
-    pub following_error: Option<f64>,
-    /// 6041h
-    pub statusword: Option<u16>,
-    /// 60FDh
-    pub digital_inputs: Option<u32>,
-    /// 3220h:01, analog input 1 (raw, as the drive reports it)
-    pub analog_input: Option<f64>,
-    /// 6061h
-    pub mode: Option<i8>,
 }
 
 /// What one process-image exchange brought back.

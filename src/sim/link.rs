@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use crate::link::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals};
+use crate::link::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
 use crate::sim::{Drive, Injection};
@@ -140,27 +140,18 @@ impl Link for SimLink {
         if let Some(rx) = rx {
             self.drive.write_rx(rx);
         }
-        // In-process, every signal is a direct read.
-        let int = |index: u16| {
-            self.drive
-                .read(Address::new(index, 0))
-                .ok()
-                .and_then(|v| v.as_i128())
-        };
-        let signals = Signals {
-            position: int(0x6064).map(|v| v as f64),
-            velocity: int(0x606C).map(|v| v as f64),
-            torque: int(0x6077).map(|v| v as f64),
-            following_error: int(0x60F4).map(|v| v as f64),
-            statusword: int(0x6041).map(|v| v as u16),
-            digital_inputs: int(0x60FD).map(|v| v as u32),
-            mode: int(0x6061).map(|v| v as i8),
-            analog_input: self
+        // The simulator has every signal at hand: all of them, every cycle.
+        let mut signals = Signals::default();
+        for signal in Signal::ALL {
+            if let Some(v) = self
                 .drive
-                .read(Address::new(0x3220, 1))
+                .read(signal.address())
                 .ok()
-                .and_then(|v| v.as_f64()),
-        };
+                .and_then(|v| v.as_f64())
+            {
+                signals.set(signal, v);
+            }
+        }
         Ok(Exchange {
             tx: self.drive.tx_image(),
             signals,

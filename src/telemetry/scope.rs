@@ -11,7 +11,7 @@ use super::trigger::{Capture, CaptureEvent, CaptureState, Trigger};
 use crate::od::Address;
 use crate::od::backup::DeviceIdentity;
 use crate::pdi::StatusBit;
-use crate::worker::{MAX_WATCHED, Sample};
+use crate::signal::{MAX_WATCHED, Sample, Signal};
 
 /// The default history: 10 minutes at 1 kHz.
 pub const DEFAULT_HISTORY_ROWS: usize = 600_000;
@@ -67,26 +67,29 @@ impl Builtin {
         }
     }
 
-    pub fn name(self) -> &'static str {
+    /// The drive's signal this is, where it is one (the others come from the PDI image).
+    pub fn signal(self) -> Option<Signal> {
         match self {
-            Builtin::Position => "Position 6064h",
-            Builtin::Velocity => "Velocity 606Ch",
-            Builtin::Torque => "Torque 6077h",
-            Builtin::FollowingError => "Following error 60F4h",
-            Builtin::AnalogInput => "Analog input 3220h:01",
-            Builtin::ReturnValue => "PDI ReturnValue",
-            Builtin::PdiStatus => "PDI-Status",
-            Builtin::DigitalInputs => "Digital inputs 60FDh",
+            Builtin::Position => Some(Signal::Position),
+            Builtin::Velocity => Some(Signal::Velocity),
+            Builtin::Torque => Some(Signal::Torque),
+            Builtin::FollowingError => Some(Signal::FollowingError),
+            Builtin::AnalogInput => Some(Signal::AnalogInput),
+            Builtin::DigitalInputs => Some(Signal::DigitalInputs),
+            Builtin::ReturnValue | Builtin::PdiStatus => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match (self, self.signal()) {
+            (_, Some(signal)) => signal.name(),
+            (Builtin::ReturnValue, None) => "PDI ReturnValue",
+            (_, None) => "PDI-Status",
         }
     }
 
     pub fn unit(self) -> &'static str {
-        match self {
-            Builtin::Position | Builtin::FollowingError => "0.1°",
-            Builtin::Velocity => "rpm",
-            Builtin::Torque => "‰",
-            _ => "",
-        }
+        self.signal().map_or("", Signal::unit)
     }
 
     pub fn kind(self) -> Kind {
@@ -106,15 +109,10 @@ impl Builtin {
 
     /// The value this sample carries, if the link measured it this cycle.
     pub fn value(self, sample: &Sample) -> Option<f64> {
-        match self {
-            Builtin::Position => sample.position,
-            Builtin::Velocity => sample.velocity,
-            Builtin::Torque => sample.torque,
-            Builtin::FollowingError => sample.following_error,
-            Builtin::AnalogInput => sample.analog_input,
-            Builtin::ReturnValue => Some(f64::from(sample.tx.return_value)),
-            Builtin::PdiStatus => Some(f64::from(sample.tx.status.0)),
-            Builtin::DigitalInputs => sample.digital_inputs.map(f64::from),
+        match (self, self.signal()) {
+            (_, Some(signal)) => sample.get(signal),
+            (Builtin::ReturnValue, None) => Some(f64::from(sample.tx.return_value)),
+            (_, None) => Some(f64::from(sample.tx.status.0)),
         }
     }
 
@@ -613,7 +611,8 @@ mod tests {
     fn sample(t: f64, position: f64, status: u16) -> Sample {
         Sample {
             t,
-            position: Some(position),
+            signals: crate::signal::Signals::default()
+                .with(crate::signal::Signal::Position, position),
             tx: TxImage {
                 status: Status(status),
                 ..TxImage::default()

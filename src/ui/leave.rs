@@ -52,7 +52,7 @@ impl AppState {
         let Some(sample) = self.latest else {
             return false;
         };
-        match sample.statusword.and_then(PowerState::from_statusword) {
+        match sample.statusword().and_then(PowerState::from_statusword) {
             Some(state) => state.is_energised(),
             None => sample.tx.status.is_set(StatusBit::OperationEnabled),
         }

@@ -10,6 +10,7 @@ use super::widgets::{AMBER, BLUE, GREEN, RED, clipped_label, lamp, value_with_un
 use crate::cia::{ErrorCode, PowerState};
 use crate::injection::Injection;
 use crate::pdi::StatusBit;
+use crate::signal::Signal;
 use crate::worker::{Request, Sample};
 
 fn lamp_color(bit: StatusBit) -> egui::Color32 {
@@ -111,7 +112,7 @@ fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
 
     // The CiA 402 power state first: it says why a command is refused.
     ui.add_space(4.0);
-    match sample.statusword.and_then(PowerState::from_statusword) {
+    match sample.statusword().and_then(PowerState::from_statusword) {
         Some(power) => {
             let color = match power {
                 PowerState::OperationEnabled => GREEN,
@@ -131,7 +132,7 @@ fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
             super::power_state::power_state_ui(ui, Some(power));
         }
         None => {
-            ui.label(match sample.statusword {
+            ui.label(match sample.statusword() {
                 Some(word) => format!("Statusword {word:04X}h matches no CiA 402 state"),
                 None => "CiA 402 state unknown (6041h not read on this link)".to_owned(),
             });
@@ -202,22 +203,22 @@ fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
                 ui.label("");
                 ui.label(abort.text().unwrap_or("not a CiA 301 abort code"));
             } else {
-                value_with_unit(ui, rv.to_string(), return_value_unit(sample.mode));
+                value_with_unit(ui, rv.to_string(), return_value_unit(sample.mode()));
             }
             ui.end_row();
-            if let Some(mode) = sample.mode {
+            if let Some(mode) = sample.mode() {
                 ui.label("Mode 6061h");
                 ui.label(format!("{mode} {}", mode_name(mode)));
                 ui.end_row();
             }
-            if let Some(word) = sample.statusword {
+            if let Some(word) = sample.statusword() {
                 ui.label("Statusword 6041h");
                 ui.monospace(format!("{word:04X}h"));
                 ui.end_row();
             }
         });
 
-    if sample.position.is_some() {
+    if sample.position().is_some() {
         ui.add_space(6.0);
         ui.label(RichText::new("Actual values").strong());
         egui::Grid::new("actual_values")
@@ -231,13 +232,17 @@ fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
                         ui.end_row();
                     }
                 };
-                row(ui, "Position 6064h", sample.position, "0.1°");
-                row(ui, "Velocity 606Ch", sample.velocity, "rpm");
-                row(ui, "Torque 6077h", sample.torque, "‰");
-                row(ui, "Following error 60F4h", sample.following_error, "0.1°");
-                row(ui, "Analog input 3220h:01", sample.analog_input, "");
-                if let Some(inputs) = sample.digital_inputs {
-                    ui.label("Digital inputs 60FDh");
+                for signal in [
+                    Signal::Position,
+                    Signal::Velocity,
+                    Signal::Torque,
+                    Signal::FollowingError,
+                    Signal::AnalogInput,
+                ] {
+                    row(ui, signal.name(), sample.get(signal), signal.unit());
+                }
+                if let Some(inputs) = sample.digital_inputs() {
+                    ui.label(Signal::DigitalInputs.name());
                     ui.monospace(format!("{inputs:08X}h")).on_hover_text(
                         "bit 0 negative limit, bit 1 positive limit, bit 2 home switch",
                     );

@@ -6,7 +6,8 @@ use std::time::Duration;
 use crate::injection::Injection;
 use crate::link::{FoundDevice, LinkInfo, LinkSpec, NetworkInterface, TraceRecord};
 use crate::od::{Address, DataType, Value};
-use crate::pdi::{Action, Failure, RxImage, TxImage, Waiting};
+use crate::pdi::{Action, Failure, RxImage, Waiting};
+pub use crate::signal::{MAX_WATCHED, Sample};
 
 /// Identifies a request in the events it causes.
 pub type RequestId = u64;
@@ -253,56 +254,6 @@ impl fmt::Display for CommandProgress {
             CommandProgress::LinkLost { reason } => {
                 write!(f, "the link was lost before it finished: {reason}")
             }
-        }
-    }
-}
-
-/// Objects a [`Request::Watch`] may name.
-pub const MAX_WATCHED: usize = 8;
-
-/// One sample of the drive, taken at the worker.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Sample {
-    /// Seconds since the link was connected, when the worker received the image.
-    pub t: f64,
-    pub tx: TxImage,
-    /// 6064h, 0.1°
-    pub position: Option<f64>,
-    /// 606Ch, rpm
-    pub velocity: Option<f64>,
-    /// 6077h, ‰ of rated torque
-    pub torque: Option<f64>,
-    /// 60F4h, 0.1°
-    pub following_error: Option<f64>,
-    /// 6041h
-    pub statusword: Option<u16>,
-    /// 60FDh
-    pub digital_inputs: Option<u32>,
-    /// 3220h:01, analog input 1
-    pub analog_input: Option<f64>,
-    /// 6061h
-    pub mode: Option<i8>,
-    /// The watched objects (`Request::Watch`), in the order asked, where read this cycle.
-    pub watched: [Option<f64>; MAX_WATCHED],
-}
-
-impl Sample {
-    /// This sample with the gaps filled from an older one: the newest known value of every
-    /// signal (a link may bring some signals only every few cycles). Time and PDI image are
-    /// this sample's.
-    pub fn merged_over(&self, older: &Sample) -> Sample {
-        Sample {
-            t: self.t,
-            tx: self.tx,
-            position: self.position.or(older.position),
-            velocity: self.velocity.or(older.velocity),
-            torque: self.torque.or(older.torque),
-            following_error: self.following_error.or(older.following_error),
-            statusword: self.statusword.or(older.statusword),
-            digital_inputs: self.digital_inputs.or(older.digital_inputs),
-            analog_input: self.analog_input.or(older.analog_input),
-            mode: self.mode.or(older.mode),
-            watched: std::array::from_fn(|i| self.watched[i].or(older.watched[i])),
         }
     }
 }

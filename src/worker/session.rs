@@ -14,7 +14,7 @@ use super::protocol::{
 use super::sink::EventSink;
 use super::{Config, Envelope};
 use crate::connect::{self, AnyLink};
-use crate::link::{self, Link, LinkSpec, Refusal};
+use crate::link::{self, Link, LinkSpec, Refusal, Signal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, PdiMaster, Progress};
 
@@ -81,7 +81,7 @@ struct Session {
     /// The next plot signal to read when the exchange did not bring it.
     next_extra: usize,
     /// Signals the device refused to read: never asked again this session.
-    unreadable: Vec<u16>,
+    unreadable: Vec<Signal>,
     /// The watched objects' state this session.
     watch: WatchState,
     /// A jog runs: halt it unless a keep-alive comes before this.
@@ -107,54 +107,23 @@ struct WatchState {
 const WATCH_SHARE_OF_CYCLE: f64 = 0.25;
 
 /// A watched object the exchange already brought: the cheapest path.
-fn from_exchange(signals: &crate::link::Signals, address: Address) -> Option<f64> {
-    if address.sub != 0 {
-        return (address.index == 0x3220 && address.sub == 1)
-            .then_some(signals.analog_input)
-            .flatten();
-    }
-    match address.index {
-        0x6064 => signals.position,
-        0x606C => signals.velocity,
-        0x6077 => signals.torque,
-        0x60F4 => signals.following_error,
-        0x6041 => signals.statusword.map(f64::from),
-        0x60FD => signals.digital_inputs.map(f64::from),
-        0x6061 => signals.mode.map(f64::from),
-        _ => None,
-    }
+fn from_exchange(signals: &Signals, address: Address) -> Option<f64> {
+    Signal::of_address(address).and_then(|signal| signals.get(signal))
 }
 
 /// Plot signals a link may not bring with its exchange; one of those it lacks is read per
 /// cycle, round robin, where the link has object access of its own. (A sample holds only
-/// what was measured in its cycle: no value is repeated with a new time.)
-const EXTRA_SIGNALS: [(u16, DataType); 7] = [
-    (0x606C, DataType::Integer32),
-    (0x6077, DataType::Integer16),
-    (0x60F4, DataType::Integer32),
-    (0x6064, DataType::Integer32),
-    (0x6041, DataType::Unsigned16),
-    (0x6061, DataType::Integer8),
-    (0x60FD, DataType::Unsigned32),
+/// what was measured in its cycle: no value is repeated with a new time.) The analog input
+/// is left to the links whose image carries it.
+const EXTRA_SIGNALS: [Signal; 7] = [
+    Signal::Velocity,
+    Signal::Torque,
+    Signal::FollowingError,
+    Signal::Position,
+    Signal::Statusword,
+    Signal::Mode,
+    Signal::DigitalInputs,
 ];
-
-/// Whether a signal is missing from an exchange.
-fn lacks(signals: &crate::link::Signals, index: u16) -> bool {
-    from_exchange(signals, Address::new(index, 0)).is_none()
-}
-
-fn put(signals: &mut crate::link::Signals, index: u16, value: f64) {
-    match index {
-        0x606C => signals.velocity = Some(value),
-        0x6077 => signals.torque = Some(value),
-        0x60F4 => signals.following_error = Some(value),
-        0x6064 => signals.position = Some(value),
-        0x6041 => signals.statusword = Some(value as u16),
-        0x6061 => signals.mode = Some(value as i8),
-        0x60FD => signals.digital_inputs = Some(value as u32),
-        _ => {}
-    }
-}
 
 /// The worker's state between requests.
 struct Worker {
@@ -730,14 +699,7 @@ impl Session {
             watched,
             t: (now - self.started).as_secs_f64(),
             tx,
-            position: signals.position,
-            velocity: signals.velocity,
-            torque: signals.torque,
-            following_error: signals.following_error,
-            statusword: signals.statusword,
-            digital_inputs: signals.digital_inputs,
-            analog_input: signals.analog_input,
-            mode: signals.mode,
+            signals,
         });
         if now - self.last_batch >= SAMPLE_BATCH {
             self.last_batch = now;
@@ -781,23 +743,24 @@ impl Session {
     }
 
     /// Read one plot signal the exchange lacked (round robin), where the link can.
-    async fn fill_one_missing(
-        &mut self,
-        signals: &mut crate::link::Signals,
-    ) -> Result<(), link::Error> {
+    async fn fill_one_missing(&mut self, signals: &mut Signals) -> Result<(), link::Error> {
         if !self.native_objects {
             return Ok(());
         }
         for step in 0..EXTRA_SIGNALS.len() {
-            let (index, dtype) = EXTRA_SIGNALS[(self.next_extra + step) % EXTRA_SIGNALS.len()];
-            if !lacks(signals, index) || self.unreadable.contains(&index) {
+            let signal = EXTRA_SIGNALS[(self.next_extra + step) % EXTRA_SIGNALS.len()];
+            if signals.has(signal) || self.unreadable.contains(&signal) {
                 continue;
             }
             self.next_extra = (self.next_extra + step + 1) % EXTRA_SIGNALS.len();
-            match self.link.read_object(Address::new(index, 0), dtype).await? {
+            match self
+                .link
+                .read_object(signal.address(), signal.dtype())
+                .await?
+            {
                 Ok(value) => {
                     if let Some(v) = value.as_f64() {
-                        put(signals, index, v);
+                        signals.set(signal, v);
                     }
                 }
                 Err(Refusal::NotSupported) => self.native_objects = false,
@@ -805,7 +768,7 @@ impl Session {
                 Err(Refusal::Modbus {
                     code: 0x05 | 0x06, ..
                 }) => {}
-                Err(_) => self.unreadable.push(index),
+                Err(_) => self.unreadable.push(signal),
             }
             return Ok(());
         }
@@ -817,7 +780,7 @@ impl Session {
     /// cycle (at least one read per cycle).
     async fn sample_watched(
         &mut self,
-        signals: &crate::link::Signals,
+        signals: &Signals,
         budget: Duration,
         sink: &mut EventSink,
     ) -> Result<[Option<f64>; MAX_WATCHED], link::Error> {

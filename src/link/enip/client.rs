@@ -18,7 +18,9 @@ use tokio::net::UdpSocket;
 use super::implicit::{IoConfig, IoHandle};
 use super::session::Session;
 use crate::link::spec::{EnipIo, EnipOptions};
-use crate::link::{Error, Exchange, FoundDevice, Link, LinkInfo, LinkSpec, Refusal, Signals};
+use crate::link::{
+    Error, Exchange, FoundDevice, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals,
+};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
 use crate::proto::enip::assembly::{self, AssemblySet, CmdOffset, CommonIn, CommonOut};
@@ -671,16 +673,13 @@ impl Link for EnipLink {
                     CommonIn::decode(&input.data).map_err(|e| Error::Protocol(e.to_string()))?;
                 Ok(Exchange {
                     tx: common.tx,
-                    signals: Signals {
-                        position: Some(f64::from(common.position)),
-                        velocity: Some(f64::from(common.velocity)),
-                        torque: Some(f64::from(common.torque)),
-                        following_error: Some(f64::from(common.following_error)),
-                        digital_inputs: Some(common.digital_inputs),
-                        analog_input: Some(f64::from(common.analog_input)),
-                        statusword: None,
-                        mode: None,
-                    },
+                    signals: Signals::default()
+                        .with(Signal::Position, f64::from(common.position))
+                        .with(Signal::Velocity, f64::from(common.velocity))
+                        .with(Signal::Torque, f64::from(common.torque))
+                        .with(Signal::FollowingError, f64::from(common.following_error))
+                        .with(Signal::DigitalInputs, f64::from(common.digital_inputs))
+                        .with(Signal::AnalogInput, f64::from(common.analog_input)),
                 })
             }
         }

@@ -12,7 +12,7 @@
 use std::time::Duration;
 
 use super::transport::{Endpoint, Transport};
-use crate::link::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals};
+use crate::link::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
 use crate::proto::modbus::pdu::{CanopenRequest, Exception, Request, Response, exception};
@@ -118,12 +118,10 @@ impl ModbusLink {
         let entries = entries.unwrap_or_else(|| FACTORY_TX_MAP.to_vec());
         let layout = ImageLayout::from_entries(&entries);
         // Only worth reading if it carries something we show.
-        let useful = layout.entries.iter().any(|e| {
-            matches!(
-                e.address.index,
-                0x6041 | 0x6061 | 0x6064 | 0x606C | 0x6077 | 0x60F4 | 0x60FD
-            )
-        });
+        let useful = layout
+            .entries
+            .iter()
+            .any(|e| Signal::of_address(e.address).is_some());
         self.tx_image =
             (useful && layout.register_len() > 0 && layout.register_len() <= 100).then_some(layout);
         Ok(())
@@ -271,22 +269,8 @@ impl ModbusLink {
 
 /// Put one mapped object's raw value into the signal it feeds.
 fn apply_signal(signals: &mut Signals, entry: Mapped, raw: u32) {
-    let signed = |bits: u8| -> f64 {
-        match bits {
-            8 => f64::from(raw as u8 as i8),
-            16 => f64::from(raw as u16 as i16),
-            _ => f64::from(raw as i32),
-        }
-    };
-    match (entry.address.index, entry.address.sub) {
-        (0x6041, 0) => signals.statusword = Some(raw as u16),
-        (0x6061, 0) => signals.mode = Some(raw as u8 as i8),
-        (0x6064, 0) => signals.position = Some(signed(entry.bits)),
-        (0x606C, 0) => signals.velocity = Some(signed(entry.bits)),
-        (0x6077, 0) => signals.torque = Some(signed(entry.bits)),
-        (0x60F4, 0) => signals.following_error = Some(signed(entry.bits)),
-        (0x60FD, 0) => signals.digital_inputs = Some(raw),
-        _ => {}
+    if let Some(signal) = Signal::of_address(entry.address) {
+        signals.set(signal, signal.from_raw(raw, entry.bits));
     }
 }
 
