@@ -10,6 +10,7 @@
 //! ```
 
 use std::fmt;
+use std::ops::RangeInclusive;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
@@ -103,32 +104,32 @@ impl Default for EnipOptions {
 }
 
 impl EnipOptions {
-    fn query(&self) -> String {
-        let mut q = format!("io={}&rpi={}", self.io.name(), self.rpi_ms);
-        if self.cmd_at != default_cmd_at() {
-            q.push_str(&format!("&cmd_at={}", self.cmd_at));
-        }
-        if self.config != default_config() {
-            q.push_str(&format!("&config={}", self.config));
-        }
-        if let Some(udp) = self.udp {
-            q.push_str(&format!("&udp={udp}"));
-        }
-        q
+    /// Its query parameters, in the order strings write them; `io` and `rpi` always.
+    fn params(&self) -> Vec<Param> {
+        vec![
+            Param::always("io", self.io.name()),
+            Param::always("rpi", self.rpi_ms),
+            Param::when_set("cmd_at", self.cmd_at),
+            Param::when_set("config", self.config),
+            Param::when_set("udp", self.udp.map_or("auto".to_owned(), |p| p.to_string())),
+        ]
     }
 
-    fn parse(q: &mut Query) -> Result<Self, String> {
+    /// These options with what `q` gives replacing them.
+    fn with_params(self, q: &mut Query) -> Result<Self, String> {
         let io = match q.take("io").as_deref() {
-            None | Some("pdi") => EnipIo::Pdi,
+            None => self.io,
+            Some("pdi") => EnipIo::Pdi,
             Some("common") => EnipIo::Common,
             Some("explicit") | Some("none") => EnipIo::Explicit,
             Some(other) => return Err(format!("io='{other}': use pdi, common or explicit")),
         };
-        let rpi_ms = q.number("rpi", 10, 1, 10_000)? as u32;
-        let cmd_at = q.number("cmd_at", 7, 7, 8)? as u8;
-        let config = q.number("config", 0x64, 0, 0xFFFF)? as u16;
+        let rpi_ms = q.number("rpi", self.rpi_ms, RPI_MS)?;
+        let cmd_at = q.number("cmd_at", self.cmd_at, 7..=8)?;
+        let config = q.number("config", self.config, 0..=0xFFFF)?;
         let udp = match q.take("udp").as_deref() {
-            None | Some("auto") => None,
+            None => self.udp,
+            Some("auto") => None,
             Some(text) => Some(
                 crate::number::parse_integer(text, false)
                     .and_then(|v| u16::try_from(v).ok())
@@ -180,25 +181,22 @@ impl Default for CanopenOptions {
 }
 
 impl CanopenOptions {
-    fn query(&self) -> String {
-        let mut q = format!("node={}", self.node);
-        if self.pdo != 1 {
-            q.push_str(&format!("&pdo={}", self.pdo));
-        }
-        if self.keep_pdo {
-            q.push_str("&keep_pdo=1");
-        }
-        if self.self_start {
-            q.push_str("&self_start=1");
-        }
-        q
+    /// Its query parameters, in the order strings write them; `node` always.
+    fn params(&self) -> Vec<Param> {
+        vec![
+            Param::always("node", self.node),
+            Param::when_set("pdo", self.pdo),
+            Param::when_set("keep_pdo", u8::from(self.keep_pdo)),
+            Param::when_set("self_start", u8::from(self.self_start)),
+        ]
     }
 
-    fn parse(q: &mut Query) -> Result<Self, String> {
-        let node = q.number("node", 1, 1, 127)? as u8;
-        let pdo = q.number("pdo", 1, 1, 4)? as u8;
-        let keep_pdo = q.number("keep_pdo", 0, 0, 1)? == 1;
-        let self_start = q.number("self_start", 0, 0, 1)? == 1;
+    /// These options with what `q` gives replacing them.
+    fn with_params(self, q: &mut Query) -> Result<Self, String> {
+        let node = q.number("node", self.node, NODES)?;
+        let pdo = q.number("pdo", self.pdo, PDOS)?;
+        let keep_pdo = q.number("keep_pdo", u8::from(self.keep_pdo), 0..=1)? == 1;
+        let self_start = q.number("self_start", u8::from(self.self_start), 0..=1)? == 1;
         Ok(Self {
             node,
             pdo,
@@ -268,6 +266,96 @@ pub const CAN_BITRATES: [u32; 9] = [
     10_000, 20_000, 50_000, 100_000, 125_000, 250_000, 500_000, 800_000, 1_000_000,
 ];
 
+/// The TCP ports a host can be reached at.
+pub const PORTS: RangeInclusive<u16> = 1..=65535;
+/// Modbus TCP unit ids.
+pub const UNITS: RangeInclusive<u8> = 0..=255;
+/// Modbus RTU baud rates.
+pub const BAUDS: RangeInclusive<u32> = 1_200..=4_000_000;
+/// Modbus RTU stop bits.
+pub const STOP_BITS: RangeInclusive<u8> = 1..=2;
+/// Modbus RTU slave addresses (0 is the broadcast, which nothing answers).
+pub const SLAVES: RangeInclusive<u8> = 1..=247;
+/// CANopen node ids.
+pub const NODES: RangeInclusive<u8> = 1..=127;
+/// The RPDO/TPDO pair that carries the PDI.
+pub const PDOS: RangeInclusive<u8> = 1..=4;
+/// EtherNet/IP requested packet intervals, ms.
+pub const RPI_MS: RangeInclusive<u32> = 1..=10_000;
+
+/// Why a number given for a connection was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BadNumber {
+    /// Not an integer (decimal, or hex as `0x1F` or `1Fh`).
+    NotANumber,
+    /// An integer outside the range.
+    OutOfRange(i64),
+}
+
+/// A number as connection strings take them (decimal, or hex as `0x1F` or `1Fh`; `_`
+/// between digits), within `range`.
+pub fn number<T>(text: &str, range: &RangeInclusive<T>) -> Result<T, BadNumber>
+where
+    T: Copy + PartialOrd + TryFrom<i64>,
+{
+    let value = crate::number::parse_integer(text, false)
+        .and_then(|v| i64::try_from(v).ok())
+        .ok_or(BadNumber::NotANumber)?;
+    T::try_from(value)
+        .ok()
+        .filter(|v| range.contains(v))
+        .ok_or(BadNumber::OutOfRange(value))
+}
+
+/// A host given alone, as connection strings carry it: a name, an IPv4 address or an
+/// IPv6 address (in brackets or not).
+pub fn parse_host(text: &str) -> Result<String, String> {
+    let text = text.trim();
+    let host = match text.strip_prefix('[') {
+        Some(rest) => rest
+            .strip_suffix(']')
+            .ok_or("an IPv6 host needs a closing ']'")?,
+        None => text,
+    };
+    check_host(host)
+}
+
+fn check_host(host: &str) -> Result<String, String> {
+    if host.is_empty() {
+        return Err("the host is missing".into());
+    }
+    if host.contains(['/', ' ', '?', '#']) {
+        return Err(format!("'{host}' is not a host name"));
+    }
+    Ok(host.to_owned())
+}
+
+/// One query parameter of a spec, as its string writes it.
+struct Param {
+    key: &'static str,
+    value: String,
+    /// Written even at its default (the usual strings stay short without the others).
+    always: bool,
+}
+
+impl Param {
+    fn always(key: &'static str, value: impl fmt::Display) -> Self {
+        Self {
+            key,
+            value: value.to_string(),
+            always: true,
+        }
+    }
+
+    fn when_set(key: &'static str, value: impl fmt::Display) -> Self {
+        Self {
+            key,
+            value: value.to_string(),
+            always: false,
+        }
+    }
+}
+
 impl LinkSpec {
     /// The scheme word, e.g. `modbus-tcp`.
     pub fn scheme(&self) -> &'static str {
@@ -295,7 +383,10 @@ impl LinkSpec {
         }
     }
 
-    /// Defaults that match the hardware (FACTS 1.6, 1.7, 2.1, 3.1).
+    /// Defaults that match the drives as they ship (Modbus TCP port 502 unit 0; RTU
+    /// 19200 baud 8E1 slave 5; CANopen node 1 at 1 Mbit/s; EtherNet/IP port 44818 with
+    /// the PDI assemblies); a string leaves out what it keeps at these. The serial ports
+    /// are the names a USB-RS485 adapter and a CANable-style slcan adapter usually get.
     pub fn default_for(scheme: &str) -> Option<LinkSpec> {
         Some(match scheme {
             "sim" => LinkSpec::Sim,
@@ -306,7 +397,12 @@ impl LinkSpec {
                 words: WordOrder::High,
             },
             "modbus-rtu" => LinkSpec::ModbusRtu {
-                path: default_serial_port().into(),
+                path: if cfg!(windows) {
+                    "COM3"
+                } else {
+                    "/dev/ttyUSB0"
+                }
+                .into(),
                 baud: 19_200,
                 parity: Parity::Even,
                 stop_bits: 1,
@@ -318,7 +414,12 @@ impl LinkSpec {
                 can: CanopenOptions::default(),
             },
             "canopen+slcan" => LinkSpec::CanopenSlcan {
-                path: default_serial_port().into(),
+                path: if cfg!(windows) {
+                    "COM4"
+                } else {
+                    "/dev/ttyACM0"
+                }
+                .into(),
                 bitrate: 1_000_000,
                 can: CanopenOptions::default(),
             },
@@ -333,31 +434,184 @@ impl LinkSpec {
             _ => return None,
         })
     }
-}
 
-fn default_serial_port() -> &'static str {
-    if cfg!(windows) {
-        "COM3"
-    } else {
-        "/dev/ttyUSB0"
+    /// This spec with the query parameters in `query` (`key=value&…`, as after the `?` of
+    /// a connection string; a leading `&` is fine) replacing its values, read by the same
+    /// rules as a whole string. A key this bus does not take is an error.
+    pub fn with_query(&self, query: &str) -> Result<LinkSpec, String> {
+        let mut q = Query::parse(query)?;
+        self.clone().with_params(&mut q)
     }
-}
 
-impl fmt::Display for LinkSpec {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    /// The query parameters in which this spec differs from `base` (`keep_pdo=1&udp=0`),
+    /// so that `base.with_query(&that)` gives this spec back when both are the same bus
+    /// with the same target; empty when they agree.
+    pub fn query_beyond(&self, base: &LinkSpec) -> String {
+        let theirs = base.params();
+        self.params()
+            .into_iter()
+            .filter(|p| !theirs.iter().any(|t| t.key == p.key && t.value == p.value))
+            .map(|p| format!("{}={}", p.key, p.value))
+            .collect::<Vec<_>>()
+            .join("&")
+    }
+
+    /// Whether a spec built in code (the connection bar builds one) is one a connection
+    /// string can carry: its string reads back as itself, so every value is in range and
+    /// the target can be written.
+    pub fn check(&self) -> Result<(), String> {
+        let text = self.to_string();
+        match parse(&text) {
+            Ok(back) if back == *self => Ok(()),
+            Ok(back) => Err(format!(
+                "{} cannot be written as a connection string: '{text}' reads back as '{back}'",
+                self.bus_name()
+            )),
+            Err(reason) => Err(reason),
+        }
+    }
+
+    /// Every query parameter, in the order strings write them.
+    fn params(&self) -> Vec<Param> {
         match self {
-            LinkSpec::Sim => f.write_str("sim"),
+            LinkSpec::Sim => vec![],
+            LinkSpec::ModbusTcp { unit, words, .. } => vec![
+                Param::always("unit", unit),
+                Param::when_set("words", words.name()),
+            ],
+            LinkSpec::ModbusRtu {
+                baud,
+                parity,
+                stop_bits,
+                slave,
+                words,
+                ..
+            } => vec![
+                Param::always("baud", baud),
+                Param::always("parity", parity.name()),
+                Param::always("stop", stop_bits),
+                Param::always("slave", slave),
+                Param::when_set("words", words.name()),
+            ],
+            LinkSpec::CanopenSocketcan { can, .. } | LinkSpec::CanopenSim { can } => can.params(),
+            LinkSpec::CanopenSlcan { bitrate, can, .. } => {
+                let mut params = vec![Param::always("bitrate", bitrate)];
+                params.extend(can.params());
+                params
+            }
+            LinkSpec::Enip { enip, .. } => enip.params(),
+        }
+    }
+
+    /// What comes between `://` and `?`.
+    fn target(&self) -> String {
+        match self {
+            LinkSpec::Sim | LinkSpec::CanopenSim { .. } => String::new(),
+            LinkSpec::ModbusTcp { host, port, .. } | LinkSpec::Enip { host, port, .. } => {
+                format!("{}:{port}", host_text(host))
+            }
+            LinkSpec::ModbusRtu { path, .. } | LinkSpec::CanopenSlcan { path, .. } => path.clone(),
+            LinkSpec::CanopenSocketcan { iface, .. } => iface.clone(),
+        }
+    }
+
+    /// This spec with the target of a string in place of its own.
+    fn with_target(self, target: &str) -> Result<LinkSpec, String> {
+        Ok(match self {
+            LinkSpec::Sim => {
+                if !target.is_empty() {
+                    return Err("the simulator takes no target".into());
+                }
+                LinkSpec::Sim
+            }
+            LinkSpec::ModbusTcp {
+                port, unit, words, ..
+            } => {
+                let (host, port) = host_port(target, port)?;
+                LinkSpec::ModbusTcp {
+                    host,
+                    port,
+                    unit,
+                    words,
+                }
+            }
+            LinkSpec::ModbusRtu {
+                baud,
+                parity,
+                stop_bits,
+                slave,
+                words,
+                ..
+            } => {
+                if target.is_empty() {
+                    return Err(
+                        "the serial port path is missing (e.g. modbus-rtu:///dev/ttyUSB0)".into(),
+                    );
+                }
+                LinkSpec::ModbusRtu {
+                    path: target.to_owned(),
+                    baud,
+                    parity,
+                    stop_bits,
+                    slave,
+                    words,
+                }
+            }
+            LinkSpec::CanopenSocketcan { can, .. } => {
+                if target.is_empty() || target.contains('/') {
+                    return Err(
+                        "the CAN interface name is missing (e.g. canopen+socketcan://can0)".into(),
+                    );
+                }
+                LinkSpec::CanopenSocketcan {
+                    iface: target.to_owned(),
+                    can,
+                }
+            }
+            LinkSpec::CanopenSlcan { bitrate, can, .. } => {
+                if target.is_empty() {
+                    return Err(
+                        "the serial port path is missing (e.g. canopen+slcan:///dev/ttyACM0)"
+                            .into(),
+                    );
+                }
+                LinkSpec::CanopenSlcan {
+                    path: target.to_owned(),
+                    bitrate,
+                    can,
+                }
+            }
+            LinkSpec::CanopenSim { can } => {
+                if !target.is_empty() {
+                    return Err(
+                        "the simulated CAN bus takes no target (canopen+sim://?node=1)".into(),
+                    );
+                }
+                LinkSpec::CanopenSim { can }
+            }
+            LinkSpec::Enip { port, enip, .. } => {
+                let (host, port) = host_port(target, port)?;
+                LinkSpec::Enip { host, port, enip }
+            }
+        })
+    }
+
+    /// This spec with what `q` gives replacing its values; anything left in `q` is an
+    /// error.
+    fn with_params(self, q: &mut Query) -> Result<LinkSpec, String> {
+        let spec = match self {
+            LinkSpec::Sim => LinkSpec::Sim,
             LinkSpec::ModbusTcp {
                 host,
                 port,
                 unit,
                 words,
-            } => write!(
-                f,
-                "modbus-tcp://{}:{port}?unit={unit}{}",
-                host_text(host),
-                words_suffix(*words)
-            ),
+            } => LinkSpec::ModbusTcp {
+                host,
+                port,
+                unit: q.number("unit", unit, UNITS)?,
+                words: q.words(words)?,
+            },
             LinkSpec::ModbusRtu {
                 path,
                 baud,
@@ -365,45 +619,74 @@ impl fmt::Display for LinkSpec {
                 stop_bits,
                 slave,
                 words,
-            } => write!(
-                f,
-                "modbus-rtu://{path}?baud={baud}&parity={}&stop={stop_bits}&slave={slave}{}",
-                parity.name(),
-                words_suffix(*words)
-            ),
-            LinkSpec::CanopenSocketcan { iface, can } => {
-                write!(f, "canopen+socketcan://{iface}?{}", can.query())
-            }
+            } => LinkSpec::ModbusRtu {
+                path,
+                baud: q.number("baud", baud, BAUDS)?,
+                parity: match q.take("parity").as_deref() {
+                    None => parity,
+                    Some("even") | Some("e") => Parity::Even,
+                    Some("none") | Some("n") => Parity::None,
+                    Some("odd") | Some("o") => Parity::Odd,
+                    Some(other) => return Err(format!("parity='{other}': use none, even or odd")),
+                },
+                stop_bits: q.number("stop", stop_bits, STOP_BITS)?,
+                slave: q.number("slave", slave, SLAVES)?,
+                words: q.words(words)?,
+            },
+            LinkSpec::CanopenSocketcan { iface, can } => LinkSpec::CanopenSocketcan {
+                iface,
+                can: can.with_params(q)?,
+            },
             LinkSpec::CanopenSlcan { path, bitrate, can } => {
-                write!(
-                    f,
-                    "canopen+slcan://{path}?bitrate={bitrate}&{}",
-                    can.query()
-                )
+                let bitrate = q.number("bitrate", bitrate, 10_000..=1_000_000)?;
+                if !CAN_BITRATES.contains(&bitrate) {
+                    return Err(format!(
+                        "bitrate={bitrate} is not a CAN bit rate slcan adapters support ({})",
+                        CAN_BITRATES.map(|b| b.to_string()).join(", ")
+                    ));
+                }
+                LinkSpec::CanopenSlcan {
+                    path,
+                    bitrate,
+                    can: can.with_params(q)?,
+                }
             }
-            LinkSpec::CanopenSim { can } => write!(f, "canopen+sim://?{}", can.query()),
-            LinkSpec::Enip { host, port, enip } => {
-                write!(f, "enip://{}:{port}?{}", host_text(host), enip.query())
-            }
+            LinkSpec::CanopenSim { can } => LinkSpec::CanopenSim {
+                can: can.with_params(q)?,
+            },
+            LinkSpec::Enip { host, port, enip } => LinkSpec::Enip {
+                host,
+                port,
+                enip: enip.with_params(q)?,
+            },
+        };
+        let keys: Vec<&str> = spec.params().iter().map(|p| p.key).collect();
+        q.finish(&keys)?;
+        Ok(spec)
+    }
+}
+
+impl fmt::Display for LinkSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if *self == LinkSpec::Sim {
+            return f.write_str("sim");
         }
-    }
-}
-
-/// `words=` only when it differs from the default, so the usual strings stay short.
-fn words_suffix(words: WordOrder) -> String {
-    match words {
-        WordOrder::High => String::new(),
-        WordOrder::Low => "&words=low".into(),
-    }
-}
-
-fn words(q: &mut Query) -> Result<WordOrder, String> {
-    match q.take("words").as_deref() {
-        None | Some("high") | Some("hi") => Ok(WordOrder::High),
-        Some("low") | Some("lo") => Ok(WordOrder::Low),
-        Some(other) => Err(format!(
-            "words='{other}': use high (high word first, Nanotec) or low"
-        )),
+        let defaults = LinkSpec::default_for(self.scheme())
+            .map(|d| d.params())
+            .unwrap_or_default();
+        let query = self
+            .params()
+            .into_iter()
+            .filter(|p| {
+                p.always
+                    || !defaults
+                        .iter()
+                        .any(|d| d.key == p.key && d.value == p.value)
+            })
+            .map(|p| format!("{}={}", p.key, p.value))
+            .collect::<Vec<_>>()
+            .join("&");
+        write!(f, "{}://{}?{query}", self.scheme(), self.target())
     }
 }
 
@@ -441,24 +724,36 @@ impl Query {
         Some(self.pairs.remove(at).1)
     }
 
-    /// A numeric parameter within `min..=max`; the caller narrows it (the range check
-    /// makes that exact).
-    fn number(&mut self, key: &str, default: i64, min: i64, max: i64) -> Result<i64, String> {
+    /// A numeric parameter within `range`; `current` when it is not given.
+    fn number<T>(&mut self, key: &str, current: T, range: RangeInclusive<T>) -> Result<T, String>
+    where
+        T: Copy + PartialOrd + TryFrom<i64> + fmt::Display,
+    {
         match self.take(key) {
-            None => Ok(default),
-            Some(text) => {
-                let value = crate::number::parse_integer(&text, false)
-                    .and_then(|v| i64::try_from(v).ok())
-                    .ok_or_else(|| format!("{key}='{text}' is not a number"))?;
-                if value < min || value > max {
-                    return Err(format!("{key}={value} is out of range {min}..={max}"));
-                }
-                Ok(value)
-            }
+            None => Ok(current),
+            Some(text) => number(&text, &range).map_err(|bad| match bad {
+                BadNumber::NotANumber => format!("{key}='{text}' is not a number"),
+                BadNumber::OutOfRange(value) => format!(
+                    "{key}={value} is out of range {}..={}",
+                    range.start(),
+                    range.end()
+                ),
+            }),
         }
     }
 
-    fn finish(self, allowed: &[&str]) -> Result<(), String> {
+    fn words(&mut self, current: WordOrder) -> Result<WordOrder, String> {
+        match self.take("words").as_deref() {
+            None => Ok(current),
+            Some("high") | Some("hi") => Ok(WordOrder::High),
+            Some("low") | Some("lo") => Ok(WordOrder::Low),
+            Some(other) => Err(format!(
+                "words='{other}': use high (high word first, Nanotec) or low"
+            )),
+        }
+    }
+
+    fn finish(&self, allowed: &[&str]) -> Result<(), String> {
         match self.pairs.first() {
             None => Ok(()),
             Some((key, _)) => Err(format!(
@@ -483,29 +778,24 @@ fn host_port(text: &str, default_port: u16) -> Result<(String, u16), String> {
             .split_once(']')
             .ok_or("an IPv6 host needs a closing ']'")?;
         match after.strip_prefix(':') {
-            Some(port) => (host.to_owned(), Some(port)),
-            None if after.is_empty() => (host.to_owned(), None),
+            Some(port) => (host, Some(port)),
+            None if after.is_empty() => (host, None),
             None => return Err(format!("unexpected '{after}' after the host")),
         }
     } else {
         match text.rsplit_once(':') {
-            Some((host, port)) if !host.contains(':') => (host.to_owned(), Some(port)),
+            Some((host, port)) if !host.contains(':') => (host, Some(port)),
             Some(_) => return Err("write an IPv6 host in brackets, e.g. [::1]:502".into()),
-            None => (text.to_owned(), None),
+            None => (text, None),
         }
     };
-    if host.is_empty() {
-        return Err("the host is missing".into());
-    }
-    if host.contains(['/', ' ', '?', '#']) {
-        return Err(format!("'{host}' is not a host name"));
-    }
+    let host = check_host(host)?;
     let port = match port {
         None => default_port,
         Some(p) => p
             .parse::<u16>()
             .ok()
-            .filter(|p| *p > 0)
+            .filter(|p| PORTS.contains(p))
             .ok_or_else(|| format!("port '{p}' is not a number from 1 to 65535"))?,
     };
     Ok((host, port))
@@ -535,103 +825,11 @@ fn parse(input: &str) -> Result<LinkSpec, String> {
     let scheme = scheme.to_ascii_lowercase();
     let (target, query) = rest.split_once('?').unwrap_or((rest, ""));
     let mut q = Query::parse(query)?;
-    let spec = match scheme.as_str() {
-        "sim" => {
-            if !target.is_empty() {
-                return Err("the simulator takes no target".into());
-            }
-            q.finish(&[])?;
-            LinkSpec::Sim
-        }
-        "modbus-tcp" => {
-            let (host, port) = host_port(target, 502)?;
-            let unit = q.number("unit", 0, 0, 255)? as u8;
-            let words = words(&mut q)?;
-            q.finish(&["unit", "words"])?;
-            LinkSpec::ModbusTcp {
-                host,
-                port,
-                unit,
-                words,
-            }
-        }
-        "modbus-rtu" => {
-            if target.is_empty() {
-                return Err(
-                    "the serial port path is missing (e.g. modbus-rtu:///dev/ttyUSB0)".into(),
-                );
-            }
-            let baud = q.number("baud", 19_200, 1_200, 4_000_000)? as u32;
-            let parity = match q.take("parity").as_deref() {
-                None | Some("even") | Some("e") => Parity::Even,
-                Some("none") | Some("n") => Parity::None,
-                Some("odd") | Some("o") => Parity::Odd,
-                Some(other) => return Err(format!("parity='{other}': use none, even or odd")),
-            };
-            let stop_bits = q.number("stop", 1, 1, 2)? as u8;
-            let slave = q.number("slave", 5, 1, 247)? as u8;
-            let words = words(&mut q)?;
-            q.finish(&["baud", "parity", "stop", "slave", "words"])?;
-            LinkSpec::ModbusRtu {
-                path: target.to_owned(),
-                baud,
-                parity,
-                stop_bits,
-                slave,
-                words,
-            }
-        }
-        "canopen+socketcan" => {
-            if target.is_empty() || target.contains('/') {
-                return Err(
-                    "the CAN interface name is missing (e.g. canopen+socketcan://can0)".into(),
-                );
-            }
-            let can = CanopenOptions::parse(&mut q)?;
-            q.finish(&["node", "pdo", "keep_pdo", "self_start"])?;
-            LinkSpec::CanopenSocketcan {
-                iface: target.to_owned(),
-                can,
-            }
-        }
-        "canopen+slcan" => {
-            if target.is_empty() {
-                return Err(
-                    "the serial port path is missing (e.g. canopen+slcan:///dev/ttyACM0)".into(),
-                );
-            }
-            let bitrate = q.number("bitrate", 1_000_000, 10_000, 1_000_000)? as u32;
-            if !CAN_BITRATES.contains(&bitrate) {
-                return Err(format!(
-                    "bitrate={bitrate} is not a CAN bit rate slcan adapters support ({})",
-                    CAN_BITRATES.map(|b| b.to_string()).join(", ")
-                ));
-            }
-            let can = CanopenOptions::parse(&mut q)?;
-            q.finish(&["bitrate", "node", "pdo", "keep_pdo", "self_start"])?;
-            LinkSpec::CanopenSlcan {
-                path: target.to_owned(),
-                bitrate,
-                can,
-            }
-        }
-        "canopen+sim" => {
-            if !target.is_empty() {
-                return Err("the simulated CAN bus takes no target (canopen+sim://?node=1)".into());
-            }
-            let can = CanopenOptions::parse(&mut q)?;
-            q.finish(&["node", "pdo", "keep_pdo", "self_start"])?;
-            LinkSpec::CanopenSim { can }
-        }
-        "enip" => {
-            let (host, port) = host_port(target, 44818)?;
-            let enip = EnipOptions::parse(&mut q)?;
-            q.finish(&["io", "rpi", "cmd_at", "config", "udp"])?;
-            LinkSpec::Enip { host, port, enip }
-        }
-        other => return Err(format!("unknown scheme '{other}'")),
-    };
-    Ok(spec)
+    // A string leaves out what it keeps at the defaults.
+    LinkSpec::default_for(&scheme)
+        .ok_or_else(|| format!("unknown scheme '{scheme}'"))?
+        .with_target(target)?
+        .with_params(&mut q)
 }
 
 #[cfg(test)]
@@ -746,6 +944,8 @@ mod tests {
             "canopen+slcan://COM4?bitrate=1000000&node=1",
             "canopen+slcan:///dev/ttyACM0?bitrate=500000&node=3&pdo=4&keep_pdo=1",
             "canopen+sim://?node=1",
+            "canopen+sim://?node=2&self_start=1",
+            "modbus-rtu://COM3?baud=115200&parity=none&stop=2&slave=7&words=low",
             "enip://127.0.0.1:44818?io=pdi&rpi=10",
             "enip://127.0.0.1:44818?io=pdi&rpi=4&cmd_at=8&config=0&udp=0",
             "enip://[::1]:2000?io=explicit&rpi=10&udp=2222",
@@ -799,5 +999,126 @@ mod tests {
             full.contains("Forms: sim | modbus-tcp://HOST:PORT?unit=0"),
             "{full}"
         );
+    }
+
+    #[test]
+    fn a_query_replaces_what_it_names_by_the_rules_of_a_whole_string() {
+        let base = ok("enip://10.0.0.5?io=common&rpi=20");
+        assert_eq!(
+            base.with_query("&udp=0&cmd_at=8").map(|s| s.to_string()),
+            Ok("enip://10.0.0.5:44818?io=common&rpi=20&cmd_at=8&udp=0".to_owned())
+        );
+        assert_eq!(base.with_query(""), Ok(base.clone()));
+        assert_eq!(
+            base.with_query("cmd_at=9"),
+            Err("cmd_at=9 is out of range 7..=8".to_owned())
+        );
+        assert_eq!(
+            base.with_query("udp=1&udp=2"),
+            Err("parameter 'udp' is given twice".to_owned())
+        );
+        assert!(
+            base.with_query("node=2")
+                .is_err_and(|e| e.contains("unknown parameter 'node'"))
+        );
+        assert!(
+            LinkSpec::Sim
+                .with_query("unit=1")
+                .is_err_and(|e| e.contains("this bus takes no parameters"))
+        );
+    }
+
+    #[test]
+    fn the_query_beyond_a_base_gives_the_spec_back() {
+        for (text, base) in [
+            (
+                "enip://h:1?io=common&rpi=4&cmd_at=8&config=0&udp=0",
+                "enip://h:1?io=common&rpi=4",
+            ),
+            (
+                "canopen+slcan://COM5?bitrate=500000&node=9&keep_pdo=1",
+                "canopen+slcan://COM5?bitrate=500000&node=9",
+            ),
+            (
+                "modbus-tcp://h:502?unit=3&words=low",
+                "modbus-tcp://h:502?unit=3",
+            ),
+            // The base may differ from the defaults too: then the query says so.
+            (
+                "enip://h:1?io=pdi&rpi=10",
+                "enip://h:1?io=pdi&rpi=10&udp=2222",
+            ),
+        ] {
+            let (spec, base) = (ok(text), ok(base));
+            let beyond = spec.query_beyond(&base);
+            assert_eq!(
+                base.with_query(&beyond),
+                Ok(spec.clone()),
+                "{text}: {beyond}"
+            );
+        }
+        let spec = ok("canopen+sim://?node=2&pdo=3&self_start=1");
+        assert_eq!(
+            spec.query_beyond(&ok("canopen+sim://?node=2")),
+            "pdo=3&self_start=1"
+        );
+        assert_eq!(spec.query_beyond(&spec), "");
+        assert_eq!(
+            ok("enip://h?udp=2222").query_beyond(&ok("enip://h")),
+            "udp=2222"
+        );
+        assert_eq!(
+            ok("enip://h").query_beyond(&ok("enip://h?udp=2222")),
+            "udp=auto"
+        );
+    }
+
+    #[test]
+    fn a_spec_built_in_code_is_checked_by_reading_its_string_back() {
+        assert_eq!(ok("canopen+sim://?node=5").check(), Ok(()));
+        let zero = LinkSpec::CanopenSim {
+            can: CanopenOptions {
+                node: 0,
+                ..CanopenOptions::default()
+            },
+        };
+        assert_eq!(
+            zero.check(),
+            Err("node=0 is out of range 1..=127".to_owned())
+        );
+        let path = LinkSpec::CanopenSlcan {
+            path: "COM5?x=1".into(),
+            bitrate: 1_000_000,
+            can: CanopenOptions::default(),
+        };
+        assert!(path.check().is_err());
+        let bitrate = LinkSpec::CanopenSlcan {
+            path: "COM5".into(),
+            bitrate: 300_000,
+            can: CanopenOptions::default(),
+        };
+        assert!(
+            bitrate
+                .check()
+                .is_err_and(|e| e.contains("not a CAN bit rate"))
+        );
+    }
+
+    #[test]
+    fn hosts_and_numbers_are_read_alone_as_in_a_string() {
+        assert_eq!(parse_host(" [fe80::1] "), Ok("fe80::1".to_owned()));
+        assert_eq!(parse_host("::1"), Ok("::1".to_owned()));
+        assert_eq!(parse_host("drive.local"), Ok("drive.local".to_owned()));
+        assert_eq!(parse_host(""), Err("the host is missing".to_owned()));
+        assert_eq!(parse_host("[]"), Err("the host is missing".to_owned()));
+        assert_eq!(
+            parse_host("a/b"),
+            Err("'a/b' is not a host name".to_owned())
+        );
+        assert_eq!(number(" 0x10 ", &NODES), Ok(16u8));
+        assert_eq!(number("1_000", &RPI_MS), Ok(1000u32));
+        assert_eq!(number("128", &NODES), Err(BadNumber::OutOfRange(128)));
+        assert_eq!(number("-1", &UNITS), Err(BadNumber::OutOfRange(-1)));
+        assert_eq!(number("x", &UNITS), Err(BadNumber::NotANumber));
     }
 }

@@ -147,7 +147,9 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
             _ => {
                 let response = ui
                     .add_enabled(spec.is_ok() && !busy, egui::Button::new("Connect"))
-                    .on_disabled_hover_text(spec.as_ref().err().cloned().unwrap_or_default());
+                    .on_disabled_hover_text(
+                        spec.as_ref().err().map(|e| e.to_string()).unwrap_or_default(),
+                    );
                 if response.clicked()
                     && let Ok(spec) = spec.clone()
                 {
@@ -156,7 +158,7 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
             }
         }
         if let Err(reason) = &spec {
-            ui.colored_label(RED, reason);
+            ui.colored_label(RED, reason.to_string());
         }
 
         ui.separator();

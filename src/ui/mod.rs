@@ -5,6 +5,7 @@ pub mod browser;
 pub mod changes;
 pub mod commands;
 pub mod connection;
+pub mod connection_form;
 pub mod faults;
 pub mod jog;
 pub mod leave;
