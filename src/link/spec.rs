@@ -68,7 +68,7 @@ pub struct EnipOptions {
     /// Requested packet interval of the I/O connection, ms.
     pub rpi_ms: u32,
     /// Where the PDI set's O→T assembly has PDI-Cmd: 7 (8 bytes, default) or 8 (9 bytes,
-    /// as the spec's table is printed; FACTS 7.1).
+    /// as the spec's table is printed; protocol notes §5.1).
     #[serde(default = "default_cmd_at")]
     pub cmd_at: u8,
     /// The configuration instance in the Forward_Open path (the drive has none; public
@@ -218,7 +218,7 @@ pub enum LinkSpec {
         host: String,
         port: u16,
         unit: u8,
-        /// Which half of 32-bit register pairs comes first (FACTS 1.1: high, [M]).
+        /// Which half of 32-bit register pairs comes first (protocol notes §5.12: high, \[M\]).
         #[serde(default)]
         words: WordOrder,
     },
@@ -295,7 +295,7 @@ impl LinkSpec {
         }
     }
 
-    /// Defaults that match the hardware (FACTS 1.6, 1.7, 2.1, 3.1).
+    /// Defaults that match the hardware (protocol notes §1.6, §1.7, §2.1, §3.1).
     pub fn default_for(scheme: &str) -> Option<LinkSpec> {
         Some(match scheme {
             "sim" => LinkSpec::Sim,

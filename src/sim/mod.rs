@@ -1,6 +1,6 @@
 //! The simulated Nanotec drive: it behaves like the PDI spec on simulated time, so the
-//! demo and every test work without hardware. Servers that expose it on real sockets
-//! arrive with their buses.
+//! demo and every test work without hardware. `server` exposes it on real sockets as a
+//! Modbus TCP/RTU server, a CANopen node and an EtherNet/IP adapter.
 
 mod dictionary;
 mod drive;
