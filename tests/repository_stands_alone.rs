@@ -139,3 +139,133 @@ fn the_check_finds_what_it_is_meant_to_find() {
         );
     }
 }
+
+/// The section numbers of `docs/protocol-notes.md`: "1", "1.1", … from its `##`/`###`
+/// headings.
+fn note_sections(notes: &str) -> Vec<String> {
+    notes
+        .lines()
+        .filter_map(|line| {
+            let rest = line
+                .strip_prefix("### ")
+                .or_else(|| line.strip_prefix("## "))?;
+            let number = rest.split(' ').next()?;
+            let valid = !number.is_empty()
+                && number.chars().all(|c| c.is_ascii_digit() || c == '.')
+                && number.chars().next().is_some_and(|c| c.is_ascii_digit());
+            valid.then(|| number.to_string())
+        })
+        .collect()
+}
+
+/// A section number right after a `§`, without a sentence's full stop.
+fn section_after(text: &str) -> Option<String> {
+    let number: String = text
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == '.')
+        .collect();
+    let number = number.trim_end_matches('.');
+    (!number.is_empty()).then(|| number.to_string())
+}
+
+/// The protocol-notes sections `line` cites: every `§x.y` in a citation that starts with
+/// "notes §" ("protocol notes §1.2 to §1.5", "protocol notes §2.4, §2.5"), up to the `)`,
+/// `(`, `:` or `;` that ends it.
+fn cited_sections(line: &str) -> Vec<String> {
+    let mut out = vec![];
+    for (at, _) in line.match_indices("notes §") {
+        let citation = line[at..].split([')', '(', ':', ';']).next().unwrap_or("");
+        for (mark, _) in citation.match_indices('§') {
+            out.extend(section_after(&citation[mark + '§'.len_utf8()..]));
+        }
+    }
+    out
+}
+
+#[test]
+fn every_cited_section_of_the_protocol_notes_exists() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let notes = fs::read_to_string(root.join("docs/protocol-notes.md"))
+        .expect("docs/protocol-notes.md is readable");
+    let sections = note_sections(&notes);
+    assert!(
+        sections.iter().any(|s| s == "5.1"),
+        "no numbered sections found in docs/protocol-notes.md: {sections:?}"
+    );
+
+    let mut files = vec![];
+    for place in ["src", "tests", "benches", "README.md", "BENCHMARKS.md"] {
+        text_files(&root.join(place), &mut files);
+    }
+    files.sort();
+    let mut missing = vec![];
+    let mut cited = 0;
+    for file in &files {
+        let Ok(text) = fs::read_to_string(file) else {
+            continue;
+        };
+        let relative = file.strip_prefix(root).unwrap_or(file);
+        for (n, line) in text.lines().enumerate() {
+            for section in cited_sections(line) {
+                cited += 1;
+                if !sections.contains(&section) {
+                    missing.push(format!("{}:{}: §{section}", relative.display(), n + 1));
+                }
+            }
+        }
+    }
+    assert!(cited > 50, "only {cited} citations of the notes found");
+
+    // Cross-references inside the notes: `§x.y` not preceded by another document's name
+    // ("PDI spec §2.2.5", "Modbus Application Protocol §6.17", "V1.02 §2.5.1.1").
+    for (n, line) in notes.lines().enumerate() {
+        for (mark, _) in line.match_indices('§') {
+            let before = &line[..mark];
+            if before.ends_with("spec ")
+                || before.ends_with("Protocol ")
+                || before.ends_with("V1.02 ")
+            {
+                continue;
+            }
+            if let Some(section) = section_after(&line[mark + '§'.len_utf8()..])
+                && section.matches('.').count() <= 1
+                && !sections.contains(&section)
+            {
+                missing.push(format!("docs/protocol-notes.md:{}: §{section}", n + 1));
+            }
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "these cite sections docs/protocol-notes.md does not have:\n{}",
+        missing.join("\n")
+    );
+}
+
+#[test]
+fn citations_are_read_the_way_comments_write_them() {
+    assert_eq!(
+        cited_sections("//! (PDI spec §3.2; protocol notes §1.2 to §1.5):"),
+        ["1.2", "1.5"]
+    );
+    assert_eq!(
+        cited_sections("/// after a protocol error (protocol notes §2.4, §2.5)."),
+        ["2.4", "2.5"]
+    );
+    assert_eq!(
+        cited_sections("/// (protocol notes §5.12: high, \\[M\\]). See PDI spec §2.2.5."),
+        ["5.12"]
+    );
+    assert_eq!(cited_sections("/// notes §1.4)."), ["1.4"]);
+    assert_eq!(
+        cited_sections("// Protocol notes §1.2 (PDI spec §2.2.5): FC 16 to 5996"),
+        ["1.2"]
+    );
+    assert_eq!(cited_sections("// PDI spec §2.2.11"), Vec::<String>::new());
+    assert_eq!(
+        note_sections(
+            "# Title\n## 0 Reading\n### 0.1 Vendor\n### Not numbered\n## 5 Contradictions\n### 5.12 Word order"
+        ),
+        ["0", "0.1", "5", "5.12"]
+    );
+}
