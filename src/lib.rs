@@ -1,8 +1,9 @@
 //! drivedeck: a commissioning tool for Nanotec motor controllers.
 //!
-//! Layers, lowest first (see `../shared/DESIGN.md`): `number`, `cia` and `pdi` (sans-IO,
-//! std only), `od` (object dictionary types and catalog), `link` (the buses), `sim` (the
-//! simulated drive), `worker` (the thread that owns the link), `telemetry`, `ui` and `cli`.
+//! Layers, lowest first (ARCHITECTURE.md describes them and the rules between them):
+//! `number`, `cia` and `pdi` (sans-IO, std only), `od` (object dictionary types and
+//! catalog), `link` (the buses), `sim` (the simulated drive), `worker` (the thread that owns
+//! the link), `telemetry`, `ui` and `cli`.
 
 pub mod cia;
 pub mod cli;

@@ -88,7 +88,7 @@ fn python_canopen_masters_the_simulated_node_over_slcan() {
             "device_type_1000": 0x0004_0192,
             "read_back_6081": 1234,
             "read_back_6081_raw": "e1100000",
-            // CiA 301 abort codes (FACTS 2.5).
+            // CiA 301 abort codes (protocol notes §2.5).
             "abort_missing_object": 0x0602_0000,
             "abort_missing_sub": 0x0609_0011,
             "abort_read_only": 0x0601_0002,

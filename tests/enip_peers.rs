@@ -129,7 +129,7 @@ fn pycomm3_reads_and_writes_objects_with_bare_unconnected_messages() {
                 "value": hex("drivedeck simulated drive".as_bytes()),
             },
             "rockwell_6064": {"type": 4, "length": 4, "value": "00000000"},
-            // The spec's SetOD example byte for byte (seed 001): request
+            // The spec's SetOD example byte for byte (EtherNet/IP chapter, 33h): request
             // 33 02 20 64 24 01 31 20 00 04 03 00 00, reply B3 00 00 00.
             "set_2031": {
                 "ok": true, "status": 0, "error": null,
@@ -442,7 +442,7 @@ fn pycomm3_moves_the_motor_through_the_pdi_with_setod_writes() {
             // the command byte last, as spec 2.2.11 says.
             "writes": [0, 0, 0, 0],
             // PdiStatusToggleCmd flipped, TargetReached left and came back, no error;
-            // ReturnValue holds the position (seed 000 2.2.11).
+            // ReturnValue holds the position (PDI spec §2.2.11).
             "left_target_reached": true,
             "arrived": {
                 "toggled": true,

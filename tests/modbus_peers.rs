@@ -2,7 +2,7 @@
 //! pymodbus 3.16 (tests/peers/):
 //!
 //! * pymodbus as a PLC would use it, against `drivedeck sim --modbus-tcp`: the PDI driven
-//!   by plain register writes and reads packed by hand from the spec (FACTS 1.2 to 1.6);
+//!   by plain register writes and reads packed by hand from the spec (protocol notes §1.2 to §1.6);
 //! * pymodbus as a plain register bank, logging every write: what our client puts on the
 //!   wire, register by register.
 //!
@@ -59,7 +59,7 @@ fn pymodbus_moves_the_drive_with_plain_register_writes() {
     let statusword = take("statusword_6041").as_u64().expect("6041h");
     // FC 16 to 5996: [0, 2000, 200, 0x0014]; TargetReached cleared while moving, set at the
     // end; 6064h at 5002-5003, high word first, is the target; ReturnValue holds the
-    // position (seed 000 2.2.11); 6061h, in the low byte of 5001, is Profile Position.
+    // position (PDI spec §2.2.11); 6061h, in the low byte of 5001, is Profile Position.
     assert_eq!(
         rest,
         json!({
@@ -282,7 +282,7 @@ fn our_client_writes_the_pdi_high_word_first_as_pymodbus_decodes_it() {
     let seen = exchange_with_pymodbus(&python, "");
     // Exactly one write: FC 23 with 5996.. = SetValue1 high word, low word, SetValue2,
     // SetValue3 (80h) in the high byte and Cmd 20 (14h) in the low byte; reading 4996 and
-    // the 7 registers of the factory TX image behind it; unit 0 (FACTS 1.6).
+    // the 7 registers of the factory TX image behind it; unit 0 (NT-MBAP, protocol notes §1.6).
     assert_eq!(
         writes(&seen.requests),
         vec![&json!({

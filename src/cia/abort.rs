@@ -1,8 +1,8 @@
-//! CiA 301 SDO abort codes (FACTS 2.5).
+//! CiA 301 SDO abort codes (protocol notes §2.5).
 //!
 //! Nanotec reports failed object accesses with these codes on every channel: SDO aborts on
 //! CANopen, the extended exception of Modbus FC 43/101/102 and, as far as the public record
-//! tells (FACTS 6), PDI-ReturnValue when PdiStatusError is set.
+//! tells (protocol notes §4.6), PDI-ReturnValue when PdiStatusError is set.
 
 use std::fmt;
 
@@ -143,7 +143,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_code_of_facts_2_5_has_its_text() {
+    fn every_cia_301_abort_code_has_its_text() {
         assert_eq!(AbortCode::known().count(), 31);
         assert_eq!(
             AbortCode::NO_OBJECT.text(),

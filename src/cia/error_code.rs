@@ -1,5 +1,5 @@
 //! Drive error codes: 603Fh / EMCY error codes, the 1001h error register and the
-//! Nanotec layout of a 1003h error-history entry (FACTS 5.1 and 5.4).
+//! Nanotec layout of a 1003h error-history entry (protocol notes §4.5).
 
 use std::fmt;
 
@@ -40,7 +40,7 @@ impl fmt::Display for ErrorCode {
     }
 }
 
-/// Nanotec error codes (FACTS 5.4; lists differ per product and firmware).
+/// Nanotec error codes (GBEM `n5.c`, protocol notes §4.5; lists differ per product and firmware).
 const NANOTEC: &[(u16, &str)] = &[
     (0x0000, "no error"),
     (0x1000, "general error"),
@@ -129,7 +129,7 @@ impl HistoryEntry {
         (u32::from(self.number) << 24) | (u32::from(self.class) << 16) | u32::from(self.code.0)
     }
 
-    /// Nanotec's text for the error number (N5 list, FACTS 5.4).
+    /// Nanotec's text for the error number (N5 list, protocol notes §4.5).
     pub fn number_text(self) -> &'static str {
         ERROR_NUMBERS
             .get(usize::from(self.number))

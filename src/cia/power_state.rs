@@ -1,4 +1,4 @@
-//! The CiA 402 power state machine as seen through the statusword 6041h (FACTS 5.4).
+//! The CiA 402 power state machine as seen through the statusword 6041h (protocol notes §4.4).
 
 use std::fmt;
 

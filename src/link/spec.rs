@@ -69,7 +69,7 @@ pub struct EnipOptions {
     /// Requested packet interval of the I/O connection, ms.
     pub rpi_ms: u32,
     /// Where the PDI set's O→T assembly has PDI-Cmd: 7 (8 bytes, default) or 8 (9 bytes,
-    /// as the spec's table is printed; FACTS 7.1).
+    /// as the spec's table is printed; protocol notes §5.1).
     #[serde(default = "default_cmd_at")]
     pub cmd_at: u8,
     /// The configuration instance in the Forward_Open path (the drive has none; public
@@ -216,7 +216,7 @@ pub enum LinkSpec {
         host: String,
         port: u16,
         unit: u8,
-        /// Which half of 32-bit register pairs comes first (FACTS 1.1: high, [M]).
+        /// Which half of 32-bit register pairs comes first (protocol notes §5.12: high, \[M\]).
         #[serde(default)]
         words: WordOrder,
     },
@@ -386,7 +386,7 @@ impl LinkSpec {
     /// Defaults that match the drives as they ship (Modbus TCP port 502 unit 0; RTU
     /// 19200 baud 8E1 slave 5; CANopen node 1 at 1 Mbit/s; EtherNet/IP port 44818 with
     /// the PDI assemblies); a string leaves out what it keeps at these. The serial ports
-    /// are the names a USB-RS485 adapter and a CANable-style slcan adapter usually get.
+    /// are the names a USB-RS485 adapter and a CANable-style slcan adapter usually get (protocol notes §1.6, §1.7, §2.1, §3.1).
     pub fn default_for(scheme: &str) -> Option<LinkSpec> {
         Some(match scheme {
             "sim" => LinkSpec::Sim,

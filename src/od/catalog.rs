@@ -1,5 +1,5 @@
 //! The object catalog: names, types, access, units and limits of the objects drivedeck
-//! knows. The built-in one is `assets/od/nanotec.json` (FACTS section 5).
+//! knows. The built-in one is `assets/od/nanotec.json` (protocol notes §4).
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -240,7 +240,7 @@ struct ObjectDef {
     max: Option<String>,
     #[serde(default)]
     subs: Vec<SubDef>,
-    /// FACTS confidence tag (H, M, L); kept in the file for reviewers.
+    /// How firm the public record is (H, M, L; protocol notes §0.2); kept for reviewers.
     #[serde(default, rename = "confidence")]
     _confidence: Option<String>,
 }

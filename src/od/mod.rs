@@ -1,5 +1,5 @@
 //! The object dictionary: addresses, CANopen data types, typed values and the catalog of
-//! known objects (built in from `assets/od/`, later also from EDS files).
+//! known objects (built in from `assets/od/`, or imported from an EDS file, see `eds`).
 
 pub mod backup;
 mod catalog;

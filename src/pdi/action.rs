@@ -192,7 +192,7 @@ pub struct SetValues {
 }
 
 /// An OD address as the PDI carries it in SetValue2/SetValue3: two's complement for
-/// indices ≥ 8000h and subindices ≥ 80h, both ways (spec 2.1.2, FACTS 7.16).
+/// indices ≥ 8000h and subindices ≥ 80h, both ways (PDI spec §2.1.2, protocol notes §5.10).
 pub fn index_to_set_value2(index: u16) -> i16 {
     index as i16
 }

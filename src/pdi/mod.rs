@@ -2,7 +2,8 @@
 //! 8-byte process images and the master state machine. Depends on nothing but std (and the
 //! shared CiA vocabulary in `cia`).
 //!
-//! Spec: `../shared/spec/plug-and-drive-interface.txt`, sections 2.1 to 3.
+//! Spec: Nanotec's *Function description Plug & Drive interface* (the PDI spec, see
+//! `docs/protocol-notes.md` §0.1), sections 2.1 to 3.
 
 mod action;
 mod command;

@@ -6,7 +6,8 @@
 //! codes) or `write_rx`/`tx_image` (the 8-byte PDI process images, which are the same
 //! objects 2291h/2292h/603Fh).
 //!
-//! Assumptions where the vendor text is silent (each marked [L] in FACTS or here):
+//! Assumptions where the vendor text is silent (drivedeck's own; [L] as in protocol
+//! notes §0.2):
 //! * A new command is detected when PDI-Cmd changes in any bit but the halt bit; a change
 //!   of the halt bit alone halts or resumes the travel command and does not toggle
 //!   PdiStatusToggleCmd.

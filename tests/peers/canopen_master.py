@@ -5,8 +5,8 @@ and nothing of drivedeck, against the simulated drive served by
 
     canopen_master.py PTY NODE
 
-The object dictionary below is written from the spec (PDI objects 2290h-2292h, seed 000
-section 2.1; CiA 301 communication objects, FACTS 2.2-2.4), not from drivedeck's catalog.
+The object dictionary below is written from the spec (PDI objects 2290h-2292h, PDI spec
+section 2.1; CiA 301 communication objects, protocol notes §2.2-2.4), not from drivedeck's catalog.
 The PDI PDOs are mapped with python-canopen's own PDO API, as spec section 3 prescribes:
 RPDO1 = 2291h:01 (32) 2291h:02 (16) 2291h:03 (8) 2291h:04 (8),
 TPDO1 = 2292h:01 (16) 603Fh:00 (16) 2292h:02 (32).
@@ -274,7 +274,7 @@ def run(path, node_id):
         node.sdo.download(0x6081, 0, (4321).to_bytes(4, "little"))
         out["read_back_6081_raw"] = node.sdo.upload(0x6081, 0).hex()
 
-        # Aborts, with the codes of CiA 301 (FACTS 2.5).
+        # Aborts, with the codes of CiA 301 (protocol notes §2.5).
         out["abort_missing_object"] = abort_code(lambda: node.sdo.upload(0x2FFF, 0))
         out["abort_missing_sub"] = abort_code(lambda: node.sdo.upload(0x1018, 9))
         out["abort_read_only"] = abort_code(

@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """A PLC programmer's view of a Nanotec drive over EtherNet/IP, with pycomm3 and nothing of
 drivedeck: the Nanotec object services (class 64h, instance 1: 32h GetOD, 33h SetOD, 34h
-GetOD Rockwell, seed 001) sent with pycomm3's own `CIPDriver.generic_message`, the identity
-through its `list_identity`, `get_module_info` and `discover`, and the PDI driven by
-explicit SetOD writes to 2291h. Request data is packed by hand from the spec, never
-through drivedeck's codec.
+GetOD Rockwell; EtherNet/IP chapter, "Device profile") sent with pycomm3's own
+`CIPDriver.generic_message`, the identity through its `list_identity`, `get_module_info`
+and `discover`, and the PDI driven by explicit SetOD writes to 2291h. Request data is
+packed by hand from the spec, never through drivedeck's codec.
 
     pycomm3_client.py HOST PORT SCENARIO    SCENARIO: unconnected, shapes, identity, move
     pycomm3_client.py HOST 44818 discover   (pycomm3's discover only ever asks port 44818)
@@ -38,7 +38,7 @@ ASSEMBLY_CLASS = 0x04
 GET_ATTRIBUTE_SINGLE = 0x0E
 GET_ATTRIBUTES_ALL = 0x01
 
-# PDI (seed 000): 2291h:01 SetValue1 i32, :02 SetValue2 i16, :03 SetValue3 i8, :04 Cmd u8;
+# PDI (PDI spec §2.1.2): 2291h:01 SetValue1 i32, :02 SetValue2 i16, :03 SetValue3 i8, :04 Cmd u8;
 # 2292h:01 PDI-Status i16, :02 ReturnValue i32.
 MOVE_ABSOLUTE = 20
 TARGET_REACHED = 1 << 3
@@ -60,7 +60,7 @@ class Failed(Exception):
 
 
 def od(index, sub):
-    """GetOD/SetOD request data: index u16 LE, subindex u8 (seed 001)."""
+    """GetOD/SetOD request data: index u16 LE, subindex u8 (EtherNet/IP chapter)."""
     return struct.pack("<HB", index, sub)
 
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A PLC programmer's view of a Nanotec drive over Modbus, with pymodbus and nothing of
 drivedeck: the PDI is driven by plain register writes and reads, packed by hand from the
-spec (FACTS 1.2 to 1.6), never through drivedeck's codec.
+spec (PDI spec §3.2, protocol notes §1.2 to §1.6), never through drivedeck's codec.
 
     pymodbus_client.py tcp HOST PORT SCENARIO     SCENARIO: move, objects, access, connections
     pymodbus_client.py rtu PATH                   factory settings: slave 5, 19200 8E1
@@ -23,7 +23,7 @@ from pymodbus import pymodbus_apply_logging_config
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.pdu import ModbusPDU
 
-# Registers (0-based PDU addresses), FACTS 1.2 and 1.3.
+# Registers (0-based PDU addresses), protocol notes §1.2 and §1.3.
 PDI_RX = 5996  # SetValue1 hi, SetValue1 lo, SetValue2, SetValue3 (high byte) | Cmd (low byte)
 PDI_TX = 4996  # PDI-Status, 603Fh, ReturnValue hi, ReturnValue lo
 TX_IMAGE = 5000  # 6041h, dummy|6061h, 6064h hi, 6064h lo, 6044h, 60FDh hi, 60FDh lo
@@ -35,7 +35,7 @@ STATUS_ERROR = 1 << 15
 # PDI-Cmd bit 7: the toggle that makes a repeated command new.
 CMD_TOGGLE = 0x80
 
-# PDI-Cmd opcodes (seed 000).
+# PDI-Cmd opcodes (PDI spec §2.2).
 OD_READ = 14
 OD_WRITE = 15
 MOVE_ABSOLUTE = 20

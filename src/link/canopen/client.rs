@@ -663,7 +663,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
 
 /// The saved communication and mapping values, in the order that puts them back safely:
 /// each PDO invalid first, its mapping count 0, the entries, the count, the parameters, and
-/// its original COB-ID last (CiA 301, FACTS 2.3).
+/// its original COB-ID last (CiA 301, protocol notes §2.3).
 fn restore_order(saved: Vec<SdoWrite>) -> Vec<SdoWrite> {
     let mut out = vec![];
     let comm_indices: Vec<u16> = {

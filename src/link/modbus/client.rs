@@ -23,7 +23,7 @@ use crate::proto::modbus::registers::{
 /// How long a Modbus request may take before the link reports a timeout.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(500);
 
-/// The factory TX process image (3602h defaults, FACTS 1.3).
+/// The factory TX process image (3602h defaults, NT-3602; protocol notes §1.3).
 pub const FACTORY_TX_MAP: [u32; 6] = [
     0x6041_0010,
     0x0005_0008,

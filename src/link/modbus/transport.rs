@@ -110,7 +110,7 @@ fn hex(bytes: &[u8]) -> String {
 
 /// The silence a Modbus RTU master keeps between frames: 3.5 characters (11 bits each)
 /// above 19200 baud a fixed 1.75 ms, and at least the 3 ms Nanotec asks for after a
-/// response when several slaves share the bus (FACTS 1.7).
+/// response when several slaves share the bus (protocol notes §1.7).
 fn rtu_gap(baud: u32) -> Duration {
     let chars = if baud > 19_200 {
         Duration::from_micros(1750)

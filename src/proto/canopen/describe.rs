@@ -1,8 +1,8 @@
 //! One line of text per CAN frame for the frame log, and the candump log format for exports.
 //!
-//! [`describe`] reads a frame by the predefined connection set (FACTS 2.2-2.4): "NMT start
-//! node 1", "heartbeat node 1: operational", "SDO request node 1: upload 1018h:01h",
-//! "SDO abort node 1 1018h:09h: 06090011h (Sub-index does not exist)", …
+//! [`describe`] reads a frame by the predefined connection set (protocol notes §2.2 to
+//! §2.4): "NMT start node 1", "heartbeat node 1: operational", "SDO request node 1: upload
+//! 1018h:01h", "SDO abort node 1 1018h:09h: 06090011h (Sub-index does not exist)", …
 //!
 //! [`candump_line`] writes the format of `candump -l` / `candump -L` (can-utils `candump.c`
 //! and `lib.c`, also python-can's `CanutilsLogWriter`):

@@ -1,12 +1,12 @@
-//! The emergency (EMCY) message (CiA 301; FACTS 2.2): COB-ID 80h + node (1014h), 8 bytes.
+//! The emergency (EMCY) message (CiA 301; protocol notes §2.2): COB-ID 80h + node (1014h), 8 bytes.
 //!
 //! ```text
 //! | error code u16 LE (as 603Fh) | error register (1001h) | 5 manufacturer bytes |
 //! ```
 //!
 //! An error code of 0000h is "error reset / no error": the node reports that its last error
-//! has gone. Nanotec's layout of the manufacturer bytes is not confirmed (FACTS 2.2, [L]), so
-//! they are kept raw.
+//! has gone. Nanotec's layout of the manufacturer bytes is not confirmed (protocol notes
+//! §2.2, \[L\]), so they are kept raw.
 
 use super::CanFrame;
 use super::nmt::{Cob, classify, cob, data_frame};
@@ -15,9 +15,9 @@ use crate::cia::ErrorCode;
 /// One emergency message.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Emcy {
-    /// The error code, as in 603Fh (FACTS 2.2, 5.4).
+    /// The error code, as in 603Fh (protocol notes §4.5).
     pub error_code: u16,
-    /// The error register 1001h (FACTS 5.1).
+    /// The error register 1001h (protocol notes §4.5).
     pub error_register: u8,
     /// Manufacturer-specific bytes, raw.
     pub manufacturer: [u8; 5],

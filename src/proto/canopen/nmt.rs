@@ -1,5 +1,5 @@
 //! NMT (CiA 301): the module-control command, the heartbeat / boot-up frame, and the COB-IDs
-//! of the predefined connection set (FACTS 2.2, 2.3, 2.4). Sans-IO: frames in, values out.
+//! of the predefined connection set (protocol notes §2.2 to §2.4). Sans-IO: frames in, values out.
 //!
 //! ```text
 //! NMT command   000h  [cs, node]      cs: 01 start, 02 stop, 80h pre-op, 81h reset node,
@@ -18,7 +18,7 @@ pub(crate) fn data_frame(cob_id: u16, data: &[u8]) -> CanFrame {
     CanFrame::new(cob_id & 0x7FF, data).expect("an 11-bit identifier and at most 8 bytes")
 }
 
-/// COB-IDs of the CiA 301 predefined connection set (FACTS 2.2, 2.3, 2.4).
+/// COB-IDs of the CiA 301 predefined connection set (protocol notes §2.2 to §2.4).
 ///
 /// Node-IDs are 1..=127 on CANopen. The helpers do not check that (every `u8` gives an 11-bit
 /// identifier, so nothing overflows); [`classify`](super::classify) only recognises 1..=127.
@@ -99,8 +99,8 @@ pub enum Cob {
     Other,
 }
 
-/// Classify an 11-bit COB-ID by the predefined connection set (FACTS 2.3). Node-IDs outside
-/// 1..=127 give [`Cob::Other`].
+/// Classify an 11-bit COB-ID by the predefined connection set (protocol notes §2.3).
+/// Node-IDs outside 1..=127 give [`Cob::Other`].
 pub fn classify(cob_id: u16) -> Cob {
     if cob_id == cob::NMT {
         return Cob::Nmt;
@@ -130,7 +130,7 @@ pub fn classify(cob_id: u16) -> Cob {
     }
 }
 
-/// An NMT module-control command specifier (FACTS 2.2).
+/// An NMT module-control command specifier (protocol notes §2.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(u8)]
 pub enum NmtCommand {
@@ -172,7 +172,7 @@ impl fmt::Display for NmtCommand {
     }
 }
 
-/// The NMT state a heartbeat reports (FACTS 2.2). Boot-up is the one-off message a node
+/// The NMT state a heartbeat reports (protocol notes §2.2). Boot-up is the one-off message a node
 /// sends when it enters pre-operational after a reset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(u8)]
@@ -232,7 +232,8 @@ pub enum NmtError {
     UnknownState(u8),
 }
 
-/// The NMT command frame: COB-ID 000h, `[cs, node]`, node 0 addresses all nodes (FACTS 2.2).
+/// The NMT command frame: COB-ID 000h, `[cs, node]`, node 0 addresses all nodes
+/// (protocol notes §2.2).
 pub fn command_frame(command: NmtCommand, node: u8) -> CanFrame {
     data_frame(cob::NMT, &[command as u8, node])
 }
@@ -257,7 +258,7 @@ pub fn decode_command(frame: &CanFrame) -> Result<(NmtCommand, u8), NmtError> {
 }
 
 /// A heartbeat (or, with [`NmtState::BootUp`], the boot-up message): COB-ID 700h + node,
-/// one byte (FACTS 2.2).
+/// one byte (protocol notes §2.2).
 pub fn heartbeat_frame(node: u8, state: NmtState) -> CanFrame {
     data_frame(cob::heartbeat(node), &[state as u8])
 }

@@ -1,6 +1,6 @@
-//! PDOs (CiA 301; FACTS 2.3): mapping entries, packing values into a PDO payload and back,
-//! communication parameters, and the SDO writes that configure a PDO in the order CiA 301
-//! prescribes. Sans-IO: the caller performs the writes with its SDO client.
+//! PDOs (CiA 301; protocol notes §2.3): mapping entries, packing values into a PDO payload
+//! and back, communication parameters, and the SDO writes that configure a PDO in the order
+//! CiA 301 prescribes. Sans-IO: the caller performs the writes with its SDO client.
 //!
 //! ```text
 //! mapping entry (16xxh/1Axxh:01..)   IIII SS LL   index, sub-index, length in bits
@@ -8,7 +8,7 @@
 //! TPDO n: 1800h+n-1 communication, 1A00h+n-1 mapping
 //! ```
 //!
-//! Values are packed little-endian, one after the other, in mapping order (FACTS 2.3).
+//! Values are packed little-endian, one after the other, in mapping order (protocol notes §2.3).
 //! drivedeck maps whole bytes only (lengths 8, 16, …, 64 bits) and at most 64 bits in all
 //! (a classic CAN frame).
 
@@ -19,9 +19,9 @@ use super::nmt::cob;
 /// The most bits a classic CAN PDO carries.
 pub const MAX_BITS: u32 = 64;
 
-/// COB-ID bit 31: the PDO is invalid (does not exist / disabled) (FACTS 2.3).
+/// COB-ID bit 31: the PDO is invalid (does not exist / disabled) (CiA 301).
 pub const COB_INVALID: u32 = 1 << 31;
-/// COB-ID bit 30: no RTR allowed on this PDO (FACTS 2.3).
+/// COB-ID bit 30: no RTR allowed on this PDO (CiA 301).
 pub const COB_NO_RTR: u32 = 1 << 30;
 /// COB-ID bit 29: 29-bit identifier.
 pub const COB_EXTENDED: u32 = 1 << 29;
@@ -81,7 +81,7 @@ impl fmt::Display for MappedObject {
     }
 }
 
-/// The RX PDO the PDI needs (spec section 3, FACTS 2.3): SetValue1 i32, SetValue2 i16,
+/// The RX PDO the PDI needs (PDI spec §3): SetValue1 i32, SetValue2 i16,
 /// SetValue3 i8, PDI-Cmd — 8 bytes, master → drive.
 pub const PDI_RX: [MappedObject; 4] = [
     MappedObject::new(0x2291, 0x01, 32),
@@ -90,7 +90,7 @@ pub const PDI_RX: [MappedObject; 4] = [
     MappedObject::new(0x2291, 0x04, 8),
 ];
 
-/// The TX PDO the PDI needs (spec section 3, FACTS 2.3): PDI-Status, error code 603Fh,
+/// The TX PDO the PDI needs (PDI spec §3): PDI-Status, error code 603Fh,
 /// PDI-ReturnValue — 8 bytes, drive → master.
 pub const PDI_TX: [MappedObject; 3] = [
     MappedObject::new(0x2292, 0x01, 16),
@@ -132,7 +132,7 @@ impl PdoKind {
         Ok(base + check_number(n)? - 1)
     }
 
-    /// The COB-ID of the predefined connection set for PDO 1..=4 of a node (FACTS 2.3).
+    /// The COB-ID of the predefined connection set for PDO 1..=4 of a node (protocol notes §2.3).
     pub fn predefined_cob_id(self, n: u16, node: u8) -> Option<u16> {
         let n = u8::try_from(n).ok()?;
         match self {
@@ -297,7 +297,7 @@ pub fn unpack_signed(entries: &[MappedObject], payload: &[u8]) -> Result<Vec<i64
         .collect())
 }
 
-/// The communication parameters 14xxh/18xxh (FACTS 2.3).
+/// The communication parameters 14xxh/18xxh (CiA 301, protocol notes §2.3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct PdoComm {
     /// :01, bit 31 = invalid, bit 30 = no RTR. The 11-bit identifier 0 means "the predefined
@@ -312,7 +312,7 @@ pub struct PdoComm {
 }
 
 impl PdoComm {
-    /// Event-driven (255) on the predefined COB-ID: what seed 000 §3.1 recommends for the
+    /// Event-driven (255) on the predefined COB-ID: what PDI spec §3.1 recommends for the
     /// PDI, "acyclic with a realistic inhibit time".
     pub fn event_driven(inhibit_100us: u16, event_ms: u16) -> Self {
         Self {
@@ -328,7 +328,7 @@ impl PdoComm {
     }
 }
 
-/// What a transmission type means (FACTS 2.3).
+/// What a transmission type means (CiA 301).
 pub fn transmission_text(transmission: u8) -> String {
     match transmission {
         0 => "acyclic synchronous".into(),
@@ -395,7 +395,7 @@ impl fmt::Display for SdoWrite {
     }
 }
 
-/// The writes that configure PDO `n` of a node, in the CiA 301 order (FACTS 2.3):
+/// The writes that configure PDO `n` of a node, in the CiA 301 order (protocol notes §2.3):
 ///
 /// 1. COB-ID with bit 31 set (invalid),
 /// 2. mapping :00 = 0,
@@ -405,8 +405,8 @@ impl fmt::Display for SdoWrite {
 /// 6. COB-ID with bit 31 cleared.
 ///
 /// When `comm.cob_id` has identifier 0, the predefined COB-ID of `n` and `node` is used (with
-/// bit 30 kept from `comm`); Nanotec fixes PDOs 1-4 to it anyway (FACTS 2.3, [M]). The node
-/// still has to be started (NMT start, or 1F80h = 08h) before PDOs flow.
+/// bit 30 kept from `comm`); Nanotec fixes PDOs 1-4 to it anyway (protocol notes §2.3,
+/// \[M\]). The node still has to be started (NMT start, or 1F80h = 08h) before PDOs flow.
 pub fn configure(
     kind: PdoKind,
     n: u16,

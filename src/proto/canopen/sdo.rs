@@ -1,8 +1,8 @@
 //! SDO (CiA 301): the frame codec, a sans-IO client for one transfer at a time, and a sans-IO
 //! server for the simulated node. No sockets, no clocks: the caller moves the frames and owns
-//! the timeout (abort code 05040000h, FACTS 2.5).
+//! the timeout (abort code 05040000h, protocol notes §2.5).
 //!
-//! Frames (FACTS 2.4): requests on 600h + node, responses on 580h + node, always 8 bytes,
+//! Frames (protocol notes §2.4): requests on 600h + node, responses on 580h + node, always 8 bytes,
 //! index little-endian. Byte 0 is the command specifier: ccs/scs in bits 7-5, then
 //!
 //! ```text
@@ -20,7 +20,7 @@
 //! | 4 abort                     | 4 abort                           |
 //! | 5, 6 block transfer (unsupported here), 7 invalid                |
 //!
-//! The toggle bit starts at 0 on every transfer, even after an abort (FACTS 2.4, NT-SDO).
+//! The toggle bit starts at 0 on every transfer, even after an abort (NT-SDO, protocol notes §2.4).
 //! Every decoder is total: frames shorter than 8 bytes are zero-filled, an empty one is an
 //! error, and nothing panics on any input.
 
@@ -33,7 +33,7 @@ use crate::cia::AbortCode;
 /// is aborted with 05040005h (out of memory) instead of exhausting memory.
 pub const MAX_TRANSFER: usize = 16 << 20;
 
-/// How an initiate frame carries its data (FACTS 2.4: bits e, s and n of byte 0).
+/// How an initiate frame carries its data (protocol notes §2.4: bits e, s and n of byte 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Initiate {
     /// e = 1: the data is in bytes 4-7. `size` = `Some(1..=4)` when indicated (s = 1; e.g.
@@ -103,7 +103,7 @@ impl Initiate {
 }
 
 /// One segment: up to 7 data bytes, the toggle bit and the last-segment flag c
-/// (`000t nnnc`, FACTS 2.4).
+/// (`000t nnnc`, protocol notes §2.4).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Segment {
     pub toggle: bool,
@@ -250,7 +250,7 @@ impl Request {
         }
     }
 
-    /// Decode a request payload (FACTS 2.4).
+    /// Decode a request payload (protocol notes §2.4).
     pub fn decode(bytes: &[u8]) -> Result<Self, SdoError> {
         let b = pad(bytes)?;
         let (index, sub) = multiplexer(&b);
@@ -309,7 +309,7 @@ impl Response {
         }
     }
 
-    /// Decode a response payload (FACTS 2.4).
+    /// Decode a response payload (protocol notes §2.4).
     pub fn decode(bytes: &[u8]) -> Result<Self, SdoError> {
         let b = pad(bytes)?;
         let (index, sub) = multiplexer(&b);
@@ -344,7 +344,7 @@ impl Response {
 }
 
 /// The abort a client sends to a node (600h + node): for its own timeout (05040000h) or
-/// after a protocol error (FACTS 2.4, 2.5).
+/// after a protocol error (protocol notes §2.4, §2.5).
 pub fn abort_frame(node: u8, index: u16, sub: u8, code: AbortCode) -> CanFrame {
     Request::Abort { index, sub, code }.frame(node)
 }
@@ -404,7 +404,7 @@ enum ClientState {
     },
 }
 
-/// A sans-IO SDO client for one node, one transfer at a time (FACTS 2.4).
+/// A sans-IO SDO client for one node, one transfer at a time (protocol notes §2.4).
 ///
 /// Start a transfer with [`upload`](Self::upload) or [`download`](Self::download) (which
 /// replaces any transfer still running), send the frame, and feed every received frame to
@@ -740,9 +740,9 @@ enum ServerState {
     },
 }
 
-/// A sans-IO SDO server for a simulated node (FACTS 2.4, 2.5): expedited and segmented upload
-/// and download, one transfer at a time. A new initiate while a transfer runs restarts; block
-/// transfer is answered with 05040001h.
+/// A sans-IO SDO server for a simulated node (protocol notes §2.4, §2.5): expedited and
+/// segmented upload and download, one transfer at a time. A new initiate while a transfer
+/// runs restarts; block transfer is answered with 05040001h.
 ///
 /// Aborts it sends: the object's own code from [`ObjectAccess`]; 05030000h for a segment with
 /// the wrong toggle; 05040001h for an unknown command specifier, block transfer, an empty

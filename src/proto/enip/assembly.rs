@@ -1,10 +1,12 @@
-//! The drive's static assemblies (spec "Assembly objects", FACTS 3.4/3.5): the PDI set
+//! The drive's static assemblies (EtherNet/IP chapter, "Assembly objects";
+//! protocol notes §3.7): the PDI set
 //! (O→T 105, T→O 104, 8 bytes each) and the Common set (O→T 101, T→O 100, 128 bytes).
 //! The two cannot be open at once.
 //!
 //! The spec's PDI O→T table puts PDI-Cmd at offset 8 after an 8-bit SetValue3 at offset 6,
-//! which leaves byte 7 empty and makes the assembly 9 bytes (FACTS 7.1). The Common table,
-//! the "without gaps" rule and the public working code put it at offset 7 in 8 bytes.
+//! which leaves byte 7 empty and makes the assembly 9 bytes (protocol notes §5.1). The
+//! Common table, the "without gaps" rule and the public working code put it at offset 7 in
+//! 8 bytes.
 //! drivedeck uses offset 7 and keeps offset 8 as an option (`cmd_at=8` in the connection
 //! string); the simulated adapter accepts either, told apart by the connection size.
 
@@ -42,7 +44,7 @@ pub const PDI_TO: u16 = 104;
 pub const COMMON_OT: u16 = 101;
 pub const COMMON_TO: u16 = 100;
 /// The configuration instance in the connection path. The drive has no configuration
-/// assembly (spec); public Nanotec code sends 64h (FACTS 3.4).
+/// assembly (spec); public Nanotec code sends 64h (protocol notes §5.18).
 pub const DEFAULT_CONFIG_INSTANCE: u16 = 0x64;
 /// The Common assemblies' size.
 pub const COMMON_LEN: usize = 128;

@@ -1,4 +1,4 @@
-//! CIP messages (FACTS 3.3, 3.6): general status codes, EPATHs of logical segments, and
+//! CIP messages (protocol notes §3.3, §3.6): general status codes, EPATHs of logical segments, and
 //! the Message Router request and reply.
 //!
 //! ```text
@@ -59,7 +59,7 @@ pub mod class {
     pub const ETHERNET_LINK: u16 = 0xF6;
 }
 
-/// A CIP general status (FACTS 3.6).
+/// A CIP general status (protocol notes §3.6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct GeneralStatus(pub u8);
 

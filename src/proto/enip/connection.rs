@@ -1,4 +1,4 @@
-//! Opening and closing CIP connections (FACTS 3.4): Forward_Open (54h),
+//! Opening and closing CIP connections (protocol notes §3.4): Forward_Open (54h),
 //! Large_Forward_Open (5Bh) and Forward_Close (4Eh) to the Connection Manager, class 06h
 //! instance 1, with their replies and extended status codes.
 

@@ -1,4 +1,4 @@
-//! The Common Packet Format (FACTS 3.2): an item count, then items of
+//! The Common Packet Format (protocol notes §3.2): an item count, then items of
 //! `type u16 | length u16 | data`.
 
 use std::net::{Ipv4Addr, SocketAddrV4};

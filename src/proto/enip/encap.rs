@@ -1,4 +1,4 @@
-//! The encapsulation layer (FACTS 3.1): a 24-byte header in front of every TCP message
+//! The encapsulation layer (protocol notes §3.1): a 24-byte header in front of every TCP message
 //! and UDP discovery datagram, and the bodies of the commands drivedeck uses.
 //!
 //! ```text

@@ -1,4 +1,4 @@
-//! Class 1 I/O datagrams (FACTS 3.5): UDP packets of two CPF items, the sequenced
+//! Class 1 I/O datagrams (protocol notes §3.5): UDP packets of two CPF items, the sequenced
 //! address (connection id, encapsulation sequence number) and the connected data (CIP
 //! sequence count, the 32-bit run/idle header where the direction has one, the assembly).
 

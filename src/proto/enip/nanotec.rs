@@ -1,9 +1,9 @@
-//! Nanotec's object dictionary services on class 64h instance 1 (FACTS 3.3, spec "Device
-//! profile"): GetOD (32h), SetOD (33h) and GetOD "Rockwell" (34h). Every value travels
-//! little-endian in its native size, 1 to 4 bytes.
+//! Nanotec's object dictionary services on class 64h instance 1 (EtherNet/IP chapter,
+//! "Device profile"; protocol notes §3.3): GetOD (32h), SetOD (33h) and GetOD "Rockwell"
+//! (34h). Every value travels little-endian in its native size, 1 to 4 bytes.
 //!
 //! The vendor's examples are the golden tests below. One of them disagrees with itself
-//! (FACTS 7.2): the 34h reply for 2014h ends `… A8 C8` where the 32h reply for the same
+//! (protocol notes §5.2): the 34h reply for 2014h ends `… A8 C8` where the 32h reply for the same
 //! object ends `… A8 C0`. The codec decodes the printed bytes exactly as printed; the
 //! simulated adapter answers with the object's real value, so a client sees the same IP
 //! either way, and the C8 is taken for the typo it most likely is.
@@ -114,7 +114,7 @@ mod tests {
             reply.clone().expect(0x32).unwrap().status,
             GeneralStatus::SUCCESS
         );
-        // 192.168.0.244: the first octet in the most significant byte (FACTS 3.3).
+        // 192.168.0.244: the first octet in the most significant byte (protocol notes §3.3).
         let ip = u32::from_le_bytes(reply.data.try_into().unwrap());
         assert_eq!(std::net::Ipv4Addr::from(ip).to_string(), "192.168.0.244");
         assert_eq!(
@@ -166,7 +166,8 @@ mod tests {
         assert_eq!(request.encode(), bytes("34 02 20 64 24 01 14 20 00"));
         let reply = Reply::decode(&bytes("B4 00 00 00 07 00 04 00 F4 00 A8 C8")).unwrap();
         let typed = Typed::decode(&reply.expect(0x34).unwrap().data).unwrap();
-        // Type 0007h = UNSIGNED32, 4 bytes; the printed C8 decodes as 200.168.0.244 (FACTS 7.2).
+        // Type 0007h = UNSIGNED32, 4 bytes; the printed C8 decodes as 200.168.0.244
+        // (protocol notes §5.2).
         assert_eq!(typed.dtype_code, 0x0007);
         assert_eq!(
             u32::from_le_bytes(typed.data.clone().try_into().unwrap()),

@@ -1,6 +1,7 @@
 //! Modbus ADU framing around a PDU from [`super::pdu`]: the MBAP header of Modbus TCP
-//! (FACTS 1.6) and the slave address + CRC of Modbus RTU (FACTS 1.7). Sans-IO: the caller
-//! reads bytes into a buffer, calls a decoder, and drops the bytes it says it consumed.
+//! (protocol notes §1.6) and the slave address + CRC of Modbus RTU (§1.7). Sans-IO: the
+//! caller reads bytes into a buffer, calls a decoder, and drops the bytes it says it
+//! consumed.
 //!
 //! Decoders are total: any byte slice gives a frame, "need more bytes" (`Ok(None)`) or a
 //! [`FrameError`], never a panic. An RTU error means the stream is out of step: the caller
@@ -61,7 +62,7 @@ pub enum FrameError {
 pub struct TcpFrame {
     /// Echoed by the server (NT-MBAP).
     pub transaction: u16,
-    /// Nanotec drives do not route: 0 (NT-MBAP, FACTS 1.6).
+    /// Nanotec drives do not route: 0 (NT-MBAP, protocol notes §1.6).
     pub unit: u8,
     pub pdu: Vec<u8>,
 }
@@ -128,7 +129,7 @@ pub fn crc16(bytes: &[u8]) -> u16 {
     crc
 }
 
-/// `slave pdu… crcLo crcHi`. Slave 0 is broadcast (no reply, FACTS 1.7).
+/// `slave pdu… crcLo crcHi`. Slave 0 is broadcast (no reply, protocol notes §1.7).
 pub fn encode_rtu(slave: u8, pdu: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(pdu.len() + 3);
     out.push(slave);
@@ -332,7 +333,7 @@ fn encapsulated_len(pdu: &[u8], dir: Direction) -> Result<Option<Expected>, Fram
 }
 
 /// FC 43/0Dh: header length from the protocol-control options, then the number-of-data field
-/// (FACTS 1.4). A read request carries no data; a write response may or may not.
+/// (NT-FC43, protocol notes §1.4). A read request carries no data; a write response may or may not.
 fn canopen_len(pdu: &[u8], dir: Direction) -> Option<Expected> {
     let control = *pdu.get(2)?;
     let header = CanopenHeader::pdu_len(control);
@@ -410,7 +411,7 @@ mod tests {
     // --- TCP ----------------------------------------------------------------------------
 
     #[test]
-    fn tcp_frames_the_facts_fc23_exchange() {
+    fn tcp_frames_the_documented_fc23_exchange() {
         let pdu = bytes("17 13 84 00 04 17 6C 00 04 08 00 00 00 00 33 20 01 0E");
         let wire = encode_tcp(0x0102, 0, &pdu);
         assert_eq!(wire[..MBAP_LEN], bytes("01 02 00 00 00 13 00")[..]);

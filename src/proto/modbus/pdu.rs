@@ -1,10 +1,11 @@
 //! Modbus PDUs: the function code and its data, without slave address, CRC or MBAP header
 //! (those belong to [`super::frame`]). Sans-IO: bytes in, values out, nothing else.
 //!
-//! Byte order (FACTS 1.1, NT-GEN): everything is big-endian except the CANopen *data values*
-//! carried by FC 43, 101 and 102, which are little-endian. This module only carries those data
-//! bytes; it never interprets an object value. FC 101 frames are the one place where this
-//! module reads little-endian fields itself (index low byte first, NT-FC101).
+//! Byte order (NT-GEN, protocol notes §1.1): everything is big-endian except the CANopen
+//! *data values* carried by FC 43, 101 and 102, which are little-endian. This module only
+//! carries those data bytes; it never interprets an object value. FC 101 frames are the one
+//! place where this module reads little-endian fields itself (index low byte first,
+//! NT-FC101).
 //!
 //! Every decoder is total: any byte slice gives a value or a [`PduError`], never a panic.
 //! A device's refusal is data ([`Exception`]), a malformed answer is an error ([`PduError`]),
@@ -14,7 +15,7 @@ use std::fmt;
 
 use crate::cia::AbortCode;
 
-/// Function codes drivedeck speaks (FACTS 1.4).
+/// Function codes drivedeck speaks (protocol notes §1.4).
 pub mod fc {
     pub const READ_HOLDING: u8 = 0x03;
     pub const READ_INPUT: u8 = 0x04;
@@ -32,7 +33,7 @@ pub mod fc {
 /// MEI type of the CANopen general reference (CiA 309-2), FC 43/13.
 pub const MEI_CANOPEN: u8 = 0x0D;
 /// MEI type of Read Device Identification, FC 43/14. Not documented for Nanotec drives
-/// (FACTS 1.4): decoded as [`Request::Other`] so a server can refuse it.
+/// (protocol notes §5.19): decoded as [`Request::Other`] so a server can refuse it.
 pub const MEI_DEVICE_ID: u8 = 0x0E;
 
 /// The longest PDU the Modbus spec allows: a 256-byte serial ADU minus address and CRC
@@ -50,7 +51,7 @@ pub mod limits {
 }
 
 /// Standard exception codes (Modbus Application Protocol V1.1b3 §7) and Nanotec's
-/// extended-exception marker (FACTS 1.5).
+/// extended-exception marker (protocol notes §1.5).
 pub mod exception {
     pub const ILLEGAL_FUNCTION: u8 = 0x01;
     pub const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
@@ -332,7 +333,8 @@ fn hex(bytes: &[u8]) -> String {
 /// p. 127): bit 0 extend flag, 1 extended protocol control, 2 counter byte option, 3 and 4
 /// reserved, 5 network-id option, 6 encoded-data option ("not supported, must be 0" for both),
 /// 7 access flag ("0" = read, "1" = write), 8–15 reserved. Public code agrees on the access
-/// flag: HAN `MotorModbusMaster.cpp` sends control 00h to read and 01h to write (FACTS 1.4).
+/// flag: HAN `MotorModbusMaster.cpp` sends control 00h to read and 01h to write (protocol
+/// notes §1.4).
 pub mod control {
     /// NT bit 0: part of a multi-message transfer; 0 = single message or the last one.
     pub const EXTEND: u8 = 0x80;
@@ -353,7 +355,7 @@ pub mod control {
 /// The protocol-option and address fields of an FC 43/0Dh message, shared by request and
 /// response (a response echoes the request's header, NT-FC43).
 ///
-/// Wire layout after `2B 0D` (NT-FC43, FACTS 1.4; HAN for the address fields):
+/// Wire layout after `2B 0D` (NT-FC43, protocol notes §1.4; HAN for the address fields):
 /// `control [control2] 00 [counter] [network id] [encoded data] node idxHi idxLo sub
 /// startHi startLo countHi countLo`. Index, starting address and number of data bytes are
 /// big-endian (message body); the data bytes that follow are the object value, little-endian
@@ -584,8 +586,8 @@ impl CanopenRequest {
 /// response with fewer than 12 bytes after the function code, which only works if the drive
 /// echoes the data; so
 /// [`CanopenResponse::answering`] echoes it, and [`Response::decode`] accepts a write
-/// response with the data or without it (FACTS 1.4; the FACTS preamble asks for tolerance
-/// where the record is unclear).
+/// response with the data or without it (protocol notes §5.20: tolerant where
+/// the record is unclear).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct CanopenResponse {
     pub header: CanopenHeader,
@@ -974,7 +976,7 @@ fn decode_read_dictionary(r: &mut Reader<'_>) -> Result<Request, PduError> {
 // Exceptions.
 
 /// A device's refusal: a standard exception, or Nanotec's extended exception carrying a
-/// CANopen abort code (FC 43/101/102, FACTS 1.5).
+/// CANopen abort code (FC 43/101/102, protocol notes §1.5).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Exception {
     /// `function | 80h, code`. `function` is the code as sent, without bit 7.
@@ -1332,10 +1334,10 @@ pub(crate) mod tests {
         );
     }
 
-    // --- FACTS 1.2 golden vectors --------------------------------------------------------
+    // --- Golden vectors of protocol notes §1.2 ---------------------------------------------
 
     #[test]
-    fn fc16_od_read_of_3320h_01_matches_facts_1_2() {
+    fn fc16_od_read_of_3320h_01_matches_the_spec_example() {
         let request = Request::WriteMultiple {
             address: 5996,
             values: vec![0x0000, 0x0000, 0x3320, 0x010E],
@@ -1354,7 +1356,7 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn fc23_pdi_exchange_header_matches_facts_1_2() {
+    fn fc23_pdi_exchange_header_matches_the_register_map() {
         let request = Request::ReadWrite {
             read_address: 4996,
             read_count: 4,

@@ -1,5 +1,5 @@
 //! Where the PDI and the process images sit in a Nanotec drive's Modbus register space, and
-//! how values are packed into registers (FACTS 1.1 to 1.3). This is the one place for
+//! how values are packed into registers (protocol notes §1.1 to §1.3). This is the one place for
 //! Modbus byte and word order.
 //!
 //! The mapped objects form a byte stream, each object big-endian, without gaps; register n
@@ -7,8 +7,9 @@
 //! word at the lower address, and in register 5999 SetValue3 (stream byte 6) is the high
 //! byte and PDI-Cmd (stream byte 7) the low byte.
 //!
-//! The word order is [M] in FACTS (one public script used low word first), so it is a
-//! setting (`WordOrder`), tested both ways; the default follows Nanotec's "big-endian".
+//! The word order is \[M\] (one public script used low word first, protocol notes §5.12),
+//! so it is a setting (`WordOrder`), tested both ways; the default follows Nanotec's
+//! "big-endian".
 
 use std::fmt;
 
@@ -27,7 +28,7 @@ pub const PDI_REGISTERS: u16 = 4;
 pub const TX_IMAGE: u16 = 5000;
 /// The default RX process image (3502h) starts here, right after the PDI RX block.
 pub const RX_IMAGE: u16 = 6000;
-/// NanoJ outputs 2500h:01..20h, 32 × i32, read only (N5/CL4-E numbering, FACTS 1.3).
+/// NanoJ outputs 2500h:01..20h, 32 × i32, read only (N5/CL4-E numbering, protocol notes §5.15).
 pub const NANOJ_OUTPUTS: u16 = 2000;
 /// NanoJ inputs 2400h:01..20h, 32 × i32, write only.
 pub const NANOJ_INPUTS: u16 = 3000;
@@ -250,8 +251,8 @@ mod tests {
     use proptest::prelude::*;
 
     #[test]
-    fn od_read_of_3320h_01h_packs_as_facts_1_2() {
-        // FACTS 1.2: FC 16 to 5996, 4 registers: 0000 0000 3320 010E.
+    fn od_read_of_3320h_01h_packs_as_the_spec_example() {
+        // Protocol notes §1.2 (PDI spec §2.2.5): FC 16 to 5996, 4 registers: 0000 0000 3320 010E.
         let action = Action::OdRead {
             index: 0x3320,
             sub: 1,
@@ -303,7 +304,8 @@ mod tests {
         assert_eq!(low.return_value, 0x0001_0000);
     }
 
-    /// 3602h defaults (FACTS 1.3): 6041h, dummy 8 bit, 6061h, 6064h, 6044h, 60FDh.
+    /// 3602h defaults (NT-3602, protocol notes §1.3): 6041h, dummy 8 bit, 6061h, 6064h,
+    /// 6044h, 60FDh.
     fn default_tx_layout() -> ImageLayout {
         ImageLayout::from_entries(&[
             0x6041_0010,
@@ -316,7 +318,7 @@ mod tests {
     }
 
     #[test]
-    fn the_default_tx_image_lays_out_as_facts_1_3() {
+    fn the_default_tx_image_lays_out_as_3602h_says() {
         let layout = default_tx_layout();
         assert_eq!(layout.register_len(), 7);
         let regs = layout.pack(

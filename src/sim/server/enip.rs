@@ -1,7 +1,7 @@
 //! The simulated drive as an EtherNet/IP adapter (target): explicit messages over TCP
 //! (unconnected, through Unconnected_Send, and class 3 connected), one class 1 I/O
 //! connection over UDP carrying the PDI or the Common assembly set, and ListIdentity over
-//! UDP for discovery (FACTS 3.1 to 3.6, spec "EtherNet/IP").
+//! UDP for discovery (protocol notes §3, EtherNet/IP chapter).
 //!
 //! [`Adapter`] is sans-IO: TCP bytes in per stream, replies out; I/O datagrams in;
 //! [`Adapter::poll`] gives the T→O datagrams that are due and ends a connection whose
@@ -76,7 +76,7 @@
 //! 6. RPIs of 1 ms to 10 s: else 0111h. Null connection types: 0108h (multicast T→O is
 //!    accepted and sent point-to-point).
 //! 7. O→T size: the assembly + 2 (sequence count) + 4 (run/idle header), or + 2 alone
-//!    (modeless). PDI: 8 bytes (PDI-Cmd at byte 7) or 9 (at byte 8, FACTS 7.1); Common:
+//!    (modeless). PDI: 8 bytes (PDI-Cmd at byte 7) or 9 (at byte 8, protocol notes §5.1); Common:
 //!    128. Else 0127h, T→O size: 8 or 128, + 2, or + 6 with a run/idle header; else 0128h.
 //!    Both add a second word: the size expected (with header for O→T, modeless for T→O).
 //!

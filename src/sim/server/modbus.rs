@@ -1,5 +1,5 @@
 //! The simulated drive as a Modbus TCP and RTU server, with a Nanotec drive's register map
-//! (FACTS 1.2 to 1.5):
+//! (PDI spec §3.2; protocol notes §1.2 to §1.5):
 //!
 //! | registers | content | access |
 //! | --- | --- | --- |
