@@ -23,11 +23,11 @@
 //!   number of sections found is a warning. A `CompactSubObj=N` array gets sub-index 0
 //!   (UNSIGNED8, ro, value N) and sub-indices 1..N from the object's own keys, named from
 //!   `[XXXXName]`, else `ParameterName` followed by the number (as lely-core names them).
-//! * DataType is a CiA 301 code. drivedeck's [`DataType`](super::DataType) has no 24/40/48/56-bit
-//!   integers, TIME_OF_DAY or TIME_DIFFERENCE; those and unknown codes (manufacturer
-//!   complex types 0040h+) are kept as DOMAIN (the raw little-endian bytes), with a
-//!   warning; integer defaults of the odd widths become their bytes. The code as written
-//!   stays in [`EntryInfo::type_code`], so an export writes it back.
+//! * DataType is a CiA 301 code. drivedeck's [`DataType`](super::DataType) has no
+//!   24/40/48/56-bit integers, TIME_OF_DAY or TIME_DIFFERENCE; those and unknown codes
+//!   (manufacturer complex types 0040h+) are kept as DOMAIN (the raw little-endian
+//!   bytes), with a warning; integer defaults of the odd widths become their bytes. The
+//!   code as written stays in [`EntryInfo::type_code`], so an export writes it back.
 //! * AccessType ro, wo, rw, rwr, rww, const; rwr and rww are `rw` in the catalog and
 //!   kept as written in [`EntryInfo::access`]. Anything else: ro, with a warning.
 //! * Values: decimal, `0x` hex, negative, and octal with a leading 0 as CiA 306 says (with
@@ -59,8 +59,8 @@
 //! EDS (vendor 26Ch) or when the names agree, since another maker's 2031h is not
 //! Nanotec's Max Motor Current. Catalog objects the EDS lacks are not added: the device
 //! would refuse every read of them. Where type or access differ, the EDS wins and a note
-//! says so. An entry's [`Role`](super::Role) (whether a restore may write it) is the stricter of the
-//! EDS's (AccessType `rww`/`rwr` is process data) and the catalog's.
+//! says so. An entry's [`Role`](super::Role) (whether a restore may write it) is the
+//! stricter of the EDS's (AccessType `rww`/`rwr` is process data) and the catalog's.
 //!
 //! # Export
 //!
@@ -72,6 +72,7 @@
 //!
 //! # Where it is
 //!
+//! * `error`: [`Warning`] and [`EdsError`].
 //! * `ini`: the INI layer (sections, keys, line numbers).
 //! * `values`: integers, `$NODEID` formulas and values as CiA 306 writes them.
 //! * `import`: an EDS or DCF into an [`Eds`].

@@ -53,14 +53,7 @@ impl Importer<'_> {
                 matches!(access, EdsAccess::Rww | EdsAccess::Rwr),
             ),
         };
-        if let Some(default) = &entry.default
-            && let Err(e) = entry.check(default)
-        {
-            self.warn(
-                s.line_of("DefaultValue"),
-                format!("{at}: DefaultValue {e} (kept)"),
-            );
-        }
+        self.check_default(s, &at, &entry);
         let info = EntryInfo {
             type_code: code,
             access,
@@ -70,6 +63,18 @@ impl Importer<'_> {
             high_formula,
         };
         (entry, info)
+    }
+
+    /// A warning where the default is outside the entry's limits or type; it is kept.
+    fn check_default(&mut self, s: &Section, at: &str, entry: &Entry) {
+        if let Some(default) = &entry.default
+            && let Err(e) = entry.check(default)
+        {
+            self.warn(
+                s.line_of("DefaultValue"),
+                format!("{at}: DefaultValue {e} (kept)"),
+            );
+        }
     }
 
     /// DataType as a code; DOMAIN where it is missing or no code.
