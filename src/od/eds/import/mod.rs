@@ -1,0 +1,273 @@
+//! Import of an EDS or DCF ([`Eds::load`], [`Eds::from_bytes`], [`Eds::parse`]): the INI
+//! sections sorted into objects, sub-indices, names and links, then read into an [`Eds`]
+//! with a [`Warning`] for whatever was skipped or guessed (the rules are in the module
+//! documentation of [`super`]).
+//!
+//! * `info`: the sections about the file and the device, and the object lists.
+//! * `objects`: the `[XXXX]` sections and their sub-indices.
+//! * `entry`: one VAR or sub-index section into a catalog entry.
+
+mod entry;
+mod info;
+mod objects;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use super::ini::{Ini, Section};
+use super::{Eds, EdsError, MAX_SIZE, Warning};
+
+impl Eds {
+    /// Read an EDS or DCF file. `node_id` resolves `$NODEID` formulas.
+    pub fn load(path: &Path, node_id: Option<u8>) -> Result<Eds, EdsError> {
+        let bytes = std::fs::read(path).map_err(|source| EdsError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+        Eds::from_bytes(&bytes, node_id)
+    }
+
+    /// Parse a file's bytes: UTF-8, else Latin-1 (with a warning).
+    pub fn from_bytes(bytes: &[u8], node_id: Option<u8>) -> Result<Eds, EdsError> {
+        if bytes.len() > MAX_SIZE {
+            return Err(EdsError::TooLarge { size: bytes.len() });
+        }
+        match std::str::from_utf8(bytes) {
+            Ok(text) => Eds::parse(text, node_id),
+            Err(e) => {
+                let line = 1 + bytes[..e.valid_up_to()]
+                    .iter()
+                    .filter(|b| **b == b'\n')
+                    .count();
+                let text: String = bytes.iter().map(|b| char::from(*b)).collect();
+                let mut eds = Eds::parse(&text, node_id)?;
+                eds.warnings.insert(
+                    0,
+                    Warning {
+                        line,
+                        message: "the file is not UTF-8: read as Latin-1 (ISO 8859-1)".into(),
+                    },
+                );
+                Ok(eds)
+            }
+        }
+    }
+
+    /// Parse an EDS or DCF text. `node_id` resolves `$NODEID` formulas; without it a
+    /// DCF's `[DeviceComissioning] NodeID` does, else formulas stay unresolved.
+    pub fn parse(text: &str, node_id: Option<u8>) -> Result<Eds, EdsError> {
+        if text.len() > MAX_SIZE {
+            return Err(EdsError::TooLarge { size: text.len() });
+        }
+        if let Some(at) = text.find('\0') {
+            let line = 1 + text[..at].matches('\n').count();
+            return Err(EdsError::Binary { line });
+        }
+        let text = text.strip_prefix('\u{FEFF}').unwrap_or(text);
+        let mut warnings = Vec::new();
+        let ini = Ini::read(text, &mut warnings);
+        let mut importer = Importer {
+            ini: &ini,
+            node_id,
+            eds: Eds::default(),
+            warnings,
+        };
+        importer.run();
+        let Importer {
+            mut eds,
+            mut warnings,
+            ..
+        } = importer;
+        warnings.sort_by_key(|w| w.line);
+        if eds.catalog.is_empty() {
+            return Err(EdsError::NothingUsable {
+                lines: ini.lines,
+                first: warnings.into_iter().next(),
+            });
+        }
+        eds.warnings = warnings;
+        Ok(eds)
+    }
+}
+
+struct Importer<'a> {
+    ini: &'a Ini,
+    node_id: Option<u8>,
+    eds: Eds,
+    warnings: Vec<Warning>,
+}
+
+/// Which section is which.
+enum Kind {
+    Object(u16),
+    Sub(u16, u8),
+    Names(u16),
+    Links(u16),
+    BadSub(u16),
+    Other,
+}
+
+fn classify(name: &str) -> Kind {
+    let lower = name.to_ascii_lowercase();
+    let Some(head) = lower.get(..4) else {
+        return Kind::Other;
+    };
+    if !head.chars().all(|c| c.is_ascii_hexdigit()) {
+        return Kind::Other;
+    }
+    let Ok(index) = u16::from_str_radix(head, 16) else {
+        return Kind::Other;
+    };
+    let rest = &lower[4..];
+    match rest {
+        "" => Kind::Object(index),
+        "name" => Kind::Names(index),
+        "objectlinks" => Kind::Links(index),
+        _ => match rest.strip_prefix("sub") {
+            Some(sub) => match u8::from_str_radix(sub, 16) {
+                Ok(s) if !sub.starts_with(['+', '-']) => Kind::Sub(index, s),
+                _ => Kind::BadSub(index),
+            },
+            None => Kind::Other,
+        },
+    }
+}
+
+/// An object section's pieces, gathered before import.
+#[derive(Default)]
+struct Gathered<'a> {
+    objects: BTreeMap<u16, &'a Section>,
+    subs: BTreeMap<u16, BTreeMap<u8, &'a Section>>,
+    names: BTreeMap<u16, &'a Section>,
+    links: BTreeMap<u16, &'a Section>,
+}
+
+impl<'a> Importer<'a> {
+    fn warn(&mut self, line: usize, message: impl Into<String>) {
+        self.warnings.push(Warning {
+            line,
+            message: message.into(),
+        });
+    }
+
+    fn run(&mut self) {
+        self.read_file_info();
+        self.read_device_info();
+        self.read_commissioning();
+        self.read_comments();
+        self.read_dummy_usage();
+        let gathered = self.gather();
+        for (&index, &section) in &gathered.objects {
+            self.import_object(index, section, &gathered);
+        }
+        for (&index, subs) in &gathered.subs {
+            if !gathered.objects.contains_key(&index) {
+                self.import_orphan_subs(index, subs);
+            }
+        }
+        self.read_links(&gathered.links);
+        self.check_lists(&gathered.objects);
+    }
+
+    /// The object sections sorted by what they hold.
+    fn gather(&mut self) -> Gathered<'a> {
+        let ini = self.ini;
+        let mut gathered = Gathered::default();
+        for section in &ini.sections {
+            match classify(&section.name) {
+                Kind::Object(i) => {
+                    gathered.objects.insert(i, section);
+                }
+                Kind::Sub(i, s) => {
+                    gathered.subs.entry(i).or_default().insert(s, section);
+                }
+                Kind::Names(i) => {
+                    gathered.names.insert(i, section);
+                }
+                Kind::Links(i) => {
+                    gathered.links.insert(i, section);
+                }
+                Kind::BadSub(i) => self.warn(
+                    section.line,
+                    format!(
+                        "[{}]: not a sub-index of {i:04X}h (write [{i:04X}subN], N in hex up to FF); ignored",
+                        section.name
+                    ),
+                ),
+                Kind::Other => {}
+            }
+        }
+        gathered
+    }
+
+    /// `[XXXXObjectLinks]`, of the objects imported.
+    fn read_links(&mut self, links: &BTreeMap<u16, &Section>) {
+        for (&index, &section) in links {
+            let links = self.read_list(section, "ObjectLinks");
+            match self.eds.objects.get_mut(&index) {
+                Some(object) => object.links = links.into_iter().map(|(i, _)| i).collect(),
+                None => self.warn(
+                    section.line,
+                    format!(
+                        "[{}] links an object {index:04X}h that is not imported; ignored",
+                        section.name
+                    ),
+                ),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::od::eds::testing::{MINIMAL, parse};
+    use crate::od::eds::{Eds, EdsError};
+    use crate::od::{Address, Group, Value};
+
+    #[test]
+    fn a_minimal_file_imports_without_warnings() {
+        let eds = parse(MINIMAL);
+        assert_eq!(eds.warnings.len(), 1);
+        assert_eq!(eds.warnings[0].line, 3);
+        assert!(
+            eds.warnings[0]
+                .message
+                .starts_with("the file has no [MandatoryObjects]")
+        );
+        let entry = eds.catalog.get(Address::new(0x1000, 0)).unwrap();
+        assert_eq!(entry.default, Some(Value::Uint(0x40192)));
+        assert_eq!(entry.group, Group::Communication);
+        assert_eq!(eds.device_info.vendor_number, Some(0x26C));
+    }
+
+    #[test]
+    fn nothing_usable_fails_with_the_first_problem() {
+        let err = Eds::parse("hello\n[1000]\nfoo=7\n", None).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.starts_with("no object could be imported from the 3 lines"),
+            "{text}"
+        );
+        assert!(text.contains("line 1: 'hello' is not KEY=VALUE"), "{text}");
+        assert!(matches!(
+            Eds::parse("", None),
+            Err(EdsError::NothingUsable { .. })
+        ));
+        let err = Eds::parse("[1000]\nx=\0\n", None).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "line 2: a NUL byte: this is a binary file, not an EDS (CiA 306 files are text)"
+        );
+    }
+
+    #[test]
+    fn latin1_files_are_read() {
+        let mut bytes = MINIMAL.as_bytes().to_vec();
+        bytes.extend_from_slice(b"Unit=0.1\xB0\n");
+        let eds = Eds::from_bytes(&bytes, None).unwrap();
+        let entry = eds.catalog.get(Address::new(0x1000, 0)).unwrap();
+        assert_eq!(entry.unit.as_deref(), Some("0.1°"));
+        assert_eq!(eds.warnings[0].line, 9);
+        assert!(eds.warnings[0].message.contains("Latin-1"));
+    }
+}
