@@ -1,9 +1,10 @@
 //! drivedeck: a commissioning tool for Nanotec motor controllers.
 //!
-//! Layers, lowest first (ARCHITECTURE.md describes them and the rules between them):
-//! `number`, `cia` and `pdi` (sans-IO, std only), `od` (object dictionary types and
-//! catalog), `link` (the buses), `sim` (the simulated drive), `worker` (the thread that owns
-//! the link), `telemetry`, `ui` and `cli`.
+//! Layers, lowest first (ARCHITECTURE.md draws them and gives the table of which module
+//! may import which; a test keeps it): the vocabulary (`number`, `cia`, `pdi`, `od`), the
+//! shared facts (`signal`, `injection`, `proto`: the sans-IO codecs), the buses (`link`),
+//! the simulated drive (`sim`), opening any link (`connect`), the loop (`worker`,
+//! `telemetry`, `diagnostics`) and the faces (`ui`, `cli`).
 
 pub mod cia;
 pub mod cli;

@@ -208,8 +208,7 @@ fn imports(own: &[String], lines: &[(usize, String)]) -> Vec<(usize, String, Str
 /// member as its own path, prefixed with `prefix`.
 fn collect(text: &str, prefix: &mut String, out: &mut Vec<String>) {
     let mut path = String::new();
-    let mut chars = text.char_indices().peekable();
-    while let Some((at, c)) = chars.next() {
+    for (at, c) in text.char_indices() {
         if c.is_alphanumeric() || c == '_' || c == ':' {
             path.push(c);
             continue;
