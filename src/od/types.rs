@@ -129,6 +129,21 @@ impl DataType {
         }
     }
 
+    /// The integer type of `bits` bits (8, 16, 32, 64), signed or not.
+    pub fn integer(bits: u8, signed: bool) -> Option<DataType> {
+        Some(match (bits, signed) {
+            (8, true) => DataType::Integer8,
+            (16, true) => DataType::Integer16,
+            (32, true) => DataType::Integer32,
+            (64, true) => DataType::Integer64,
+            (8, false) => DataType::Unsigned8,
+            (16, false) => DataType::Unsigned16,
+            (32, false) => DataType::Unsigned32,
+            (64, false) => DataType::Unsigned64,
+            _ => return None,
+        })
+    }
+
     pub fn is_signed(self) -> bool {
         matches!(
             self,

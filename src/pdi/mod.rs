@@ -10,6 +10,7 @@ mod command;
 mod error;
 mod image;
 mod master;
+mod objects;
 mod status;
 
 #[cfg(test)]
@@ -23,4 +24,5 @@ pub use command::{Command, Opcode};
 pub use error::Error;
 pub use image::{RxImage, TxImage};
 pub use master::{Failure, PdiMaster, Progress, Timing, Travel, Waiting};
+pub use objects::{ImageObject, PDI_INPUT, PDI_OUTPUT, RX_OBJECTS, TX_OBJECTS};
 pub use status::{Status, StatusBit};

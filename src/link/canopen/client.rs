@@ -12,7 +12,7 @@ use crate::link::{
     CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals, TraceRecord,
 };
 use crate::od::{Address, DataType, Value};
-use crate::pdi::{RxImage, TxImage};
+use crate::pdi::{PDI_OUTPUT, RX_OBJECTS, RxImage, TX_OBJECTS, TxImage};
 use crate::proto::canopen::CanFrame;
 use crate::proto::canopen::emcy::Emcy;
 use crate::proto::canopen::nmt::{self, NmtCommand};
@@ -132,11 +132,12 @@ impl<B: CanBus> CanopenLink<B> {
         }
         // A node without the Plug & Drive interface (any CANopen device) still gets
         // object access.
-        if let Err(code) = link.sdo_upload(0x2292, 1).await? {
+        if let Err(code) = link.sdo_upload(PDI_OUTPUT, TX_OBJECTS[0].sub).await? {
             link.path = PdiPath::Absent;
             link.notices.push(format!(
-                "node {} has no Plug & Drive interface (reading 2292h:01h: {code}): object access only",
-                options.node
+                "node {} has no Plug & Drive interface (reading {}: {code}): object access only",
+                options.node,
+                Address::new(PDI_OUTPUT, TX_OBJECTS[0].sub)
             ));
             return Ok(());
         }
@@ -450,13 +451,14 @@ impl<B: CanBus> CanopenLink<B> {
                 ))
             })
         };
-        let status = read(self.sdo_upload(0x2292, 1).await?)?;
-        let code = read(self.sdo_upload(0x603F, 0).await?)?;
-        let value = read(self.sdo_upload(0x2292, 2).await?)?;
         let mut bytes = [0u8; 8];
-        bytes[..2].copy_from_slice(status.get(..2).unwrap_or(&[0, 0]));
-        bytes[2..4].copy_from_slice(code.get(..2).unwrap_or(&[0, 0]));
-        bytes[4..].copy_from_slice(value.get(..4).unwrap_or(&[0, 0, 0, 0]));
+        for o in TX_OBJECTS {
+            let data = read(self.sdo_upload(o.index, o.sub).await?)?;
+            let range = o.bytes();
+            if let Some(data) = data.get(..range.len()) {
+                bytes[range].copy_from_slice(data);
+            }
+        }
         TxImage::from_bytes(&bytes).map_err(|e| Error::Protocol(e.to_string()))
     }
 
@@ -548,15 +550,14 @@ impl<B: CanBus> Link for CanopenLink<B> {
                 {
                     // Set values first, the command byte last: it starts the command.
                     let bytes = rx.to_bytes();
-                    for (sub, data) in [
-                        (1u8, &bytes[0..4]),
-                        (2, &bytes[4..6]),
-                        (3, &bytes[6..7]),
-                        (4, &bytes[7..8]),
-                    ] {
-                        if let Err(code) = self.sdo_download(0x2291, sub, data).await? {
+                    for o in RX_OBJECTS {
+                        if let Err(code) =
+                            self.sdo_download(o.index, o.sub, &bytes[o.bytes()]).await?
+                        {
                             return Err(Error::Answer(format!(
-                                "the drive refused the PDI write of 2291h:{sub:02X}h over SDO: abort {code}"
+                                "the drive refused the PDI write of {} ({}) over SDO: abort {code}",
+                                Address::new(o.index, o.sub),
+                                o.name
                             )));
                         }
                     }
@@ -578,8 +579,9 @@ impl<B: CanBus> Link for CanopenLink<B> {
             return Ok(None);
         }
         let mut bytes = [0u8; 8];
-        for (sub, range) in [(1u8, 0..4), (2, 4..6), (3, 6..7), (4, 7..8)] {
-            match self.sdo_upload(0x2291, sub).await? {
+        for o in RX_OBJECTS {
+            let range = o.bytes();
+            match self.sdo_upload(o.index, o.sub).await? {
                 Ok(data) if data.len() == range.len() => bytes[range].copy_from_slice(&data),
                 _ => return Ok(None),
             }

@@ -22,7 +22,7 @@ use crate::link::{
     Error, Exchange, FoundDevice, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals,
 };
 use crate::od::{Address, DataType, Value};
-use crate::pdi::{RxImage, TxImage};
+use crate::pdi::{ImageObject, RX_OBJECTS, RxImage, TX_OBJECTS, TxImage};
 use crate::proto::enip::assembly::{self, AssemblySet, CmdOffset, CommonIn, CommonOut};
 use crate::proto::enip::cip::{self, Path, Segment, class, service};
 use crate::proto::enip::connection::{
@@ -53,6 +53,11 @@ fn entropy() -> u32 {
         .map(|d| d.subsec_nanos() ^ (d.as_secs() as u32).rotate_left(13))
         .unwrap_or(0);
     nanos ^ std::process::id().rotate_left(7)
+}
+
+/// The dictionary type of a PDI image object.
+fn image_type(o: ImageObject) -> DataType {
+    DataType::integer(o.bits, o.signed).unwrap_or(DataType::Integer32)
 }
 
 /// The timeout multiplier that gives at least [`MIN_IO_TIMEOUT`] at this RPI.
@@ -142,7 +147,10 @@ impl EnipLink {
                 .push(format!("no identity from the adapter ({e})")),
         }
         self.pdi = match self
-            .get(Address::new(0x2292, 1), DataType::Unsigned16)
+            .get(
+                Address::new(TX_OBJECTS[0].index, TX_OBJECTS[0].sub),
+                image_type(TX_OBJECTS[0]),
+            )
             .await?
         {
             Ok(_) => true,
@@ -261,26 +269,14 @@ impl EnipLink {
 
     /// 2291h:01..04 as the drive holds them.
     async fn read_rx_explicit(&mut self) -> Result<RxImage, Error> {
-        let value1 = self
-            .get_int(Address::new(0x2291, 1), DataType::Integer32)
-            .await? as i32;
-        let value2 = self
-            .get_int(Address::new(0x2291, 2), DataType::Integer16)
-            .await? as i16;
-        let value3 = self
-            .get_int(Address::new(0x2291, 3), DataType::Integer8)
-            .await? as i8;
-        let cmd = self
-            .get_int(Address::new(0x2291, 4), DataType::Integer8)
-            .await? as i8 as u8;
-        Ok(RxImage {
-            values: crate::pdi::SetValues {
-                value1,
-                value2,
-                value3,
-            },
-            cmd,
-        })
+        let mut values = [0i64; 4];
+        for (slot, o) in values.iter_mut().zip(RX_OBJECTS) {
+            *slot = self
+                .get_int(Address::new(o.index, o.sub), image_type(o))
+                .await? as i64;
+        }
+        let mut values = values.into_iter();
+        Ok(RxImage::from_object_values(|_| values.next().unwrap_or(0)))
     }
 
     /// An object read for the Common set's outputs: 0 where the drive lacks it.
@@ -518,61 +514,32 @@ impl EnipLink {
         if let Some(rx) = rx
             && self.explicit_rx.as_ref() != Some(rx)
         {
-            let old = self.explicit_rx;
-            let writes = [
-                (
-                    1u8,
-                    DataType::Integer32,
-                    i64::from(rx.values.value1),
-                    old.map(|o| o.values.value1 != rx.values.value1),
-                ),
-                (
-                    2,
-                    DataType::Integer16,
-                    i64::from(rx.values.value2),
-                    old.map(|o| o.values.value2 != rx.values.value2),
-                ),
-                (
-                    3,
-                    DataType::Integer8,
-                    i64::from(rx.values.value3),
-                    old.map(|o| o.values.value3 != rx.values.value3),
-                ),
-                (
-                    4,
-                    DataType::Integer8,
-                    i64::from(rx.cmd as i8),
-                    old.map(|o| o.cmd != rx.cmd),
-                ),
-            ];
-            for (sub, dtype, value, changed) in writes {
-                if changed == Some(false) {
+            // The set values first, the command byte last: it starts the command. Only
+            // what changed is written.
+            let old = self.explicit_rx.map(|o| o.object_values());
+            for (n, (o, value)) in rx.object_values().into_iter().enumerate() {
+                if old.is_some_and(|old| old[n].1 == value) {
                     continue;
                 }
-                let address = Address::new(0x2291, sub);
-                if let Err(refusal) = self.set(address, dtype, &Value::Int(value)).await? {
+                let address = Address::new(o.index, o.sub);
+                if let Err(refusal) = self.set(address, image_type(o), &Value::Int(value)).await? {
                     return Err(Error::Answer(format!(
-                        "the drive refused the PDI write: {refusal}"
+                        "the drive refused the PDI write of {address} ({}): {refusal}",
+                        o.name
                     )));
                 }
             }
             self.explicit_rx = Some(*rx);
         }
-        let status = self
-            .get_int(Address::new(0x2292, 1), DataType::Unsigned16)
-            .await? as u16;
-        let error_code = self
-            .get_int(Address::new(0x603F, 0), DataType::Unsigned16)
-            .await? as u16;
-        let return_value = self
-            .get_int(Address::new(0x2292, 2), DataType::Integer32)
-            .await? as i32;
+        let mut values = [0i64; 3];
+        for (slot, o) in values.iter_mut().zip(TX_OBJECTS) {
+            *slot = self
+                .get_int(Address::new(o.index, o.sub), image_type(o))
+                .await? as i64;
+        }
+        let mut values = values.into_iter();
         Ok(Exchange {
-            tx: TxImage {
-                status: crate::pdi::Status(status),
-                error_code,
-                return_value,
-            },
+            tx: TxImage::from_object_values(|_| values.next().unwrap_or(0)),
             signals: Signals::default(),
         })
     }

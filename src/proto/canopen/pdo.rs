@@ -15,6 +15,7 @@
 use std::fmt;
 
 use super::nmt::cob;
+use crate::pdi::{ImageObject, RX_OBJECTS, TX_OBJECTS};
 
 /// The most bits a classic CAN PDO carries.
 pub const MAX_BITS: u32 = 64;
@@ -37,6 +38,11 @@ pub struct MappedObject {
 impl MappedObject {
     pub const fn new(index: u16, sub: u8, bits: u8) -> Self {
         Self { index, sub, bits }
+    }
+
+    /// A PDI image object as a mapping entry.
+    pub const fn of(object: ImageObject) -> Self {
+        Self::new(object.index, object.sub, object.bits)
     }
 
     /// The entry as written to 16xxh/1Axxh: `IIIISSLL`.
@@ -81,21 +87,21 @@ impl fmt::Display for MappedObject {
     }
 }
 
-/// The RX PDO the PDI needs (PDI spec §3): SetValue1 i32, SetValue2 i16,
-/// SetValue3 i8, PDI-Cmd — 8 bytes, master → drive.
+/// The RX PDO the PDI needs (PDI spec §3): its RX image's objects, SetValue1 i32,
+/// SetValue2 i16, SetValue3 i8, PDI-Cmd — 8 bytes, master → drive.
 pub const PDI_RX: [MappedObject; 4] = [
-    MappedObject::new(0x2291, 0x01, 32),
-    MappedObject::new(0x2291, 0x02, 16),
-    MappedObject::new(0x2291, 0x03, 8),
-    MappedObject::new(0x2291, 0x04, 8),
+    MappedObject::of(RX_OBJECTS[0]),
+    MappedObject::of(RX_OBJECTS[1]),
+    MappedObject::of(RX_OBJECTS[2]),
+    MappedObject::of(RX_OBJECTS[3]),
 ];
 
-/// The TX PDO the PDI needs (PDI spec §3): PDI-Status, error code 603Fh,
-/// PDI-ReturnValue — 8 bytes, drive → master.
+/// The TX PDO the PDI needs (PDI spec §3): its TX image's objects, PDI-Status, error
+/// code 603Fh, PDI-ReturnValue — 8 bytes, drive → master.
 pub const PDI_TX: [MappedObject; 3] = [
-    MappedObject::new(0x2292, 0x01, 16),
-    MappedObject::new(0x603F, 0x00, 16),
-    MappedObject::new(0x2292, 0x02, 32),
+    MappedObject::of(TX_OBJECTS[0]),
+    MappedObject::of(TX_OBJECTS[1]),
+    MappedObject::of(TX_OBJECTS[2]),
 ];
 
 /// Receive (RPDO, master → node) or transmit (TPDO, node → master), seen from the node.
