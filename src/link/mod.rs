@@ -10,12 +10,14 @@ pub mod enip;
 pub(crate) mod error;
 pub mod modbus;
 pub mod spec;
+mod trace;
 
 use std::fmt;
 
 pub use crate::signal::{Signal, Signals};
 pub use error::{Error, Refusal, modbus_exception_text};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
+pub use trace::{TRACE_LIMIT, TraceRecord, TraceRing};
 
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
@@ -42,46 +44,6 @@ pub struct LinkInfo {
 impl fmt::Display for LinkInfo {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.description)
-    }
-}
-
-/// One frame a link sent or received, for the frame log and its export.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct TraceRecord {
-    /// When, as wall-clock time (for candump logs and timelines).
-    pub at: std::time::SystemTime,
-    pub sent: bool,
-    /// The frame as the bus's tools write it: `601#4018100100000000` on CAN, hex on Modbus.
-    pub raw: String,
-    /// What it means: "SDO request node 1: upload 1018h:01h".
-    pub text: String,
-    /// The CAN frame and its interface name (`can0`, `slcan0`), for candump logs.
-    pub can: Option<(crate::proto::canopen::CanFrame, String)>,
-}
-
-impl TraceRecord {
-    /// Seconds since the Unix epoch.
-    pub fn unix_seconds(&self) -> f64 {
-        self.at
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_secs_f64())
-            .unwrap_or(0.0)
-    }
-
-    /// One line of a log file: candump's format for CAN frames, the same shape otherwise.
-    pub fn log_line(&self) -> String {
-        match &self.can {
-            Some((frame, interface)) => {
-                crate::proto::canopen::describe::candump_line(self.unix_seconds(), interface, frame)
-            }
-            None => format!(
-                "({:.6}) {} {}  {}",
-                self.unix_seconds(),
-                if self.sent { "tx" } else { "rx" },
-                self.raw,
-                self.text
-            ),
-        }
     }
 }
 

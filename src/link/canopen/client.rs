@@ -3,13 +3,13 @@
 //! at a time. If the drive refuses the mapping, the PDI runs over SDO instead, and the link
 //! says so.
 
-use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use super::CanBus;
 use crate::cia::{AbortCode, ErrorCode};
 use crate::link::{
     CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals, TraceRecord,
+    TraceRing,
 };
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{PDI_OUTPUT, RX_OBJECTS, RxImage, TX_OBJECTS, TxImage};
@@ -61,7 +61,7 @@ pub struct CanopenLink<B: CanBus> {
     last_rpdo: Option<Instant>,
     saved: Saved,
     notices: Vec<String>,
-    trace: VecDeque<TraceRecord>,
+    trace: TraceRing,
 }
 
 impl<B: CanBus> std::fmt::Debug for CanopenLink<B> {
@@ -72,8 +72,6 @@ impl<B: CanBus> std::fmt::Debug for CanopenLink<B> {
             .finish_non_exhaustive()
     }
 }
-
-const TRACE_LIMIT: usize = 4096;
 
 impl<B: CanBus> CanopenLink<B> {
     /// Connect to node `options.node` on `bus`: check it answers, map the PDI PDOs (or fall
@@ -108,11 +106,11 @@ impl<B: CanBus> CanopenLink<B> {
             last_rpdo: None,
             saved: Saved::default(),
             notices: vec![],
-            trace: VecDeque::new(),
+            trace: TraceRing::new(),
         };
         match link.start().await {
             Ok(()) => Ok(link),
-            Err(error) => Err((error, link.trace.drain(..).collect())),
+            Err(error) => Err((error, link.trace.take())),
         }
     }
 
@@ -167,10 +165,7 @@ impl<B: CanBus> CanopenLink<B> {
     }
 
     fn trace(&mut self, sent: bool, frame: &CanFrame) {
-        if self.trace.len() >= TRACE_LIMIT {
-            self.trace.pop_front();
-        }
-        self.trace.push_back(TraceRecord {
+        self.trace.push(TraceRecord {
             at: std::time::SystemTime::now(),
             sent,
             raw: frame.to_string(),
@@ -644,7 +639,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
     }
 
     fn take_trace(&mut self) -> Vec<TraceRecord> {
-        self.trace.drain(..).collect()
+        self.trace.take()
     }
 
     async fn scan(&mut self) -> Result<Vec<crate::link::FoundDevice>, Error> {

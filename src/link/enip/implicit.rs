@@ -2,16 +2,14 @@
 //! the RPI, takes in the adapter's T→O packets, and declares the connection dead when
 //! they stop for the connection timeout. The link hands it outputs and waits for inputs.
 
-use std::collections::VecDeque;
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, Instant};
 
 use tokio::net::UdpSocket;
 use tokio::sync::Notify;
 
-use super::session::TRACE_LIMIT;
-use crate::link::TraceRecord;
+use crate::link::{TraceRecord, TraceRing};
 use crate::proto::enip::io::IoPacket;
 use crate::proto::enip::wire::hex;
 
@@ -54,21 +52,12 @@ struct Shared {
     /// Packets for other connections, or with the wrong size.
     stray: u64,
     error: Option<String>,
-    trace: VecDeque<TraceRecord>,
+    trace: TraceRing,
 }
 
 impl Shared {
     fn record(&mut self, sent: bool, bytes: &[u8], text: String) {
-        if self.trace.len() >= TRACE_LIMIT {
-            self.trace.pop_front();
-        }
-        self.trace.push_back(TraceRecord {
-            at: SystemTime::now(),
-            sent,
-            raw: hex(bytes),
-            text,
-            can: None,
-        });
+        self.trace.record(sent, hex(bytes), text);
     }
 }
 
@@ -150,7 +139,7 @@ impl IoHandle {
     }
 
     pub fn take_trace(&self) -> Vec<TraceRecord> {
-        lock(&self.shared).trace.drain(..).collect()
+        lock(&self.shared).trace.take()
     }
 
     pub fn stop(&self) {

@@ -2,23 +2,19 @@
 //! sender context, explicit Message Router requests in SendRRData, and a trace of every
 //! message for the frame log.
 
-use std::collections::VecDeque;
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, Instant};
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 
 use crate::link::error::{NO_ANSWER, TRIES, Trouble, gave_up};
-use crate::link::{Error, TraceRecord};
+use crate::link::{Error, TraceRecord, TraceRing};
 use crate::proto::enip::cip::{self, Reply, Request};
 use crate::proto::enip::cpf::Item;
 use crate::proto::enip::describe::describe;
 use crate::proto::enip::encap::{self, Command, Framed, Packet, RrData, Status};
 use crate::proto::enip::identity::Identity;
 use crate::proto::enip::wire::hex;
-
-/// Frames kept for the log between two `take_trace` calls.
-pub const TRACE_LIMIT: usize = 4096;
 
 /// A registered session with an adapter.
 #[derive(Debug)]
@@ -30,7 +26,7 @@ pub struct Session {
     timeout: Duration,
     /// `host:port`, for messages.
     peer: String,
-    trace: VecDeque<TraceRecord>,
+    trace: TraceRing,
     /// Troubles got over by sending again, not yet reported.
     recovered: Vec<String>,
 }
@@ -100,7 +96,7 @@ impl Session {
             context: 0,
             timeout,
             peer,
-            trace: VecDeque::new(),
+            trace: TraceRing::new(),
             recovered: Vec::new(),
         };
         match session.register().await {
@@ -148,20 +144,11 @@ impl Session {
     }
 
     pub fn take_trace(&mut self) -> Vec<TraceRecord> {
-        self.trace.drain(..).collect()
+        self.trace.take()
     }
 
     fn record(&mut self, sent: bool, bytes: &[u8], text: String) {
-        if self.trace.len() >= TRACE_LIMIT {
-            self.trace.pop_front();
-        }
-        self.trace.push_back(TraceRecord {
-            at: SystemTime::now(),
-            sent,
-            raw: hex(bytes),
-            text,
-            can: None,
-        });
+        self.trace.record(sent, hex(bytes), text);
     }
 
     /// Send one encapsulation message and wait for its reply. A lost, late, corrupted or

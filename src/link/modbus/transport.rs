@@ -10,12 +10,10 @@ use tokio::net::TcpStream;
 use tokio_serial::{SerialPort, SerialPortBuilderExt, SerialStream};
 
 use crate::link::error::{NO_ANSWER, TRIES, Trouble, gave_up};
-use crate::link::{Error, LinkSpec, Parity, TraceRecord};
+use crate::link::{Error, LinkSpec, Parity, TraceRecord, TraceRing};
 use crate::proto::modbus::frame::{self, Direction};
 use crate::proto::modbus::pdu::{Exception, Request, Response};
 
-/// Frames kept for diagnostics (the log panel and error messages).
-const TRACE_LIMIT: usize = 4096;
 /// Transaction ids remembered, so that a late answer to an earlier request is told from
 /// a reply for a transaction never asked for.
 const SENT_KEPT: usize = 64;
@@ -88,7 +86,7 @@ pub struct Transport {
     sent: VecDeque<u16>,
     buffer: Vec<u8>,
     last_answer: Option<Instant>,
-    trace: VecDeque<TraceRecord>,
+    trace: TraceRing,
     /// Troubles got over by sending again, not yet reported.
     recovered: Vec<String>,
 }
@@ -132,7 +130,7 @@ impl Transport {
             sent: VecDeque::with_capacity(SENT_KEPT),
             buffer: Vec::with_capacity(512),
             last_answer: None,
-            trace: VecDeque::new(),
+            trace: TraceRing::new(),
             recovered: Vec::new(),
         })
     }
@@ -143,7 +141,7 @@ impl Transport {
 
     /// The frames sent and received since the last call, oldest first.
     pub fn take_trace(&mut self) -> Vec<TraceRecord> {
-        self.trace.drain(..).collect()
+        self.trace.take()
     }
 
     /// Open the connection again after a failure.
@@ -163,9 +161,6 @@ impl Transport {
     }
 
     fn record(&mut self, sent: bool, bytes: &[u8]) {
-        if self.trace.len() >= TRACE_LIMIT {
-            self.trace.pop_front();
-        }
         let function = match self.io {
             Io::Tcp(_) => bytes.get(7),
             Io::Rtu(_) => bytes.get(1),
@@ -176,13 +171,7 @@ impl Transport {
             Some(f) => format!("FC {f} {}", if sent { "request" } else { "response" }),
             None => "short frame".into(),
         };
-        self.trace.push_back(TraceRecord {
-            at: std::time::SystemTime::now(),
-            sent,
-            raw: hex(bytes),
-            text,
-            can: None,
-        });
+        self.trace.record(sent, hex(bytes), text);
     }
 
     /// Send a request and wait for its answer. A device's exception is data
