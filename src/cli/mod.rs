@@ -11,13 +11,17 @@ macro_rules! outln {
 }
 
 mod bench;
+mod failure;
 mod interrupt;
 mod od;
 mod oneshot;
+mod policy;
 mod progress;
 mod record;
 mod report;
 mod serve;
+mod session;
+mod stop;
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -512,7 +516,7 @@ fn parse_type(text: &str) -> Result<DataType, String> {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_tracing();
-    oneshot::set_policy(oneshot::Policy {
+    policy::set_policy(policy::Policy {
         on_exit: cli.on_exit.action(),
         lost_after: cli.lost_after,
     });

@@ -12,8 +12,9 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::oneshot::{Failure, Session, usage};
+use super::failure::{Failure, usage};
 use super::progress;
+use super::session::Session;
 use super::{EXIT_FAILED, OdArgs, OdCommand, OdListArgs, report};
 use crate::link::LinkSpec;
 use crate::od::eds::{DeviceInfo, Eds, EdsError};

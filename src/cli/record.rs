@@ -10,8 +10,10 @@ use std::time::{Duration, Instant, SystemTime};
 
 use serde::Serialize;
 
-use super::oneshot::{Failure, Session, failed, usage};
+use super::failure::{Failure, failed, usage};
 use super::progress;
+use super::session::Session;
+use super::stop::STOP_WAIT;
 use super::{EXIT_FAILED, EXIT_INTERRUPTED, RecordArgs, report};
 use crate::link::LinkSpec;
 use crate::od::backup::{DeviceIdentity, IDENTITY};
@@ -334,7 +336,7 @@ fn record(
                 utc_text(SystemTime::now())
             ));
             if f.signal.is_some() && session.is_moving_or_unknown() {
-                let done = session.stop_drive(policy_on_exit(), timeout.min(STOP_WAIT));
+                let done = session.stop_drive(super::policy::on_exit(), timeout.min(STOP_WAIT));
                 meta.ended_early = meta.ended_early.map(|e| format!("{e}; {done}"));
                 stopped = Some(done);
             }
@@ -409,13 +411,6 @@ fn record(
         warnings,
         code,
     })
-}
-
-/// How long the way out waits for a stop to finish.
-const STOP_WAIT: Duration = Duration::from_secs(10);
-
-fn policy_on_exit() -> crate::worker::LinkLossAction {
-    super::oneshot::on_exit()
 }
 
 /// A rate as it is worth writing: 0.1 Hz steps.

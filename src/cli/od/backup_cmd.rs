@@ -10,8 +10,9 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::super::oneshot::{Failure, Session, failed, usage};
+use super::super::failure::{Failure, failed, usage};
 use super::super::progress;
+use super::super::session::Session;
 use super::load_eds;
 use crate::link::LinkSpec;
 use crate::od::backup::{self, Backup, Comparison, DeviceIdentity, Step, Why};

@@ -1,0 +1,385 @@
+//! The session of one command: a worker of its own, connected to the drive, and the
+//! waiting for the events a command needs, with a caught signal ending the wait.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use super::failure::{Failure, failed, interrupted, usage};
+use super::interrupt;
+use super::policy::policy;
+use crate::link::LinkSpec;
+use crate::od::{Address, DataType, Value};
+use crate::pdi::Timing;
+use crate::worker::{self, CommandProgress, Event, ObjectPath, Request, Sample, Worker};
+
+/// Samples kept from the start of a session for a recording (the rest are the
+/// recording's own business).
+const EARLY_LIMIT: usize = 100_000;
+
+/// The session of one command.
+pub(super) struct Session {
+    pub(super) worker: Worker,
+    pub(super) latest: Option<Sample>,
+    /// Every sample received while connecting, oldest first (a recording starts there).
+    pub(super) early: Vec<Sample>,
+    pub(super) keep_samples: bool,
+    /// Whether the signals are caught: waiting then ends at a signal.
+    pub(super) interruptible: bool,
+    pub(super) warnings: Vec<String>,
+    pub(super) notes: Vec<String>,
+}
+
+impl Session {
+    pub(super) fn open(
+        link: &LinkSpec,
+        timeout: Duration,
+        trace: bool,
+    ) -> Result<Session, Failure> {
+        Session::open_at(link, timeout, trace, 200.0, false)
+    }
+
+    /// A session whose worker polls (and samples) `poll_rate` times a second; with
+    /// `keep_samples`, every sample from the first on is kept for
+    /// [`Session::take_early_samples`] (a recording starts at t = 0).
+    pub(super) fn open_at(
+        link: &LinkSpec,
+        timeout: Duration,
+        trace: bool,
+        poll_rate: f64,
+        keep_samples: bool,
+    ) -> Result<Session, Failure> {
+        let policy = policy();
+        let config = worker::Config {
+            poll_rate,
+            timing: Timing {
+                ack_timeout: timeout.min(Duration::from_secs(5)),
+                done_timeout: Some(timeout),
+                ..Timing::default()
+            },
+            reconnect: false,
+            trace,
+            on_link_loss: policy.on_exit,
+            lost_after: policy.lost_after,
+        };
+        let worker = Worker::spawn(config, Arc::new(|| {}))
+            .map_err(|e| usage(format!("cannot start the worker thread: {e}")))?;
+        let mut session = Session {
+            worker,
+            latest: None,
+            early: vec![],
+            keep_samples,
+            interruptible: false,
+            warnings: vec![],
+            notes: vec![],
+        };
+        session.send(Request::Connect(link.clone()))?;
+        let deadline = Instant::now() + timeout;
+        loop {
+            match session.next(deadline)? {
+                Event::Connected(_) => break,
+                Event::ConnectFailed { error, .. } => {
+                    return Err(usage(format!("cannot connect to {link}: {error}")));
+                }
+                _ => {}
+            }
+        }
+        // A status before anything else: commands are judged against it.
+        while session.latest.is_none() {
+            session.next(deadline)?;
+        }
+        Ok(session)
+    }
+
+    /// From now on, a signal (Ctrl-C, SIGTERM, SIGHUP) ends the waiting with an
+    /// `interrupted` failure instead of ending the process, so that the command can stop
+    /// the drive and keep its data first. `Err` when the signals cannot be caught.
+    pub(super) fn catch_signals(&mut self) -> Result<(), String> {
+        interrupt::install()?;
+        self.interruptible = true;
+        Ok(())
+    }
+
+    /// The samples received while connecting (and since, until taken), oldest first.
+    pub(super) fn take_early_samples(&mut self) -> Vec<Sample> {
+        self.keep_samples = false;
+        std::mem::take(&mut self.early)
+    }
+
+    /// Hand the worker a request without waiting for its outcome.
+    pub(super) fn send_request(&self, request: Request) -> Result<u64, Failure> {
+        self.send(request)
+    }
+
+    /// The next event (samples included) before `deadline`.
+    pub(super) fn next_event(&mut self, deadline: Instant) -> Result<Event, Failure> {
+        self.next(deadline)
+    }
+
+    pub(super) fn send(&self, request: Request) -> Result<u64, Failure> {
+        self.worker
+            .send(request)
+            .map_err(|e| usage(format!("the worker refused the request: {e}")))
+    }
+
+    /// The next event before `deadline`, keeping the newest sample. A caught signal ends
+    /// the waiting (once).
+    pub(super) fn next(&mut self, deadline: Instant) -> Result<Event, Failure> {
+        /// How often a wait looks for a caught signal.
+        const SIGNAL_POLL: Duration = Duration::from_millis(50);
+        let event = loop {
+            if self.interruptible
+                && let Some(signal) = interrupt::take()
+            {
+                return Err(interrupted(signal));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(failed(
+                    "no answer from the drive in time (raise --timeout?)",
+                ));
+            }
+            match self.worker.recv_timeout(left.min(SIGNAL_POLL)) {
+                Ok(event) => break event,
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(failed("the worker thread stopped"));
+                }
+            }
+        };
+        match &event {
+            Event::Samples(samples) => {
+                for sample in samples {
+                    if self.keep_samples && self.early.len() < EARLY_LIMIT {
+                        self.early.push(*sample);
+                    }
+                    self.latest = Some(match &self.latest {
+                        Some(older) => sample.merged_over(older),
+                        None => *sample,
+                    });
+                }
+            }
+            Event::Disconnected {
+                reason: Some(reason),
+            } => {
+                return Err(failed(format!("the link was lost: {reason}")));
+            }
+            Event::Notice(text) => self.notes.push(text.clone()),
+            Event::Frames(frames) => {
+                for f in frames {
+                    eprintln!(
+                        "{} {:<24} {}",
+                        if f.sent { "tx" } else { "rx" },
+                        f.raw,
+                        f.text
+                    );
+                }
+            }
+            _ => {}
+        }
+        Ok(event)
+    }
+
+    /// Send a PDI request and wait for acceptance, or completion with `wait`.
+    pub(super) fn command(
+        &mut self,
+        request: Request,
+        wait: bool,
+        timeout: Duration,
+    ) -> Result<(String, Option<[u8; 8]>, CommandProgress), Failure> {
+        let what = request.to_string();
+        let id = self.send(request)?;
+        let deadline = Instant::now() + timeout + Duration::from_secs(1);
+        let mut image = None;
+        loop {
+            let event = match self.next(deadline) {
+                Ok(event) => event,
+                Err(f) if f.signal.is_some() => return Err(f),
+                // Waited out: the command may still run.
+                Err(f) => {
+                    return Err(Failure {
+                        stop: true,
+                        ..failed(format!("{what}: {}", f.message))
+                    });
+                }
+            };
+            match event {
+                Event::Rejected { id: i, reason, .. } if i == id => {
+                    return Err(failed(format!("{what}: {reason}")));
+                }
+                Event::Sent {
+                    id: i, image: sent, ..
+                } if i == id => image = Some(sent.to_bytes()),
+                Event::Progress { id: i, progress } if i == id => {
+                    if let CommandProgress::TimedOut { .. } = progress {
+                        // The drive may still be at it: stopped on the way out.
+                        return Err(Failure {
+                            stop: true,
+                            ..failed(format!("{what}: {progress}"))
+                        });
+                    }
+                    if !progress.is_success() {
+                        return Err(failed(format!("{what}: {progress}")));
+                    }
+                    if progress.is_final() || !wait {
+                        return Ok((what, image, progress));
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
+    pub(super) fn read(
+        &mut self,
+        address: Address,
+        dtype: Option<DataType>,
+        path: ObjectPath,
+        timeout: Duration,
+    ) -> Result<Value, Failure> {
+        self.try_read(address, dtype, path, timeout)?
+            .map_err(|e| failed(format!("read {address}: {e}")))
+    }
+
+    /// Read an object, keeping a refusal (the device's or the worker's: `Ok(Err(text))`)
+    /// apart from a broken link or a timeout (`Err`).
+    pub(super) fn try_read(
+        &mut self,
+        address: Address,
+        dtype: Option<DataType>,
+        path: ObjectPath,
+        timeout: Duration,
+    ) -> Result<Result<Value, String>, Failure> {
+        let id = self.send(Request::ReadObject {
+            address,
+            dtype,
+            path,
+        })?;
+        let deadline = Instant::now() + timeout;
+        loop {
+            match self.next(deadline)? {
+                Event::ObjectRead { id: i, result, .. } if i == id => return Ok(result),
+                Event::Rejected { id: i, reason, .. } if i == id => return Ok(Err(reason)),
+                _ => {}
+            }
+        }
+    }
+
+    /// Read many objects in one queued request, in order; `progress(done, total)` after
+    /// each. A refusal stays with its object. A broken link or a stalled read (no answer
+    /// within `timeout` of the previous one) ends the reading: the objects read until then
+    /// come back with the failure.
+    pub(super) fn read_many(
+        &mut self,
+        objects: Vec<(Address, DataType)>,
+        timeout: Duration,
+        mut progress: impl FnMut(usize, usize),
+    ) -> (BTreeMap<Address, Result<Value, String>>, Option<Failure>) {
+        let total = objects.len();
+        let mut reads = BTreeMap::new();
+        if total == 0 {
+            return (reads, None);
+        }
+        let id = match self.send(Request::ReadMany {
+            objects,
+            path: ObjectPath::Auto,
+        }) {
+            Ok(id) => id,
+            Err(f) => return (reads, Some(f)),
+        };
+        let mut deadline = Instant::now() + timeout;
+        // Answers counted, not addresses: a list that names an object twice gets two.
+        let mut answered = 0;
+        while answered < total {
+            match self.next(deadline) {
+                Ok(Event::ObjectRead {
+                    id: i,
+                    address,
+                    result,
+                }) if i == id => {
+                    reads.insert(address, result);
+                    answered += 1;
+                    progress(answered, total);
+                    deadline = Instant::now() + timeout;
+                }
+                Ok(Event::Rejected { id: i, reason, .. }) if i == id => {
+                    return (
+                        reads,
+                        Some(failed(format!("reading {total} objects: {reason}"))),
+                    );
+                }
+                Ok(_) => {}
+                Err(f) => {
+                    let _ = self.send(Request::Cancel(id));
+                    return (reads, Some(f));
+                }
+            }
+        }
+        (reads, None)
+    }
+
+    /// Write an object, keeping a refusal (`Ok(Err(text))`) apart from a broken link or a
+    /// timeout (`Err`).
+    pub(super) fn try_write(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: Value,
+        timeout: Duration,
+    ) -> Result<Result<(), String>, Failure> {
+        let id = self.send(Request::WriteObject {
+            address,
+            dtype,
+            value,
+            path: ObjectPath::Auto,
+        })?;
+        let deadline = Instant::now() + timeout;
+        loop {
+            match self.next(deadline)? {
+                Event::ObjectWritten { id: i, result, .. } if i == id => return Ok(result),
+                Event::Rejected { id: i, reason, .. } if i == id => return Ok(Err(reason)),
+                _ => {}
+            }
+        }
+    }
+
+    /// Notices the worker gave (fallbacks, mapping changes), for the report.
+    pub(super) fn take_notes(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notes)
+    }
+
+    pub(super) fn write(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: Value,
+        path: ObjectPath,
+        timeout: Duration,
+    ) -> Result<(), Failure> {
+        let shown = value.to_string();
+        let id = self.send(Request::WriteObject {
+            address,
+            dtype,
+            value,
+            path,
+        })?;
+        let deadline = Instant::now() + timeout;
+        loop {
+            match self.next(deadline)? {
+                Event::ObjectWritten { id: i, result, .. } if i == id => {
+                    return result.map_err(|e| failed(format!("write {shown} to {address}: {e}")));
+                }
+                Event::Rejected { id: i, reason, .. } if i == id => {
+                    return Err(failed(format!("write {shown} to {address}: {reason}")));
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// Let a few more samples arrive, so a status printed after a command shows its effect.
+    pub(super) fn refresh(&mut self) {
+        let deadline = Instant::now() + Duration::from_millis(60);
+        while self.next(deadline).is_ok() {}
+    }
+}
