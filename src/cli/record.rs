@@ -192,12 +192,18 @@ pub fn parse_trigger(text: &str, scope: &Scope) -> Result<Condition, String> {
     }
 }
 
-fn record(
-    link: &LinkSpec,
-    args: &RecordArgs,
-    timeout: Duration,
-    trace: bool,
-) -> Result<RecordReport, Failure> {
+/// What a `record` command asks for, checked before anything is connected.
+struct Plan {
+    duration: f64,
+    /// How long to wait for the trigger.
+    wait: f64,
+    watched: Watched,
+    scope: Scope,
+    trigger: Option<Trigger>,
+}
+
+/// Read and check the arguments, and that the file can be written.
+fn plan(args: &RecordArgs, timeout: Duration) -> Result<Plan, Failure> {
     let duration = parse_duration(&args.duration).map_err(usage)?;
     let pre = parse_duration(&args.pre).map_err(usage)?;
     if !(1.0..=2000.0).contains(&args.rate) {
@@ -223,31 +229,6 @@ fn record(
         }),
         None => None,
     };
-
-    // A place that cannot take the file is found now, not after the whole recording.
-    let path = args.out.to_string_lossy().into_owned();
-    check_writable(&args.out).map_err(usage)?;
-
-    let mut session = Session::open_at(link, timeout, trace, args.rate, true)?;
-    let mut warnings = Vec::new();
-    if let Err(e) = session.catch_signals() {
-        warnings.push(format!(
-            "{e}: Ctrl-C will end drivedeck without saving the recording"
-        ));
-    }
-    let (reads, _) = session.read_many(IDENTITY.to_vec(), timeout, |_, _| {});
-    let identity = DeviceIdentity::from_reads(&reads);
-    scope.meta = metadata(Some(&identity), &link.to_string(), args.rate);
-    if !watched.is_empty() {
-        session.send_request(Request::Watch(
-            watched.iter().map(|(w, d)| (w.address, *d)).collect(),
-        ))?;
-    }
-    if let Some(trigger) = &trigger {
-        scope.meta.trigger = Some(scope.describe_trigger(trigger));
-        scope.arm(trigger.clone());
-    }
-
     let wait = args
         .wait
         .as_deref()
@@ -255,26 +236,88 @@ fn record(
         .transpose()
         .map_err(usage)?
         .unwrap_or(timeout.as_secs_f64());
+    // A place that cannot take the file is found now, not after the whole recording.
+    check_writable(&args.out).map_err(usage)?;
+    Ok(Plan {
+        duration,
+        wait,
+        watched,
+        scope,
+        trigger,
+    })
+}
+
+fn record(
+    link: &LinkSpec,
+    args: &RecordArgs,
+    timeout: Duration,
+    trace: bool,
+) -> Result<RecordReport, Failure> {
+    let mut plan = plan(args, timeout)?;
+    let mut session = Session::open_at(link, timeout, trace, args.rate, true)?;
+    let mut warnings = Vec::new();
+    if let Err(e) = session.catch_signals() {
+        warnings.push(format!(
+            "{e}: Ctrl-C will end drivedeck without saving the recording"
+        ));
+    }
+    prepare(&mut session, &mut plan, link, args.rate, timeout)?;
+    let (taker, cut) = take_samples(&mut session, plan, args.rate);
+    let (recording, stopped) = cut_out(&mut session, taker, &cut, args.rate, timeout)?;
+    Ok(finish(
+        session, recording, cut, stopped, link, args, warnings,
+    ))
+}
+
+/// The identity into the file's header, the watched objects asked for, the trigger armed.
+fn prepare(
+    session: &mut Session,
+    plan: &mut Plan,
+    link: &LinkSpec,
+    rate: f64,
+    timeout: Duration,
+) -> Result<(), Failure> {
+    let (reads, _) = session.read_many(IDENTITY.to_vec(), timeout, |_, _| {});
+    let identity = DeviceIdentity::from_reads(&reads);
+    plan.scope.meta = metadata(Some(&identity), &link.to_string(), rate);
+    if !plan.watched.is_empty() {
+        session.send_request(Request::Watch(
+            plan.watched.iter().map(|(w, d)| (w.address, *d)).collect(),
+        ))?;
+    }
+    if let Some(trigger) = &plan.trigger {
+        plan.scope.meta.trigger = Some(plan.scope.describe_trigger(trigger));
+        plan.scope.arm(trigger.clone());
+        if std::io::stderr().is_terminal() {
+            eprintln!(
+                "waiting for the trigger: {}",
+                plan.scope.meta.trigger.clone().unwrap_or_default()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Take samples until the recording is complete, or something cuts it short (the
+/// failure says what: a signal, a lost link, a trigger that did not fire).
+fn take_samples(
+    session: &mut Session,
+    plan: Plan,
+    rate: f64,
+) -> (Taker<impl FnMut(usize, usize) + use<>>, Option<Failure>) {
     let started = Instant::now();
-    let total_ms = (duration * 1000.0) as usize;
-    let bar = progress::bar(if trigger.is_some() {
+    let triggered = plan.trigger.is_some();
+    let bar = progress::bar(if triggered {
         "recording after the trigger (ms)"
     } else {
         "recording (ms)"
     });
-    let waiting_note = trigger.is_some() && std::io::stderr().is_terminal();
-    if waiting_note {
-        eprintln!(
-            "waiting for the trigger: {}",
-            scope.meta.trigger.clone().unwrap_or_default()
-        );
-    }
     let mut taker = Taker {
-        scope,
-        trigger: trigger.is_some(),
-        duration,
-        half_period: 0.5 / args.rate,
-        total_ms,
+        scope: plan.scope,
+        trigger: triggered,
+        duration: plan.duration,
+        half_period: 0.5 / rate,
+        total_ms: (plan.duration * 1000.0) as usize,
         bar,
         first_t: None,
         window: None,
@@ -285,33 +328,40 @@ fn record(
     for sample in session.take_early_samples() {
         taker.take(&sample);
     }
-    // Why the recording ended before its time, if it did.
-    let mut cut: Option<Failure> = None;
     while taker.window.is_none() {
         let deadline = Instant::now() + Duration::from_secs(5);
-        let event = match session.next_event(deadline) {
-            Ok(event) => event,
-            Err(f) => {
-                cut = Some(f);
-                break;
+        match session.next_event(deadline) {
+            Ok(Event::Samples(samples)) => {
+                for sample in &samples {
+                    if taker.take(sample) {
+                        break;
+                    }
+                }
             }
-        };
-        let Event::Samples(samples) = event else {
-            continue;
-        };
-        for sample in &samples {
-            if taker.take(sample) {
-                break;
-            }
+            Ok(_) => {}
+            Err(f) => return (taker, Some(f)),
         }
-        if taker.fired_at.is_none() && trigger.is_some() && started.elapsed().as_secs_f64() > wait {
-            cut = Some(failed(format!(
-                "the trigger did not fire within {wait:.1} s ({})",
+        if triggered && taker.fired_at.is_none() && started.elapsed().as_secs_f64() > plan.wait {
+            let cut = failed(format!(
+                "the trigger did not fire within {:.1} s ({})",
+                plan.wait,
                 taker.scope.meta.trigger.clone().unwrap_or_default()
-            )));
-            break;
+            ));
+            return (taker, Some(cut));
         }
     }
+    (taker, None)
+}
+
+/// The recording: the complete window, or everything taken until the cut, with why it
+/// ended in its header (and, after a signal, the drive stopped by the policy).
+fn cut_out<F: FnMut(usize, usize)>(
+    session: &mut Session,
+    taker: Taker<F>,
+    cut: &Option<Failure>,
+    rate: f64,
+    timeout: Duration,
+) -> Result<(Recording, Option<String>), Failure> {
     let Taker {
         scope,
         window,
@@ -319,60 +369,105 @@ fn record(
         first_t,
         ..
     } = taker;
-
     let mut meta = scope.meta.clone();
     meta.trigger_time_s = fired_at;
-    meta.rate_asked_hz = Some(args.rate);
+    meta.rate_asked_hz = Some(rate);
     let mut stopped = None;
-    let (from, to) = match (window, &cut) {
+    let (from, to) = match (window, cut) {
         (Some(window), _) => window,
         (None, Some(f)) => {
-            // Everything taken until now is kept, with why it ended.
             let from = scope.ring().first_time().or(first_t).unwrap_or(0.0);
             let to = scope.ring().last_time().unwrap_or(from);
-            meta.ended_early = Some(format!(
+            let mut why = format!(
                 "{} at t = {to:.3} s ({})",
                 f.message,
                 utc_text(SystemTime::now())
-            ));
+            );
             if f.signal.is_some() && session.is_moving_or_unknown() {
                 let done = session.stop_drive(super::policy::on_exit(), timeout.min(STOP_WAIT));
-                meta.ended_early = meta.ended_early.map(|e| format!("{e}; {done}"));
+                why = format!("{why}; {done}");
                 stopped = Some(done);
             }
+            meta.ended_early = Some(why);
             (from, to)
         }
         (None, None) => return Err(failed("no samples came")),
     };
     let mut recording = scope.export(from, to, meta, true);
+    // The file says the rate that was achieved, not only the one asked for.
+    recording.meta.rate_hz = Some(round_rate(achieved_rate(&recording)));
+    Ok((recording, stopped))
+}
+
+/// Samples per second in a recording.
+fn achieved_rate(recording: &Recording) -> f64 {
     let seconds = recording.duration();
-    let achieved = if seconds > 0.0 {
+    if seconds > 0.0 {
         (recording.len().saturating_sub(1)) as f64 / seconds
     } else {
         0.0
-    };
-    // The file says the rate that was achieved, not only the one asked for.
-    recording.meta.rate_hz = Some(round_rate(achieved));
+    }
+}
+
+/// Save the recording (elsewhere if its place fails) and say what was recorded.
+fn finish(
+    mut session: Session,
+    recording: Recording,
+    cut: Option<Failure>,
+    stopped: Option<String>,
+    link: &LinkSpec,
+    args: &RecordArgs,
+    mut warnings: Vec<String>,
+) -> RecordReport {
+    let achieved = achieved_rate(&recording);
     if recording.len() > 2 && achieved < 0.9 * args.rate {
         warnings.push(slow_rate(link, args.rate, achieved));
     }
     let mut notes = session.take_notes();
-    let (file, saved) = match save_safely(&recording, &args.out) {
-        Ok(message) => (path.clone(), Ok(message)),
-        Err((why, Some(elsewhere))) => (
-            elsewhere.clone(),
-            Err(format!(
+    let path = args.out.to_string_lossy().into_owned();
+    let file = match save_safely(&recording, &args.out) {
+        Ok(message) => {
+            notes.push(message);
+            path.clone()
+        }
+        Err((why, Some(elsewhere))) => {
+            warnings.push(format!(
                 "{why}; the recording ({} samples) was saved to {elsewhere} instead",
                 recording.len()
-            )),
-        ),
-        Err((why, None)) => (path.clone(), Err(format!("{why}; the recording is lost"))),
+            ));
+            elsewhere
+        }
+        Err((why, None)) => {
+            warnings.push(format!("{why}; the recording is lost"));
+            path.clone()
+        }
     };
-    match saved {
-        Ok(message) => notes.push(message),
-        Err(e) => warnings.push(e.clone()),
+    let signals = signal_reports(&recording, &mut warnings);
+    let code = match (&cut, file == path) {
+        (Some(f), _) if f.signal.is_some() => Some(EXIT_INTERRUPTED),
+        (Some(_), _) | (None, false) => Some(EXIT_FAILED),
+        (None, true) => None,
+    };
+    RecordReport {
+        file,
+        samples: recording.len(),
+        seconds: recording.duration(),
+        rate: achieved,
+        rate_asked: args.rate,
+        signals,
+        trigger: recording.meta.trigger.clone(),
+        trigger_time_s: recording.meta.trigger_time_s,
+        ended_early: recording.meta.ended_early.clone(),
+        stopped,
+        notes,
+        warnings,
+        code,
     }
-    let signals: Vec<SignalReport> = recording
+}
+
+/// Each channel and how many samples it has (a warning for one that has none).
+fn signal_reports(recording: &Recording, warnings: &mut Vec<String>) -> Vec<SignalReport> {
+    recording
         .channels
         .iter()
         .zip(&recording.columns)
@@ -390,27 +485,7 @@ fn record(
                 samples,
             }
         })
-        .collect();
-    let code = match (&cut, file == path) {
-        (Some(f), _) if f.signal.is_some() => Some(EXIT_INTERRUPTED),
-        (Some(_), _) | (None, false) => Some(EXIT_FAILED),
-        (None, true) => None,
-    };
-    Ok(RecordReport {
-        file,
-        samples: recording.len(),
-        seconds,
-        rate: achieved,
-        rate_asked: args.rate,
-        signals,
-        trigger: recording.meta.trigger.clone(),
-        trigger_time_s: fired_at,
-        ended_early: recording.meta.ended_early.clone(),
-        stopped,
-        notes,
-        warnings,
-        code,
-    })
+        .collect()
 }
 
 /// A rate as it is worth writing: 0.1 Hz steps.
