@@ -46,14 +46,9 @@ fn action(opcode: Opcode, inputs: &[i64]) -> Result<Action, Failure> {
     Action::from_inputs(opcode, inputs).map_err(|e| usage(e.to_string()))
 }
 
-fn execute(
-    link: &LinkSpec,
-    command: &Command,
-    timeout: Duration,
-    trace: bool,
-) -> Result<Report, Failure> {
-    // Check the inputs before connecting: a typo never touches the drive.
-    let planned: Option<(Request, bool)> = match command {
+/// The PDI request a command makes, checked, and whether it waits for completion.
+fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure> {
+    Ok(match command {
         Command::MoveAbs(a) => Some((
             Request::Command(action(Opcode::MoveAbsolute, &[a.position, a.speed])?),
             a.wait,
@@ -93,8 +88,12 @@ fn execute(
         | Command::Bench(_)
         | Command::Record(_)
         | Command::Od(_) => None,
-    };
-    let write_value = match command {
+    })
+}
+
+/// The value a `write` command writes, checked against the catalog's type and limits.
+fn value_to_write(command: &Command) -> Result<Option<(DataType, Value)>, Failure> {
+    Ok(match command {
         Command::Write(w) => {
             let dtype = w
                 .dtype
@@ -122,8 +121,18 @@ fn execute(
             Some((dtype, value))
         }
         _ => None,
-    };
+    })
+}
 
+fn execute(
+    link: &LinkSpec,
+    command: &Command,
+    timeout: Duration,
+    trace: bool,
+) -> Result<Report, Failure> {
+    // Check the inputs before connecting: a typo never touches the drive.
+    let planned = planned_request(command)?;
+    let write_value = value_to_write(command)?;
     if let Command::Scan = command {
         return scan(link, timeout);
     }
