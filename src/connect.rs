@@ -7,7 +7,7 @@ use crate::link::canopen::client::CanopenLink;
 use crate::link::canopen::slcan::SlcanBus;
 use crate::link::enip::client::EnipLink;
 use crate::link::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
-use crate::link::{self as super_link, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Traced};
+use crate::link::{self as super_link, Answer, Error, Exchange, Link, LinkInfo, LinkSpec, Traced};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
 use crate::sim::{SimCanBus, SimLink};
@@ -160,11 +160,7 @@ impl Link for AnyLink {
         }
     }
 
-    async fn read_object(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-    ) -> Result<Result<Value, Refusal>, Error> {
+    async fn read_object(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
         match self {
             AnyLink::Sim(l) => l.read_object(address, dtype).await,
             AnyLink::Modbus(l) => l.read_object(address, dtype).await,
@@ -181,7 +177,7 @@ impl Link for AnyLink {
         address: Address,
         dtype: DataType,
         value: &Value,
-    ) -> Result<Result<(), Refusal>, Error> {
+    ) -> Answer<()> {
         match self {
             AnyLink::Sim(l) => l.write_object(address, dtype, value).await,
             AnyLink::Modbus(l) => l.write_object(address, dtype, value).await,

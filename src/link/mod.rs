@@ -2,7 +2,7 @@
 //! its objects; the worker owns exactly one link at a time and drives it.
 //!
 //! A device's refusal is data, a broken link is an error: object access returns
-//! `Result<Result<T, Refusal>, Error>` the way tokio-modbus does, so the UI shows a refusal
+//! `Answer<T>` the way tokio-modbus does, so the UI shows a refusal
 //! next to the object and a link error as a banner with a reconnect.
 
 pub mod canopen;
@@ -21,6 +21,10 @@ pub use trace::{TRACE_LIMIT, TraceRecord, TraceRing};
 
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
+
+/// An object access's outcome: the value (or `()` for a write), the device's refusal,
+/// or a link that failed.
+pub type Answer<T> = Result<Result<T, Refusal>, Error>;
 
 /// What a link tells about itself, for the connection bar and the log.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -108,11 +112,7 @@ pub trait Link {
 
     /// Read an object without the PDI. `Refusal::NotSupported` when the link has no such
     /// path (the worker then uses PDI OD-Read).
-    async fn read_object(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-    ) -> Result<Result<Value, Refusal>, Error>;
+    async fn read_object(&mut self, address: Address, dtype: DataType) -> Answer<Value>;
 
     /// Write an object without the PDI, sized to `dtype`.
     async fn write_object(
@@ -120,7 +120,7 @@ pub trait Link {
         address: Address,
         dtype: DataType,
         value: &Value,
-    ) -> Result<Result<(), Refusal>, Error>;
+    ) -> Answer<()>;
 
     /// Find the devices on this link's bus (CANopen node scan).
     async fn scan(&mut self) -> Result<Vec<FoundDevice>, Error> {

@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use crate::link::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
+use crate::link::{Answer, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
 use crate::sim::{Drive, Injection};
@@ -163,11 +163,7 @@ impl Link for SimLink {
         Ok(Some(self.drive.rx_image()))
     }
 
-    async fn read_object(
-        &mut self,
-        address: Address,
-        _dtype: DataType,
-    ) -> Result<Result<Value, Refusal>, Error> {
+    async fn read_object(&mut self, address: Address, _dtype: DataType) -> Answer<Value> {
         self.catch_up()?;
         Ok(self.drive.read(address).map_err(Refusal::Abort))
     }
@@ -177,7 +173,7 @@ impl Link for SimLink {
         address: Address,
         dtype: DataType,
         value: &Value,
-    ) -> Result<Result<(), Refusal>, Error> {
+    ) -> Answer<()> {
         self.catch_up()?;
         // The value travels in the caller's type, as it would on a bus: a mismatch with the
         // drive's own type is the drive's refusal, as an SDO server would answer.

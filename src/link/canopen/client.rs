@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 use super::CanBus;
 use crate::cia::{AbortCode, ErrorCode};
 use crate::link::{
-    CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals, TraceRecord,
-    TraceRing,
+    Answer, CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals,
+    TraceRecord, TraceRing,
 };
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{PDI_OUTPUT, RX_OBJECTS, RxImage, TX_OBJECTS, TxImage};
@@ -584,11 +584,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
         Ok(RxImage::from_bytes(&bytes).ok())
     }
 
-    async fn read_object(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-    ) -> Result<Result<Value, Refusal>, Error> {
+    async fn read_object(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
         Ok(match self.sdo_upload(address.index, address.sub).await? {
             Ok(data) => {
                 Value::from_le_bytes(dtype, &data).map_err(|e| Refusal::Malformed(e.to_string()))
@@ -602,7 +598,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
         address: Address,
         dtype: DataType,
         value: &Value,
-    ) -> Result<Result<(), Refusal>, Error> {
+    ) -> Answer<()> {
         let data = match value.to_le_bytes(dtype) {
             Ok(data) => data,
             Err(e) => return Ok(Err(Refusal::Malformed(e.to_string()))),

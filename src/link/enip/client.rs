@@ -19,7 +19,7 @@ use super::implicit::{IoConfig, IoHandle};
 use super::session::Session;
 use crate::link::spec::{EnipIo, EnipOptions};
 use crate::link::{
-    Error, Exchange, FoundDevice, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals,
+    Answer, Error, Exchange, FoundDevice, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals,
 };
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{ImageObject, RX_OBJECTS, RxImage, TX_OBJECTS, TxImage};
@@ -181,11 +181,7 @@ impl EnipLink {
     }
 
     /// Read one entry with GetOD; a CIP error status is the device's refusal.
-    async fn get(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-    ) -> Result<Result<Value, Refusal>, Error> {
+    async fn get(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
         let (reply, _) = self
             .session
             .request(&nanotec::get_od(address), vec![])
@@ -201,10 +197,7 @@ impl EnipLink {
     }
 
     /// Read one entry with GetOD Rockwell: its type comes with it.
-    pub async fn get_typed(
-        &mut self,
-        address: Address,
-    ) -> Result<Result<(DataType, Value), Refusal>, Error> {
+    pub async fn get_typed(&mut self, address: Address) -> Answer<(DataType, Value)> {
         let (reply, _) = self
             .session
             .request(&nanotec::get_od_rockwell(address), vec![])
@@ -229,12 +222,7 @@ impl EnipLink {
         Ok(decode_value(address, dtype, &typed.data).map(|v| (dtype, v)))
     }
 
-    async fn set(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-        value: &Value,
-    ) -> Result<Result<(), Refusal>, Error> {
+    async fn set(&mut self, address: Address, dtype: DataType, value: &Value) -> Answer<()> {
         let bytes = match value.to_le_bytes(dtype) {
             Ok(b) => b,
             Err(e) => return Ok(Err(Refusal::Malformed(format!("{address}: {e}")))),
@@ -659,11 +647,7 @@ impl Link for EnipLink {
         Ok(Some(self.read_rx_explicit().await?))
     }
 
-    async fn read_object(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-    ) -> Result<Result<Value, Refusal>, Error> {
+    async fn read_object(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
         if dtype == DataType::Domain {
             return Ok(self.get_typed(address).await?.map(|(_, v)| v));
         }
@@ -675,7 +659,7 @@ impl Link for EnipLink {
         address: Address,
         dtype: DataType,
         value: &Value,
-    ) -> Result<Result<(), Refusal>, Error> {
+    ) -> Answer<()> {
         self.set(address, dtype, value).await
     }
 

@@ -12,7 +12,7 @@
 use std::time::Duration;
 
 use super::transport::{Endpoint, Transport};
-use crate::link::{Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
+use crate::link::{Answer, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
 use crate::proto::modbus::pdu::{CanopenRequest, Exception, Request, Response, exception};
@@ -366,11 +366,7 @@ impl Link for ModbusLink {
         })
     }
 
-    async fn read_object(
-        &mut self,
-        address: Address,
-        dtype: DataType,
-    ) -> Result<Result<Value, Refusal>, Error> {
+    async fn read_object(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
         if self.fc43 == Support::No {
             return Ok(Err(Refusal::NotSupported));
         }
@@ -399,7 +395,7 @@ impl Link for ModbusLink {
         address: Address,
         dtype: DataType,
         value: &Value,
-    ) -> Result<Result<(), Refusal>, Error> {
+    ) -> Answer<()> {
         if self.fc43 == Support::No {
             return Ok(Err(Refusal::NotSupported));
         }
