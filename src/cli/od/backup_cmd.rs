@@ -324,17 +324,29 @@ fn print_diff(report: &DiffReport) {
     }
 }
 
-/// `od diff FILE`: true when the drive matches the file.
-pub fn diff(
+/// A backup file, the dictionary that judges it, and the drive's values of its objects.
+struct Opened {
+    file: Backup,
+    catalog: Catalog,
+    session: Session,
+    reads: BTreeMap<Address, Result<Value, String>>,
+    warnings: Vec<String>,
+    notes: Vec<String>,
+}
+
+/// Load the file and the dictionary (both checked before connecting), connect, and read
+/// what the file names.
+fn open_and_read(
     link: &LinkSpec,
-    args: &super::super::OdFileArgs,
-    json: bool,
+    path: &std::path::Path,
+    eds: Option<&std::path::Path>,
+    node: Option<u8>,
     timeout: Duration,
     trace: bool,
-) -> Result<bool, Failure> {
-    let file = load_backup(&args.file)?;
+) -> Result<Opened, Failure> {
+    let file = load_backup(path)?;
     let mut warnings = vec![];
-    let catalog = dictionary(args.eds.as_deref(), args.node, &mut warnings)?;
+    let catalog = dictionary(eds, node, &mut warnings)?;
     let mut notes = vec![];
     let mut session = Session::open(link, timeout, trace)?;
     let reads = read_all(
@@ -343,6 +355,39 @@ pub fn diff(
         "reading",
         timeout,
         &mut notes,
+    )?;
+    Ok(Opened {
+        file,
+        catalog,
+        session,
+        reads,
+        warnings,
+        notes,
+    })
+}
+
+/// `od diff FILE`: true when the drive matches the file.
+pub fn diff(
+    link: &LinkSpec,
+    args: &super::super::OdFileArgs,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+) -> Result<bool, Failure> {
+    let Opened {
+        file,
+        catalog,
+        mut session,
+        reads,
+        warnings,
+        mut notes,
+    } = open_and_read(
+        link,
+        &args.file,
+        args.eds.as_deref(),
+        args.node,
+        timeout,
+        trace,
     )?;
     notes.extend(session.take_notes());
     let mut report = diff_report(&args.file, &file, &catalog, &reads, args.all);
@@ -485,17 +530,20 @@ pub fn restore(
     timeout: Duration,
     trace: bool,
 ) -> Result<bool, Failure> {
-    let file = load_backup(&args.file)?;
-    let mut warnings = vec![];
-    let catalog = dictionary(args.eds.as_deref(), args.node, &mut warnings)?;
-    let mut notes = vec![];
-    let mut session = Session::open(link, timeout, trace)?;
-    let reads = read_all(
-        &mut session,
-        file.objects_to_read(&catalog),
-        "reading",
+    let Opened {
+        file,
+        catalog,
+        mut session,
+        reads,
+        mut warnings,
+        mut notes,
+    } = open_and_read(
+        link,
+        &args.file,
+        args.eds.as_deref(),
+        args.node,
         timeout,
-        &mut notes,
+        trace,
     )?;
     let device = DeviceIdentity::from_reads(&reads);
     warnings.extend(identity_warnings(&file.identity, &device));
