@@ -72,42 +72,6 @@ impl Error {
     }
 }
 
-/// How often one request goes out before a link gives up on it: a lost, late, corrupted
-/// or mismatched reply is worth another try within the request's timeout.
-pub const TRIES: u32 = 3;
-
-/// How a try without an answer is described (and told apart when every try timed out).
-pub(crate) const NO_ANSWER: &str = "no answer within";
-
-/// How one try of a request ended when it brought no usable answer.
-pub(crate) enum Trouble {
-    /// A lost, late, corrupted or mismatched reply: worth sending again.
-    Retry(String),
-    /// The connection itself failed: sending again cannot help.
-    Fatal(Error),
-}
-
-/// The error after every try of `what` went wrong: a timeout when nothing came back at
-/// all (with `hint`, what to check), otherwise each try's trouble named.
-pub(crate) fn gave_up(what: String, troubles: Vec<String>, waited: Duration, hint: &str) -> Error {
-    if troubles.iter().all(|t| t.starts_with(NO_ANSWER)) {
-        let hint = if hint.is_empty() {
-            String::new()
-        } else {
-            format!("; {hint}")
-        };
-        return Error::Timeout {
-            what: format!("{what} ({TRIES} tries{hint})"),
-            after: waited,
-        };
-    }
-    Error::NoValidReply {
-        what,
-        tries: TRIES,
-        troubles,
-    }
-}
-
 /// The drive's refusal of an object access. Each variant keeps its bus's own code.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Refusal {

@@ -7,10 +7,11 @@
 
 pub mod canopen;
 pub mod enip;
-pub(crate) mod error;
+mod error;
 pub mod modbus;
 pub mod spec;
 mod trace;
+pub(crate) mod tries;
 
 use std::fmt;
 

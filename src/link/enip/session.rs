@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 
-use crate::link::error::{NO_ANSWER, TRIES, Trouble, gave_up};
+use crate::link::tries::{TRIES, Trouble, gave_up, send_within, silence};
 use crate::link::{Error, TraceRecord, TraceRing};
 use crate::proto::enip::cip::{self, Reply, Request};
 use crate::proto::enip::cpf::Item;
@@ -218,16 +218,15 @@ impl Session {
         let packet = Packet::new(command, self.handle, context, data.to_vec());
         let bytes = packet.encode();
         self.record(true, &bytes, describe(&packet));
-        match tokio::time::timeout_at(deadline.into(), self.stream.write_all(&bytes)).await {
-            Err(_) => {
-                return Err(Trouble::Fatal(Error::Timeout {
-                    what: format!("{what}: sending"),
-                    after: self.timeout,
-                }));
-            }
-            Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
-            Ok(Ok(())) => {}
-        }
+        send_within(
+            &mut self.stream,
+            &bytes,
+            deadline,
+            what,
+            self.timeout,
+            io_error,
+        )
+        .await?;
         let sent_at = Instant::now();
         loop {
             match encap::split(&self.buffer) {
@@ -270,18 +269,13 @@ impl Session {
             let read = tokio::time::timeout_at(deadline.into(), self.stream.read(&mut chunk)).await;
             match read {
                 Err(_) => {
-                    let heard = if self.buffer.is_empty() {
-                        String::new()
-                    } else {
-                        // Half a message: its rest may never come; start clean.
+                    // Half a message: its rest may never come; start clean.
+                    let partial = (!self.buffer.is_empty()).then(|| {
                         let raw = std::mem::take(&mut self.buffer);
                         self.record(false, &raw, "incomplete".into());
-                        format!(" (only part of a message came: {})", hex(&raw))
-                    };
-                    return Err(Trouble::Retry(format!(
-                        "{NO_ANSWER} {} ms{heard}",
-                        sent_at.elapsed().as_millis()
-                    )));
+                        ("message", hex(&raw))
+                    });
+                    return Err(silence(sent_at, partial));
                 }
                 Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
                 Ok(Ok(0)) => {

@@ -9,7 +9,7 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 use tokio_serial::{SerialPort, SerialPortBuilderExt, SerialStream};
 
-use crate::link::error::{NO_ANSWER, TRIES, Trouble, gave_up};
+use crate::link::tries::{NO_ANSWER, TRIES, Trouble, gave_up, send_within, silence};
 use crate::link::{Error, LinkSpec, Parity, TraceRecord, TraceRing};
 use crate::proto::modbus::frame::{self, Direction};
 use crate::proto::modbus::pdu::{Exception, Request, Response};
@@ -265,16 +265,7 @@ impl Transport {
                 "TCP transaction on a serial link".into(),
             )));
         };
-        match tokio::time::timeout_at(deadline.into(), stream.write_all(&adu)).await {
-            Err(_) => {
-                return Err(Trouble::Fatal(Error::Timeout {
-                    what: format!("{what}: sending"),
-                    after: self.timeout,
-                }));
-            }
-            Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
-            Ok(Ok(())) => {}
-        }
+        send_within(stream, &adu, deadline, what, self.timeout, io_error).await?;
         let sent_at = Instant::now();
         loop {
             // A whole frame waiting already?
@@ -313,18 +304,13 @@ impl Transport {
             let mut chunk = [0u8; 512];
             match tokio::time::timeout_at(deadline.into(), stream.read(&mut chunk)).await {
                 Err(_) => {
-                    let heard = if self.buffer.is_empty() {
-                        String::new()
-                    } else {
-                        // Half a frame: its rest may never come; start clean.
+                    // Half a frame: its rest may never come; start clean.
+                    let partial = (!self.buffer.is_empty()).then(|| {
                         let raw = std::mem::take(&mut self.buffer);
                         self.record(false, &raw);
-                        format!(" (only part of a frame came: {})", hex(&raw))
-                    };
-                    return Err(Trouble::Retry(format!(
-                        "{NO_ANSWER} {} ms{heard}",
-                        sent_at.elapsed().as_millis()
-                    )));
+                        ("frame", hex(&raw))
+                    });
+                    return Err(silence(sent_at, partial));
                 }
                 Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
                 Ok(Ok(0)) => {
@@ -367,16 +353,7 @@ impl Transport {
         // Whatever is still in the buffer belongs to nothing we asked.
         let _ = port.clear(tokio_serial::ClearBuffer::Input);
         self.buffer.clear();
-        match tokio::time::timeout_at(deadline.into(), port.write_all(&adu)).await {
-            Err(_) => {
-                return Err(Trouble::Fatal(Error::Timeout {
-                    what: format!("{what}: sending"),
-                    after: self.timeout,
-                }));
-            }
-            Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
-            Ok(Ok(())) => {}
-        }
+        send_within(port.as_mut(), &adu, deadline, what, self.timeout, io_error).await?;
         let sent_at = Instant::now();
         // Bytes skipped as noise, and the first reason, for the message.
         let mut noise: Vec<u8> = Vec::new();
