@@ -103,22 +103,9 @@ pub struct ObjectReport {
 }
 
 #[derive(Serialize, Debug)]
-pub struct ScanNode {
-    /// Where the device is: `node 5`, `192.168.2.100:44818`.
-    pub address: String,
-    pub node: Option<u8>,
-    pub vendor: Option<u32>,
-    pub product: Option<u32>,
-    pub revision: Option<u32>,
-    pub serial: Option<u32>,
-    pub name: Option<String>,
-    pub state: Option<String>,
-}
-
-#[derive(Serialize, Debug)]
 pub struct ScanReport {
     pub bus: String,
-    pub nodes: Vec<ScanNode>,
+    pub nodes: Vec<crate::link::FoundDevice>,
     pub warnings: Vec<String>,
     pub notes: Vec<String>,
 }
@@ -126,19 +113,7 @@ pub struct ScanReport {
 pub fn scan(link: &LinkSpec, devices: Vec<crate::link::FoundDevice>) -> ScanReport {
     ScanReport {
         bus: link.to_string(),
-        nodes: devices
-            .into_iter()
-            .map(|d| ScanNode {
-                address: d.address,
-                node: d.node,
-                vendor: d.vendor,
-                product: d.product,
-                revision: d.revision,
-                serial: d.serial,
-                name: d.name,
-                state: d.state,
-            })
-            .collect(),
+        nodes: devices,
         warnings: vec![],
         notes: vec![],
     }

@@ -57,7 +57,7 @@ impl fmt::Display for LinkInfo {
 pub type Traced<T> = Result<T, (Error, Vec<TraceRecord>)>;
 
 /// A device found on a bus by a scan (CANopen) or a discovery (EtherNet/IP).
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct FoundDevice {
     /// Where it is, for people: `node 5`, `192.168.2.100`.
     pub address: String,
