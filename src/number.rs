@@ -1,4 +1,5 @@
-//! Integers as people type them. One parser for every input box and command-line value.
+//! Numbers as people type and read them: one integer parser for every input box and
+//! command-line value, and one way to show bytes in hex.
 
 /// Parse an integer: decimal by default (`-123`, `1_000`), hex with `0x` or an `h` suffix
 /// (`0x203B`, `203Bh`), or plain hex digits when `hex_by_default` (OD indices).
@@ -31,9 +32,43 @@ pub fn parse_integer(text: &str, hex_by_default: bool) -> Option<i128> {
     Some(if negative { -magnitude } else { magnitude })
 }
 
+/// Bytes as `12 AB …`, for messages and the frame log.
+pub fn hex(bytes: &[u8]) -> String {
+    let mut out = String::with_capacity(bytes.len() * 3);
+    for (i, b) in bytes.iter().enumerate() {
+        if i > 0 {
+            out.push(' ');
+        }
+        out.push(char::from(HEX_DIGITS[usize::from(b >> 4)]));
+        out.push(char::from(HEX_DIGITS[usize::from(b & 0x0F)]));
+    }
+    out
+}
+
+/// [`hex`] of the first `max` bytes, with ` …` when there were more (long frames in a
+/// message).
+pub fn hex_cut(bytes: &[u8], max: usize) -> String {
+    let shown = hex(&bytes[..bytes.len().min(max)]);
+    if bytes.len() > max {
+        format!("{shown} …")
+    } else {
+        shown
+    }
+}
+
+const HEX_DIGITS: &[u8; 16] = b"0123456789ABCDEF";
+
 #[cfg(test)]
 mod tests {
-    use super::parse_integer;
+    use super::{hex, hex_cut, parse_integer};
+
+    #[test]
+    fn bytes_show_as_spaced_hex() {
+        assert_eq!(hex(&[]), "");
+        assert_eq!(hex(&[0x01, 0xAB, 0xFF]), "01 AB FF");
+        assert_eq!(hex_cut(&[1, 2, 3], 2), "01 02 …");
+        assert_eq!(hex_cut(&[1, 2], 2), "01 02");
+    }
 
     #[test]
     fn every_written_form() {

@@ -198,10 +198,10 @@ impl Value {
             }
             (Value::Real(_), _) => self
                 .to_le_bytes(dtype)
-                .map(|b| hex_bytes(&b))
+                .map(|b| crate::number::hex(&b))
                 .unwrap_or_default(),
-            (Value::Text(s), _) => hex_bytes(s.as_bytes()),
-            (Value::Bytes(b), _) => hex_bytes(b),
+            (Value::Text(s), _) => crate::number::hex(s.as_bytes()),
+            (Value::Bytes(b), _) => crate::number::hex(b),
             _ => String::new(),
         }
     }
@@ -227,17 +227,9 @@ impl fmt::Display for Value {
             Value::Uint(v) => write!(f, "{v}"),
             Value::Real(v) => write!(f, "{v}"),
             Value::Text(s) => write!(f, "{s:?}"),
-            Value::Bytes(b) => f.write_str(&hex_bytes(b)),
+            Value::Bytes(b) => f.write_str(&crate::number::hex(b)),
         }
     }
-}
-
-fn hex_bytes(bytes: &[u8]) -> String {
-    bytes
-        .iter()
-        .map(|b| format!("{b:02X}"))
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 fn parse_hex_bytes(text: &str) -> Option<Vec<u8>> {

@@ -100,10 +100,9 @@ impl std::fmt::Debug for Transport {
     }
 }
 
+/// A frame for messages: at most 32 bytes of it.
 fn hex(bytes: &[u8]) -> String {
-    let shown: Vec<String> = bytes.iter().take(32).map(|b| format!("{b:02X}")).collect();
-    let more = if bytes.len() > 32 { " …" } else { "" };
-    format!("{}{more}", shown.join(" "))
+    crate::number::hex_cut(bytes, 32)
 }
 
 /// The silence a Modbus RTU master keeps between frames: 3.5 characters (11 bits each)

@@ -23,6 +23,7 @@ use super::emcy::Emcy;
 use super::nmt::{Cob, NmtState, classify, decode_command, decode_heartbeat};
 use super::sdo::{Initiate, Request, Response, Segment};
 use crate::cia::ErrorCode;
+use crate::number::hex;
 
 /// "4 bytes 6C 02 00 00", "1 byte 05", "0 bytes".
 fn bytes_text(data: &[u8]) -> String {
@@ -102,17 +103,6 @@ pub fn describe(frame: &CanFrame) -> String {
         Cob::SdoResponse { node } => describe_response(node, frame),
         Cob::Other => format!("CAN {cob_id:03X}h: {}", payload_text(frame)),
     }
-}
-
-fn hex(data: &[u8]) -> String {
-    let mut out = String::new();
-    for (i, b) in data.iter().enumerate() {
-        if i > 0 {
-            out.push(' ');
-        }
-        let _ = write!(out, "{b:02X}");
-    }
-    out
 }
 
 fn payload_text(frame: &CanFrame) -> String {

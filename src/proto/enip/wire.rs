@@ -151,17 +151,7 @@ impl Put for Vec<u8> {
     }
 }
 
-/// Bytes as `12 AB …`, for messages and the frame log.
-pub fn hex(bytes: &[u8]) -> String {
-    let mut out = String::with_capacity(bytes.len() * 3);
-    for (i, b) in bytes.iter().enumerate() {
-        if i > 0 {
-            out.push(' ');
-        }
-        out.push_str(&format!("{b:02X}"));
-    }
-    out
-}
+pub use crate::number::hex;
 
 #[cfg(test)]
 mod tests {
