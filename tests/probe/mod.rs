@@ -80,7 +80,8 @@ impl Probe {
                     }
                 }
                 Err(_) => panic!(
-                    "no {what} within {timeout:?}; seen: {:#?}",
+                    "no {what} within {timeout:?}; the last sample: {:?}; seen: {:#?}",
+                    self.last,
                     self.seen
                         .iter()
                         .filter(|e| !matches!(e, Event::Samples(_) | Event::Health(_)))
