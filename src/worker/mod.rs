@@ -3,9 +3,16 @@
 //! quick stop never waits behind a queue), `Event`s come out, and the UI is woken with a
 //! callback when something new arrives.
 
+mod commands;
+mod cycle;
+mod jobs;
+mod limiter;
+mod loss;
 mod protocol;
+mod requests;
 mod session;
 mod sink;
+mod supervisor;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -98,7 +105,7 @@ impl Worker {
                     .build()
                 {
                     Ok(runtime) => {
-                        runtime.block_on(session::run(config, request_rx, urgent_rx, &mut sink))
+                        runtime.block_on(supervisor::run(config, request_rx, urgent_rx, &mut sink))
                     }
                     Err(e) => {
                         sink.emit(Event::Notice(format!(

@@ -1,0 +1,179 @@
+//! When exchanges fail: counting the failures in a row, naming them (and the troubles the
+//! link got over by itself) in the log at a bounded rate, deciding when the link counts
+//! as lost, and the last try to stop a move that runs when it is.
+
+use std::time::Instant;
+
+use super::Config;
+use super::protocol::{
+    CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, LinkLossAction, MAX_LOST_AFTER, RequestId,
+    WORKER_ID,
+};
+use super::session::Session;
+use super::sink::EventSink;
+use crate::link::{self, Link};
+use crate::pdi::{Action, RxImage, StatusBit};
+
+impl Session {
+    /// An exchange went through: a run of failed ones before it is over (and said so).
+    pub(super) fn exchange_succeeded(&mut self, sink: &mut EventSink) {
+        if self.failures > 0 {
+            self.failure_notices.say(
+                format!(
+                    "the link recovered after {} failed exchange(s) in a row",
+                    self.failures
+                ),
+                sink,
+            );
+            self.failures = 0;
+        }
+    }
+
+    /// An exchange failed: counted (its frames come before any message about it).
+    /// Whether the link now counts as lost; if not, the next cycle tries again.
+    pub(super) fn exchange_failed(
+        &mut self,
+        error: &link::Error,
+        config: &Config,
+        sink: &mut EventSink,
+    ) -> bool {
+        let frames = self.link.take_trace();
+        if config.trace && !frames.is_empty() {
+            sink.emit(Event::Frames(frames));
+        }
+        self.errors += 1;
+        self.failures += 1;
+        let lost_after = config.lost_after.clamp(1, MAX_LOST_AFTER);
+        if error.is_momentary() && self.failures < lost_after {
+            if self.failures == 1 {
+                self.failure_notices.say(
+                    format!(
+                        "an exchange with the drive failed: {error}; trying again (the link counts as lost after {lost_after} failures in a row)"
+                    ),
+                    sink,
+                );
+            }
+            return false;
+        }
+        true
+    }
+
+    /// The link is lost: why, in words, with what the last try to stop a move that runs
+    /// (as `action` says) did.
+    pub(super) async fn lost(
+        &mut self,
+        error: &link::Error,
+        action: LinkLossAction,
+        sink: &mut EventSink,
+    ) -> String {
+        let reason = if self.failures > 1 {
+            format!(
+                "{} exchanges failed in a row; the last: {error}",
+                self.failures
+            )
+        } else {
+            error.to_string()
+        };
+        if self.jog_deadline.is_some() || self.master.travel_running() {
+            let done = self.stop_on_loss(&reason, action, sink).await;
+            format!("{reason}; {done}")
+        } else {
+            reason
+        }
+    }
+
+    /// Troubles the link got over by itself (a reply lost or corrupted, then answered on
+    /// another try): counted for the health line, named in the log at a bounded rate.
+    pub(super) fn report_recovered(&mut self, sink: &mut EventSink) {
+        for trouble in self.link.take_recovered() {
+            self.recovered += 1;
+            self.recovery_notices.say(format!("link: {trouble}"), sink);
+        }
+    }
+
+    /// The link failed during a move: one last try to halt (or switch off) the drive, as
+    /// the setting says. Returns what was done, honestly (for the messages of the link
+    /// loss and of the commands it ends); the commands that ran end here.
+    async fn stop_on_loss(
+        &mut self,
+        reason: &str,
+        action: LinkLossAction,
+        sink: &mut EventSink,
+    ) -> String {
+        self.jog_deadline = None;
+        let running: Vec<RequestId> = [self.master.pending_tag(), self.master.background_tag()]
+            .into_iter()
+            .flatten()
+            .collect();
+        let made = match action {
+            LinkLossAction::Halt => Some(self.master.halt(WORKER_ID, Instant::now())),
+            LinkLossAction::SwitchOff => Some(self.master.start(
+                WORKER_ID,
+                Action::SwitchOff,
+                Instant::now(),
+            )),
+            LinkLossAction::Nothing => None,
+        };
+        // The commands that ran end with the link, not "superseded" by this last try.
+        let _ = self.master.drain_progress();
+        let what = if action == LinkLossAction::Halt {
+            "a halt"
+        } else {
+            "a switch-off"
+        };
+        let done = match made {
+            None => "as set, the drive is left alone: it may still be moving".to_owned(),
+            Some(Err(e)) => {
+                format!("no {what} could be made ({e}): the drive may still be moving")
+            }
+            Some(Ok(image)) => self.send_last_stop(&image, action, what).await,
+        };
+        sink.emit(Event::Notice(format!(
+            "the link failed during a move ({reason}); {done}"
+        )));
+        let ended = format!("{reason}; {done}");
+        for id in running {
+            self.purposes.remove(&id);
+            sink.emit(Event::Progress {
+                id,
+                progress: CommandProgress::LinkLost {
+                    reason: ended.clone(),
+                },
+            });
+        }
+        done
+    }
+
+    /// Send the last halt or switch-off (`what`) once, within [`HALT_ON_LOSS_TIMEOUT`]:
+    /// what came of it, in words.
+    async fn send_last_stop(
+        &mut self,
+        image: &RxImage,
+        action: LinkLossAction,
+        what: &str,
+    ) -> String {
+        let attempt =
+            tokio::time::timeout(HALT_ON_LOSS_TIMEOUT, self.link.exchange(Some(image))).await;
+        match attempt {
+            Ok(Ok(exchange)) => {
+                let status = exchange.tx.status;
+                let confirmed = match action {
+                    LinkLossAction::Halt => status.is_set(StatusBit::QsHaltBit),
+                    _ => !status.is_set(StatusBit::OperationEnabled),
+                };
+                if confirmed {
+                    format!("{what} was sent and the drive confirmed it")
+                } else {
+                    format!("{what} was sent and the drive answered, without showing it yet")
+                }
+            }
+            Ok(Err(e)) => format!(
+                "{what} did not reach the drive ({e}): it may still be moving; stop it at the machine"
+            ),
+            Err(_) => format!(
+                "{what} got no answer within {:.1} s: the drive may still be moving; stop it at the machine",
+                HALT_ON_LOSS_TIMEOUT.as_secs_f64()
+            ),
+        }
+    }
+}
