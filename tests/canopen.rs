@@ -446,3 +446,14 @@ fn frames_are_traced_when_asked() {
     );
     assert!(frames.iter().any(|r| r.raw == "581#431810016C020000"));
 }
+
+#[test]
+fn what_closing_did_reaches_the_log() {
+    // The link put its PDI mapping on the node; disconnecting puts the old one back and
+    // says so (it is not dropped on the floor).
+    let mut probe = Probe::connected(spec(3));
+    probe.send(Request::Disconnect);
+    probe.wait("the restore report", Duration::from_secs(5), |e| {
+        matches!(e, Event::Notice(n) if n.contains("restored the PDO mapping of node 3"))
+    });
+}

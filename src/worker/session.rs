@@ -61,6 +61,7 @@ impl Session {
         mut link: AnyLink,
         config: &Config,
         watch: &[(Address, DataType)],
+        sink: &mut EventSink,
     ) -> link::Traced<Session> {
         let mut master = PdiMaster::new(config.timing);
         // Start from what the drive holds, so connecting replays no command.
@@ -68,7 +69,7 @@ impl Session {
             Ok(first) => first,
             Err(error) => {
                 let frames = link.take_trace();
-                let _ = link.close().await;
+                super::supervisor::close_link(&mut link, sink).await;
                 return Err((error, frames));
             }
         };

@@ -73,7 +73,21 @@ pub async fn run(
         }
     }
     if let Some(mut s) = w.session.take() {
-        let _ = s.link.close().await;
+        close_link(&mut s.link, sink).await;
+        sink.flush();
+    }
+}
+
+/// Close a link politely, and say what closing did (a mapping put back) or why it failed.
+pub(super) async fn close_link(link: &mut AnyLink, sink: &mut EventSink) {
+    let closed = link.close().await;
+    for notice in link.take_notices() {
+        sink.emit(Event::Notice(notice));
+    }
+    if let Err(e) = closed {
+        sink.emit(Event::Notice(format!(
+            "closing the link did not finish: {e}"
+        )));
     }
 }
 
@@ -132,7 +146,7 @@ impl Supervisor {
                 retry_in: Some(self.backoff),
             });
         } else {
-            let _ = s.link.close().await;
+            close_link(&mut s.link, sink).await;
             self.wanted = None;
         }
     }
@@ -140,21 +154,21 @@ impl Supervisor {
     /// Close the session and forget a broken link.
     pub(super) async fn close(&mut self, reason: Option<&str>, sink: &mut EventSink) {
         if let Some(mut s) = self.session.take() {
-            let _ = s.link.close().await;
+            close_link(&mut s.link, sink).await;
             s.abandon_all(reason.unwrap_or("closed"), sink);
             if reason.is_some_and(|r| r != "disconnected") {
                 sink.emit(Event::Disconnected { reason: None });
             }
         }
         if let Some(mut link) = self.broken.take() {
-            let _ = link.close().await;
+            close_link(&mut link, sink).await;
         }
     }
 
     /// Open the wanted link, or bring a broken one back.
     pub(super) async fn connect(&mut self, spec: &LinkSpec, sink: &mut EventSink) {
         sink.emit(Event::Connecting(spec.clone()));
-        match self.open(spec).await {
+        match self.open(spec, sink).await {
             Ok(s) => self.adopt(s, sink),
             Err((error, frames)) => {
                 // The frames of a connection that failed come before its message.
@@ -167,10 +181,10 @@ impl Supervisor {
     }
 
     /// A session on the broken link brought back, or on a new one.
-    async fn open(&mut self, spec: &LinkSpec) -> link::Traced<Session> {
+    async fn open(&mut self, spec: &LinkSpec, sink: &mut EventSink) -> link::Traced<Session> {
         match self.broken.take() {
             Some(mut link) => match link.reconnect().await {
-                Ok(()) => Session::start(link, &self.config, &self.watch).await,
+                Ok(()) => Session::start(link, &self.config, &self.watch, sink).await,
                 Err(e) => {
                     let trace = link.take_trace();
                     self.broken = Some(link);
@@ -178,7 +192,7 @@ impl Supervisor {
                 }
             },
             None => match connect::open_traced(spec).await {
-                Ok(link) => Session::start(link, &self.config, &self.watch).await,
+                Ok(link) => Session::start(link, &self.config, &self.watch, sink).await,
                 Err(failed) => Err(failed),
             },
         }

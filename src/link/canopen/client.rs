@@ -142,9 +142,17 @@ impl<B: CanBus> CanopenLink<B> {
         match link.map_pdi().await? {
             Ok(()) => link.path = PdiPath::Pdo,
             Err(reason) => {
-                link.restore().await?;
+                let refused = link.restore().await?;
+                let left = if refused.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; putting the old mapping back, it refused {}",
+                        refused.join("; ")
+                    )
+                };
                 link.notices.push(format!(
-                    "node {} refused the PDI mapping ({reason}): the PDI runs over SDO (2291h/2292h), slower",
+                    "node {} refused the PDI mapping ({reason}): the PDI runs over SDO (2291h/2292h), slower{left}",
                     options.node
                 ));
             }
@@ -430,12 +438,16 @@ impl<B: CanBus> CanopenLink<B> {
     }
 
     /// Put back what `map_pdi` changed.
-    async fn restore(&mut self) -> Result<(), Error> {
+    /// Put the saved mapping back; the writes the node refused, named (with their abort).
+    async fn restore(&mut self) -> Result<Vec<String>, Error> {
         let writes = std::mem::take(&mut self.saved.writes);
+        let mut refused = vec![];
         for w in writes {
-            let _ = self.sdo_download(w.index, w.sub, &w.data).await?;
+            if let Err(code) = self.sdo_download(w.index, w.sub, &w.data).await? {
+                refused.push(format!("{}: abort {code}", Address::new(w.index, w.sub)));
+            }
         }
-        Ok(())
+        Ok(refused)
     }
 
     async fn read_tx_by_sdo(&mut self) -> Result<TxImage, Error> {
@@ -644,11 +656,16 @@ impl<B: CanBus> Link for CanopenLink<B> {
 
     async fn close(&mut self) -> Result<(), Error> {
         if !self.options.keep_pdo && !self.saved.writes.is_empty() {
-            self.restore().await?;
-            self.notices.push(format!(
-                "restored the PDO mapping of node {}",
-                self.options.node
-            ));
+            let refused = self.restore().await?;
+            self.notices.push(if refused.is_empty() {
+                format!("restored the PDO mapping of node {}", self.options.node)
+            } else {
+                format!(
+                    "restored the PDO mapping of node {} except what it refused: {}",
+                    self.options.node,
+                    refused.join("; ")
+                )
+            });
         }
         Ok(())
     }
