@@ -1,6 +1,6 @@
 //! Why a one-shot command did not succeed: the message and the exit code.
 
-use super::interrupt::Signal;
+use super::interrupt::OsSignal;
 use super::{EXIT_FAILED, EXIT_INTERRUPTED, EXIT_USAGE};
 
 /// Why a one-shot command did not succeed: the message and the exit code.
@@ -8,7 +8,7 @@ pub(super) struct Failure {
     pub(super) code: u8,
     pub(super) message: String,
     /// The signal that ended it, if one did.
-    pub(super) signal: Option<Signal>,
+    pub(super) signal: Option<OsSignal>,
     /// The command it ended may still run on the drive (a signal, a --wait that timed
     /// out): stop the drive by the `--on-exit` policy before exiting.
     pub(super) stop: bool,
@@ -22,7 +22,7 @@ impl Failure {
     }
 }
 
-pub(super) fn interrupted(signal: Signal) -> Failure {
+pub(super) fn interrupted(signal: OsSignal) -> Failure {
     Failure {
         code: EXIT_INTERRUPTED,
         message: format!("interrupted by {signal}"),

@@ -11,39 +11,39 @@ use std::sync::atomic::{AtomicU8, AtomicU32, Ordering};
 
 use super::EXIT_INTERRUPTED;
 
-/// A signal that asks the command to end.
+/// A signal of the operating system that asks the command to end.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Signal {
+pub enum OsSignal {
     Interrupt,
     Terminate,
     Hangup,
 }
 
-impl Signal {
+impl OsSignal {
     fn code(self) -> u8 {
         match self {
-            Signal::Interrupt => 1,
-            Signal::Terminate => 2,
-            Signal::Hangup => 3,
+            OsSignal::Interrupt => 1,
+            OsSignal::Terminate => 2,
+            OsSignal::Hangup => 3,
         }
     }
 
-    fn from_code(code: u8) -> Option<Signal> {
+    fn from_code(code: u8) -> Option<OsSignal> {
         match code {
-            1 => Some(Signal::Interrupt),
-            2 => Some(Signal::Terminate),
-            3 => Some(Signal::Hangup),
+            1 => Some(OsSignal::Interrupt),
+            2 => Some(OsSignal::Terminate),
+            3 => Some(OsSignal::Hangup),
             _ => None,
         }
     }
 }
 
-impl std::fmt::Display for Signal {
+impl std::fmt::Display for OsSignal {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
-            Signal::Interrupt => "SIGINT (Ctrl-C)",
-            Signal::Terminate => "SIGTERM",
-            Signal::Hangup => "SIGHUP (the terminal closed)",
+            OsSignal::Interrupt => "SIGINT (Ctrl-C)",
+            OsSignal::Terminate => "SIGTERM",
+            OsSignal::Hangup => "SIGHUP (the terminal closed)",
         })
     }
 }
@@ -84,11 +84,11 @@ pub fn install() -> Result<(), String> {
 }
 
 /// The signal caught since the last call, once.
-pub fn take() -> Option<Signal> {
-    Signal::from_code(PENDING.swap(0, Ordering::SeqCst))
+pub fn take() -> Option<OsSignal> {
+    OsSignal::from_code(PENDING.swap(0, Ordering::SeqCst))
 }
 
-fn caught(signal: Signal) {
+fn caught(signal: OsSignal) {
     if CAUGHT.fetch_add(1, Ordering::SeqCst) >= 1 {
         eprintln!("drivedeck: {signal} again: exiting now, without waiting for the drive");
         std::process::exit(i32::from(EXIT_INTERRUPTED));
@@ -114,9 +114,9 @@ async fn listen(ready: std::sync::mpsc::Sender<Result<(), String>>) {
     let _ = ready.send(Ok(()));
     loop {
         let signal = tokio::select! {
-            _ = int.recv() => Signal::Interrupt,
-            _ = term.recv() => Signal::Terminate,
-            _ = hup.recv() => Signal::Hangup,
+            _ = int.recv() => OsSignal::Interrupt,
+            _ = term.recv() => OsSignal::Terminate,
+            _ = hup.recv() => OsSignal::Hangup,
         };
         caught(signal);
     }
@@ -129,6 +129,6 @@ async fn listen(ready: std::sync::mpsc::Sender<Result<(), String>>) {
         if tokio::signal::ctrl_c().await.is_err() {
             return;
         }
-        caught(Signal::Interrupt);
+        caught(OsSignal::Interrupt);
     }
 }
