@@ -453,7 +453,9 @@ fn what_closing_did_reaches_the_log() {
     // says so (it is not dropped on the floor).
     let mut probe = Probe::connected(spec(3));
     probe.send(Request::Disconnect);
-    probe.wait("the restore report", Duration::from_secs(5), |e| {
-        matches!(e, Event::Notice(n) if n.contains("restored the PDO mapping of node 3"))
-    });
+    probe.wait(
+        "the restore report",
+        Duration::from_secs(5),
+        |e| matches!(e, Event::Notice(n) if n.contains("restored the PDO mapping of node 3")),
+    );
 }
