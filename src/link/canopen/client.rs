@@ -56,7 +56,10 @@ pub struct CanopenLink<B: CanBus> {
     path: PdiPath,
     sdo: SdoClient,
     tx: Option<TxImage>,
+    /// The last TPDO, or the NMT start until the first one comes: a node that never sends
+    /// one (not operational) is noticed as well as one that falls silent.
     last_tpdo: Option<Instant>,
+    tpdo_seen: bool,
     last_rx: Option<RxImage>,
     last_rpdo: Option<Instant>,
     saved: Saved,
@@ -102,6 +105,7 @@ impl<B: CanBus> CanopenLink<B> {
             path: PdiPath::Sdo,
             tx: None,
             last_tpdo: None,
+            tpdo_seen: false,
             last_rx: None,
             last_rpdo: None,
             saved: Saved::default(),
@@ -162,6 +166,9 @@ impl<B: CanBus> CanopenLink<B> {
         }
         link.send(&nmt::command_frame(NmtCommand::Start, options.node))
             .await?;
+        if link.path == PdiPath::Pdo {
+            link.last_tpdo = Some(Instant::now());
+        }
         // The image as it is now, before the first TPDO arrives.
         link.tx = Some(link.read_tx_by_sdo().await?);
         Ok(())
@@ -198,6 +205,7 @@ impl<B: CanBus> CanopenLink<B> {
             if let Ok(tx) = TxImage::from_bytes(frame.data()) {
                 self.tx = Some(tx);
                 self.last_tpdo = Some(Instant::now());
+                self.tpdo_seen = true;
             }
         } else if cob == 0x80 + node
             && let Ok((_, emcy)) = Emcy::decode(frame)
@@ -535,14 +543,18 @@ impl<B: CanBus> Link for CanopenLink<B> {
                     self.last_rx = Some(*rx);
                 }
                 self.drain(Duration::from_millis(1)).await?;
-                if self.last_tpdo.is_some_and(|t| t.elapsed() > SILENCE)
-                    || (self.last_tpdo.is_none() && self.tx.is_none())
-                {
+                if self.last_tpdo.is_none_or(|t| t.elapsed() > SILENCE) {
+                    let (pdo, node) = (self.options.pdo, self.options.node);
                     return Err(Error::Timeout {
-                        what: format!(
-                            "TPDO{} from node {} (it comes every {EVENT_TIMER_MS} ms at least)",
-                            self.options.pdo, self.options.node
-                        ),
+                        what: if self.tpdo_seen {
+                            format!(
+                                "TPDO{pdo} from node {node} (it comes every {EVENT_TIMER_MS} ms at least)"
+                            )
+                        } else {
+                            format!(
+                                "the first TPDO{pdo} from node {node} after its NMT start (is the node operational?)"
+                            )
+                        },
                         after: SILENCE,
                     });
                 }

@@ -161,6 +161,11 @@ impl Node {
     /// Handle one frame from the bus; returns the frames to send in answer.
     pub fn on_frame(&mut self, frame: &CanFrame, drive: &mut Drive, now: Instant) -> Vec<CanFrame> {
         let mut out = vec![];
+        if !self.booted {
+            // Power-on comes before anything the bus says: a frame that arrives before the
+            // first tick (an NMT start on a busy machine) must not be undone by the boot-up.
+            self.boot(drive, now, &mut out);
+        }
         let Some(cob) = frame.cob_id() else {
             return out;
         };
@@ -400,5 +405,22 @@ pub async fn run_node<B: CanBus>(
         for frame in out {
             bus.send(&frame).await?;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_nmt_start_before_the_first_tick_is_not_undone_by_the_boot_up() {
+        let mut drive = Drive::new();
+        let mut node = Node::new(5, &mut drive);
+        let now = Instant::now();
+        let start = nmt::command_frame(NmtCommand::Start, 5);
+        let out = node.on_frame(&start, &mut drive, now);
+        assert_eq!(out, vec![nmt::boot_up_frame(5)], "boot-up first");
+        node.tick(&mut drive, now);
+        assert_eq!(node.state(), NmtState::Operational);
     }
 }
