@@ -17,7 +17,7 @@ use drivedeck::link::{Link, LinkSpec};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Command as PdiCommand, Opcode, RxImage, StatusBit};
 use drivedeck::sim::Drive;
-use drivedeck::sim::server::enip::Options;
+use drivedeck::sim::server::enip::AdapterOptions;
 use drivedeck::sim::server::{ServerThread, SharedDrive};
 use drivedeck::ui::{App, Settings};
 use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
@@ -35,9 +35,9 @@ fn local() -> SocketAddr {
 fn adapter() -> ServerThread {
     ServerThread::enip(
         local(),
-        Options {
+        AdapterOptions {
             io_port: 0,
-            ..Options::default()
+            ..AdapterOptions::default()
         },
     )
     .expect("adapter")
@@ -340,9 +340,9 @@ fn disconnecting_closes_the_io_connection_so_the_next_scanner_gets_it() {
 #[test]
 fn a_drive_that_vanishes_mid_move_shows_as_disconnected_and_is_reconnected() {
     let drive = SharedDrive::new(Drive::new());
-    let options = Options {
+    let options = AdapterOptions {
         io_port: 0,
-        ..Options::default()
+        ..AdapterOptions::default()
     };
     let server = ServerThread::enip_with(local(), options, drive.clone()).expect("adapter");
     let addr = server.addr;
@@ -385,9 +385,9 @@ fn a_drive_that_vanishes_mid_move_shows_as_disconnected_and_is_reconnected() {
     // Back on the same address: the worker reconnects by itself.
     let _back = ServerThread::enip_with(
         addr,
-        Options {
+        AdapterOptions {
             io_port: 0,
-            ..Options::default()
+            ..AdapterOptions::default()
         },
         drive.clone(),
     )
@@ -511,9 +511,9 @@ fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
     // An adapter on every interface answers a broadcast on the loopback interface.
     let everywhere = ServerThread::enip(
         "0.0.0.0:0".parse().expect("address"),
-        Options {
+        AdapterOptions {
             io_port: 0,
-            ..Options::default()
+            ..AdapterOptions::default()
         },
     )
     .expect("adapter on 0.0.0.0");

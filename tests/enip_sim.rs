@@ -24,7 +24,7 @@ use drivedeck::proto::enip::encap::{self, Command, HEADER_LEN, Header, Packet, R
 use drivedeck::proto::enip::identity::Identity;
 use drivedeck::proto::enip::io::IoPacket;
 use drivedeck::proto::enip::nanotec::{self, Typed};
-use drivedeck::sim::server::enip::Options;
+use drivedeck::sim::server::enip::AdapterOptions;
 use drivedeck::sim::server::{ServerThread, SharedDrive};
 use drivedeck::sim::{Drive, World};
 
@@ -35,10 +35,10 @@ fn local() -> SocketAddr {
     "127.0.0.1:0".parse().expect("address")
 }
 
-fn options() -> Options {
-    Options {
+fn options() -> AdapterOptions {
+    AdapterOptions {
         io_port: 0,
-        ..Options::default()
+        ..AdapterOptions::default()
     }
 }
 
@@ -480,7 +480,7 @@ fn bound_to_every_interface_the_identity_says_0_0_0_0() {
 fn sessions_beyond_the_maximum_are_refused() {
     let server = ServerThread::enip(
         local(),
-        Options {
+        AdapterOptions {
             max_sessions: 2,
             io_port: 0,
         },

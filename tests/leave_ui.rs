@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use drivedeck::cia::PowerState;
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::sim::server::ServerThread;
-use drivedeck::sim::server::modbus::Options;
+use drivedeck::sim::server::modbus::ServerOptions;
 use drivedeck::ui::state::{Bus, Connection};
 use drivedeck::ui::{App, Settings};
 use drivedeck::worker::{ObjectPath, Request};
@@ -21,8 +21,11 @@ use egui_kittest::kittest::Queryable;
 use window::{connected, harness_with, step_until, step_until_shown};
 
 fn server() -> ServerThread {
-    ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
-        .expect("server")
+    ServerThread::modbus_tcp(
+        "127.0.0.1:0".parse().expect("addr"),
+        ServerOptions::default(),
+    )
+    .expect("server")
 }
 
 /// The window connected to `server` over Modbus TCP.

@@ -12,7 +12,7 @@ use drivedeck::link::{Link, LinkSpec};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, StatusBit};
 use drivedeck::sim::server::ServerThread;
-use drivedeck::sim::server::modbus::Options;
+use drivedeck::sim::server::modbus::ServerOptions;
 use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request, Sample};
 use probe::Probe;
 
@@ -26,7 +26,7 @@ fn spec(addr: SocketAddr) -> LinkSpec {
 
 #[test]
 fn a_move_over_modbus_tcp_reaches_its_target() {
-    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
     let mut probe = Probe::connected(spec(server.addr));
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 2000,
@@ -67,7 +67,7 @@ fn a_move_over_modbus_tcp_reaches_its_target() {
 
 #[test]
 fn objects_over_fc_43_and_over_the_pdi() {
-    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
     let mut probe = Probe::connected(spec(server.addr));
     let vendor = Address::new(0x1018, 1);
     assert_eq!(
@@ -145,9 +145,9 @@ fn objects_over_fc_43_and_over_the_pdi() {
 
 #[test]
 fn a_gateway_without_fc_23_gets_fc_16_and_fc_4() {
-    let options = Options {
+    let options = ServerOptions {
         fc23: false,
-        ..Options::default()
+        ..ServerOptions::default()
     };
     let server = ServerThread::modbus_tcp(local(), options).expect("server");
     let mut probe = Probe::connected(spec(server.addr));
@@ -180,9 +180,9 @@ fn a_gateway_without_fc_23_gets_fc_16_and_fc_4() {
 
 #[test]
 fn a_device_without_fc_43_reads_objects_through_the_pdi() {
-    let options = Options {
+    let options = ServerOptions {
         fc43: false,
-        ..Options::default()
+        ..ServerOptions::default()
     };
     let server = ServerThread::modbus_tcp(local(), options).expect("server");
     let mut probe = Probe::connected(spec(server.addr));
@@ -215,7 +215,7 @@ fn a_device_without_fc_43_reads_objects_through_the_pdi() {
 
 #[test]
 fn a_second_client_is_told_the_one_connection_is_taken() {
-    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
     let _first = Probe::connected(spec(server.addr));
     let mut second = Probe::new();
     second.send(Request::Connect(spec(server.addr)));
@@ -233,9 +233,9 @@ fn a_second_client_is_told_the_one_connection_is_taken() {
 
 #[test]
 fn max_clients_lets_more_in() {
-    let options = Options {
+    let options = ServerOptions {
         max_clients: 2,
-        ..Options::default()
+        ..ServerOptions::default()
     };
     let server = ServerThread::modbus_tcp(local(), options).expect("server");
     let _first = Probe::connected(spec(server.addr));
@@ -244,7 +244,7 @@ fn max_clients_lets_more_in() {
 
 #[test]
 fn a_drive_that_dies_mid_move_shows_disconnected_within_a_second_and_comes_back() {
-    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
     let addr = server.addr;
     let mut probe = Probe::connected(spec(addr));
     let id = probe.send(Request::Command(Action::MoveAbsolute {
@@ -281,7 +281,8 @@ fn a_drive_that_dies_mid_move_shows_disconnected_within_a_second_and_comes_back(
             }
         )
     });
-    let _back = ServerThread::modbus_tcp(addr, Options::default()).expect("the same port again");
+    let _back =
+        ServerThread::modbus_tcp(addr, ServerOptions::default()).expect("the same port again");
     probe.wait("the reconnection", Duration::from_secs(10), |e| {
         matches!(e, Event::Connected(_))
     });
@@ -362,7 +363,7 @@ fn garbage_replies_are_reported_not_panicked_on() {
 
 #[test]
 fn fc_101_reads_the_whole_dictionary() {
-    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -390,7 +391,7 @@ fn fc_101_reads_the_whole_dictionary() {
 
 #[test]
 fn a_failed_move_over_modbus_reports_the_fault() {
-    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
     let mut probe = Probe::connected(spec(server.addr));
     let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
     probe.wait(
@@ -416,7 +417,7 @@ fn a_failed_move_over_modbus_reports_the_fault() {
 
 #[test]
 fn one_link_directly_exchanges_and_reads_back_the_rx_image() {
-    let server = ServerThread::modbus_tcp(local(), Options::default()).expect("server");
+    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()

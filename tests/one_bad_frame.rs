@@ -250,7 +250,7 @@ fn the_link_counts_as_lost_after_the_configured_number_of_failed_exchanges() {
 fn enip_move_through(fault: Fault) -> Probe {
     let server = ServerThread::enip(
         local(),
-        drivedeck::sim::server::enip::Options {
+        drivedeck::sim::server::enip::AdapterOptions {
             io_port: 0,
             ..Default::default()
         },

@@ -278,9 +278,12 @@ fn the_poll_rate_box_changes_the_worker_rate() {
 #[test]
 fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor() {
     use drivedeck::sim::server::ServerThread;
-    use drivedeck::sim::server::modbus::Options;
-    let server = ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
-        .expect("server");
+    use drivedeck::sim::server::modbus::ServerOptions;
+    let server = ServerThread::modbus_tcp(
+        "127.0.0.1:0".parse().expect("addr"),
+        ServerOptions::default(),
+    )
+    .expect("server");
     // A window that starts disconnected, as after a fresh install on a machine with a drive.
     let mut harness = harness_with(Settings::default(), false, egui::vec2(1400.0, 900.0));
     harness.run();
@@ -617,9 +620,12 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
 #[test]
 fn the_window_shows_a_drive_whose_server_died_as_last_seen_and_comes_back_live() {
     use drivedeck::sim::server::ServerThread;
-    use drivedeck::sim::server::modbus::Options;
-    let server = ServerThread::modbus_tcp("127.0.0.1:0".parse().expect("addr"), Options::default())
-        .expect("server");
+    use drivedeck::sim::server::modbus::ServerOptions;
+    let server = ServerThread::modbus_tcp(
+        "127.0.0.1:0".parse().expect("addr"),
+        ServerOptions::default(),
+    )
+    .expect("server");
     let addr = server.addr;
     let spec: LinkSpec = format!("modbus-tcp://{addr}?unit=0").parse().expect("spec");
     let mut settings = Settings::default();
@@ -667,7 +673,8 @@ fn the_window_shows_a_drive_whose_server_died_as_last_seen_and_comes_back_live()
     );
 
     // The drive back on the same address: the worker reconnects, the panel is live again.
-    let _server = ServerThread::modbus_tcp(addr, Options::default()).expect("the same port again");
+    let _server =
+        ServerThread::modbus_tcp(addr, ServerOptions::default()).expect("the same port again");
     step_until(
         &mut harness,
         "the window to be live again",

@@ -10,7 +10,7 @@ use super::{BenchArgs, EXIT_FAILED, EXIT_USAGE, ServedBus};
 use crate::link::{self, Link, LinkSpec};
 use crate::od::{Address, DataType};
 use crate::sim::server::ServerThread;
-use crate::sim::server::modbus::Options;
+use crate::sim::server::modbus::ServerOptions;
 
 /// Round-trip statistics of one kind of request.
 #[derive(Serialize, Debug)]
@@ -156,7 +156,7 @@ fn serve(bus: ServedBus, rpi: u32) -> std::io::Result<Target> {
     let loopback = ([127, 0, 0, 1], 0).into();
     match bus {
         ServedBus::Modbus => {
-            let server = ServerThread::modbus_tcp(loopback, Options::default())?;
+            let server = ServerThread::modbus_tcp(loopback, ServerOptions::default())?;
             let spec = LinkSpec::ModbusTcp {
                 host: server.addr.ip().to_string(),
                 port: server.addr.port(),
@@ -169,7 +169,7 @@ fn serve(bus: ServedBus, rpi: u32) -> std::io::Result<Target> {
             })
         }
         ServedBus::Enip | ServedBus::EnipExplicit => {
-            let options = crate::sim::server::enip::Options {
+            let options = crate::sim::server::enip::AdapterOptions {
                 io_port: 0,
                 ..Default::default()
             };

@@ -10,7 +10,7 @@ use crate::proto::modbus::registers::WordOrder;
 use crate::sim::Drive;
 use crate::sim::server::SharedDrive;
 use crate::sim::server::enip;
-use crate::sim::server::modbus::{self, Options, RtuOptions};
+use crate::sim::server::modbus::{self, RtuOptions, ServerOptions};
 
 pub fn run(args: &SimArgs) -> ExitCode {
     if args.modbus_tcp.is_none()
@@ -62,7 +62,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
             if args.max_clients == 1 { "" } else { "s" },
             order
         );
-        let options = Options {
+        let options = ServerOptions {
             order,
             max_clients: args.max_clients.max(1),
             fc23: !args.without.contains(&Missing::Fc23),
@@ -98,7 +98,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
         let shared = shared.clone();
         let missing = args.without.clone();
         tasks.spawn(async move {
-            let served = Options {
+            let served = ServerOptions {
                 order,
                 max_clients: 1,
                 fc23: !missing.contains(&Missing::Fc23),
@@ -118,7 +118,7 @@ async fn serve(args: &SimArgs) -> Result<(), String> {
             "serving the simulated drive on EtherNet/IP {local} (class 1 I/O on UDP {io}, vendor {:X}h)",
             crate::proto::enip::identity::NANOTEC_VENDOR
         );
-        let options = enip::Options {
+        let options = enip::AdapterOptions {
             max_sessions: args.max_sessions.max(1),
             io_port: io.port(),
         };

@@ -94,7 +94,7 @@ impl ServerThread {
     /// Serve Modbus TCP on `addr` (port 0 picks a free one) with a fresh drive.
     pub fn modbus_tcp(
         addr: std::net::SocketAddr,
-        options: modbus::Options,
+        options: modbus::ServerOptions,
     ) -> std::io::Result<ServerThread> {
         Self::modbus_tcp_with(addr, options, SharedDrive::new(Drive::new()))
     }
@@ -102,7 +102,7 @@ impl ServerThread {
     /// Serve Modbus TCP for an existing shared drive.
     pub fn modbus_tcp_with(
         addr: std::net::SocketAddr,
-        options: modbus::Options,
+        options: modbus::ServerOptions,
         drive: SharedDrive,
     ) -> std::io::Result<ServerThread> {
         let listener = std::net::TcpListener::bind(addr)?;
@@ -143,7 +143,7 @@ impl ServerThread {
     /// UDP socket alike) with a fresh drive; class 1 I/O on `options.io_port` (0: any).
     pub fn enip(
         addr: std::net::SocketAddr,
-        options: enip::Options,
+        options: enip::AdapterOptions,
     ) -> std::io::Result<ServerThread> {
         Self::enip_with(addr, options, SharedDrive::new(Drive::new()))
     }
@@ -151,7 +151,7 @@ impl ServerThread {
     /// Serve EtherNet/IP for an existing shared drive.
     pub fn enip_with(
         addr: std::net::SocketAddr,
-        options: enip::Options,
+        options: enip::AdapterOptions,
         drive: SharedDrive,
     ) -> std::io::Result<ServerThread> {
         let sockets = enip::Sockets::bind(addr, options.io_port)?;

@@ -41,7 +41,7 @@ use crate::sim::wrap_integer;
 
 /// Server settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Options {
+pub struct ServerOptions {
     /// Word order of 32-bit values in registers.
     pub order: WordOrder,
     /// Simultaneous TCP clients; a Nanotec drive allows one.
@@ -52,7 +52,7 @@ pub struct Options {
     pub fc43: bool,
 }
 
-impl Default for Options {
+impl Default for ServerOptions {
     fn default() -> Self {
         Self {
             order: WordOrder::High,
@@ -317,7 +317,7 @@ pub fn answer(
     drive: &mut Drive,
     session: &mut Session,
     request: &Request,
-    options: &Options,
+    options: &ServerOptions,
 ) -> Result<Response, Exception> {
     let order = options.order;
     let missing = match request {
@@ -378,7 +378,7 @@ pub fn answer_pdu(
     shared: &SharedDrive,
     session: &mut Session,
     pdu: &[u8],
-    options: &Options,
+    options: &ServerOptions,
 ) -> Option<Vec<u8>> {
     let function = *pdu.first()?;
     let request = match Request::decode(pdu) {
@@ -411,7 +411,7 @@ pub struct TcpServer {
 pub async fn serve_tcp(
     listener: TcpListener,
     shared: SharedDrive,
-    options: Options,
+    options: ServerOptions,
 ) -> io::Result<()> {
     let active = Arc::new(AtomicUsize::new(0));
     loop {
@@ -440,7 +440,7 @@ pub async fn serve_tcp(
 async fn serve_connection(
     mut stream: TcpStream,
     shared: &SharedDrive,
-    options: &Options,
+    options: &ServerOptions,
 ) -> io::Result<()> {
     let _ = stream.set_nodelay(true);
     let mut session = Session::default();
@@ -505,7 +505,7 @@ pub async fn serve_rtu<S>(
     mut port: S,
     slave: u8,
     shared: SharedDrive,
-    options: Options,
+    options: ServerOptions,
 ) -> io::Result<()>
 where
     S: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin,
