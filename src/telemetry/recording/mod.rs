@@ -1,0 +1,234 @@
+//! Recordings: a window of sample rows cut out of the ring, with what they are and where they
+//! came from, saved as CSV (for spreadsheets and scripts) or JSON.
+//!
+//! # CSV layout
+//!
+//! ```text
+//! # drivedeck recording
+//! # vendor: Nanotec
+//! # product: PD4-E
+//! # trigger: position rises through 1000
+//! # trigger_time_s: 12.5
+//! # channel: position | Position 6064h | 0.1°
+//! # channel: status | Status word 6041h |
+//! # marker: 12.5 | trigger
+//! t [s],position [0.1°],status
+//! 12.2,998,
+//! 12.201,999,4663
+//! ```
+//!
+//! - The first line is `# drivedeck recording`; then one `# key: value` line per metadata field
+//!   that is set (keys as in [`Metadata`]: `vendor`, `product`, `revision`, `serial`,
+//!   `device_name`, `link`, `started`, `trigger`, `trigger_time_s`, `rate_hz`, `note`), one
+//!   `# channel: id | name | unit` line per channel and one `# marker: t | text` line per marker.
+//!   In these comment values a backslash, `|`, line feed and carriage return are written
+//!   `\\`, `\|`, `\n` and `\r`.
+//! - Then the header row: `t [s]` and one cell per channel, `<id> [<unit>]`, or just `<id>`
+//!   when the unit is empty.
+//! - Then one row per sample: the time and one cell per channel. Numbers are written with
+//!   Rust's shortest round-trip formatting, so reading them back gives the same `f64`; an
+//!   empty cell is NaN (no sample). Cells are quoted as in RFC 4180 when they hold a comma,
+//!   quote, line break or leading or trailing space.
+//!
+//! [`Recording::from_csv`] reads that back exactly, and also reads plain CSV without the
+//! comment lines: the first column is then the time and the channels are named from the
+//! header (`id [unit]` or `id`). Unknown `# key:` lines are ignored. Errors name the line.
+//!
+//! # JSON layout
+//!
+//! An object `{"meta": {..}, "channels": [..], "markers": [..], "t": [..], "columns": [[..]]}`
+//! with one array per channel in `columns`; NaN (no sample) is written as `null`. JSON has no
+//! infinities, so an infinite value also comes back as NaN.
+
+use std::borrow::Cow;
+use std::fmt::{self, Write as _};
+
+use serde::de::{SeqAccess, Visitor};
+use serde::ser::SerializeSeq;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+mod csv;
+#[allow(unused_imports)]
+pub use csv::*;
+mod json;
+#[allow(unused_imports)]
+pub use json::*;
+#[cfg(test)]
+mod tests;
+
+/// What the recording is of: the device, the link and the trigger. Text fields are shown and
+/// saved as given.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Metadata {
+    pub vendor: Option<String>,
+    pub product: Option<String>,
+    pub revision: Option<String>,
+    pub serial: Option<String>,
+    pub device_name: Option<String>,
+    pub link: Option<String>,
+    /// Wall-clock start, as text given by the caller.
+    pub started: Option<String>,
+    /// Description of the trigger, e.g. "position rises through 1000".
+    pub trigger: Option<String>,
+    /// Time of the trigger, in the recording's time base.
+    pub trigger_time_s: Option<f64>,
+    /// Sampling rate achieved (samples per second).
+    pub rate_hz: Option<f64>,
+    /// Sampling rate asked for, where it differs in meaning from the one achieved.
+    #[serde(default)]
+    pub rate_asked_hz: Option<f64>,
+    pub note: Option<String>,
+    /// Why and when the recording ended before its time (a lost link, Ctrl-C, …): the
+    /// file holds every sample taken until then.
+    #[serde(default)]
+    pub ended_early: Option<String>,
+}
+
+/// One recorded channel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelInfo {
+    /// Short machine name, e.g. "position".
+    pub id: String,
+    /// Name for people, e.g. "Position 6064h".
+    #[serde(default)]
+    pub name: String,
+    /// Unit, e.g. "0.1°"; may be empty.
+    #[serde(default)]
+    pub unit: String,
+}
+
+/// A note at a moment of the recording.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Marker {
+    pub t: f64,
+    pub text: String,
+}
+
+/// A window of sample rows with its description.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    pub meta: Metadata,
+    pub channels: Vec<ChannelInfo>,
+    /// Sample times in seconds, non-decreasing.
+    pub times: Vec<f64>,
+    /// One column per channel, each as long as `times`; NaN = no sample in that row.
+    pub columns: Vec<Vec<f64>>,
+    pub markers: Vec<Marker>,
+}
+
+/// Why a recording could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordingError {
+    /// The CSV text is malformed at a line (1-based).
+    #[error("line {line}: {what}")]
+    Csv { line: usize, what: String },
+    #[error("JSON: {0}")]
+    Json(#[from] serde_json::Error),
+    /// Well-formed JSON that is not a consistent recording.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+fn csv_error(line: usize, what: impl Into<String>) -> RecordingError {
+    RecordingError::Csv {
+        line,
+        what: what.into(),
+    }
+}
+
+impl Metadata {
+    /// The text fields with their CSV keys, in file order.
+    fn text_fields(&self) -> [(&'static str, &Option<String>); 10] {
+        [
+            ("vendor", &self.vendor),
+            ("product", &self.product),
+            ("revision", &self.revision),
+            ("serial", &self.serial),
+            ("device_name", &self.device_name),
+            ("link", &self.link),
+            ("started", &self.started),
+            ("trigger", &self.trigger),
+            ("note", &self.note),
+            ("ended_early", &self.ended_early),
+        ]
+    }
+
+    /// The number fields with their CSV keys, in file order.
+    fn number_fields(&self) -> [(&'static str, Option<f64>); 3] {
+        [
+            ("trigger_time_s", self.trigger_time_s),
+            ("rate_hz", self.rate_hz),
+            ("rate_asked_hz", self.rate_asked_hz),
+        ]
+    }
+
+    fn text_field(&mut self, key: &str) -> Option<&mut Option<String>> {
+        Some(match key {
+            "vendor" => &mut self.vendor,
+            "product" => &mut self.product,
+            "revision" => &mut self.revision,
+            "serial" => &mut self.serial,
+            "device_name" => &mut self.device_name,
+            "link" => &mut self.link,
+            "started" => &mut self.started,
+            "trigger" => &mut self.trigger,
+            "note" => &mut self.note,
+            "ended_early" => &mut self.ended_early,
+            _ => return None,
+        })
+    }
+
+    fn number_field(&mut self, key: &str) -> Option<&mut Option<f64>> {
+        Some(match key {
+            "trigger_time_s" => &mut self.trigger_time_s,
+            "rate_hz" => &mut self.rate_hz,
+            "rate_asked_hz" => &mut self.rate_asked_hz,
+            _ => return None,
+        })
+    }
+}
+
+impl Recording {
+    /// Rows of the ring with `from <= t <= to`, for the ring columns listed (ring column
+    /// index, its description). A column index the ring does not have records NaN.
+    pub fn from_ring(
+        ring: &super::ring::Ring,
+        columns: &[(usize, ChannelInfo)],
+        from: f64,
+        to: f64,
+        meta: Metadata,
+    ) -> Recording {
+        let rows = ring.range(from, to);
+        Recording {
+            meta,
+            channels: columns.iter().map(|(_, info)| info.clone()).collect(),
+            times: rows.clone().filter_map(|i| ring.time(i)).collect(),
+            columns: columns
+                .iter()
+                .map(|&(c, _)| {
+                    rows.clone()
+                        .map(|i| ring.value(i, c).unwrap_or(f64::NAN))
+                        .collect()
+                })
+                .collect(),
+            markers: Vec::new(),
+        }
+    }
+
+    /// Rows recorded.
+    pub fn len(&self) -> usize {
+        self.times.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.times.is_empty()
+    }
+
+    /// Seconds from the first row to the last (0 with fewer than two rows).
+    pub fn duration(&self) -> f64 {
+        match (self.times.first(), self.times.last()) {
+            (Some(first), Some(last)) => last - first,
+            _ => 0.0,
+        }
+    }
+}
