@@ -1,0 +1,315 @@
+//! Time: the motor, its load and the target conditions, stepped in 1 ms.
+
+use super::*;
+
+impl Drive {
+    /// Advance simulated time.
+    pub fn tick(&mut self, dt: Duration) {
+        let mut left = dt;
+        while !left.is_zero() {
+            let step = left.min(STEP);
+            self.step(step.as_secs_f64());
+            self.time += step;
+            left -= step;
+        }
+        self.publish();
+    }
+
+    fn step(&mut self, dt: f64) {
+        let acc = rpm_to_units(self.od.int(0x6083, 0) as f64);
+        let dec = rpm_to_units(self.od.int(0x6084, 0) as f64);
+        let x_before = self.x;
+        let demand_velocity_before = self.demand.velocity;
+        let demand_position_before = self.demand.position;
+        let quick = rpm_to_units(self.od.int(0x6085, 0) as f64);
+        let mut torque_controlled = false;
+        match self.state {
+            PowerState::OperationEnabled => {
+                let mut activity = std::mem::replace(&mut self.activity, Activity::Idle);
+                match &mut activity {
+                    Activity::Idle => step_velocity(&mut self.demand, 0.0, acc, dec, dt),
+                    _ if self.limit_stop => {
+                        step_velocity(&mut self.demand, 0.0, quick, quick, dt);
+                    }
+                    Activity::Position { target, speed_rpm } => {
+                        if self.halted {
+                            step_velocity(&mut self.demand, 0.0, acc, dec, dt);
+                        } else {
+                            let world_target = *target as f64 + self.offset;
+                            step_position(
+                                &mut self.demand,
+                                world_target,
+                                rpm_to_units(*speed_rpm),
+                                acc,
+                                dec,
+                                dt,
+                            );
+                        }
+                    }
+                    Activity::Velocity { speed_rpm } => {
+                        let wanted = if self.halted {
+                            0.0
+                        } else {
+                            rpm_to_units(*speed_rpm)
+                        };
+                        step_velocity(&mut self.demand, wanted, acc, dec, dt);
+                    }
+                    Activity::Torque {
+                        torque,
+                        max_speed_rpm,
+                    } => {
+                        if self.halted {
+                            step_velocity(&mut self.demand, 0.0, acc, dec, dt);
+                        } else {
+                            torque_controlled = true;
+                            let slope = self.od.int(0x6087, 0) as f64;
+                            let step = slope * dt;
+                            self.torque_demand = if (*torque - self.torque_demand).abs() <= step {
+                                *torque
+                            } else {
+                                self.torque_demand + step.copysign(*torque - self.torque_demand)
+                            };
+                            self.torque_physics(rpm_to_units(*max_speed_rpm), dt);
+                        }
+                    }
+                    Activity::Homing { run, found } => {
+                        let homing_acc = rpm_to_units(self.od.int(0x609A, 0) as f64);
+                        let fast = rpm_to_units(self.od.int(0x6099, 1) as f64);
+                        let slow = rpm_to_units(self.od.int(0x6099, 2) as f64);
+                        let wanted = match found {
+                            Some(_) => 0.0,
+                            None => {
+                                let speed = if run.leg_is_fast() { fast } else { slow };
+                                f64::from(run.direction()) * speed
+                            }
+                        };
+                        step_velocity(&mut self.demand, wanted, homing_acc, homing_acc, dt);
+                    }
+                    Activity::AutoSetup { elapsed, centre } => {
+                        *elapsed += Duration::from_secs_f64(dt);
+                        // A visible wiggle: the motor turns ±30° while it identifies itself,
+                        // and stands still again at the end.
+                        let t = elapsed.as_secs_f64().min(AUTO_SETUP_TIME.as_secs_f64());
+                        let next = *centre
+                            + 300.0
+                                * (std::f64::consts::TAU * t / AUTO_SETUP_TIME.as_secs_f64() * 4.0)
+                                    .sin();
+                        self.demand.velocity = (next - self.demand.position) / dt;
+                        self.demand.position = next;
+                    }
+                }
+                self.activity = activity;
+            }
+            PowerState::QuickStopActive => {
+                let (decel, switch_off) = self.quick_stop.unwrap_or((dec, false));
+                step_velocity(&mut self.demand, 0.0, decel, decel, dt);
+                if self.demand.velocity == 0.0 && self.v.abs() < STANDSTILL && switch_off {
+                    self.state = PowerState::SwitchOnDisabled;
+                    self.quick_stop = None;
+                }
+            }
+            _ => {}
+        }
+
+        // The load.
+        let energised = matches!(
+            self.state,
+            PowerState::OperationEnabled | PowerState::QuickStopActive
+        );
+        let blocked = self.injected.contains(&Injection::FollowingError);
+        if blocked {
+            self.v = 0.0;
+        } else if torque_controlled {
+            // torque_physics moved x and v already.
+        } else if energised {
+            // The load follows the demand with a first-order lag, solved exactly over the
+            // step (so the result does not depend on how time is cut into steps):
+            // e = demand − x obeys de/dt = v_demand − e/τ, and the load's speed is e/τ.
+            let v_demand = (self.demand.position - demand_position_before) / dt;
+            let e0 = demand_position_before - self.x;
+            let decay = (-dt / LOAD_LAG).exp();
+            let mut e = v_demand * LOAD_LAG + (e0 - v_demand * LOAD_LAG) * decay;
+            if self.demand.velocity == 0.0 && e.abs() < 0.01 {
+                // Settled: the load stands on the demand.
+                e = 0.0;
+            }
+            self.x = self.demand.position - e;
+            self.v = e / LOAD_LAG;
+        } else {
+            // Coasting with the power stage off.
+            self.v *= (-dt / 0.15).exp();
+            if self.v.abs() < STANDSTILL {
+                self.v = 0.0;
+            }
+            self.x += self.v * dt;
+            self.demand = Demand {
+                position: self.x,
+                velocity: self.v,
+            };
+        }
+        if !torque_controlled {
+            self.torque = if energised {
+                // The torque it takes to drive the demand's acceleration against friction.
+                let accel = (self.demand.velocity - demand_velocity_before) / dt;
+                ((accel + DAMPING * self.v) / TORQUE_GAIN + COULOMB * sign(self.v))
+                    .clamp(-3000.0, 3000.0)
+            } else {
+                0.0
+            };
+        }
+
+        self.after_step(x_before, dt);
+    }
+
+    fn torque_physics(&mut self, max_speed: f64, dt: f64) {
+        let mut accel =
+            TORQUE_GAIN * (self.torque_demand - COULOMB * sign(self.v)) - DAMPING * self.v;
+        if self.v.abs() < STANDSTILL && self.torque_demand.abs() <= COULOMB {
+            accel = 0.0;
+            self.v = 0.0;
+        }
+        let mut v_new = self.v + accel * dt;
+        if v_new.abs() > max_speed {
+            // The speed limit of Profile Torque: the drive holds the set maximum speed.
+            v_new = max_speed.copysign(v_new);
+        }
+        self.x += 0.5 * (self.v + v_new) * dt;
+        self.v = v_new;
+        self.torque = self.torque_demand;
+        self.demand = Demand {
+            position: self.x,
+            velocity: self.v,
+        };
+    }
+
+    fn after_step(&mut self, x_before: f64, dt: f64) {
+        let sensors = self.world.sensors(self.x);
+        let step = Duration::from_secs_f64(dt);
+
+        // Homing legs and the home point.
+        let fast = rpm_to_units(self.od.int(0x6099, 1) as f64);
+        let slow = rpm_to_units(self.od.int(0x6099, 2) as f64);
+        if let Activity::Homing { run, found } = &mut self.activity {
+            let leg_speed = if run.leg_is_fast() { fast } else { slow };
+            let at_leg_speed = self.v.abs() <= leg_speed * 1.1 + STANDSTILL;
+            if found.is_none() {
+                match run.step(&self.world, x_before, self.x, at_leg_speed) {
+                    HomingStep::Moving { .. } => {}
+                    HomingStep::Found { world } => {
+                        *found = Some(world);
+                    }
+                    HomingStep::Failed => {
+                        // Both limit switches met: the home switch is not where the
+                        // method looks. The command fails with PdiStatusError.
+                        self.activity = Activity::Idle;
+                        self.refuse(AbortCode::GENERAL_ERROR);
+                    }
+                }
+            }
+            if let Activity::Homing {
+                found: Some(world), ..
+            } = self.activity
+                && self.demand.velocity == 0.0
+            {
+                self.home_at(world);
+                self.homing_done = true;
+                self.activity = Activity::Idle;
+                self.demand.position = self.x;
+            }
+        } else if let Activity::AutoSetup { elapsed, .. } = self.activity
+            && elapsed >= AUTO_SETUP_TIME
+        {
+            self.autosetup_done = true;
+            self.activity = Activity::Idle;
+            self.set_mode(0);
+        }
+
+        // Limit switches stop travel into them (homing handles them itself).
+        if self.state == PowerState::OperationEnabled
+            && !matches!(self.activity, Activity::Homing { .. })
+        {
+            let into_negative = sensors.negative_limit && self.demand.velocity < 0.0;
+            let into_positive = sensors.positive_limit && self.demand.velocity > 0.0;
+            if into_negative || into_positive {
+                self.limit_stop = true;
+            }
+        }
+
+        // Following error: the demand against the load.
+        let position_control = self.state == PowerState::OperationEnabled
+            && !matches!(self.activity, Activity::Torque { .. });
+        let deviation = if position_control {
+            self.demand.position - self.x
+        } else {
+            0.0
+        };
+        let window = self.od.int(0x6065, 0) as f64;
+        let timeout = Duration::from_millis(self.od.int(0x6066, 0).max(0) as u64);
+        if position_control && deviation.abs() > window {
+            self.following_error_for += step;
+            if self.following_error_for > timeout && !self.following_error {
+                self.following_error = true;
+                let reaction = self.od.int(0x3700, 0);
+                if reaction >= 0 {
+                    self.raise_fault(ErrorCode::FOLLOWING_ERROR, 13, 0x21);
+                } else {
+                    self.warning = Some(ErrorCode::FOLLOWING_ERROR);
+                    self.record_history(ErrorCode::FOLLOWING_ERROR, 13, 0x21);
+                }
+            }
+        } else {
+            self.following_error_for = Duration::ZERO;
+            if self.following_error && !matches!(self.state, PowerState::Fault) {
+                self.following_error = false;
+                if self.warning == Some(ErrorCode::FOLLOWING_ERROR) {
+                    self.warning = None;
+                }
+            }
+        }
+
+        // Target window timing.
+        if self.target_condition() {
+            self.in_window_for += step;
+        } else {
+            self.in_window_for = Duration::ZERO;
+        }
+    }
+
+    /// Whether the mode's target condition holds right now (before the window time).
+    fn target_condition(&self) -> bool {
+        let standstill = self.v.abs() < STANDSTILL && self.demand.velocity == 0.0;
+        match self.state {
+            PowerState::QuickStopActive => return standstill,
+            PowerState::OperationEnabled => {}
+            _ => return false,
+        }
+        if self.halted {
+            return standstill;
+        }
+        match &self.activity {
+            Activity::Position { target, .. } => {
+                let window = self.od.int(0x6067, 0) as f64;
+                !self.limit_stop
+                    && (self.position() - *target as f64).abs() <= window
+                    && self.demand.velocity == 0.0
+            }
+            Activity::Velocity { speed_rpm } => {
+                let window = self.od.int(0x606D, 0) as f64;
+                let wanted = if self.limit_stop { 0.0 } else { *speed_rpm };
+                (units_to_rpm(self.v) - wanted).abs() <= window
+            }
+            Activity::Torque { torque, .. } => (self.torque - *torque).abs() <= 10.0,
+            Activity::Homing { .. } | Activity::AutoSetup { .. } => false,
+            Activity::Idle => self.homing_done && standstill && self.od.int(0x6061, 0) == 6,
+        }
+    }
+
+    pub(super) fn target_reached(&self) -> bool {
+        let window_time = match &self.activity {
+            Activity::Velocity { .. } | Activity::Torque { .. } => self.od.int(0x606E, 0),
+            _ => self.od.int(0x6068, 0),
+        };
+        self.target_condition()
+            && self.in_window_for >= Duration::from_millis(window_time.max(0) as u64)
+    }
+}
