@@ -1,0 +1,153 @@
+use super::*;
+
+fn info() -> LinkInfo {
+    LinkInfo {
+        spec: LinkSpec::Sim,
+        description: "simulated drive".into(),
+        native_objects: true,
+        can_inject: true,
+        pdi: true,
+        homing_methods: None,
+    }
+}
+
+#[test]
+fn wall_clock_and_age_read_as_people_say_them() {
+    let at = SystemTime::UNIX_EPOCH + Duration::from_secs(1_780_000_000 + 50_531);
+    assert_eq!(crate::telemetry::utc_text(at), "2026-05-29T10:28:51Z");
+    assert_eq!(clock_text(at), "10:28:51 UTC");
+    assert_eq!(age_text(3.24), "3.2 s ago");
+    assert_eq!(age_text(250.0), "4 min 10 s ago");
+    assert_eq!(age_text(7300.0), "2 h 1 min ago");
+}
+
+#[test]
+fn a_drive_that_stops_answering_is_stale_before_the_link_gives_up() {
+    let mut state = AppState::new(Settings::default());
+    state.apply(Event::Connected(info()));
+    state.apply(Event::Samples(vec![Sample::default()]));
+    let seen = state.last_sample_at.expect("taken now");
+    let at = |s: f64| seen + Duration::from_secs_f64(s);
+    assert!(state.is_live(at(0.5)));
+    assert_eq!(state.stale_line(at(0.5)), None);
+    assert_eq!(state.offline_reason(), None);
+    // At 100 Hz a second without samples is a silent drive, though the link is up.
+    let line = state.stale_line(at(2.5)).expect("stale");
+    assert!(
+        line.starts_with("NO DATA — the drive stopped answering; last seen at ")
+            && line.ends_with("UTC (2.5 s ago)"),
+        "{line}"
+    );
+    // At 1 Hz three missed cycles make it so.
+    state.settings.poll_rate = 1.0;
+    assert!(state.is_live(at(2.5)));
+    assert!(!state.is_live(at(3.5)));
+}
+
+#[test]
+fn the_reason_nothing_can_be_sent_follows_the_link() {
+    let mut state = AppState::new(Settings::default());
+    assert_eq!(state.offline_reason().as_deref(), Some("not connected"));
+    assert_eq!(
+        state.stale_line(SystemTime::now()).as_deref(),
+        Some("NO LINK — never connected")
+    );
+    state.apply(Event::Connecting(LinkSpec::Sim));
+    assert_eq!(state.offline_reason().as_deref(), Some("connecting…"));
+    state.apply(Event::Connected(info()));
+    state.apply(Event::Samples(vec![Sample::default()]));
+    state.apply(Event::Disconnected {
+        reason: Some("timed out".into()),
+    });
+    assert_eq!(
+        state.offline_reason().as_deref(),
+        Some("not connected: the link was lost (timed out)")
+    );
+    state.apply(Event::ConnectFailed {
+        spec: LinkSpec::Sim,
+        error: "timed out".into(),
+        retry_in: Some(Duration::from_millis(500)),
+    });
+    assert_eq!(
+        state.offline_reason().as_deref(),
+        Some("not connected: the link was lost, retrying in 0.5 s (timed out)")
+    );
+    state.apply(Event::Connecting(LinkSpec::Sim));
+    assert_eq!(
+        state.offline_reason().as_deref(),
+        Some("reconnecting…: the link was lost (timed out)")
+    );
+    state.apply(Event::ConnectFailed {
+        spec: LinkSpec::Sim,
+        error: "connection refused".into(),
+        retry_in: Some(Duration::from_secs(1)),
+    });
+    assert_eq!(
+        state.offline_reason().as_deref(),
+        Some(
+            "not connected: the link was lost, retrying in 1.0 s (timed out; reconnecting failed: connection refused)"
+        )
+    );
+    let line = state.stale_line(SystemTime::now()).expect("stale");
+    assert!(line.starts_with("NO LINK — last seen at "), "{line}");
+    // The user's own disconnect is no loss.
+    state.apply(Event::Disconnected { reason: None });
+    assert_eq!(state.offline_reason().as_deref(), Some("not connected"));
+}
+
+#[test]
+fn a_superseded_command_is_logged_as_such_and_kept_off_the_timeline() {
+    let mut state = AppState::new(Settings::default());
+    state.apply(Event::Connected(info()));
+    let first = Request::Command(Action::MoveRelative {
+        distance: 3600,
+        speed: 200,
+    });
+    state.note_queued(1, &first);
+    state.note_queued(2, &first);
+    state.apply(Event::Progress {
+        id: 1,
+        progress: CommandProgress::Superseded,
+    });
+    assert_eq!(
+        state
+            .log
+            .iter()
+            .find(|e| e.id == Some(1))
+            .map(|e| &e.outcome),
+        Some(&Outcome::Superseded("superseded by a newer command".into()))
+    );
+    assert!(
+        state.timeline.is_empty(),
+        "{:?}",
+        state.timeline.entries().collect::<Vec<_>>()
+    );
+    state.apply(Event::Progress {
+        id: 2,
+        progress: CommandProgress::LinkLost {
+            reason: "3 exchanges failed in a row; a halt was sent and the drive confirmed it"
+                .into(),
+        },
+    });
+    assert_eq!(state.timeline.len(), 1, "a real failure still is");
+}
+
+#[test]
+fn every_connection_string_survives_the_connection_bar() {
+    for text in [
+        "sim",
+        "modbus-tcp://10.0.0.1:502?unit=3&words=low",
+        "modbus-rtu:///dev/ttyUSB1?baud=115200&parity=none&stop=2&slave=7&words=low",
+        "canopen+socketcan://can1?node=4&pdo=2&keep_pdo=1",
+        "canopen+slcan://COM5?bitrate=500000&node=9",
+        "canopen+sim://?node=6&keep_pdo=1",
+        "canopen+sim://?node=7&self_start=1",
+        "canopen+slcan://COM5?bitrate=500000&node=9&keep_pdo=1&self_start=1",
+        "enip://192.168.2.100:44818?io=common&rpi=4&cmd_at=8&config=0&udp=0",
+        "enip://[::1]:2000?io=explicit&rpi=10",
+    ] {
+        let spec: LinkSpec = text.parse().expect(text);
+        let form = ConnectionForm::from_spec(&spec, ConnectionForm::default());
+        assert_eq!(form.spec(), Ok(spec), "{text}");
+    }
+}
