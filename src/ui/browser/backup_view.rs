@@ -1,0 +1,256 @@
+//! Backups in the browser: dump, compare with the drive, and the restore preview and run.
+
+use super::*;
+
+pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
+    ui.horizontal_wrapped(|ui| {
+        ui.label(RichText::new("Backup").strong());
+        crate::ui::widgets::named_text_edit(ui, &mut b.backup_path, 200.0, "Backup file");
+        let idle = connected && b.bulk.is_none() && !b.restore.as_ref().is_some_and(|r| r.running);
+        if ui
+            .add_enabled(idle, egui::Button::new("Save backup"))
+            .on_hover_text("Read every readable and writable configuration object and the identity into the file")
+            .clicked()
+        {
+            let objects = backup::objects_to_read(b.catalog());
+            let path = b.backup_path.trim().to_owned();
+            b.comparison = None;
+            b.restore = None;
+            b.read_many(outbox, objects, Purpose::Backup { path });
+        }
+        if ui
+            .add_enabled(idle, egui::Button::new("Compare with file"))
+            .on_hover_text("Read the device and list where it differs from the file")
+            .clicked()
+            && let Some(file) = b.load()
+        {
+            b.restore = None;
+            let objects = file.objects_to_read(b.catalog());
+            b.read_many(outbox, objects, Purpose::Compare(file));
+        }
+        if ui
+            .add_enabled(idle, egui::Button::new("Restore from file"))
+            .on_hover_text("Read the device, then preview exactly what a restore would write, in order")
+            .clicked()
+            && let Some(file) = b.load()
+        {
+            b.comparison = None;
+            let objects = file.objects_to_read(b.catalog());
+            b.read_many(outbox, objects, Purpose::Restore(file));
+        }
+        if ui
+            .add_enabled(idle, egui::Button::new("Store to device"))
+            .on_hover_text("Write 65766173h (\"save\") to 1010h:01: the drive keeps its current values after a restart")
+            .clicked()
+        {
+            b.confirm_store = true;
+        }
+    });
+    if b.confirm_store {
+        let modal = egui::Modal::new(egui::Id::unique("confirm_store")).show(ui.ctx(), |ui| {
+            ui.heading("Store to device?");
+            ui.label("Writes 65766173h (\"save\") to 1010h:01. The drive keeps every current value after a restart; this cannot be undone from here.");
+            ui.horizontal(|ui| {
+                if ui.button("Store").clicked() {
+                    b.confirm_store = false;
+                    let (address, value) = backup::STORE_ALL;
+                    b.send(
+                        outbox,
+                        Request::WriteObject {
+                            address,
+                            dtype: DataType::Unsigned32,
+                            value: Value::Uint(u64::from(value)),
+                            path: ObjectPath::Auto,
+                        },
+                        Pending::Store,
+                    );
+                }
+                if ui.button("Cancel").clicked() {
+                    b.confirm_store = false;
+                }
+            });
+        });
+        if modal.should_close() {
+            b.confirm_store = false;
+        }
+    }
+}
+
+pub(super) fn comparison_ui(ui: &mut Ui, b: &mut Browser) {
+    let Some((file, differences)) = &b.comparison else {
+        return;
+    };
+    let mut close = false;
+    ui.group(|ui| {
+        ui.horizontal(|ui| {
+            ui.label(RichText::new("Device against the file").strong());
+            ui.weak(file.identity.summary());
+            if ui.small_button("Close").clicked() {
+                close = true;
+            }
+        });
+        let same = differences
+            .iter()
+            .filter(|d| d.device == Comparison::Same)
+            .count();
+        let skipped = differences
+            .iter()
+            .filter(|d| matches!(d.device, Comparison::Skipped(_)))
+            .count();
+        ui.label(format!(
+            "{same} of {} objects are the same; {skipped} entries of the file skipped (not settings: never compared nor restored)",
+            differences.len() - skipped
+        ));
+        egui::Grid::new("comparison").striped(true).show(ui, |ui| {
+            for title in ["Object", "Name", "File", "Device"] {
+                ui.label(RichText::new(title).strong());
+            }
+            ui.end_row();
+            for d in differences.iter().filter(|d| d.device != Comparison::Same) {
+                ui.monospace(d.address.to_string());
+                ui.label(&d.name);
+                ui.label(d.file.to_string());
+                match &d.device {
+                    Comparison::Differs(v) => ui.colored_label(AMBER, v.to_string()),
+                    Comparison::Unreadable(reason) => ui.colored_label(RED, reason),
+                    Comparison::Skipped(reason) => ui.weak(format!("skipped: {reason}")),
+                    Comparison::Same => ui.label(""),
+                };
+                ui.end_row();
+            }
+        });
+    });
+    if close {
+        b.comparison = None;
+    }
+}
+
+pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
+    let Some(restore) = &b.restore else {
+        return;
+    };
+    let mut close = false;
+    let mut start = false;
+    ui.group(|ui| {
+        ui.horizontal(|ui| {
+            ui.label(RichText::new("Restore preview").strong());
+            ui.weak(format!("from {}", restore.backup.identity.summary()));
+            if ui.small_button("Close").clicked() {
+                close = true;
+            }
+        });
+        if restore.steps.is_empty() {
+            ui.label("The device already matches the file: nothing to write.");
+        }
+        egui::Grid::new("restore_steps")
+            .striped(true)
+            .show(ui, |ui| {
+                for title in ["#", "Object", "Name", "Now", "Writes", "Why", "Result"] {
+                    ui.label(RichText::new(title).strong());
+                }
+                ui.end_row();
+                for (n, (step, result)) in restore.steps.iter().zip(&restore.results).enumerate() {
+                    ui.label((n + 1).to_string());
+                    ui.monospace(step.address.to_string());
+                    ui.label(&step.name);
+                    ui.label(
+                        step.before
+                            .as_ref()
+                            .map(Value::to_string)
+                            .unwrap_or_default(),
+                    );
+                    ui.label(step.value.to_string());
+                    match (&step.why, &step.warning) {
+                        (_, Some(warning)) => ui.colored_label(AMBER, warning),
+                        (Why::Procedure(text), None) => ui.weak(*text),
+                        (Why::Restore, None) => ui.weak("as in the file"),
+                    };
+                    match result {
+                        None => ui.label(""),
+                        Some(Ok(())) => ui.colored_label(GREEN, "written"),
+                        Some(Err(e)) => ui.colored_label(RED, e),
+                    };
+                    ui.end_row();
+                }
+            });
+        for (address, reason) in &restore.skipped {
+            let name = b
+                .catalog()
+                .get(*address)
+                .map(Entry::full_name)
+                .or_else(|| {
+                    restore
+                        .backup
+                        .entries()
+                        .find(|(a, _)| a == address)
+                        .map(|(_, o)| o.name.clone())
+                })
+                .unwrap_or_default();
+            ui.colored_label(AMBER, format!("{address} {name} skipped: {reason}"));
+        }
+        let can = connected
+            && !restore.running
+            && !restore.steps.is_empty()
+            && restore.results.iter().all(Option::is_none);
+        if ui
+            .add_enabled(
+                can,
+                egui::Button::new(format!("Restore {} writes", restore.steps.len())),
+            )
+            .clicked()
+        {
+            start = true;
+        }
+    });
+    if close {
+        b.restore = None;
+        return;
+    }
+    if start && let Some(restore) = b.restore.as_mut() {
+        restore.confirm = true;
+    }
+    let confirm = b.restore.as_ref().is_some_and(|r| r.confirm);
+    if confirm {
+        let count = b.restore.as_ref().map_or(0, |r| r.steps.len());
+        let modal = egui::Modal::new(egui::Id::unique("confirm_restore")).show(ui.ctx(), |ui| {
+            ui.heading("Restore from the file?");
+            ui.label(format!(
+                "{count} writes, in the order listed. Settings that change how the drive is reached come last."
+            ));
+            let mut go = false;
+            let mut cancel = false;
+            ui.horizontal(|ui| {
+                go = ui.button("Write them").clicked();
+                cancel = ui.button("Cancel").clicked();
+            });
+            (go, cancel)
+        });
+        let (go, cancel) = modal.inner;
+        if cancel || modal.should_close() {
+            if let Some(r) = b.restore.as_mut() {
+                r.confirm = false;
+            }
+        } else if go {
+            let steps: Vec<Step> = match b.restore.as_mut() {
+                Some(r) => {
+                    r.confirm = false;
+                    r.running = true;
+                    r.steps.clone()
+                }
+                None => vec![],
+            };
+            for (n, step) in steps.into_iter().enumerate() {
+                b.send(
+                    outbox,
+                    Request::WriteObject {
+                        address: step.address,
+                        dtype: step.dtype,
+                        value: step.value,
+                        path: ObjectPath::Auto,
+                    },
+                    Pending::RestoreStep(n),
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,493 @@
+//! The object dictionary browser: every known object in a filtered table with its value,
+//! read one at a time, the visible rows or all of them (with progress and cancel), edited
+//! by type with range checks and a confirmation; and backups: save, compare, restore and
+//! store to the device's memory. What a comparison or a restore may touch is judged by the
+//! dictionary shown (`od::backup::skip_reason`): commands, process data, read-only and
+//! unknown objects in a file are listed as skipped, with the reason, and never written.
+
+use std::collections::{BTreeMap, HashMap};
+
+use eframe::egui::{self, RichText, Ui};
+use egui_extras::{Column, TableBuilder};
+
+use crate::od::backup::{self, Backup, Comparison, Difference, Step, Why};
+use crate::od::eds::Eds;
+use crate::od::{Address, Catalog, DataType, Entry, Value};
+use crate::ui::state::AppState;
+use crate::ui::widgets::{AMBER, GREEN, RED};
+use crate::worker::{ObjectPath, Request, RequestId};
+
+mod panel;
+#[allow(unused_imports)]
+pub use panel::*;
+mod backup_view;
+#[allow(unused_imports)]
+pub use backup_view::*;
+mod table;
+#[allow(unused_imports)]
+pub use table::*;
+
+/// A value as last read.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cell {
+    pub result: Result<Value, String>,
+    /// `AppState::clock` when it arrived.
+    pub at: f64,
+}
+
+/// What a bulk read is for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Purpose {
+    /// Filling the table.
+    Browse,
+    /// Saving a backup to `path`.
+    Backup { path: String },
+    /// Comparing the device with a file.
+    Compare(Box<Backup>),
+    /// Reading the device before a restore, to show what would change.
+    Restore(Box<Backup>),
+}
+
+/// A running bulk read.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bulk {
+    pub id: Option<RequestId>,
+    pub total: usize,
+    pub done: usize,
+    pub failed: usize,
+    pub purpose: Purpose,
+    /// What this read brought (for backups and comparisons).
+    pub reads: BTreeMap<Address, Result<Value, String>>,
+    pub cancelled: bool,
+}
+
+/// A value being typed into a row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Edit {
+    pub address: Address,
+    pub text: String,
+    pub error: Option<String>,
+}
+
+/// A write waiting for the user's yes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Confirm {
+    pub address: Address,
+    pub name: String,
+    pub dtype: DataType,
+    pub value: Value,
+    pub before: Option<Value>,
+}
+
+/// A restore being previewed or run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Restore {
+    pub backup: Box<Backup>,
+    pub steps: Vec<Step>,
+    /// Each step's outcome once written.
+    pub results: Vec<Option<Result<(), String>>>,
+    pub running: bool,
+    pub confirm: bool,
+    /// Saved objects left alone, with the reason: not settings of the dictionary shown
+    /// (commands, process data, read-only, unknown), or unreadable on the device.
+    pub skipped: Vec<(Address, String)>,
+}
+
+/// What a request the browser sent is for.
+#[derive(Clone, Debug, PartialEq)]
+enum Pending {
+    Read,
+    Write { address: Address },
+    RestoreStep(usize),
+    Store,
+}
+
+/// The browser's state.
+#[derive(Clone, Debug, Default)]
+pub struct Browser {
+    pub filter: String,
+    pub values: BTreeMap<Address, Cell>,
+    pub bulk: Option<Bulk>,
+    pub edit: Option<Edit>,
+    pub confirm: Option<Confirm>,
+    pub confirm_store: bool,
+    /// The last write's outcome per object, shown inline.
+    pub write_results: BTreeMap<Address, Result<(), String>>,
+    /// The rows drawn in the last frame ("read visible").
+    pub visible: Vec<Address>,
+    pub backup_path: String,
+    /// What the backup section says (saved to, loaded, failed).
+    pub message: Option<Result<String, String>>,
+    pub comparison: Option<(Box<Backup>, Vec<Difference>)>,
+    pub restore: Option<Restore>,
+    /// A dictionary loaded from an EDS instead of the built-in catalog.
+    pub eds: Option<(String, Catalog)>,
+    pub eds_path: String,
+    /// An object the user asked to plot (the app takes it after the panel is drawn).
+    pub plot_request: Option<Address>,
+    /// The connection string, for backup files.
+    pub link_text: String,
+    unsent: Vec<(Request, Pending)>,
+    ids: HashMap<RequestId, Pending>,
+}
+
+impl Browser {
+    pub fn new() -> Self {
+        Self {
+            backup_path: "drive-backup.json".into(),
+            ..Default::default()
+        }
+    }
+
+    /// The dictionary shown: an EDS's, or the built-in catalog.
+    pub fn catalog(&self) -> &Catalog {
+        match &self.eds {
+            Some((_, catalog)) => catalog,
+            None => crate::od::builtin(),
+        }
+    }
+
+    /// The entries that pass the filter (index `6064`, `1018:01`, or a name).
+    pub fn rows(&self) -> Vec<&Entry> {
+        self.catalog().filter(self.filter.trim()).collect()
+    }
+
+    fn send(&mut self, outbox: &mut Vec<Request>, request: Request, pending: Pending) {
+        self.unsent.push((request.clone(), pending));
+        outbox.push(request);
+    }
+
+    /// Start a bulk read of `objects` (readable ones only).
+    pub fn read_many(
+        &mut self,
+        outbox: &mut Vec<Request>,
+        objects: Vec<(Address, DataType)>,
+        purpose: Purpose,
+    ) {
+        if objects.is_empty() {
+            return;
+        }
+        self.bulk = Some(Bulk {
+            id: None,
+            total: objects.len(),
+            done: 0,
+            failed: 0,
+            purpose,
+            reads: BTreeMap::new(),
+            cancelled: false,
+        });
+        self.send(
+            outbox,
+            Request::ReadMany {
+                objects,
+                path: ObjectPath::Auto,
+            },
+            Pending::Read,
+        );
+    }
+
+    /// One object, read by itself.
+    pub fn read_one(&mut self, outbox: &mut Vec<Request>, address: Address, dtype: DataType) {
+        self.send(
+            outbox,
+            Request::ReadMany {
+                objects: vec![(address, dtype)],
+                path: ObjectPath::Auto,
+            },
+            Pending::Read,
+        );
+    }
+
+    fn readable(entries: &[&Entry]) -> Vec<(Address, DataType)> {
+        entries
+            .iter()
+            .filter(|e| e.access.readable())
+            .map(|e| (e.address, e.dtype))
+            .collect()
+    }
+
+    /// The app learned the id of a request: keep it if it is ours.
+    pub fn note_queued(&mut self, id: RequestId, request: &Request) -> bool {
+        let Some(at) = self.unsent.iter().position(|(r, _)| r == request) else {
+            return false;
+        };
+        let (_, pending) = self.unsent.remove(at);
+        if let (Pending::Read, Some(bulk)) = (&pending, self.bulk.as_mut())
+            && bulk.id.is_none()
+            && matches!(request, Request::ReadMany { objects, .. } if objects.len() == bulk.total)
+        {
+            bulk.id = Some(id);
+        }
+        self.ids.insert(id, pending);
+        true
+    }
+
+    /// A request of ours that could not be sent at all.
+    pub fn note_unsent(&mut self, request: &Request, reason: &str) -> bool {
+        let Some(at) = self.unsent.iter().position(|(r, _)| r == request) else {
+            return false;
+        };
+        self.unsent.remove(at);
+        if matches!(request, Request::ReadMany { .. }) {
+            self.bulk = None;
+        }
+        self.message = Some(Err(reason.to_owned()));
+        true
+    }
+
+    fn is_bulk(&self, id: RequestId) -> bool {
+        self.bulk.as_ref().is_some_and(|b| b.id == Some(id))
+    }
+
+    /// A read result; `true` when it was ours.
+    pub fn on_read(
+        &mut self,
+        id: RequestId,
+        address: Address,
+        result: &Result<Value, String>,
+        clock: f64,
+    ) -> bool {
+        if !self.ids.contains_key(&id) {
+            return false;
+        }
+        self.values.insert(
+            address,
+            Cell {
+                result: result.clone(),
+                at: clock,
+            },
+        );
+        if self.is_bulk(id) {
+            if let Some(bulk) = self.bulk.as_mut() {
+                bulk.done += 1;
+                if result.is_err() {
+                    bulk.failed += 1;
+                }
+                bulk.reads.insert(address, result.clone());
+            }
+            self.bulk_progressed(id);
+        }
+        true
+    }
+
+    /// A refusal of a request of ours (not connected, link lost…).
+    pub fn on_rejected(&mut self, id: RequestId, reason: &str) -> bool {
+        let Some(pending) = self.ids.get(&id).cloned() else {
+            return false;
+        };
+        match pending {
+            Pending::Read if self.is_bulk(id) => {
+                if let Some(bulk) = self.bulk.as_mut() {
+                    // A whole ReadMany refused, or one of its objects dropped with the link.
+                    if bulk.done == 0 && reason.contains("not connected") {
+                        bulk.done = bulk.total;
+                        bulk.failed = bulk.total;
+                    } else {
+                        bulk.done += 1;
+                        bulk.failed += 1;
+                    }
+                }
+                self.message = Some(Err(reason.to_owned()));
+                self.bulk_progressed(id);
+            }
+            Pending::Read => self.message = Some(Err(reason.to_owned())),
+            Pending::Write { address } => {
+                self.write_results.insert(address, Err(reason.to_owned()));
+            }
+            Pending::RestoreStep(step) => self.restore_result(step, Err(reason.to_owned())),
+            Pending::Store => self.message = Some(Err(format!("store to device: {reason}"))),
+        }
+        true
+    }
+
+    /// The worker dropped what was left of a bulk read.
+    pub fn on_cancelled(&mut self, id: RequestId, dropped: usize) -> bool {
+        if !self.is_bulk(id) {
+            return false;
+        }
+        if let Some(bulk) = self.bulk.as_mut() {
+            bulk.done += dropped;
+            bulk.cancelled = true;
+        }
+        self.bulk_progressed(id);
+        true
+    }
+
+    /// A write result; `true` when it was ours. Writes read the object back.
+    pub fn on_written(
+        &mut self,
+        id: RequestId,
+        address: Address,
+        result: &Result<(), String>,
+        outbox: &mut Vec<Request>,
+    ) -> bool {
+        let Some(pending) = self.ids.remove(&id) else {
+            return false;
+        };
+        let dtype = self.catalog().get(address).map(|e| e.dtype);
+        match pending {
+            Pending::Write { .. } => {
+                self.write_results.insert(address, result.clone());
+                if let Some(dtype) = dtype {
+                    self.read_one(outbox, address, dtype);
+                }
+            }
+            Pending::RestoreStep(step) => self.restore_result(step, result.clone()),
+            Pending::Store => {
+                self.message = Some(match result {
+                    Ok(()) => Ok("stored: the drive keeps these values after a restart".into()),
+                    Err(e) => Err(format!("store to device failed: {e}")),
+                })
+            }
+            Pending::Read => {}
+        }
+        true
+    }
+
+    fn restore_result(&mut self, step: usize, result: Result<(), String>) {
+        if let Some(restore) = self.restore.as_mut() {
+            if let Some(slot) = restore.results.get_mut(step) {
+                *slot = Some(result);
+            }
+            if restore.results.iter().all(Option::is_some) {
+                restore.running = false;
+                let failed = restore
+                    .results
+                    .iter()
+                    .filter(|r| matches!(r, Some(Err(_))))
+                    .count();
+                self.message = Some(if failed == 0 {
+                    Ok(format!(
+                        "restored: {} writes done; \"Store to device\" keeps them after a restart",
+                        restore.results.len()
+                    ))
+                } else {
+                    Err(format!(
+                        "restore finished with {failed} of {} writes refused (see the list)",
+                        restore.results.len()
+                    ))
+                });
+            }
+        }
+    }
+
+    /// A bulk read moved on; when complete, finish what it was for.
+    fn bulk_progressed(&mut self, id: RequestId) {
+        let Some(bulk) = self.bulk.as_ref() else {
+            return;
+        };
+        if bulk.done < bulk.total {
+            return;
+        }
+        self.ids.remove(&id);
+        let Some(bulk) = self.bulk.take() else {
+            return;
+        };
+        if bulk.cancelled {
+            self.message = Some(Err(format!(
+                "cancelled after {} of {} objects",
+                bulk.reads.len(),
+                bulk.total
+            )));
+            return;
+        }
+        match bulk.purpose {
+            Purpose::Browse => {
+                self.message = Some(Ok(format!(
+                    "read {} objects{}",
+                    bulk.total,
+                    if bulk.failed > 0 {
+                        format!(", {} refused (see the rows)", bulk.failed)
+                    } else {
+                        String::new()
+                    }
+                )));
+            }
+            Purpose::Backup { path } => self.finish_backup(&path, &bulk.reads),
+            Purpose::Compare(file) => {
+                let differences = backup::compare(&file, self.catalog(), &bulk.reads);
+                let count = |f: fn(&Comparison) -> bool| {
+                    differences.iter().filter(|d| f(&d.device)).count()
+                };
+                let differing =
+                    count(|c| matches!(c, Comparison::Differs(_) | Comparison::Unreadable(_)));
+                let skipped = count(|c| matches!(c, Comparison::Skipped(_)));
+                self.message = Some(Ok(format!(
+                    "compared {} objects with the file: {differing} differ or could not be read{}",
+                    differences.len() - skipped,
+                    if skipped > 0 {
+                        format!("; {skipped} entries skipped (not settings, never restored)")
+                    } else {
+                        String::new()
+                    }
+                )));
+                self.comparison = Some((file, differences));
+            }
+            Purpose::Restore(file) => {
+                let steps = backup::restore_plan(&file, self.catalog(), &bulk.reads);
+                let skipped = backup::compare(&file, self.catalog(), &bulk.reads)
+                    .into_iter()
+                    .filter_map(|d| match d.device {
+                        Comparison::Skipped(reason) => Some((d.address, reason)),
+                        Comparison::Unreadable(reason) => Some((
+                            d.address,
+                            format!("cannot be read from the device: {reason}"),
+                        )),
+                        _ => None,
+                    })
+                    .collect();
+                self.message = Some(Ok(format!(
+                    "{} writes would make the device match the file",
+                    steps.len()
+                )));
+                self.restore = Some(Restore {
+                    results: vec![None; steps.len()],
+                    backup: file,
+                    steps,
+                    running: false,
+                    confirm: false,
+                    skipped,
+                });
+            }
+        }
+    }
+
+    fn finish_backup(&mut self, path: &str, reads: &BTreeMap<Address, Result<Value, String>>) {
+        let saved_at = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0);
+        let file = Backup::new(&self.link_text, self.catalog(), reads, saved_at);
+        self.message = Some(match std::fs::write(path, file.to_json()) {
+            Ok(()) => Ok(format!(
+                "saved {} objects of {} to {path}{}",
+                file.objects.len(),
+                file.identity.summary(),
+                if file.unreadable.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({} could not be read)", file.unreadable.len())
+                }
+            )),
+            Err(e) => Err(format!("cannot write {path}: {e}")),
+        });
+    }
+
+    /// Load a backup file for a comparison or a restore.
+    fn load(&mut self) -> Option<Box<Backup>> {
+        let path = self.backup_path.trim().to_owned();
+        match std::fs::read_to_string(&path) {
+            Err(e) => {
+                self.message = Some(Err(format!("cannot read {path}: {e}")));
+                None
+            }
+            Ok(text) => match Backup::from_json(&text) {
+                Ok(file) => Some(Box::new(file)),
+                Err(e) => {
+                    self.message = Some(Err(format!("{path}: {e}")));
+                    None
+                }
+            },
+        }
+    }
+}

@@ -1,0 +1,224 @@
+//! The browser panel: its toolbar, EDS loading, the bulk reads, and how values and limits read.
+
+use super::*;
+
+pub(super) fn value_text(value: &Value, entry: &Entry) -> String {
+    backup::shown(value, entry)
+}
+
+pub(super) fn limits_text(entry: &Entry) -> String {
+    match (&entry.min, &entry.max) {
+        (Some(min), Some(max)) => format!("{min} … {max}"),
+        (Some(min), None) => format!(">= {min}"),
+        (None, Some(max)) => format!("<= {max}"),
+        (None, None) => String::new(),
+    }
+}
+
+pub(super) fn age_text(clock: f64, at: f64) -> String {
+    let age = (clock - at).max(0.0);
+    if age < 1.0 {
+        "now".into()
+    } else if age < 120.0 {
+        format!("{age:.0} s ago")
+    } else {
+        format!("{:.0} min ago", age / 60.0)
+    }
+}
+
+/// Check what the user typed for `entry`: its type, its range and its limits.
+pub fn parse_edit(entry: &Entry, text: &str) -> Result<Value, String> {
+    let value = Value::parse(entry.dtype, text).map_err(|e| e.to_string())?;
+    entry.check(&value).map_err(|e| e.to_string())?;
+    Ok(value)
+}
+
+pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
+    let connected = state.is_connected();
+    let clock = state.clock;
+    let link = state
+        .link_info()
+        .map(|i| i.spec.to_string())
+        .unwrap_or_default();
+    let b = &mut state.browser;
+    b.link_text = link;
+    let outbox = &mut state.outbox;
+
+    ui.horizontal_wrapped(|ui| {
+        ui.heading("Object dictionary");
+        ui.label("Filter");
+        crate::ui::widgets::named_text_edit(ui, &mut b.filter, 160.0, "Object filter");
+        let rows = b.rows();
+        let count = rows.len();
+        let readable = Browser::readable(&rows);
+        ui.weak(format!("{count} of {} objects", b.catalog().len()));
+        let busy = b.bulk.is_some();
+        if ui
+            .add_enabled(connected && !busy, egui::Button::new("Read visible"))
+            .on_hover_text("Read the rows on screen")
+            .clicked()
+        {
+            let visible: Vec<(Address, DataType)> = b
+                .visible
+                .iter()
+                .filter_map(|a| b.catalog().get(*a))
+                .filter(|e| e.access.readable())
+                .map(|e| (e.address, e.dtype))
+                .collect();
+            b.read_many(outbox, visible, Purpose::Browse);
+        }
+        if ui
+            .add_enabled(connected && !busy, egui::Button::new("Read all"))
+            .on_hover_text(
+                "Read every object that passes the filter, with progress; the motor keeps running",
+            )
+            .clicked()
+        {
+            b.read_many(outbox, readable, Purpose::Browse);
+        }
+        match &b.eds {
+            Some((path, _)) => {
+                ui.weak(format!("dictionary: {path}"));
+                if ui.small_button("Built-in").clicked() {
+                    b.eds = None;
+                }
+            }
+            None => {
+                ui.weak("dictionary: built-in Nanotec catalog");
+            }
+        }
+    });
+    ui.horizontal(|ui| {
+        ui.label("EDS");
+        crate::ui::widgets::named_text_edit(ui, &mut b.eds_path, 220.0, "EDS path");
+        if ui
+            .button("Load EDS")
+            .on_hover_text("Use a device's EDS file (CiA 306) instead of the built-in catalog")
+            .clicked()
+        {
+            load_eds(b);
+        }
+    });
+
+    bulk_ui(ui, b, outbox);
+    backup_ui(ui, b, outbox, connected);
+    if let Some(message) = &b.message {
+        match message {
+            Ok(text) => ui.colored_label(GREEN, text),
+            Err(text) => ui.colored_label(RED, text),
+        };
+    }
+    comparison_ui(ui, b);
+    restore_ui(ui, b, outbox, connected);
+    confirm_ui(ui, b, outbox);
+    table_ui(ui, b, outbox, connected, clock);
+    if let Some(address) = state.browser.plot_request.take() {
+        state.watch_object(&address.to_string());
+        state.browser.message = state
+            .plot
+            .message
+            .clone()
+            .map(|m| m.map(|text| format!("{text}: see the Plots tab")));
+    }
+}
+
+/// Warnings shown in the message line; the rest are counted (all go to the log).
+const EDS_WARNINGS_SHOWN: usize = 3;
+
+fn load_eds(b: &mut Browser) {
+    let path = b.eds_path.trim().to_owned();
+    if path.is_empty() {
+        b.message = Some(Err("give the path of an EDS or DCF file first".into()));
+        return;
+    }
+    // A CANopen link's node id resolves the file's $NODEID formulas (COB-IDs).
+    let node_id = match b.link_text.parse::<crate::link::LinkSpec>() {
+        Ok(
+            crate::link::LinkSpec::CanopenSocketcan { can, .. }
+            | crate::link::LinkSpec::CanopenSlcan { can, .. }
+            | crate::link::LinkSpec::CanopenSim { can },
+        ) => Some(can.node),
+        _ => None,
+    };
+    match Eds::load(std::path::Path::new(&path), node_id) {
+        Ok(eds) => {
+            let merged = eds.merged_with(crate::od::builtin());
+            for w in &eds.warnings {
+                tracing::warn!("{path}: {w}");
+            }
+            let mut text = format!(
+                "loaded {} objects from {path} ({} {})",
+                merged.catalog.len(),
+                eds.device_info
+                    .vendor_name
+                    .as_deref()
+                    .unwrap_or("unknown vendor"),
+                eds.device_info
+                    .product_name
+                    .as_deref()
+                    .unwrap_or("unknown product"),
+            );
+            if !eds.warnings.is_empty() {
+                let shown: Vec<String> = eds
+                    .warnings
+                    .iter()
+                    .take(EDS_WARNINGS_SHOWN)
+                    .map(ToString::to_string)
+                    .collect();
+                text.push_str(&format!(
+                    "; {} warning(s): {}",
+                    eds.warnings.len(),
+                    shown.join("; ")
+                ));
+                if eds.warnings.len() > EDS_WARNINGS_SHOWN {
+                    text.push_str(" (the rest in the log)");
+                }
+            }
+            b.message = Some(Ok(text));
+            b.values.clear();
+            b.eds = Some((path, merged.catalog));
+        }
+        Err(e) => b.message = Some(Err(format!("{path}: {e}"))),
+    }
+}
+
+/// The progress row of a bulk read. Always drawn (idle: empty, Cancel disabled), so the
+/// widgets below never jump when a read starts or ends: a click aimed at Cancel as the
+/// read completes must not land on the button that moved under the pointer.
+fn bulk_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
+    let (fraction, text, id, cancelled) = match &b.bulk {
+        Some(bulk) => {
+            let what = match &bulk.purpose {
+                Purpose::Browse => "Reading",
+                Purpose::Backup { .. } => "Reading for the backup",
+                Purpose::Compare(_) => "Reading to compare",
+                Purpose::Restore(_) => "Reading before the restore",
+            };
+            (
+                bulk.done as f32 / bulk.total.max(1) as f32,
+                format!("{what}: {} of {}", bulk.done, bulk.total),
+                bulk.id,
+                bulk.cancelled,
+            )
+        }
+        None => (0.0, "no read running".to_owned(), None, false),
+    };
+    ui.horizontal(|ui| {
+        let mut bar = egui::ProgressBar::new(fraction)
+            .text(text)
+            .desired_width(320.0);
+        if id.is_none() {
+            // Idle: no coloured fill, only the text.
+            bar = bar.fill(ui.visuals().extreme_bg_color);
+        }
+        ui.add(bar);
+        if ui
+            .add_enabled(id.is_some() && !cancelled, egui::Button::new("Cancel"))
+            .on_hover_text("Stop the read: what is not read yet is dropped")
+            .clicked()
+            && let Some(id) = id
+        {
+            outbox.push(Request::Cancel(id));
+        }
+    });
+}
