@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use drivedeck::cia::AbortCode;
 use drivedeck::link::canopen::client::CanopenLink;
 use drivedeck::link::canopen::{CanBus, MemoryBus};
-use drivedeck::link::{CanopenOptions, Link, LinkSpec};
+use drivedeck::link::{CanopenOptions, Link, LinkSpec, Refusal};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, RxImage, StatusBit};
 use drivedeck::proto::canopen::sdo::{SdoClient, SdoEvent};
@@ -16,7 +16,7 @@ use drivedeck::sim::Drive;
 use drivedeck::sim::Injection;
 use drivedeck::sim::server::SharedDrive;
 use drivedeck::sim::server::canopen::{Node, run_node};
-use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
+use drivedeck::worker::{CommandProgress, Event, ObjectError, ObjectPath, Request};
 use probe::Probe;
 
 fn runtime() -> tokio::runtime::Runtime {
@@ -371,7 +371,10 @@ fn the_worker_moves_the_motor_over_canopen_and_reads_strings() {
         DataType::Unsigned32,
         ObjectPath::Native,
     );
-    assert!(missing.expect_err("no such sub").contains("06090011h"));
+    assert_eq!(
+        missing,
+        Err(ObjectError::Refused(Refusal::Abort(AbortCode::NO_SUBINDEX)))
+    );
     // Statusword, position, velocity… come by SDO in turn.
     let deadline = Instant::now() + Duration::from_secs(2);
     while probe.last.and_then(|s| s.statusword()).is_none()

@@ -12,11 +12,13 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use common::{Process, PtyPair};
+use drivedeck::cia::AbortCode;
 use drivedeck::link::LinkSpec;
+use drivedeck::link::Refusal;
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, StatusBit};
 use drivedeck::ui::{App, Settings};
-use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
+use drivedeck::worker::{CommandProgress, Event, ObjectError, ObjectPath, Request};
 use eframe::egui;
 use egui::accesskit::Toggled;
 use egui_kittest::Harness;
@@ -109,7 +111,10 @@ fn the_worker_moves_the_motor_over_slcan_pdos_and_reads_a_string() {
             ObjectPath::Native,
         )
         .expect_err("no such subindex");
-    assert!(missing.contains("06090011h"), "{missing}");
+    assert_eq!(
+        missing,
+        ObjectError::Refused(Refusal::Abort(AbortCode::NO_SUBINDEX))
+    );
     // The motor's position follows over the bus, by whatever path the link has for it.
     probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
         s.position() == Some(2000.0)

@@ -13,14 +13,14 @@ use std::time::{Duration, Instant};
 
 use common::Process;
 use drivedeck::link::enip::client::EnipLink;
-use drivedeck::link::{Link, LinkSpec};
+use drivedeck::link::{Link, LinkSpec, Refusal};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Command as PdiCommand, Opcode, RxImage, StatusBit};
 use drivedeck::sim::Drive;
 use drivedeck::sim::server::enip::AdapterOptions;
 use drivedeck::sim::server::{ServerThread, SharedDrive};
 use drivedeck::ui::{App, Settings};
-use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
+use drivedeck::worker::{CommandProgress, Event, ObjectError, ObjectPath, Request};
 use eframe::egui;
 use egui::accesskit::Toggled;
 use egui_kittest::Harness;
@@ -218,8 +218,15 @@ fn objects_go_over_getod_and_setod_and_errors_name_the_object_and_the_cip_status
             ObjectPath::Native,
         )
         .expect_err("no such object");
+    assert!(
+        matches!(
+            &missing,
+            ObjectError::Refused(Refusal::Cip { status: 0x05, .. })
+        ),
+        "{missing:?}"
+    );
     assert_eq!(
-        missing,
+        missing.to_string(),
         "GetOD 5FFFh:00h: CIP status 05h (path destination unknown)"
     );
     let sub = probe
@@ -229,8 +236,15 @@ fn objects_go_over_getod_and_setod_and_errors_name_the_object_and_the_cip_status
             ObjectPath::Native,
         )
         .expect_err("no such subindex");
+    assert!(
+        matches!(
+            &sub,
+            ObjectError::Refused(Refusal::Cip { status: 0x14, .. })
+        ),
+        "{sub:?}"
+    );
     assert_eq!(
-        sub,
+        sub.to_string(),
         "GetOD 1018h:09h: CIP status 14h (attribute not supported)"
     );
     let id = probe.send(Request::WriteObject {
@@ -245,8 +259,8 @@ fn objects_go_over_getod_and_setod_and_errors_name_the_object_and_the_cip_status
         |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
     );
     assert!(
-        matches!(&refused, Event::ObjectWritten { result: Err(r), .. }
-            if r == "SetOD 1018h:01h: CIP status 0Eh (attribute not settable)"),
+        matches!(&refused, Event::ObjectWritten { result: Err(r @ ObjectError::Refused(Refusal::Cip { status: 0x0E, .. })), .. }
+            if r.to_string() == "SetOD 1018h:01h: CIP status 0Eh (attribute not settable)"),
         "{refused:?}"
     );
     // A string cannot be written over EtherNet/IP: SetOD carries 1 to 4 bytes.
@@ -262,7 +276,7 @@ fn objects_go_over_getod_and_setod_and_errors_name_the_object_and_the_cip_status
         |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
     );
     assert!(
-        matches!(&wide, Event::ObjectWritten { result: Err(r), .. } if r.contains("SetOD carries 1 to 4")),
+        matches!(&wide, Event::ObjectWritten { result: Err(r @ ObjectError::Refused(_)), .. } if r.to_string().contains("SetOD carries 1 to 4")),
         "{wide:?}"
     );
 }

@@ -7,13 +7,14 @@ use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpListener};
 use std::time::{Duration, Instant};
 
+use drivedeck::cia::AbortCode;
 use drivedeck::link::modbus::client::{DEFAULT_TIMEOUT, ModbusLink};
-use drivedeck::link::{Link, LinkSpec};
+use drivedeck::link::{Link, LinkSpec, Refusal};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, StatusBit};
 use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::ServerOptions;
-use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request, Sample};
+use drivedeck::worker::{CommandProgress, Event, ObjectError, ObjectPath, Request, Sample};
 use probe::Probe;
 
 fn local() -> SocketAddr {
@@ -111,19 +112,30 @@ fn objects_over_fc_43_and_over_the_pdi() {
         ),
         Ok(Value::Uint(1234))
     );
-    // Refusals carry the abort code both ways.
+    // Refusals carry the abort code both ways: the device's answer to FC 43, and the
+    // PDI's OD Read refused with PdiStatusError and the code as the return value.
     let missing = probe.read(
         Address::new(0x2FFF, 0),
         DataType::Unsigned32,
         ObjectPath::Native,
     );
-    assert!(missing.expect_err("missing").contains("06020000h"));
+    assert_eq!(
+        missing,
+        Err(ObjectError::Refused(Refusal::Abort(AbortCode::NO_OBJECT)))
+    );
     let missing = probe.read(
         Address::new(0x2FFF, 0),
         DataType::Unsigned32,
         ObjectPath::Pdi,
     );
-    assert!(missing.expect_err("missing").contains("06020000h"));
+    assert_eq!(
+        missing,
+        Err(ObjectError::Pdi(CommandProgress::Failed(
+            Failure::Refused {
+                code: AbortCode::NO_OBJECT.0
+            }
+        )))
+    );
     let read_only = {
         let id = probe.send(Request::WriteObject {
             address: vendor,
@@ -140,7 +152,10 @@ fn objects_over_fc_43_and_over_the_pdi() {
             _ => unreachable!(),
         }
     };
-    assert!(read_only.expect_err("read only").contains("06010002h"));
+    assert_eq!(
+        read_only,
+        Err(ObjectError::Refused(Refusal::Abort(AbortCode::READ_ONLY)))
+    );
 }
 
 #[test]
@@ -206,11 +221,7 @@ fn a_device_without_fc_43_reads_objects_through_the_pdi() {
         DataType::Unsigned32,
         ObjectPath::Native,
     );
-    assert!(
-        native
-            .expect_err("no FC 43")
-            .contains("no direct object access")
-    );
+    assert_eq!(native, Err(ObjectError::Refused(Refusal::NotSupported)));
 }
 
 #[test]

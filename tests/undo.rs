@@ -15,7 +15,7 @@ use drivedeck::worker::{Event, ObjectPath, Request};
 use probe::Probe;
 
 /// Every savable object of the catalog, as the drive holds it now.
-fn snapshot(probe: &mut Probe) -> BTreeMap<Address, Result<Value, String>> {
+fn snapshot(probe: &mut Probe) -> BTreeMap<Address, Result<Value, drivedeck::worker::ObjectError>> {
     let objects = backup::objects_to_read(od::builtin());
     let total = objects.len();
     let id = probe.send(Request::ReadMany {

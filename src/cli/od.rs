@@ -189,7 +189,7 @@ fn list_objects(
                     row.hex = Some(value.to_hex(entry.dtype)).filter(|h| !h.is_empty());
                     row.value = Some(value.clone());
                 }
-                Some(Err(refusal)) => row.error = Some(refusal.clone()),
+                Some(Err(refusal)) => row.error = Some(refusal.to_string()),
                 None => {
                     row.error = Some(format!(
                         "not read: {}",

@@ -11,7 +11,9 @@ use super::policy::policy;
 use crate::link::LinkSpec;
 use crate::od::{Address, DataType, Value};
 use crate::pdi::Timing;
-use crate::worker::{self, CommandProgress, Event, ObjectPath, Request, Sample, Worker};
+use crate::worker::{
+    self, CommandProgress, Event, ObjectError, ObjectPath, Request, Sample, Worker,
+};
 
 /// Samples kept from the start of a session for a recording (the rest are the
 /// recording's own business).
@@ -249,7 +251,7 @@ impl Session {
         dtype: Option<DataType>,
         path: ObjectPath,
         timeout: Duration,
-    ) -> Result<Result<Value, String>, Failure> {
+    ) -> Result<Result<Value, ObjectError>, Failure> {
         let id = self.send(Request::ReadObject {
             address,
             dtype,
@@ -259,7 +261,9 @@ impl Session {
         loop {
             match self.next(deadline)? {
                 Event::ObjectRead { id: i, result, .. } if i == id => return Ok(result),
-                Event::Rejected { id: i, reason, .. } if i == id => return Ok(Err(reason)),
+                Event::Rejected { id: i, reason, .. } if i == id => {
+                    return Ok(Err(ObjectError::NotSent(reason)));
+                }
                 _ => {}
             }
         }
@@ -274,7 +278,10 @@ impl Session {
         objects: Vec<(Address, DataType)>,
         timeout: Duration,
         mut progress: impl FnMut(usize, usize),
-    ) -> (BTreeMap<Address, Result<Value, String>>, Option<Failure>) {
+    ) -> (
+        BTreeMap<Address, Result<Value, ObjectError>>,
+        Option<Failure>,
+    ) {
         let total = objects.len();
         let mut reads = BTreeMap::new();
         if total == 0 {
@@ -326,7 +333,7 @@ impl Session {
         dtype: DataType,
         value: Value,
         timeout: Duration,
-    ) -> Result<Result<(), String>, Failure> {
+    ) -> Result<Result<(), ObjectError>, Failure> {
         let id = self.send(Request::WriteObject {
             address,
             dtype,
@@ -337,7 +344,9 @@ impl Session {
         loop {
             match self.next(deadline)? {
                 Event::ObjectWritten { id: i, result, .. } if i == id => return Ok(result),
-                Event::Rejected { id: i, reason, .. } if i == id => return Ok(Err(reason)),
+                Event::Rejected { id: i, reason, .. } if i == id => {
+                    return Ok(Err(ObjectError::NotSent(reason)));
+                }
                 _ => {}
             }
         }

@@ -131,7 +131,7 @@ pub struct DeviceIdentity {
 
 impl DeviceIdentity {
     /// From the values read at [`IDENTITY`].
-    pub fn from_reads(reads: &BTreeMap<Address, Result<Value, String>>) -> DeviceIdentity {
+    pub fn from_reads<E>(reads: &BTreeMap<Address, Result<Value, E>>) -> DeviceIdentity {
         let uint = |index, sub| match reads.get(&Address::new(index, sub)) {
             Some(Ok(Value::Uint(v))) => u32::try_from(*v).ok(),
             _ => None,
@@ -219,10 +219,10 @@ fn address_text(address: Address) -> String {
 
 impl Backup {
     /// A backup from the values read (identity and objects alike), named by `catalog`.
-    pub fn new(
+    pub fn new<E: std::fmt::Display>(
         link: &str,
         catalog: &Catalog,
-        reads: &BTreeMap<Address, Result<Value, String>>,
+        reads: &BTreeMap<Address, Result<Value, E>>,
         saved_at: u64,
     ) -> Backup {
         let mut objects = vec![];
@@ -237,7 +237,7 @@ impl Backup {
                     shown: shown(value, entry),
                 }),
                 Some(Err(reason)) => {
-                    unreadable.push((address_text(entry.address), reason.clone()));
+                    unreadable.push((address_text(entry.address), reason.to_string()));
                 }
                 None => {}
             }
@@ -351,10 +351,10 @@ pub struct Difference {
 
 /// Every saved object against the device's current values; the objects `catalog` (the
 /// dictionary in use) does not let a restore write are [`Comparison::Skipped`].
-pub fn compare(
+pub fn compare<E: std::fmt::Display>(
     backup: &Backup,
     catalog: &Catalog,
-    device: &BTreeMap<Address, Result<Value, String>>,
+    device: &BTreeMap<Address, Result<Value, E>>,
 ) -> Vec<Difference> {
     backup
         .entries()
@@ -364,7 +364,7 @@ pub fn compare(
                 (Some(reason), _) => Comparison::Skipped(reason),
                 (None, Some(Ok(value))) if same(value, &saved.value) => Comparison::Same,
                 (None, Some(Ok(value))) => Comparison::Differs(value.clone()),
-                (None, Some(Err(reason))) => Comparison::Unreadable(reason.clone()),
+                (None, Some(Err(reason))) => Comparison::Unreadable(reason.to_string()),
                 (None, None) => Comparison::Unreadable("not read".into()),
             };
             Difference {
@@ -442,10 +442,10 @@ fn phase(index: u16) -> u8 {
 /// The writes that make the device match the file, in a safe order. Objects the device
 /// could not read, and those `catalog` does not let a restore write, are left out (and
 /// reported by [`compare`]).
-pub fn restore_plan(
+pub fn restore_plan<E: std::fmt::Display>(
     backup: &Backup,
     catalog: &Catalog,
-    device: &BTreeMap<Address, Result<Value, String>>,
+    device: &BTreeMap<Address, Result<Value, E>>,
 ) -> Vec<Step> {
     let differences: Vec<Difference> = compare(backup, catalog, device)
         .into_iter()

@@ -4,7 +4,9 @@
 
 use std::time::Instant;
 
-use super::protocol::{CommandProgress, Event, JOG_TIMEOUT, Request, RequestId, WORKER_ID};
+use super::protocol::{
+    CommandProgress, Event, JOG_TIMEOUT, ObjectError, Rejection, Request, RequestId, WORKER_ID,
+};
 use super::session::Session;
 use super::sink::EventSink;
 use crate::od::{Address, DataType, Value};
@@ -39,9 +41,10 @@ impl Session {
             sink.emit(Event::Rejected {
                 id,
                 request: request.to_string(),
-                reason:
+                reason: Rejection::Refused(
                     "this device has no Plug & Drive interface (2291h/2292h): object access only"
                         .into(),
+                ),
             });
             return;
         }
@@ -57,7 +60,7 @@ impl Session {
                 sink.emit(Event::Rejected {
                     id,
                     request: described,
-                    reason,
+                    reason: Rejection::Refused(reason),
                 });
                 return;
             }
@@ -77,7 +80,7 @@ impl Session {
             Err(e) => sink.emit(Event::Rejected {
                 id,
                 request: described,
-                reason: e.to_string(),
+                reason: Rejection::Refused(e.to_string()),
             }),
         }
     }
@@ -200,7 +203,7 @@ impl Session {
                 id,
                 address,
                 value,
-                result: Err(CommandProgress::from(progress).to_string()),
+                result: Err(ObjectError::Pdi(CommandProgress::from(progress))),
             });
         }
     }
@@ -258,9 +261,9 @@ fn report_read(
     let result = match progress {
         Progress::Done { return_value, .. } => {
             let dtype = dtype.unwrap_or(DataType::Integer32);
-            Value::from_pdi(dtype, return_value).map_err(|e| e.to_string())
+            Value::from_pdi(dtype, return_value).map_err(|e| ObjectError::Decode(e.to_string()))
         }
-        p => Err(CommandProgress::from(p).to_string()),
+        p => Err(ObjectError::Pdi(CommandProgress::from(p))),
     };
     sink.emit(Event::ObjectRead {
         id,

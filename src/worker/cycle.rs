@@ -4,7 +4,6 @@
 
 use std::time::{Duration, Instant};
 
-use super::jobs::refusal_text;
 use super::protocol::{Event, Health, MAX_WATCHED, Sample};
 use super::session::Session;
 use super::sink::EventSink;
@@ -215,8 +214,7 @@ impl Session {
                 Err(refusal) => {
                     self.watch.refused.push(address);
                     sink.emit(Event::Notice(format!(
-                        "{address} is no longer sampled: {}",
-                        refusal_text(&refusal)
+                        "{address} is no longer sampled: {refusal}"
                     )));
                 }
             }

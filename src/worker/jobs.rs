@@ -5,7 +5,7 @@
 use std::time::{Duration, Instant};
 
 use super::commands::Purpose;
-use super::protocol::{Event, ObjectPath, Request, RequestId};
+use super::protocol::{Event, ObjectError, ObjectPath, Rejection, Request, RequestId};
 use super::session::Session;
 use super::sink::EventSink;
 use crate::link::{self, Link, Refusal};
@@ -28,7 +28,9 @@ impl Session {
             sink.emit(Event::Rejected {
                 id,
                 request: request.to_string(),
-                reason: format!("{JOB_QUEUE} requests are already waiting for the drive"),
+                reason: Rejection::Refused(format!(
+                    "{JOB_QUEUE} requests are already waiting for the drive"
+                )),
             });
         } else {
             self.queue.push_back((id, request));
@@ -48,10 +50,10 @@ impl Session {
             sink.emit(Event::Rejected {
                 id,
                 request: request.to_string(),
-                reason: format!(
+                reason: Rejection::Refused(format!(
                     "{} objects at once is more than the {BULK_QUEUE} the worker queues; read them in parts",
                     objects.len()
-                ),
+                )),
             });
             return;
         }
@@ -138,7 +140,7 @@ impl Session {
                 sink.emit(Event::Rejected {
                     id,
                     request: other.to_string(),
-                    reason: "not an object access".into(),
+                    reason: Rejection::Refused("not an object access".into()),
                 });
                 return Ok(());
             }
@@ -231,13 +233,13 @@ impl Session {
             Request::ReadObject { address, .. } => sink.emit(Event::ObjectRead {
                 id,
                 address,
-                result: Err(refusal_text(&refusal)),
+                result: Err(ObjectError::Refused(refusal.clone())),
             }),
             Request::WriteObject { address, value, .. } => sink.emit(Event::ObjectWritten {
                 id,
                 address,
                 value,
-                result: Err(refusal_text(&refusal)),
+                result: Err(ObjectError::Refused(refusal.clone())),
             }),
             _ => {}
         }
@@ -332,8 +334,4 @@ fn via_pdi(request: &Request) -> Option<Request> {
         }),
         _ => None,
     }
-}
-
-pub(super) fn refusal_text(refusal: &Refusal) -> String {
-    refusal.to_string()
 }

@@ -24,7 +24,8 @@ use tokio::sync::mpsc;
 
 pub use protocol::{
     CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_KEEPALIVE, JOG_TIMEOUT, LOST_AFTER,
-    LinkLossAction, MAX_LOST_AFTER, MAX_WATCHED, ObjectPath, Request, RequestId, Sample, WORKER_ID,
+    LinkLossAction, MAX_LOST_AFTER, MAX_WATCHED, ObjectError, ObjectPath, Rejection, Request,
+    RequestId, Sample, WORKER_ID,
 };
 
 use crate::pdi::Timing;

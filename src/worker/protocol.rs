@@ -4,7 +4,7 @@ use std::fmt;
 use std::time::Duration;
 
 use crate::injection::Injection;
-use crate::link::{FoundDevice, LinkInfo, LinkSpec, NetworkInterface, TraceRecord};
+use crate::link::{FoundDevice, LinkInfo, LinkSpec, NetworkInterface, Refusal, TraceRecord};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Failure, RxImage, Waiting};
 pub use crate::signal::{MAX_WATCHED, Sample};
@@ -204,6 +204,50 @@ impl fmt::Display for Request {
     }
 }
 
+/// Why the worker did not send a request, or dropped it before it ran.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Rejection {
+    #[error("not connected to a drive")]
+    NotConnected,
+    /// It was queued when the link went away (the reason), and is not replayed.
+    #[error("not sent: {0}")]
+    LinkGone(String),
+    /// The request itself cannot be carried out now or at all, in words (a value out of
+    /// range, a queue that is full, a command the state does not allow).
+    #[error("{0}")]
+    Refused(String),
+}
+
+/// Why an object access gave no value. It stays typed from the link to the window and
+/// the command line: callers tell a refusal from a failed PDI command by the variant.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ObjectError {
+    /// The device's answer: an SDO abort, a Modbus exception, a CIP status, or an answer
+    /// that does not fit the object's type.
+    #[error("{0}")]
+    Refused(Refusal),
+    /// The access ran as a PDI OD Read/Write command and did not end well (refused with
+    /// PdiStatusError, timed out, superseded, link lost).
+    #[error("{0}")]
+    Pdi(CommandProgress),
+    /// The PDI's return value does not fit the type asked for.
+    #[error("{0}")]
+    Decode(String),
+    /// The worker never sent it.
+    #[error("{0}")]
+    NotSent(Rejection),
+}
+
+impl ObjectError {
+    /// The device's refusal, if that is what it was.
+    pub fn refusal(&self) -> Option<&Refusal> {
+        match self {
+            ObjectError::Refused(refusal) => Some(refusal),
+            _ => None,
+        }
+    }
+}
+
 /// How a command ended, or got on.
 #[derive(Clone, Debug, PartialEq)]
 pub enum CommandProgress {
@@ -295,7 +339,7 @@ pub enum Event {
     Rejected {
         id: RequestId,
         request: String,
-        reason: String,
+        reason: Rejection,
     },
     /// A PDI image carrying a command was written.
     Sent {
@@ -312,13 +356,13 @@ pub enum Event {
     ObjectRead {
         id: RequestId,
         address: Address,
-        result: Result<Value, String>,
+        result: Result<Value, ObjectError>,
     },
     ObjectWritten {
         id: RequestId,
         address: Address,
         value: Value,
-        result: Result<(), String>,
+        result: Result<(), ObjectError>,
     },
     /// The newest samples, in order; the last one is the current status.
     Samples(Vec<Sample>),

@@ -4,7 +4,8 @@
 
 use super::cycle::WatchState;
 use super::protocol::{
-    Event, HALT_ON_LOSS_TIMEOUT, LinkLossAction, MAX_LOST_AFTER, MAX_WATCHED, Request, RequestId,
+    Event, HALT_ON_LOSS_TIMEOUT, LinkLossAction, MAX_LOST_AFTER, MAX_WATCHED, Rejection, Request,
+    RequestId,
 };
 use super::session::Session;
 use super::sink::EventSink;
@@ -79,7 +80,7 @@ impl Supervisor {
             sink.emit(Event::Rejected {
                 id,
                 request: request.to_string(),
-                reason: "not connected to a drive".into(),
+                reason: Rejection::NotConnected,
             });
         }
         self.session.as_mut()
@@ -128,9 +129,9 @@ impl Supervisor {
             sink.emit(Event::Rejected {
                 id,
                 request: request.to_string(),
-                reason: format!(
+                reason: Rejection::Refused(format!(
                     "the link can count as lost after 1 to {MAX_LOST_AFTER} failed exchanges in a row, not {n}"
-                ),
+                )),
             });
         }
     }
@@ -143,7 +144,9 @@ impl Supervisor {
             sink.emit(Event::Rejected {
                 id,
                 request: request.to_string(),
-                reason: format!("a poll rate of {rate} Hz is outside 1 to 2000 Hz"),
+                reason: Rejection::Refused(format!(
+                    "a poll rate of {rate} Hz is outside 1 to 2000 Hz"
+                )),
             });
         }
     }
@@ -160,9 +163,9 @@ impl Supervisor {
             sink.emit(Event::Rejected {
                 id,
                 request: request.to_string(),
-                reason: format!(
+                reason: Rejection::Refused(format!(
                     "at most {MAX_WATCHED} objects can be sampled besides the built-in signals"
-                ),
+                )),
             });
             return;
         }
@@ -253,7 +256,7 @@ fn inject(
         Err(e) => sink.emit(Event::Rejected {
             id,
             request: request.to_string(),
-            reason: e.to_string(),
+            reason: Rejection::Refused(e.to_string()),
         }),
     }
 }

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use super::commands::Purpose;
 use super::cycle::WatchState;
 use super::limiter::Limiter;
-use super::protocol::{CommandProgress, Event, RequestId, Sample, WORKER_ID};
+use super::protocol::{CommandProgress, Event, Rejection, RequestId, Sample, WORKER_ID};
 use super::sink::EventSink;
 use super::{Config, Envelope};
 use crate::connect::AnyLink;
@@ -133,7 +133,7 @@ impl Session {
             sink.emit(Event::Rejected {
                 id,
                 request: request.to_string(),
-                reason: format!("not sent: {reason}"),
+                reason: Rejection::LinkGone(reason.to_owned()),
             });
         }
         if !self.samples.is_empty() {

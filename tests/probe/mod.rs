@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 
 use drivedeck::link::LinkSpec;
 use drivedeck::od::{Address, DataType, Value};
-use drivedeck::worker::{CommandProgress, Config, Event, ObjectPath, Request, Sample, Worker};
+use drivedeck::worker::{
+    CommandProgress, Config, Event, ObjectError, ObjectPath, Request, Sample, Worker,
+};
 
 pub struct Probe {
     pub worker: Worker,
@@ -109,7 +111,7 @@ impl Probe {
         address: Address,
         dtype: DataType,
         path: ObjectPath,
-    ) -> Result<Value, String> {
+    ) -> Result<Value, ObjectError> {
         let id = self.send(Request::ReadObject {
             address,
             dtype: Some(dtype),

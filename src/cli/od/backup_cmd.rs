@@ -17,8 +17,9 @@ use super::load_eds;
 use crate::link::LinkSpec;
 use crate::od::backup::{self, Backup, Comparison, DeviceIdentity, Step, Why};
 use crate::od::{self, Address, Catalog, DataType, Value};
+use crate::worker::ObjectError;
 
-type Reads = BTreeMap<Address, Result<Value, String>>;
+type Reads = BTreeMap<Address, Result<Value, ObjectError>>;
 
 /// A value as the browser shows it: with its unit where the catalog knows one; COB-IDs
 /// and mapping entries (32-bit communication objects) in hex.
@@ -329,7 +330,7 @@ struct Opened {
     file: Backup,
     catalog: Catalog,
     session: Session,
-    reads: BTreeMap<Address, Result<Value, String>>,
+    reads: BTreeMap<Address, Result<Value, ObjectError>>,
     warnings: Vec<String>,
     notes: Vec<String>,
 }
@@ -607,7 +608,7 @@ pub fn restore(
                 }
                 Ok(Err(refusal)) => {
                     row.result = "refused";
-                    row.error = Some(refusal);
+                    row.error = Some(refusal.to_string());
                     report.refused += 1;
                 }
                 Err(f) => {

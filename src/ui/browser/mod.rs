@@ -15,7 +15,7 @@ use crate::od::eds::Eds;
 use crate::od::{Address, Catalog, DataType, Entry, Value};
 use crate::ui::state::AppState;
 use crate::ui::widgets::{AMBER, GREEN, RED};
-use crate::worker::{ObjectPath, Request, RequestId};
+use crate::worker::{ObjectError, ObjectPath, Rejection, Request, RequestId};
 
 mod panel;
 #[allow(unused_imports)]
@@ -244,12 +244,14 @@ impl Browser {
         &mut self,
         id: RequestId,
         address: Address,
-        result: &Result<Value, String>,
+        result: &Result<Value, ObjectError>,
         clock: f64,
     ) -> bool {
         if !self.ids.contains_key(&id) {
             return false;
         }
+        // The table shows the refusal in words; the variant decided nothing here.
+        let result = result.clone().map_err(|e| e.to_string());
         self.values.insert(
             address,
             Cell {
@@ -271,7 +273,8 @@ impl Browser {
     }
 
     /// A refusal of a request of ours (not connected, link lost…).
-    pub fn on_rejected(&mut self, id: RequestId, reason: &str) -> bool {
+    pub fn on_rejected(&mut self, id: RequestId, rejection: &Rejection) -> bool {
+        let reason = rejection.to_string();
         let Some(pending) = self.ids.get(&id).cloned() else {
             return false;
         };
@@ -279,7 +282,7 @@ impl Browser {
             Pending::Read if self.is_bulk(id) => {
                 if let Some(bulk) = self.bulk.as_mut() {
                     // A whole ReadMany refused, or one of its objects dropped with the link.
-                    if bulk.done == 0 && reason.contains("not connected") {
+                    if bulk.done == 0 && *rejection == Rejection::NotConnected {
                         bulk.done = bulk.total;
                         bulk.failed = bulk.total;
                     } else {
@@ -287,14 +290,14 @@ impl Browser {
                         bulk.failed += 1;
                     }
                 }
-                self.message = Some(Err(reason.to_owned()));
+                self.message = Some(Err(reason));
                 self.bulk_progressed(id);
             }
-            Pending::Read => self.message = Some(Err(reason.to_owned())),
+            Pending::Read => self.message = Some(Err(reason)),
             Pending::Write { address } => {
-                self.write_results.insert(address, Err(reason.to_owned()));
+                self.write_results.insert(address, Err(reason));
             }
-            Pending::RestoreStep(step) => self.restore_result(step, Err(reason.to_owned())),
+            Pending::RestoreStep(step) => self.restore_result(step, Err(reason)),
             Pending::Store => self.message = Some(Err(format!("store to device: {reason}"))),
         }
         true
@@ -318,9 +321,10 @@ impl Browser {
         &mut self,
         id: RequestId,
         address: Address,
-        result: &Result<(), String>,
+        result: &Result<(), ObjectError>,
         outbox: &mut Vec<Request>,
     ) -> bool {
+        let result = &result.clone().map_err(|e| e.to_string());
         let Some(pending) = self.ids.remove(&id) else {
             return false;
         };

@@ -168,7 +168,7 @@ impl AppState {
     }
 
     /// A request the worker would not send.
-    fn on_rejected(&mut self, id: RequestId, request: String, reason: String) {
+    fn on_rejected(&mut self, id: RequestId, request: String, reason: Rejection) {
         if self.slope_reads.contains(&id) || self.browser.on_rejected(id, &reason) {
             return;
         }
@@ -177,13 +177,13 @@ impl AppState {
             self.halt_engaged = false;
         }
         match self.entry(id) {
-            Some(entry) => entry.outcome = Outcome::Failed(reason),
+            Some(entry) => entry.outcome = Outcome::Failed(reason.to_string()),
             None => self.push_log(LogEntry {
                 at: self.clock,
                 id: Some(id),
                 what: request,
                 image: None,
-                outcome: Outcome::Failed(reason),
+                outcome: Outcome::Failed(reason.to_string()),
             }),
         }
     }
@@ -238,7 +238,12 @@ impl AppState {
     }
 
     /// An object read came back: diagnosis, identity, the browser, the torque slope or the user.
-    fn on_object_read(&mut self, id: RequestId, address: Address, result: Result<Value, String>) {
+    fn on_object_read(
+        &mut self,
+        id: RequestId,
+        address: Address,
+        result: Result<Value, ObjectError>,
+    ) {
         if self.diagnosis_request == Some(id) {
             self.diagnosis_read(address, result);
             return;
@@ -270,7 +275,7 @@ impl AppState {
         if let Some(entry) = self.entry(id) {
             entry.outcome = match &result {
                 Ok(value) => Outcome::Succeeded(format!("{address} = {value}")),
-                Err(e) => Outcome::Failed(e.clone()),
+                Err(e) => Outcome::Failed(e.to_string()),
             };
         }
         if let Err(e) = &result {
@@ -286,7 +291,7 @@ impl AppState {
         id: RequestId,
         address: Address,
         value: Value,
-        result: Result<(), String>,
+        result: Result<(), ObjectError>,
     ) {
         if address == TORQUE_SLOPE && result.is_ok() {
             self.torque_slope = value.as_i128().and_then(|v| i64::try_from(v).ok());
@@ -300,7 +305,7 @@ impl AppState {
         if let Some(entry) = self.entry(id) {
             entry.outcome = match &result {
                 Ok(()) => Outcome::Succeeded(format!("{address} = {value} written")),
-                Err(e) => Outcome::Failed(e.clone()),
+                Err(e) => Outcome::Failed(e.to_string()),
             };
         }
         if let Err(e) = &result {

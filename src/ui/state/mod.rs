@@ -11,7 +11,9 @@ use crate::link::{LinkInfo, LinkSpec};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Opcode, RxImage, StatusBit};
 use crate::telemetry::{Scope, ScopeEvent};
-use crate::worker::{CommandProgress, Event, Health, ObjectPath, Request, RequestId, Sample};
+use crate::worker::{
+    CommandProgress, Event, Health, ObjectError, ObjectPath, Rejection, Request, RequestId, Sample,
+};
 
 /// Log entries kept in the window.
 pub const LOG_LIMIT: usize = 2000;
@@ -152,7 +154,7 @@ impl Outcome {
 #[derive(Clone, Debug, PartialEq)]
 pub struct ReadBack {
     pub address: Address,
-    pub result: Result<Value, String>,
+    pub result: Result<Value, ObjectError>,
 }
 
 /// A torque command waiting for the user's answer because 6087h is 0.
@@ -231,11 +233,11 @@ pub struct AppState {
     pub leaving: Option<super::leave::Leaving>,
     /// The identity read for the exports' header, and its request.
     identity_request: Option<RequestId>,
-    identity_reads: BTreeMap<Address, Result<Value, String>>,
+    identity_reads: BTreeMap<Address, Result<Value, ObjectError>>,
     /// The read of 1001h and 1003h for the timeline, its results, and whether another
     /// fault came while it ran (read again after).
     diagnosis_request: Option<RequestId>,
-    diagnosis_reads: BTreeMap<Address, Result<Value, String>>,
+    diagnosis_reads: BTreeMap<Address, Result<Value, ObjectError>>,
     diagnosis_again: bool,
 }
 
@@ -333,7 +335,7 @@ impl AppState {
         self.scope.ring().last_time()
     }
 
-    fn diagnosis_read(&mut self, address: Address, result: Result<Value, String>) {
+    fn diagnosis_read(&mut self, address: Address, result: Result<Value, ObjectError>) {
         self.diagnosis_reads.insert(address, result);
         if self.diagnosis_reads.len() < diagnosis_objects().len() {
             return;
