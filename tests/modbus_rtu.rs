@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 
 use common::{PtyPair, Sim};
-use drivedeck::link::LinkSpec;
+use drivedeck::link::{ErrorKind, LinkSpec};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, StatusBit};
 use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
@@ -127,11 +127,12 @@ fn a_wrong_slave_address_times_out_and_says_to_check_it() {
     else {
         panic!("slave 6 answered: {failed:?}");
     };
+    assert_eq!(error.kind, ErrorKind::Timeout, "{error}");
     assert!(
-        error.contains("no answer") && error.contains("check the slave address"),
+        error.text.contains("no answer") && error.text.contains("check the slave address"),
         "{error}"
     );
-    assert!(error.contains("slave 6"), "{error}");
+    assert!(error.text.contains("slave 6"), "{error}");
     // A drive that may yet be switched on is tried again.
     assert!(retry_in.is_some(), "{retry_in:?}");
     // One request timeout (500 ms), not a hang.

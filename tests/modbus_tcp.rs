@@ -237,7 +237,7 @@ fn a_second_client_is_told_the_one_connection_is_taken() {
         unreachable!()
     };
     assert!(
-        error.contains("allows one Modbus TCP connection"),
+        error.text.contains("allows one Modbus TCP connection"),
         "{error}"
     );
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use drivedeck::cia::AbortCode;
-use drivedeck::link::{LinkSpec, Refusal};
+use drivedeck::link::{ErrorKind, LinkSpec, Refusal};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, StatusBit};
 use drivedeck::sim::Injection;
@@ -260,8 +260,9 @@ fn requests_without_a_link_are_rejected_with_a_reason() {
         }
     }
     let (error, retry_in) = failed.expect("connect failed");
+    assert_eq!(error.kind, ErrorKind::Refused, "{error}");
     assert!(
-        error.contains("refuses TCP connections") && error.contains("is it on"),
+        error.text.contains("refuses TCP connections") && error.text.contains("is it on"),
         "{error}"
     );
     // A drive may still be booting: it is asked again, until the user gives up.

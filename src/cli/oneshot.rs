@@ -347,7 +347,7 @@ fn scan(link: &LinkSpec, timeout: Duration) -> Result<Report, Failure> {
             Ok(Event::Scanned { id: i, result }) if i == id => {
                 return result
                     .map(|devices| Report::Scan(report::scan(link, devices)))
-                    .map_err(usage);
+                    .map_err(|e| usage(e.to_string()));
             }
             Ok(_) => {}
             Err(_) => return Err(failed("the scan did not finish in time")),

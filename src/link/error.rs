@@ -43,7 +43,65 @@ pub enum Error {
     },
 }
 
+/// Which kind of link failure it was, for those who act on it (retry, check the cable,
+/// fix the configuration) without reading its words.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorKind {
+    Io,
+    Timeout,
+    Disconnected,
+    Refused,
+    Unsupported,
+    Protocol,
+    Answer,
+    NoValidReply,
+}
+
+/// A link error as it travels in the worker's events: its kind and its words (the
+/// `io::Error` inside an [`Error`] cannot be cloned).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{text}")]
+pub struct LinkFailure {
+    pub kind: ErrorKind,
+    pub text: String,
+}
+
+impl LinkFailure {
+    /// `error`'s kind, told in other words (e.g. with what was done to the drive).
+    pub fn new(error: &Error, text: impl Into<String>) -> LinkFailure {
+        LinkFailure {
+            kind: error.kind(),
+            text: text.into(),
+        }
+    }
+}
+
+impl From<&Error> for LinkFailure {
+    fn from(error: &Error) -> LinkFailure {
+        LinkFailure::new(error, error.to_string())
+    }
+}
+
+impl From<Error> for LinkFailure {
+    fn from(error: Error) -> LinkFailure {
+        LinkFailure::from(&error)
+    }
+}
+
 impl Error {
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Error::Io { .. } => ErrorKind::Io,
+            Error::Timeout { .. } => ErrorKind::Timeout,
+            Error::Disconnected(_) => ErrorKind::Disconnected,
+            Error::Refused(_) => ErrorKind::Refused,
+            Error::Unsupported(_) => ErrorKind::Unsupported,
+            Error::Protocol(_) => ErrorKind::Protocol,
+            Error::Answer(_) => ErrorKind::Answer,
+            Error::NoValidReply { .. } => ErrorKind::NoValidReply,
+        }
+    }
+
     /// Whether reconnecting may help (as opposed to a configuration mistake).
     pub fn is_transient(&self) -> bool {
         matches!(

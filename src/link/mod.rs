@@ -16,7 +16,7 @@ pub(crate) mod tries;
 use std::fmt;
 
 pub use crate::signal::{Signal, Signals};
-pub use error::{Error, Refusal, modbus_exception_text};
+pub use error::{Error, ErrorKind, LinkFailure, Refusal, modbus_exception_text};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
 pub use trace::{TRACE_LIMIT, TraceRecord, TraceRing};
 

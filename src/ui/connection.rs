@@ -370,7 +370,7 @@ pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
     let found = match result {
         Ok(found) => found,
         Err(e) => {
-            ui.colored_label(RED, e);
+            ui.colored_label(RED, e.to_string());
             return;
         }
     };

@@ -4,7 +4,9 @@ use std::fmt;
 use std::time::Duration;
 
 use crate::injection::Injection;
-use crate::link::{FoundDevice, LinkInfo, LinkSpec, NetworkInterface, Refusal, TraceRecord};
+use crate::link::{
+    FoundDevice, LinkFailure, LinkInfo, LinkSpec, NetworkInterface, Refusal, TraceRecord,
+};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Failure, RxImage, Waiting};
 pub use crate::signal::{MAX_WATCHED, Sample};
@@ -328,7 +330,7 @@ pub enum Event {
     /// Opening the link failed; `retrying` when the worker will try again.
     ConnectFailed {
         spec: LinkSpec,
-        error: String,
+        error: LinkFailure,
         retry_in: Option<Duration>,
     },
     /// The link is gone: `reason` is `None` when the user disconnected.
@@ -395,6 +397,6 @@ pub enum Event {
     /// What a bus scan found.
     Scanned {
         id: RequestId,
-        result: Result<Vec<FoundDevice>, String>,
+        result: Result<Vec<FoundDevice>, LinkFailure>,
     },
 }

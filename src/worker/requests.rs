@@ -12,7 +12,7 @@ use super::sink::EventSink;
 use super::supervisor::{BACKOFF_FIRST, Supervisor, new_ticker};
 use crate::connect;
 use crate::injection::Injection;
-use crate::link::{self, Link, LinkSpec};
+use crate::link::{self, Link, LinkFailure, LinkSpec};
 use crate::od::{Address, DataType};
 
 impl Supervisor {
@@ -192,7 +192,7 @@ impl Supervisor {
         };
         sink.emit(Event::Scanned {
             id,
-            result: result.map_err(|e| e.to_string()),
+            result: result.map_err(LinkFailure::from),
         });
     }
 
@@ -235,7 +235,7 @@ async fn discover(
     let result = link::enip::discovery::discover(&discovery).await;
     sink.emit(Event::Scanned {
         id,
-        result: result.map_err(|e| e.to_string()),
+        result: result.map_err(LinkFailure::from),
     });
 }
 

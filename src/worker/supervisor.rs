@@ -12,7 +12,7 @@ use super::session::Session;
 use super::sink::EventSink;
 use super::{Config, Envelope};
 use crate::connect::{self, AnyLink};
-use crate::link::{self, Link, LinkSpec};
+use crate::link::{self, Link, LinkFailure, LinkSpec};
 use crate::od::{Address, DataType};
 
 /// Reconnect backoff.
@@ -142,7 +142,7 @@ impl Supervisor {
             self.retry_at = Some(Instant::now() + self.backoff);
             sink.emit(Event::ConnectFailed {
                 spec,
-                error: reason,
+                error: LinkFailure::new(&error, reason),
                 retry_in: Some(self.backoff),
             });
         } else {
@@ -221,7 +221,7 @@ impl Supervisor {
         let retry_in = (self.config.reconnect && error.is_transient()).then_some(self.backoff);
         sink.emit(Event::ConnectFailed {
             spec: spec.clone(),
-            error: error.to_string(),
+            error: LinkFailure::from(&error),
             retry_in,
         });
         self.retry_at = retry_in.map(|d| Instant::now() + d);

@@ -125,7 +125,12 @@ impl AppState {
     }
 
     /// A connection attempt failed; the worker may retry.
-    fn on_connect_failed(&mut self, spec: LinkSpec, error: String, retry_in: Option<Duration>) {
+    fn on_connect_failed(
+        &mut self,
+        spec: LinkSpec,
+        error: LinkFailure,
+        retry_in: Option<Duration>,
+    ) {
         self.timeline.add(
             None,
             crate::diagnostics::Severity::Warning,

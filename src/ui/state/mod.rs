@@ -7,7 +7,7 @@ use std::time::{Duration, SystemTime};
 use serde::{Deserialize, Serialize};
 
 use crate::injection::Injection;
-use crate::link::{LinkInfo, LinkSpec};
+use crate::link::{LinkFailure, LinkInfo, LinkSpec};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Opcode, RxImage, StatusBit};
 use crate::telemetry::{Scope, ScopeEvent};
@@ -112,7 +112,7 @@ pub enum Connection {
     Connected(LinkInfo),
     Failed {
         spec: LinkSpec,
-        error: String,
+        error: LinkFailure,
         retry_in: Option<Duration>,
     },
 }
@@ -220,7 +220,7 @@ pub struct AppState {
     /// The object dictionary browser.
     pub browser: super::browser::Browser,
     /// The last bus scan's result.
-    pub scan: Option<Result<Vec<crate::link::FoundDevice>, String>>,
+    pub scan: Option<Result<Vec<crate::link::FoundDevice>, LinkFailure>>,
     /// Reads of 6087h the window asked for itself (not logged).
     slope_reads: Vec<RequestId>,
     /// The halt request still running.
@@ -481,7 +481,7 @@ impl AppState {
                 };
                 Some(match lost {
                     // Right after the loss the worker reports the same error again.
-                    Some(reason) if reason == error => {
+                    Some(reason) if *reason == error.text => {
                         format!("not connected: the link was lost{retry} ({reason})")
                     }
                     Some(reason) => format!(

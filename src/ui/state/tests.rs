@@ -1,4 +1,5 @@
 use super::*;
+use crate::link::ErrorKind;
 
 fn info() -> LinkInfo {
     LinkInfo {
@@ -65,7 +66,10 @@ fn the_reason_nothing_can_be_sent_follows_the_link() {
     );
     state.apply(Event::ConnectFailed {
         spec: LinkSpec::Sim,
-        error: "timed out".into(),
+        error: LinkFailure {
+            kind: ErrorKind::Timeout,
+            text: "timed out".into(),
+        },
         retry_in: Some(Duration::from_millis(500)),
     });
     assert_eq!(
@@ -79,7 +83,10 @@ fn the_reason_nothing_can_be_sent_follows_the_link() {
     );
     state.apply(Event::ConnectFailed {
         spec: LinkSpec::Sim,
-        error: "connection refused".into(),
+        error: LinkFailure {
+            kind: ErrorKind::Io,
+            text: "connection refused".into(),
+        },
         retry_in: Some(Duration::from_secs(1)),
     });
     assert_eq!(
