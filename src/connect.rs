@@ -225,7 +225,7 @@ impl Link for AnyLink {
         }
     }
 
-    fn take_notices(&mut self) -> Vec<String> {
+    fn take_notices(&mut self) -> Vec<super_link::Notice> {
         match self {
             AnyLink::Sim(l) => l.take_notices(),
             AnyLink::Modbus(l) => l.take_notices(),

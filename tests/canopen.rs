@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use drivedeck::cia::AbortCode;
 use drivedeck::link::canopen::client::CanopenLink;
 use drivedeck::link::canopen::{CanBus, MemoryBus};
-use drivedeck::link::{CanopenOptions, Link, LinkSpec, Refusal};
+use drivedeck::link::{CanopenOptions, Link, LinkSpec, Notice, NoticeKind, Refusal};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, RxImage, StatusBit};
 use drivedeck::proto::canopen::sdo::{SdoClient, SdoEvent};
@@ -82,7 +82,9 @@ fn the_pdi_runs_on_the_pdos_spec_section_3_maps() {
             .expect("connect");
         let notices = link.take_notices();
         assert!(
-            notices.iter().any(|n| n.contains("mapped the PDI: RPDO1")),
+            notices
+                .iter()
+                .any(|n| n.text.contains("mapped the PDI: RPDO1")),
             "{notices:?}"
         );
         assert!(link.info().description.contains("PDI on RPDO1/TPDO1"));
@@ -187,7 +189,7 @@ fn self_start_sets_1f80h_lists_it_and_puts_it_back() {
         );
         let notices = link.take_notices();
         assert!(
-            notices.iter().any(|n| n.contains("set 1F80h = 08h")),
+            notices.iter().any(|n| n.text.contains("set 1F80h = 08h")),
             "{notices:?}"
         );
         let changes = link.own_changes();
@@ -223,7 +225,7 @@ fn a_refused_mapping_runs_the_pdi_over_sdo() {
         assert!(
             notices
                 .iter()
-                .any(|n| n.contains("refused the PDI mapping") && n.contains("06010002h")),
+                .any(|n| n.text.contains("refused the PDI mapping") && n.text.contains("06010002h")),
             "{notices:?}"
         );
         assert!(link.info().description.contains("PDI over SDO"));
@@ -409,13 +411,18 @@ fn a_fault_on_the_node_arrives_as_emcy_and_fails_the_move() {
         probe.outcome(id, Duration::from_secs(10)),
         CommandProgress::Failed(Failure::DriveFault { error_code: 0x2300 })
     );
-    let emcy = probe.wait(
-        "the EMCY",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::Notice(n) if n.starts_with("EMCY node 5")),
-    );
+    let emcy = probe.wait("the EMCY", Duration::from_secs(2), |e| {
+        matches!(
+            e,
+            Event::Notice(Notice {
+                kind: NoticeKind::Emcy { node: 5, .. },
+                ..
+            })
+        )
+    });
     assert!(
-        matches!(&emcy, Event::Notice(n) if n.contains("2300h")),
+        matches!(&emcy, Event::Notice(Notice { kind: NoticeKind::Emcy { error_code: 0x2300, .. }, text })
+            if text.contains("2300h")),
         "{emcy:?}"
     );
 }
@@ -459,6 +466,6 @@ fn what_closing_did_reaches_the_log() {
     probe.wait(
         "the restore report",
         Duration::from_secs(5),
-        |e| matches!(e, Event::Notice(n) if n.contains("restored the PDO mapping of node 3")),
+        |e| matches!(e, Event::Notice(n) if n.text.contains("restored the PDO mapping of node 3")),
     );
 }

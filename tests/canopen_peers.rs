@@ -281,7 +281,7 @@ fn our_master_reads_and_writes_a_python_canopen_local_node() {
         probe.wait(
             "the objects-only notice",
             PATIENCE,
-            |e| matches!(e, Event::Notice(n) if objects_only(n)),
+            |e| matches!(e, Event::Notice(n) if objects_only(&n.text)),
         );
     }
 

@@ -7,7 +7,7 @@ mod probe;
 
 use std::time::{Duration, Instant};
 
-use drivedeck::link::LinkSpec;
+use drivedeck::link::{LinkSpec, Notice, NoticeKind};
 use drivedeck::pdi::StatusBit;
 use drivedeck::sim::Injection;
 use drivedeck::worker::{CommandProgress, Event, JOG_KEEPALIVE, LinkLossAction, Request};
@@ -54,7 +54,7 @@ fn the_motor_jogs_while_the_keep_alives_come_and_halts_when_they_stop() {
     probe.wait(
         "the worker's halt",
         Duration::from_secs(2),
-        |e| matches!(e, Event::Notice(n) if n.contains("jog halted: no keep-alive")),
+        |e| matches!(e, Event::Notice(n) if n.kind == NoticeKind::MotorStopped && n.text.contains("jog halted: no keep-alive")),
     );
     let noticed = frozen.elapsed();
     assert!(noticed < Duration::from_millis(1500), "{noticed:?}");
@@ -106,9 +106,9 @@ fn a_link_lost_mid_jog_gets_a_halt_attempt_and_an_honest_report() {
     let report = probe.wait(
         "the report of the halt attempt",
         Duration::from_secs(3),
-        |e| matches!(e, Event::Notice(n) if n.contains("the link failed during a move")),
+        |e| matches!(e, Event::Notice(n) if n.kind == NoticeKind::MotorStopped && n.text.contains("the link failed during a move")),
     );
-    let Event::Notice(text) = report else {
+    let Event::Notice(Notice { text, .. }) = report else {
         unreachable!()
     };
     assert!(
@@ -136,10 +136,10 @@ fn the_link_loss_setting_can_leave_the_drive_alone() {
     let report = probe.wait(
         "the report",
         Duration::from_secs(3),
-        |e| matches!(e, Event::Notice(n) if n.contains("the link failed during a move")),
+        |e| matches!(e, Event::Notice(n) if n.kind == NoticeKind::MotorStopped && n.text.contains("the link failed during a move")),
     );
     assert!(
-        matches!(&report, Event::Notice(n) if n.contains("as set, the drive is left alone")),
+        matches!(&report, Event::Notice(n) if n.text.contains("as set, the drive is left alone")),
         "{report:?}"
     );
 }

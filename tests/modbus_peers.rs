@@ -262,7 +262,7 @@ fn exchange_with_pymodbus(python: &Python, query: &str) -> Seen {
     Seen {
         exchange,
         read_back,
-        notices,
+        notices: notices.into_iter().map(|n| n.text).collect(),
         requests,
     }
 }

@@ -79,7 +79,7 @@ fn expect_notice(probe: &mut Probe, text: &str) {
         probe.wait(
             text,
             Duration::from_secs(3),
-            |e| matches!(e, Event::Notice(n) if n.contains(text)),
+            |e| matches!(e, Event::Notice(n) if n.text.contains(text)),
         );
     }
 }

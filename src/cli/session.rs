@@ -166,7 +166,7 @@ impl Session {
             } => {
                 return Err(failed(format!("the link was lost: {reason}")));
             }
-            Event::Notice(text) => self.notes.push(text.clone()),
+            Event::Notice(notice) => self.notes.push(notice.text.clone()),
             Event::Frames(frames) => {
                 for f in frames {
                     eprintln!(

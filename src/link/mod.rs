@@ -9,6 +9,7 @@ pub mod canopen;
 pub mod enip;
 mod error;
 pub mod modbus;
+mod notice;
 pub mod spec;
 mod trace;
 pub(crate) mod tries;
@@ -17,6 +18,7 @@ use std::fmt;
 
 pub use crate::signal::{Signal, Signals};
 pub use error::{Error, ErrorKind, LinkFailure, Refusal, modbus_exception_text};
+pub use notice::{Notice, NoticeKind};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
 pub use trace::{TRACE_LIMIT, TraceRecord, TraceRing};
 
@@ -142,7 +144,7 @@ pub trait Link {
 
     /// Things the link learned that the user should know (e.g. a missing function code
     /// and the fallback chosen). The worker logs them and refreshes the link's description.
-    fn take_notices(&mut self) -> Vec<String> {
+    fn take_notices(&mut self) -> Vec<Notice> {
         Vec::new()
     }
 

@@ -9,6 +9,7 @@ use super::protocol::{
 };
 use super::session::Session;
 use super::sink::EventSink;
+use crate::link::Notice;
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{self, Action, Progress, RxImage};
 
@@ -243,10 +244,10 @@ impl Session {
         }
         self.jog_deadline = None;
         self.start_pdi(WORKER_ID, Request::Halt, sink);
-        sink.emit(Event::Notice(format!(
+        sink.emit(Event::Notice(Notice::motor_stopped(format!(
             "jog halted: no keep-alive from the window for {:.1} s (frozen, or the focus was lost)",
             JOG_TIMEOUT.as_secs_f64()
-        )));
+        ))));
     }
 }
 
@@ -275,9 +276,9 @@ fn report_read(
 /// A command's progress (or an object access's that is not over yet).
 fn report_command(id: RequestId, progress: Progress, sink: &mut EventSink) {
     match progress {
-        Progress::Resent { .. } => sink.emit(Event::Notice(format!(
+        Progress::Resent { .. } => sink.emit(Event::Notice(Notice::info(format!(
             "request {id}: no acknowledgement yet; sent again with ToggleCmd flipped"
-        ))),
+        )))),
         p => sink.emit(Event::Progress {
             id,
             progress: CommandProgress::from(p),

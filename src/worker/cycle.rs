@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 use super::protocol::{Event, Health, MAX_WATCHED, Sample};
 use super::session::Session;
 use super::sink::EventSink;
+use crate::link::Notice;
 use crate::link::{self, Link, Refusal, Signal, Signals};
 use crate::od::{Address, DataType};
 
@@ -213,9 +214,9 @@ impl Session {
                 }
                 Err(refusal) => {
                     self.watch.refused.push(address);
-                    sink.emit(Event::Notice(format!(
+                    sink.emit(Event::Notice(Notice::info(format!(
                         "{address} is no longer sampled: {refusal}"
-                    )));
+                    ))));
                 }
             }
         }

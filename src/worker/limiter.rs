@@ -4,6 +4,7 @@ use std::time::{Duration, Instant};
 
 use super::protocol::Event;
 use super::sink::EventSink;
+use crate::link::Notice;
 
 /// Log lines that may repeat at the cycle rate (a noisy line): at most [`Limiter::BURST`]
 /// in any [`Limiter::WINDOW`], then a count of the ones held back with the next one said.
@@ -36,6 +37,6 @@ impl Limiter {
             0 => text,
             held => format!("{text} (and {held} more like it before, not shown)"),
         };
-        sink.emit(Event::Notice(text));
+        sink.emit(Event::Notice(Notice::info(text)));
     }
 }

@@ -11,6 +11,7 @@ use super::protocol::{
 };
 use super::session::Session;
 use super::sink::EventSink;
+use crate::link::Notice;
 use crate::link::{self, Link};
 use crate::pdi::{Action, RxImage, StatusBit};
 
@@ -128,9 +129,9 @@ impl Session {
             }
             Some(Ok(image)) => self.send_last_stop(&image, action, what).await,
         };
-        sink.emit(Event::Notice(format!(
+        sink.emit(Event::Notice(Notice::motor_stopped(format!(
             "the link failed during a move ({reason}); {done}"
-        )));
+        ))));
         let ended = format!("{reason}; {done}");
         for id in running {
             self.purposes.remove(&id);

@@ -109,9 +109,9 @@ impl Worker {
                         runtime.block_on(supervisor::run(config, request_rx, urgent_rx, &mut sink))
                     }
                     Err(e) => {
-                        sink.emit(Event::Notice(format!(
+                        sink.emit(Event::Notice(crate::link::Notice::info(format!(
                             "the worker could not start its runtime: {e}"
-                        )));
+                        ))));
                         sink.wake();
                     }
                 }

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use crate::injection::Injection;
 use crate::link::{
-    FoundDevice, LinkFailure, LinkInfo, LinkSpec, NetworkInterface, Refusal, TraceRecord,
+    FoundDevice, LinkFailure, LinkInfo, LinkSpec, NetworkInterface, Notice, Refusal, TraceRecord,
 };
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Failure, RxImage, Waiting};
@@ -381,7 +381,7 @@ pub enum Event {
     /// What the link itself changed on the device (see `Link::own_changes`), anew.
     LinkOwnChanges(Vec<String>),
     /// Something the user should know that is not tied to a request.
-    Notice(String),
+    Notice(Notice),
     /// Frames the link sent and received, when the trace is on (dropped, never queued
     /// without bound, when the UI is slow).
     Frames(Vec<TraceRecord>),

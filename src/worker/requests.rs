@@ -12,6 +12,7 @@ use super::sink::EventSink;
 use super::supervisor::{BACKOFF_FIRST, Supervisor, new_ticker};
 use crate::connect;
 use crate::injection::Injection;
+use crate::link::Notice;
 use crate::link::{self, Link, LinkFailure, LinkSpec};
 use crate::od::{Address, DataType};
 
@@ -173,9 +174,9 @@ impl Supervisor {
         if let Some(s) = self.session.as_mut() {
             s.watch = WatchState::new(objects);
             if !s.native_objects {
-                sink.emit(Event::Notice(
-                    "this link has no object access of its own: added objects are sampled only where its process image carries them".into(),
-                ));
+                sink.emit(Event::Notice(Notice::info(
+                    "this link has no object access of its own: added objects are sampled only where its process image carries them",
+                )));
             }
         }
     }
@@ -249,10 +250,10 @@ fn inject(
     sink: &mut EventSink,
 ) {
     match s.link.inject(injection, active) {
-        Ok(()) => sink.emit(Event::Notice(format!(
+        Ok(()) => sink.emit(Event::Notice(Notice::info(format!(
             "{request}: {}",
             injection.describe()
-        ))),
+        )))),
         Err(e) => sink.emit(Event::Rejected {
             id,
             request: request.to_string(),

@@ -12,6 +12,7 @@ use super::session::Session;
 use super::sink::EventSink;
 use super::{Config, Envelope};
 use crate::connect::{self, AnyLink};
+use crate::link::Notice;
 use crate::link::{self, Link, LinkFailure, LinkSpec};
 use crate::od::{Address, DataType};
 
@@ -85,9 +86,9 @@ pub(super) async fn close_link(link: &mut AnyLink, sink: &mut EventSink) {
         sink.emit(Event::Notice(notice));
     }
     if let Err(e) = closed {
-        sink.emit(Event::Notice(format!(
+        sink.emit(Event::Notice(Notice::info(format!(
             "closing the link did not finish: {e}"
-        )));
+        ))));
     }
 }
 

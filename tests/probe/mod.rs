@@ -161,7 +161,7 @@ impl Probe {
         self.seen
             .iter()
             .filter_map(|e| match e {
-                Event::Notice(n) => Some(n.clone()),
+                Event::Notice(n) => Some(n.text.clone()),
                 _ => None,
             })
             .collect()

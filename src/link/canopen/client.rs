@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 use super::CanBus;
 use crate::cia::{AbortCode, ErrorCode};
 use crate::link::{
-    Answer, CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signals,
-    TraceRecord, TraceRing,
+    Answer, CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Notice, NoticeKind, Refusal,
+    Signals, TraceRecord, TraceRing,
 };
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{PDI_OUTPUT, RX_OBJECTS, RxImage, TX_OBJECTS, TxImage};
@@ -63,7 +63,7 @@ pub struct CanopenLink<B: CanBus> {
     last_rx: Option<RxImage>,
     last_rpdo: Option<Instant>,
     saved: Saved,
-    notices: Vec<String>,
+    notices: Vec<Notice>,
     trace: TraceRing,
 }
 
@@ -136,11 +136,11 @@ impl<B: CanBus> CanopenLink<B> {
         // object access.
         if let Err(code) = link.sdo_upload(PDI_OUTPUT, TX_OBJECTS[0].sub).await? {
             link.path = PdiPath::Absent;
-            link.notices.push(format!(
+            link.notices.push(Notice::info(format!(
                 "node {} has no Plug & Drive interface (reading {}: {code}): object access only",
                 options.node,
                 Address::new(PDI_OUTPUT, TX_OBJECTS[0].sub)
-            ));
+            )));
             return Ok(());
         }
         match link.map_pdi().await? {
@@ -155,10 +155,10 @@ impl<B: CanBus> CanopenLink<B> {
                         refused.join("; ")
                     )
                 };
-                link.notices.push(format!(
+                link.notices.push(Notice::info(format!(
                     "node {} refused the PDI mapping ({reason}): the PDI runs over SDO (2291h/2292h), slower{left}",
                     options.node
-                ));
+                )));
             }
         }
         if options.self_start {
@@ -211,13 +211,21 @@ impl<B: CanBus> CanopenLink<B> {
             && let Ok((_, emcy)) = Emcy::decode(frame)
         {
             let code = ErrorCode(emcy.error_code);
-            self.notices.push(if emcy.error_code == 0 {
+            let text = if emcy.error_code == 0 {
                 format!("EMCY node {node}: error reset")
             } else {
                 format!(
                     "EMCY node {node}: {code}, error register {:02X}h",
                     emcy.error_register
                 )
+            };
+            self.notices.push(Notice {
+                kind: NoticeKind::Emcy {
+                    node: self.options.node,
+                    error_code: emcy.error_code,
+                    error_register: emcy.error_register,
+                },
+                text,
             });
         }
     }
@@ -401,13 +409,13 @@ impl<B: CanBus> CanopenLink<B> {
         } else {
             "restored on disconnect"
         };
-        self.notices.push(format!(
+        self.notices.push(Notice::info(format!(
             "mapped the PDI: RPDO{n} ({rx:04X}h/{:04X}h, COB-ID {:03X}h) and TPDO{n} ({tx:04X}h/{:04X}h, COB-ID {:03X}h, event-driven, inhibit 2 ms, event timer {EVENT_TIMER_MS} ms); the previous mapping is {keep}",
             rx + 0x200,
             rx_comm.cob_id,
             tx + 0x200,
             tx_comm.cob_id
-        ));
+        )));
         Ok(Ok(()))
     }
 
@@ -427,7 +435,7 @@ impl<B: CanBus> CanopenLink<B> {
                         data,
                     });
                 }
-                self.notices.push(format!(
+                self.notices.push(Notice::info(format!(
                     "set 1F80h = 08h on node {}: it starts by itself after a reset (master-less); {}",
                     self.options.node,
                     if self.options.keep_pdo {
@@ -435,12 +443,12 @@ impl<B: CanBus> CanopenLink<B> {
                     } else {
                         "put back on disconnect"
                     }
-                ));
+                )));
             }
-            Err(code) => self.notices.push(format!(
+            Err(code) => self.notices.push(Notice::info(format!(
                 "node {} refused 1F80h = 08h ({code}): it needs an NMT start from a master after each reset",
                 self.options.node
-            )),
+            ))),
         }
         Ok(())
     }
@@ -633,7 +641,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
             .map_err(Refusal::Abort))
     }
 
-    fn take_notices(&mut self) -> Vec<String> {
+    fn take_notices(&mut self) -> Vec<Notice> {
         std::mem::take(&mut self.notices)
     }
 
@@ -669,7 +677,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
     async fn close(&mut self) -> Result<(), Error> {
         if !self.options.keep_pdo && !self.saved.writes.is_empty() {
             let refused = self.restore().await?;
-            self.notices.push(if refused.is_empty() {
+            self.notices.push(Notice::info(if refused.is_empty() {
                 format!("restored the PDO mapping of node {}", self.options.node)
             } else {
                 format!(
@@ -677,7 +685,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
                     self.options.node,
                     refused.join("; ")
                 )
-            });
+            }));
         }
         Ok(())
     }

@@ -685,8 +685,11 @@ impl Link for EnipLink {
         all
     }
 
-    fn take_notices(&mut self) -> Vec<String> {
+    fn take_notices(&mut self) -> Vec<crate::link::Notice> {
         std::mem::take(&mut self.notices)
+            .into_iter()
+            .map(crate::link::Notice::info)
+            .collect()
     }
 
     async fn reconnect(&mut self) -> Result<(), Error> {

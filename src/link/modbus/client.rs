@@ -417,8 +417,11 @@ impl Link for ModbusLink {
         }
     }
 
-    fn take_notices(&mut self) -> Vec<String> {
+    fn take_notices(&mut self) -> Vec<crate::link::Notice> {
         std::mem::take(&mut self.notices)
+            .into_iter()
+            .map(crate::link::Notice::info)
+            .collect()
     }
 
     fn take_trace(&mut self) -> Vec<crate::link::TraceRecord> {

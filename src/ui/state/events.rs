@@ -80,7 +80,7 @@ impl AppState {
                     after,
                 },
             ),
-            Event::Notice(text) => self.on_notice(text),
+            Event::Notice(notice) => self.on_notice(notice),
             Event::Cancelled { id, dropped } => {
                 self.browser.on_cancelled(id, dropped);
             }
@@ -371,20 +371,25 @@ impl AppState {
     }
 
     /// Something the link reported; EMCY and stopped jogs go on the timeline too.
-    fn on_notice(&mut self, text: String) {
+    fn on_notice(&mut self, notice: Notice) {
         use crate::diagnostics::{Origin, Severity};
         let t = self.sample_time();
-        if text.starts_with("EMCY") {
-            let severity = if text.contains("error reset") {
-                Severity::Info
-            } else {
-                Severity::Fault
-            };
-            self.timeline.add(t, severity, Origin::Emcy, text.clone());
-        } else if text.contains("jog halted") || text.contains("during a move") {
-            self.timeline
-                .add(t, Severity::Warning, Origin::Link, text.clone());
+        match notice.kind {
+            NoticeKind::Emcy { error_code, .. } => {
+                let severity = if error_code == 0 {
+                    Severity::Info
+                } else {
+                    Severity::Fault
+                };
+                self.timeline
+                    .add(t, severity, Origin::Emcy, notice.text.clone());
+            }
+            NoticeKind::MotorStopped => {
+                self.timeline
+                    .add(t, Severity::Warning, Origin::Link, notice.text.clone());
+            }
+            NoticeKind::Info => {}
         }
-        self.info(text)
+        self.info(notice.text)
     }
 }

@@ -7,7 +7,7 @@ use std::time::{Duration, SystemTime};
 use serde::{Deserialize, Serialize};
 
 use crate::injection::Injection;
-use crate::link::{LinkFailure, LinkInfo, LinkSpec};
+use crate::link::{LinkFailure, LinkInfo, LinkSpec, Notice, NoticeKind};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Opcode, RxImage, StatusBit};
 use crate::telemetry::{Scope, ScopeEvent};
