@@ -166,6 +166,117 @@ fn sighup_with_on_exit_leave_leaves_the_drive_moving_and_says_so() {
     assert_eq!(code, 0, "{stderr}");
 }
 
+/// `ARGS` started against the drive at `addr`, `signal` sent after `after`: the exit code
+/// (130 expected) and what the command said.
+fn interrupt(addr: SocketAddr, args: &[&str], signal_name: &str, after: Duration) -> String {
+    let link = link(addr);
+    let mut all = vec!["--link", link.as_str()];
+    all.extend_from_slice(args);
+    let mut process = start(&all);
+    thread::sleep(after);
+    assert!(
+        process.running(),
+        "ended before the signal: {}",
+        process.report()
+    );
+    signal(&process, signal_name);
+    let code = exit_code(&mut process, Duration::from_secs(15));
+    let report = process.report();
+    assert_eq!(code, 130, "{args:?}: {report}");
+    report
+}
+
+#[test]
+fn ctrl_c_during_a_velocity_ramp_halts_it() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    // A slow ramp (10 rpm/s): the velocity command takes half a minute to arrive.
+    let (code, _, stderr) = run(&["--link", &link(addr), "write", "6083", "10"]);
+    assert_eq!(code, 0, "{stderr}");
+    let report = interrupt(
+        addr,
+        &["velocity", "300", "--wait"],
+        "INT",
+        Duration::from_millis(1500),
+    );
+    assert!(
+        report.contains("halt sent; the drive confirmed it"),
+        "{report}"
+    );
+    let after = status(addr);
+    assert_eq!(velocity(&after), 0.0, "{after}");
+}
+
+#[test]
+fn sigterm_while_the_torque_builds_up_halts_the_drive() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    // 10 ‰/s: 100 ‰ takes ten seconds to build up.
+    let args = [
+        "torque",
+        "100",
+        "--max-speed",
+        "300",
+        "--slope",
+        "10",
+        "--wait",
+    ];
+    let report = interrupt(addr, &args, "TERM", Duration::from_millis(1500));
+    assert!(report.contains("interrupted by SIGTERM"), "{report}");
+    assert!(
+        report.contains("halt sent; the drive confirmed it"),
+        "{report}"
+    );
+    let after = status(addr);
+    assert_eq!(velocity(&after), 0.0, "{after}");
+}
+
+#[test]
+fn ctrl_c_during_homing_quick_stops_it_because_a_halt_cannot() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    let report = interrupt(
+        addr,
+        &["home", "--method", "17", "--wait"],
+        "INT",
+        Duration::from_millis(1500),
+    );
+    assert!(
+        report.contains("no halt ("),
+        "the halt bit acts on travel commands only: {report}"
+    );
+    assert!(
+        report.contains("so quick stop sent; the drive confirmed it"),
+        "{report}"
+    );
+    thread::sleep(Duration::from_millis(300));
+    let after = status(addr);
+    assert_eq!(velocity(&after), 0.0, "{after}");
+    assert!(
+        !bits(&after).iter().any(|b| b == "PdiStatusHomingDone"),
+        "homing was cut short: {after}"
+    );
+}
+
+#[test]
+fn sighup_during_auto_setup_with_on_exit_switch_off_switches_the_drive_off() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    let args = ["--on-exit", "switch-off", "auto-setup", "--wait"];
+    let report = interrupt(addr, &args, "HUP", Duration::from_millis(1000));
+    assert!(report.contains("interrupted by SIGHUP"), "{report}");
+    assert!(
+        report.contains("switch-off sent; the drive confirmed it"),
+        "{report}"
+    );
+    let after = status(addr);
+    let set = bits(&after);
+    assert!(
+        !set.iter().any(|b| b == "PdiStatusOperationEnabled"),
+        "{after}"
+    );
+    assert!(
+        !set.iter().any(|b| b == "PdiStatusAutosetupDone"),
+        "{after}"
+    );
+}
+
 #[test]
 fn a_wait_that_times_out_stops_the_move_and_says_so() {
     let (_sim, addr) = Sim::tcp(&[]);
@@ -200,6 +311,20 @@ fn a_move_that_cannot_move_is_refused_before_anything_is_sent() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("max speed of 0 rpm"), "{stderr}");
     assert!(!stderr.contains("cannot connect"), "{stderr}");
+    for command in [
+        vec!["move-rel", "1000", "--speed", "0"],
+        vec!["torque", "100", "--max-speed", "0", "--slope", "1000"],
+    ] {
+        let mut args = vec!["--link", "modbus-tcp://127.0.0.1:1"];
+        args.extend_from_slice(&command);
+        let (code, _, stderr) = run(&args);
+        assert_eq!(code, 2, "{command:?}: {stderr}");
+        assert!(
+            stderr.contains(&format!("{}: a max speed of 0 rpm", command[0])),
+            "{stderr}"
+        );
+        assert!(!stderr.contains("cannot connect"), "{stderr}");
+    }
     // A ramp at 0 on the drive: refused after reading it, nothing sent.
     let (_sim, addr) = Sim::tcp(&[]);
     let link = link(addr);
@@ -208,6 +333,7 @@ fn a_move_that_cannot_move_is_refused_before_anything_is_sent() {
         assert_eq!(code, 0, "{stderr}");
         for command in [
             vec!["move-rel", "900", "--speed", "100"],
+            vec!["move-abs", "900", "--speed", "100"],
             vec!["velocity", "100"],
         ] {
             let mut args = vec!["--link", link.as_str()];
@@ -327,6 +453,110 @@ fn a_recording_whose_place_goes_away_is_saved_elsewhere_and_says_where() {
     let recording = read_back(&elsewhere);
     assert!(recording.len() > 150, "{} samples", recording.len());
     let _ = std::fs::remove_file(&elsewhere);
+}
+
+#[test]
+fn a_recording_no_place_takes_is_said_lost_and_exits_1() {
+    let dir = TempDir::new("record-nowhere");
+    let sub = dir.path.join("gone");
+    std::fs::create_dir_all(&sub).expect("dir");
+    let out = sub.join("run.csv");
+    let out = out.to_str().expect("utf-8");
+    let mut command = bin();
+    // The temporary directory, the place of last resort, does not exist either.
+    command
+        .args(record_args("sim", out, "1s"))
+        .env("TMPDIR", dir.path.join("no-tmp"));
+    let mut recorder = Process::spawn("drivedeck record", &mut command);
+    thread::sleep(Duration::from_millis(400));
+    std::fs::remove_dir_all(&sub).expect("remove the directory mid-recording");
+    let code = exit_code(&mut recorder, Duration::from_secs(10));
+    assert_eq!(
+        code,
+        1,
+        "a lost recording is no success: {}",
+        recorder.report()
+    );
+    let report: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
+    assert!(report["file"].is_null(), "no file to name: {report}");
+    let warnings = report["warnings"].to_string();
+    assert!(warnings.contains("the recording is lost"), "{warnings}");
+    assert!(warnings.contains("no-tmp"), "both places named: {warnings}");
+}
+
+/// `drivedeck move-rel` without --wait: the drive goes on moving after the command ends.
+fn start_a_long_move(addr: SocketAddr) {
+    let (code, stdout, stderr) =
+        run(&["--link", &link(addr), "move-rel", "300000", "--speed", "60"]);
+    assert_eq!(code, 0, "{stdout}{stderr}");
+}
+
+#[test]
+fn ctrl_c_during_a_recording_of_a_moving_drive_halts_it_and_the_file_says_so() {
+    let dir = TempDir::new("record-moving");
+    let out = dir.path.join("run.csv");
+    let out = out.to_str().expect("utf-8");
+    let (_sim, addr) = Sim::tcp(&[]);
+    start_a_long_move(addr);
+    let link = link(addr);
+    let mut recorder = start(&record_args(&link, out, "30s"));
+    thread::sleep(Duration::from_millis(1500));
+    signal(&recorder, "INT");
+    let code = exit_code(&mut recorder, Duration::from_secs(15));
+    assert_eq!(code, 130, "{}", recorder.report());
+    let report: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
+    let stopped = report["stopped"]
+        .as_str()
+        .expect("what was done to the drive");
+    assert!(
+        stopped.contains("halt sent; the drive confirmed it"),
+        "{stopped}"
+    );
+    let recording = read_back(out);
+    let why = recording.meta.ended_early.clone().expect("ended_early");
+    assert!(why.contains("interrupted by SIGINT"), "{why}");
+    assert!(why.contains("halt sent; the drive confirmed it"), "{why}");
+    assert!(recording.len() > 100, "{} samples", recording.len());
+    let after = status(addr);
+    assert_eq!(velocity(&after), 0.0, "{after}");
+}
+
+#[test]
+fn a_second_ctrl_c_while_the_drive_is_being_stopped_keeps_the_recording() {
+    let dir = TempDir::new("record-twice");
+    let out = dir.path.join("run.csv");
+    let out = out.to_str().expect("utf-8");
+    let (sim, addr) = Sim::tcp(&[]);
+    start_a_long_move(addr);
+    let link = link(addr);
+    let mut recorder = start(&record_args(&link, out, "30s"));
+    thread::sleep(Duration::from_millis(1500));
+    // A frozen drive: the stop cannot finish, and the user presses Ctrl-C again.
+    let pid = sim.process.pid().to_string();
+    let frozen = Command::new("kill")
+        .args(["-STOP", &pid])
+        .status()
+        .expect("kill");
+    assert!(frozen.success());
+    signal(&recorder, "INT");
+    thread::sleep(Duration::from_millis(600));
+    signal(&recorder, "INT");
+    let code = exit_code(&mut recorder, Duration::from_secs(10));
+    let _ = Command::new("kill").args(["-CONT", &pid]).status();
+    assert_eq!(code, 130, "{}", recorder.report());
+    assert!(
+        recorder.report().contains("again: exiting now"),
+        "{}",
+        recorder.report()
+    );
+    let recording = read_back(out);
+    assert!(recording.len() > 100, "{} samples", recording.len());
+    let why = recording.meta.ended_early.clone().expect("ended_early");
+    assert!(why.contains("interrupted by SIGINT"), "{why}");
+    assert!(
+        why.contains("the drive was being stopped (try to halt"),
+        "the file says the stop was under way: {why}"
+    );
 }
 
 #[test]
@@ -459,6 +689,74 @@ fn redirected_logs_carry_no_colour_codes() {
     );
     let log = refusal_log(&[("NO_COLOR", "1")]);
     assert!(!log.contains('\u{1b}'), "{log:?}");
+}
+
+/// What `drivedeck --link sim status` logs at `DRIVEDECK_LOG=trace` on a terminal (a
+/// pseudo-terminal made by util-linux's `script`), with `no_color` as NO_COLOR; `None`
+/// where there is no `script`.
+fn log_on_a_terminal(no_color: Option<&str>) -> Option<String> {
+    let mut command = Command::new("script");
+    command
+        .args(["-qec"])
+        .arg(format!(
+            "{} --link sim status",
+            env!("CARGO_BIN_EXE_drivedeck")
+        ))
+        .arg("/dev/null")
+        .env("DRIVEDECK_LOG", "trace")
+        .env_remove("NO_COLOR");
+    if let Some(value) = no_color {
+        command.env("NO_COLOR", value);
+    }
+    let out = command.output().ok()?;
+    assert!(out.status.success(), "{out:?}");
+    Some(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+#[test]
+fn a_terminal_gets_colour_unless_no_color_is_set() {
+    let Some(coloured) = log_on_a_terminal(None) else {
+        common::skip("no `script` (util-linux) to make a terminal with");
+        return;
+    };
+    assert!(coloured.contains("TRACE"), "{coloured:?}");
+    assert!(
+        coloured.contains('\u{1b}'),
+        "a terminal gets colour: {coloured:?}"
+    );
+    let plain = log_on_a_terminal(Some("1")).expect("script ran before");
+    assert!(plain.contains("TRACE"), "{plain:?}");
+    assert!(!plain.contains('\u{1b}'), "NO_COLOR=1: {plain:?}");
+    // no-color.org: an empty NO_COLOR is as if it were not set.
+    let empty = log_on_a_terminal(Some("")).expect("script ran before");
+    assert!(empty.contains('\u{1b}'), "NO_COLOR='': {empty:?}");
+}
+
+#[test]
+fn trace_shows_a_refused_read_before_the_refusal_and_the_frames_of_closing() {
+    let (code, _, stderr) = run(&[
+        "--link",
+        "canopen+sim://?node=1",
+        "--trace",
+        "read",
+        "5FFF:00",
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    let request = stderr
+        .find("upload 5FFFh:00h")
+        .unwrap_or_else(|| panic!("{stderr}"));
+    let abort = stderr
+        .find("SDO abort node 1 5FFFh:00h")
+        .unwrap_or_else(|| panic!("{stderr}"));
+    let error = stderr
+        .find("drivedeck: read 5FFFh:00h: abort 06020000h")
+        .unwrap_or_else(|| panic!("{stderr}"));
+    assert!(request < abort && abort < error, "{stderr}");
+    // Closing puts the PDO mapping back (TPDO1's COB-ID last): those frames show too.
+    assert!(
+        stderr[abort..].contains("download 1800h:01h"),
+        "the frames of closing: {stderr}"
+    );
 }
 
 #[test]

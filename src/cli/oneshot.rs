@@ -231,19 +231,18 @@ fn motion(
     }
 }
 
-/// A move that cannot move, refused before anything is sent: a max speed of 0.
+/// A move that cannot move, refused before anything is sent: a max speed of 0 (for a
+/// torque command, with a torque to apply: torque 0 at speed 0 is a way to hold still).
 fn refuse_still_moves(command: &Command) -> Result<(), Failure> {
-    match command {
-        Command::MoveAbs(a) | Command::MoveRel(a) if a.speed == 0 => Err(usage(format!(
-            "{}: a max speed of 0 rpm never moves the motor; nothing was sent (give --speed N, rpm)",
-            if matches!(command, Command::MoveAbs(_)) {
-                "move-abs"
-            } else {
-                "move-rel"
-            }
-        ))),
-        _ => Ok(()),
-    }
+    let (what, flag) = match command {
+        Command::MoveAbs(a) if a.speed == 0 => ("move-abs", "--speed N"),
+        Command::MoveRel(a) if a.speed == 0 => ("move-rel", "--speed N"),
+        Command::Torque(t) if t.max_speed == 0 && t.torque != 0 => ("torque", "--max-speed N"),
+        _ => return Ok(()),
+    };
+    Err(usage(format!(
+        "{what}: a max speed of 0 rpm never moves the motor; nothing was sent (give {flag}, rpm)"
+    )))
 }
 
 /// 6083h profile acceleration and 6084h profile deceleration: a profile move or velocity

@@ -20,13 +20,14 @@ use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{self, Address};
 use crate::telemetry::{
     Builtin, CaptureState, Condition, Edge, Kind, Recording, Scope, ScopeEvent, Trigger,
-    WatchedObject, hidden_beside, metadata, recording_text, utc_text, watchable, write_whole,
+    WatchedObject, check_writable, metadata, recording_text, utc_text, watchable, write_whole,
 };
 use crate::worker::{Event, MAX_WATCHED, Request};
 
 #[derive(Serialize, Debug)]
 struct RecordReport {
-    file: String,
+    /// Where the recording is; `None` when no place could take it.
+    file: Option<String>,
     samples: usize,
     seconds: f64,
     /// Samples per second actually taken.
@@ -237,7 +238,12 @@ fn plan(args: &RecordArgs, timeout: Duration) -> Result<Plan, Failure> {
         .map_err(usage)?
         .unwrap_or(timeout.as_secs_f64());
     // A place that cannot take the file is found now, not after the whole recording.
-    check_writable(&args.out).map_err(usage)?;
+    check_writable(&args.out).map_err(|e| {
+        usage(format!(
+            "cannot write --out {}: {e}; nothing was recorded",
+            shown_path(&args.out)
+        ))
+    })?;
     Ok(Plan {
         duration,
         wait,
@@ -261,25 +267,52 @@ fn record(
             "{e}: Ctrl-C will end drivedeck without saving the recording"
         ));
     }
-    prepare(&mut session, &mut plan, link, args.rate, timeout)?;
-    let (taker, cut) = take_samples(&mut session, plan, args.rate);
-    let (recording, stopped) = cut_out(&mut session, taker, &cut, args.rate, timeout)?;
-    Ok(finish(
-        session, recording, cut, stopped, link, args, warnings,
-    ))
+    let early_cut = prepare(&mut session, &mut plan, link, args.rate, timeout)?;
+    let (taker, cut) = take_samples(&mut session, plan, args.rate, early_cut);
+    let mut recording = cut_out(taker, &cut, args.rate)?;
+    // Saved before the drive is stopped: a second Ctrl-C while it brakes ends the process
+    // at once, and must not take the recording with it.
+    let interrupted = cut.as_ref().filter(|f| f.signal.is_some());
+    let stopping = interrupted.is_some() && session.is_moving_or_unknown();
+    let action = super::policy::on_exit();
+    if stopping && let Some(why) = &mut recording.meta.ended_early {
+        why.push_str(&format!(
+            "; the drive was being stopped ({}, --on-exit) when this was written",
+            action.name()
+        ));
+    }
+    let mut saved = save_safely(&recording, &args.out);
+    let mut stopped = None;
+    if let Some(cut) = interrupted.filter(|_| stopping) {
+        let done = session.stop_drive(action, timeout.min(STOP_WAIT));
+        recording.meta.ended_early = Some(format!("{}; {done}", early_why(cut, &recording)));
+        saved = saved.again(&recording);
+        stopped = Some(done);
+    }
+    let ending = Ending {
+        cut,
+        stopped,
+        saved,
+    };
+    Ok(finish(session, recording, ending, link, args, warnings))
 }
 
 /// The identity into the file's header, the watched objects asked for, the trigger armed.
+/// A signal or a lost link while that is under way cuts the recording short: the failure
+/// comes back as the cut.
 fn prepare(
     session: &mut Session,
     plan: &mut Plan,
     link: &LinkSpec,
     rate: f64,
     timeout: Duration,
-) -> Result<(), Failure> {
-    let (reads, _) = session.read_many(IDENTITY.to_vec(), timeout, |_, _| {});
+) -> Result<Option<Failure>, Failure> {
+    let (reads, cut) = session.read_many(IDENTITY.to_vec(), timeout, |_, _| {});
     let identity = DeviceIdentity::from_reads(&reads);
     plan.scope.meta = metadata(Some(&identity), &link.to_string(), rate);
+    if cut.is_some() {
+        return Ok(cut);
+    }
     if !plan.watched.is_empty() {
         session.send_request(Request::Watch(
             plan.watched.iter().map(|(w, d)| (w.address, *d)).collect(),
@@ -295,7 +328,7 @@ fn prepare(
             );
         }
     }
-    Ok(())
+    Ok(None)
 }
 
 /// Take samples until the recording is complete, or something cuts it short (the
@@ -304,6 +337,7 @@ fn take_samples(
     session: &mut Session,
     plan: Plan,
     rate: f64,
+    early_cut: Option<Failure>,
 ) -> (Taker<impl FnMut(usize, usize) + use<>>, Option<Failure>) {
     let started = Instant::now();
     let triggered = plan.trigger.is_some();
@@ -327,6 +361,9 @@ fn take_samples(
     // rate samples from t = 0).
     for sample in session.take_early_samples() {
         taker.take(&sample);
+    }
+    if early_cut.is_some() {
+        return (taker, early_cut);
     }
     while taker.window.is_none() {
         let deadline = Instant::now() + Duration::from_secs(5);
@@ -354,14 +391,12 @@ fn take_samples(
 }
 
 /// The recording: the complete window, or everything taken until the cut, with why it
-/// ended in its header (and, after a signal, the drive stopped by the policy).
+/// ended in its header.
 fn cut_out<F: FnMut(usize, usize)>(
-    session: &mut Session,
     taker: Taker<F>,
     cut: &Option<Failure>,
     rate: f64,
-    timeout: Duration,
-) -> Result<(Recording, Option<String>), Failure> {
+) -> Result<Recording, Failure> {
     let Taker {
         scope,
         window,
@@ -371,82 +406,85 @@ fn cut_out<F: FnMut(usize, usize)>(
     } = taker;
     let mut meta = scope.meta.clone();
     meta.trigger_time_s = fired_at;
-    meta.rate_asked_hz = Some(rate);
-    let mut stopped = None;
     let (from, to) = match (window, cut) {
         (Some(window), _) => window,
-        (None, Some(f)) => {
+        (None, Some(_)) => {
             let from = scope.ring().first_time().or(first_t).unwrap_or(0.0);
-            let to = scope.ring().last_time().unwrap_or(from);
-            let mut why = format!(
-                "{} at t = {to:.3} s ({})",
-                f.message,
-                utc_text(SystemTime::now())
-            );
-            if f.signal.is_some() && session.is_moving_or_unknown() {
-                let done = session.stop_drive(super::policy::on_exit(), timeout.min(STOP_WAIT));
-                why = format!("{why}; {done}");
-                stopped = Some(done);
-            }
-            meta.ended_early = Some(why);
-            (from, to)
+            (from, scope.ring().last_time().unwrap_or(from))
         }
         (None, None) => return Err(failed("no samples came")),
     };
     let mut recording = scope.export(from, to, meta, true);
-    // The file says the rate that was achieved, not only the one asked for.
-    recording.meta.rate_hz = Some(round_rate(achieved_rate(&recording)));
-    Ok((recording, stopped))
-}
-
-/// Samples per second in a recording.
-fn achieved_rate(recording: &Recording) -> f64 {
-    let seconds = recording.duration();
-    if seconds > 0.0 {
-        (recording.len().saturating_sub(1)) as f64 / seconds
-    } else {
-        0.0
+    if window.is_none()
+        && let Some(cut) = cut
+    {
+        recording.meta.ended_early = Some(early_why(cut, &recording));
     }
+    // The file says the rate that was achieved beside the one asked for.
+    recording.set_rates(rate);
+    Ok(recording)
 }
 
-/// Save the recording (elsewhere if its place fails) and say what was recorded.
+/// Why and when a recording ended early: the cut's words, the last sample's time and the
+/// wall-clock time.
+fn early_why(cut: &Failure, recording: &Recording) -> String {
+    format!(
+        "{} at t = {:.3} s ({})",
+        cut.message,
+        recording.times.last().copied().unwrap_or(0.0),
+        utc_text(SystemTime::now())
+    )
+}
+
+/// How a recording ended: what cut it short, what was done to the drive then, where the
+/// file went.
+struct Ending {
+    cut: Option<Failure>,
+    stopped: Option<String>,
+    saved: Saved,
+}
+
+/// Say what was recorded, where it went, and how the run ended.
 fn finish(
     mut session: Session,
     recording: Recording,
-    cut: Option<Failure>,
-    stopped: Option<String>,
+    ending: Ending,
     link: &LinkSpec,
     args: &RecordArgs,
     mut warnings: Vec<String>,
 ) -> RecordReport {
-    let achieved = achieved_rate(&recording);
+    let achieved = recording.achieved_rate();
     if recording.len() > 2 && achieved < 0.9 * args.rate {
         warnings.push(slow_rate(link, args.rate, achieved));
     }
+    let Ending {
+        cut,
+        stopped,
+        saved,
+    } = ending;
     let mut notes = session.take_notes();
-    let path = args.out.to_string_lossy().into_owned();
-    let file = match save_safely(&recording, &args.out) {
-        Ok(message) => {
-            notes.push(message);
-            path.clone()
+    let file = match &saved {
+        Saved::Here { message, path } => {
+            notes.push(message.clone());
+            Some(path.clone())
         }
-        Err((why, Some(elsewhere))) => {
+        Saved::Elsewhere { why, path } => {
             warnings.push(format!(
-                "{why}; the recording ({} samples) was saved to {elsewhere} instead",
+                "{why}; the recording ({} samples) was saved to {path} instead",
                 recording.len()
             ));
-            elsewhere
+            Some(path.clone())
         }
-        Err((why, None)) => {
+        Saved::Lost { why } => {
             warnings.push(format!("{why}; the recording is lost"));
-            path.clone()
+            None
         }
     };
     let signals = signal_reports(&recording, &mut warnings);
-    let code = match (&cut, file == path) {
+    let code = match (&cut, &saved) {
         (Some(f), _) if f.signal.is_some() => Some(EXIT_INTERRUPTED),
-        (Some(_), _) | (None, false) => Some(EXIT_FAILED),
-        (None, true) => None,
+        (Some(_), _) | (None, Saved::Elsewhere { .. } | Saved::Lost { .. }) => Some(EXIT_FAILED),
+        (None, Saved::Here { .. }) => None,
     };
     RecordReport {
         file,
@@ -486,11 +524,6 @@ fn signal_reports(recording: &Recording, warnings: &mut Vec<String>) -> Vec<Sign
             }
         })
         .collect()
-}
-
-/// A rate as it is worth writing: 0.1 Hz steps.
-fn round_rate(rate: f64) -> f64 {
-    (rate * 10.0).round() / 10.0
 }
 
 /// Why fewer samples came than asked for, where drivedeck knows.
@@ -564,30 +597,6 @@ impl<F: FnMut(usize, usize)> Taker<F> {
     }
 }
 
-/// Whether `path` can take the file: an existing file is opened for appending (nothing
-/// is changed), a new one is tried beside it and removed.
-fn check_writable(path: &Path) -> Result<(), String> {
-    let shown = shown_path(path);
-    if path.is_dir() {
-        return Err(format!("--out {shown} is a directory; give a file name"));
-    }
-    if path.exists() {
-        return std::fs::OpenOptions::new()
-            .append(true)
-            .open(path)
-            .map(|_| ())
-            .map_err(|e| format!("cannot write --out {shown}: {e}; nothing was recorded"));
-    }
-    let probe = hidden_beside(path, "check");
-    std::fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&probe)
-        .map_err(|e| format!("cannot write --out {shown}: {e}; nothing was recorded"))?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
-}
-
 /// A path as the user can find it again: absolute where it can be made so.
 fn shown_path(path: &Path) -> String {
     std::path::absolute(path)
@@ -596,36 +605,71 @@ fn shown_path(path: &Path) -> String {
         .to_string()
 }
 
+/// Where a recording went.
+enum Saved {
+    /// Where it was asked to go.
+    Here { message: String, path: String },
+    /// That place failed (`why`); the temporary directory took it.
+    Elsewhere { why: String, path: String },
+    /// No place took it.
+    Lost { why: String },
+}
+
+impl Saved {
+    /// Write the recording again where it went the first time (its header says more now);
+    /// if that fails, the file as first written stands.
+    fn again(self, recording: &Recording) -> Saved {
+        let path = match &self {
+            Saved::Here { path, .. } | Saved::Elsewhere { path, .. } => Path::new(path),
+            Saved::Lost { .. } => return self,
+        };
+        if let Err(e) = write_whole(path, &recording_text(recording, path)) {
+            tracing::warn!(
+                "{}: {e}; the file holds the recording as first written",
+                path.display()
+            );
+        }
+        self
+    }
+}
+
 /// Write the recording to `path` whole or not at all. When that fails, the recording goes
-/// to the temporary directory instead: `Err((why, Some(where)))`; `Err((why, None))` only
-/// if that fails too.
-fn save_safely(recording: &Recording, path: &Path) -> Result<String, (String, Option<String>)> {
+/// to the temporary directory instead; only if that fails too is it lost.
+fn save_safely(recording: &Recording, path: &Path) -> Saved {
     let shown = shown_path(path);
     let text = recording_text(recording, path);
-    match write_whole(path, &text) {
-        Ok(()) => Ok(format!(
-            "saved {} samples of {} signals ({:.2} s) to {shown}",
-            recording.len(),
-            recording.channels.len(),
-            recording.duration()
-        )),
-        Err(e) => {
-            let why = format!("cannot write {shown}: {e}");
-            let extension = path
-                .extension()
-                .map_or("csv".into(), |e| e.to_string_lossy().into_owned());
-            let elsewhere = std::env::temp_dir().join(format!(
-                "drivedeck-recording-{}-{}.{extension}",
-                std::process::id(),
-                SystemTime::now()
-                    .duration_since(SystemTime::UNIX_EPOCH)
-                    .map_or(0, |d| d.as_secs()),
-            ));
-            match write_whole(&elsewhere, &text) {
-                Ok(()) => Err((why, Some(elsewhere.display().to_string()))),
-                Err(e2) => Err((format!("{why}; nor to {}: {e2}", elsewhere.display()), None)),
-            }
+    let why = match write_whole(path, &text) {
+        Ok(()) => {
+            return Saved::Here {
+                message: format!(
+                    "saved {} samples of {} signals ({:.2} s) to {shown}",
+                    recording.len(),
+                    recording.channels.len(),
+                    recording.duration()
+                ),
+                path: path.to_string_lossy().into_owned(),
+            };
         }
+        Err(e) => format!("cannot write {shown}: {e}"),
+    };
+    let extension = path
+        .extension()
+        .map_or("csv".into(), |e| e.to_string_lossy().into_owned());
+    let elsewhere = std::env::temp_dir().join(format!(
+        "drivedeck-recording-{}-{}.{extension}",
+        std::process::id(),
+        SystemTime::now()
+            .duration_since(SystemTime::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs()),
+    ));
+    match write_whole(&elsewhere, &text) {
+        Ok(()) => Saved::Elsewhere {
+            why,
+            path: elsewhere.display().to_string(),
+        },
+        Err(e) => Saved::Lost {
+            why: format!("{why}; nor to {}: {e}", elsewhere.display()),
+        },
     }
 }
 
@@ -643,7 +687,10 @@ fn print(report: &RecordReport, json: bool) {
         report.seconds,
         report.rate,
         report.rate_asked,
-        report.file
+        report
+            .file
+            .as_deref()
+            .unwrap_or("nowhere (see the warning)")
     );
     if let Some(why) = &report.ended_early {
         outln!("ended early: {why}");

@@ -30,6 +30,31 @@ pub(super) struct Session {
     pub(super) interruptible: bool,
     pub(super) warnings: Vec<String>,
     pub(super) notes: Vec<String>,
+    /// Whether the frames are printed (`--trace`): then the link is closed before the
+    /// command ends, so that the frames of closing are printed too.
+    trace: bool,
+}
+
+/// How long the end of a traced command waits for the link to close.
+const CLOSE_WAIT: Duration = Duration::from_secs(2);
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        if !self.trace {
+            // Dropping the worker closes the link on the worker's way out.
+            return;
+        }
+        self.interruptible = false;
+        if self.send(Request::Disconnect).is_err() {
+            return;
+        }
+        let deadline = Instant::now() + CLOSE_WAIT;
+        while let Ok(event) = self.next(deadline) {
+            if matches!(event, Event::Disconnected { .. }) {
+                break;
+            }
+        }
+    }
 }
 
 impl Session {
@@ -74,6 +99,7 @@ impl Session {
             interruptible: false,
             warnings: vec![],
             notes: vec![],
+            trace,
         };
         session.send(Request::Connect(link.clone()))?;
         let deadline = Instant::now() + timeout;

@@ -495,55 +495,6 @@ pub fn metadata(identity: Option<&DeviceIdentity>, link: &str, rate_hz: f64) -> 
     }
 }
 
-/// The recording as the file at `path` wants it: JSON for a `.json` path, CSV otherwise.
-pub fn recording_text(recording: &Recording, path: &std::path::Path) -> String {
-    let json = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    if json {
-        recording.to_json()
-    } else {
-        recording.to_csv()
-    }
-}
-
-/// A hidden file beside `path`, for `what` (a write in progress, a check).
-pub fn hidden_beside(path: &std::path::Path, what: &str) -> std::path::PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "recording".into());
-    path.with_file_name(format!(".{name}.drivedeck-{what}-{}", std::process::id()))
-}
-
-/// Write `text` to `path` whole or not at all: into a hidden file beside it, then renamed
-/// over it, so that a failure midway (a full disk, a vanished directory) never leaves half
-/// a file nor spoils the one that was there.
-pub fn write_whole(path: &std::path::Path, text: &str) -> std::io::Result<()> {
-    let partial = hidden_beside(path, "partial");
-    let written = std::fs::write(&partial, text).and_then(|()| std::fs::rename(&partial, path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&partial);
-    }
-    written
-}
-
-/// Write a recording as CSV, or JSON for a `.json` path, whole or not at all.
-pub fn save_recording(recording: &Recording, path: &str) -> Result<String, String> {
-    if recording.is_empty() {
-        return Err("nothing to export: no samples in that span".into());
-    }
-    let file = std::path::Path::new(path);
-    write_whole(file, &recording_text(recording, file))
-        .map_err(|e| format!("cannot write {path}: {e}"))?;
-    Ok(format!(
-        "saved {} samples of {} signals ({:.2} s) to {path}",
-        recording.len(),
-        recording.channels.len(),
-        recording.duration()
-    ))
-}
-
 /// A value for the read-out: integers as integers, others with up to four decimals.
 pub fn format_number(v: f64) -> String {
     if v.fract() == 0.0 && v.abs() < 1e15 {
@@ -584,29 +535,6 @@ mod tests {
     use super::*;
     use crate::pdi::{Status, TxImage};
     use crate::telemetry::trigger::{Condition, Edge};
-
-    #[test]
-    fn a_file_is_written_whole_or_not_at_all() {
-        let dir = std::env::temp_dir().join(format!("drivedeck-whole-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("dir");
-        let path = dir.join("run.csv");
-        std::fs::write(&path, "old").expect("old file");
-        write_whole(&path, "new").expect("written");
-        assert_eq!(std::fs::read_to_string(&path).expect("read"), "new");
-        // Nothing half-written is left beside it.
-        let left: Vec<_> = std::fs::read_dir(&dir)
-            .expect("list")
-            .filter_map(|e| e.ok())
-            .map(|e| e.file_name())
-            .collect();
-        assert_eq!(left.len(), 1, "{left:?}");
-        // A place that is gone: an error, and no stray file anywhere.
-        let gone = dir.join("gone").join("run.csv");
-        let error = write_whole(&gone, "text").expect_err("no such directory");
-        assert_eq!(error.kind(), std::io::ErrorKind::NotFound);
-        assert_eq!(std::fs::read_to_string(&path).expect("read"), "new");
-        let _ = std::fs::remove_dir_all(&dir);
-    }
 
     fn sample(t: f64, position: f64, status: u16) -> Sample {
         Sample {

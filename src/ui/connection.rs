@@ -222,10 +222,10 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
                         health.rtt_max.as_secs_f64() * 1e3,
                         health.errors
                     ))
-                    .on_hover_text(if health.dropped_samples > 0 {
+                    .on_hover_text(if health.dropped_samples + health.dropped_frames > 0 {
                         format!(
-                            "{} samples dropped because the window was busy",
-                            health.dropped_samples
+                            "{} samples and {} traced frames dropped because the window was busy",
+                            health.dropped_samples, health.dropped_frames
                         )
                     } else {
                         "Process-image exchanges per second and their round-trip time".to_owned()

@@ -65,7 +65,6 @@ impl Session {
     pub(super) async fn cycle(
         &mut self,
         sink: &mut EventSink,
-        trace: bool,
         budget: Duration,
     ) -> Result<(), link::Error> {
         let outgoing = self.master.outgoing();
@@ -79,6 +78,7 @@ impl Session {
         self.rtt_max = self.rtt_max.max(rtt);
         self.master.on_tx(tx, now);
         self.master.poll(now);
+        self.trace_out(sink);
         self.report_progress(sink);
 
         let mut signals = exchange.signals;
@@ -96,11 +96,7 @@ impl Session {
         }
 
         self.run_jobs(sink, budget).await?;
-
-        let frames = self.link.take_trace();
-        if trace && !frames.is_empty() {
-            sink.emit(Event::Frames(frames));
-        }
+        self.trace_out(sink);
         self.report_link_news(sink);
         self.report_health(now, sink);
         Ok(())
@@ -134,6 +130,7 @@ impl Session {
             errors: self.errors,
             recovered: self.recovered,
             dropped_samples: sink.dropped_samples,
+            dropped_frames: sink.dropped_frames,
         }));
         self.cycles = 0;
         self.rtt_sum = Duration::ZERO;

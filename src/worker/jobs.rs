@@ -163,6 +163,7 @@ impl Session {
             .link
             .read_object(address, dtype.unwrap_or(DataType::Integer32))
             .await?;
+        self.trace_out(sink);
         match result {
             Ok(value) => {
                 sink.emit(Event::ObjectRead {
@@ -197,7 +198,9 @@ impl Session {
                 before
             }
         };
-        match self.link.write_object(address, dtype, value).await? {
+        let written = self.link.write_object(address, dtype, value).await?;
+        self.trace_out(sink);
+        match written {
             Ok(()) => {
                 sink.emit(Event::ObjectWritten {
                     id,

@@ -38,10 +38,7 @@ impl Session {
         config: &Config,
         sink: &mut EventSink,
     ) -> bool {
-        let frames = self.link.take_trace();
-        if config.trace && !frames.is_empty() {
-            sink.emit(Event::Frames(frames));
-        }
+        self.trace_out(sink);
         self.errors += 1;
         self.failures += 1;
         let lost_after = config.lost_after.clamp(1, MAX_LOST_AFTER);

@@ -318,6 +318,8 @@ pub struct Health {
     pub recovered: u64,
     /// Samples the UI was too slow to take (dropped, never queued without bound).
     pub dropped_samples: u64,
+    /// Traced frames dropped for the same reason (the outcomes they carried were not).
+    pub dropped_frames: u64,
 }
 
 /// Something the worker reports.

@@ -53,6 +53,8 @@ pub(super) struct Session {
     pub(super) before: HashMap<Address, Option<Value>>,
     /// Ids for the worker's own PDI reads (counting down from below `WORKER_ID`).
     pub(super) next_internal: RequestId,
+    /// Whether the frames exchanged go to the window or the terminal (`Event::Frames`).
+    pub(super) trace: bool,
 }
 
 impl Session {
@@ -68,8 +70,9 @@ impl Session {
         let first = match Self::first_exchange(&mut link, &mut master).await {
             Ok(first) => first,
             Err(error) => {
-                let frames = link.take_trace();
-                super::supervisor::close_link(&mut link, sink).await;
+                let mut frames = link.take_trace();
+                super::supervisor::close_link(&mut link, false, sink).await;
+                frames.extend(link.take_trace());
                 return Err((error, frames));
             }
         };
@@ -102,6 +105,7 @@ impl Session {
             jog_deadline: None,
             before: HashMap::new(),
             next_internal: WORKER_ID - 1,
+            trace: config.trace,
         })
     }
 
@@ -115,6 +119,15 @@ impl Session {
             master.adopt(rx);
         }
         link.exchange(None).await
+    }
+
+    /// The frames exchanged since the last call, where they are traced: sent ahead of any
+    /// outcome, so that a refusal or a failed command follows the frames that carried it.
+    pub(super) fn trace_out(&mut self, sink: &mut EventSink) {
+        let frames = self.link.take_trace();
+        if self.trace && !frames.is_empty() {
+            sink.emit(Event::Frames(frames));
+        }
     }
 
     /// The link is gone or closed: every command in flight and every queued job ends here,

@@ -8,6 +8,9 @@ use super::{Event, Notify};
 
 /// Important events wait here while the channel is full; beyond this many the oldest go.
 const BACKLOG_LIMIT: usize = 10_000;
+/// Traced frames wait in the backlog too (a `--trace` shows every one), but only while it
+/// is this short: beyond, the frames go and the outcomes stay.
+const FRAMES_BACKLOG_LIMIT: usize = 1_000;
 
 pub struct EventSink {
     tx: SyncSender<Event>,
@@ -15,6 +18,8 @@ pub struct EventSink {
     notify: Notify,
     pending_notify: bool,
     pub dropped_samples: u64,
+    /// Traced frames dropped because the receiver fell far behind.
+    pub dropped_frames: u64,
     /// The UI end is gone; the worker should stop.
     pub closed: bool,
 }
@@ -27,6 +32,7 @@ impl EventSink {
             notify,
             pending_notify: false,
             dropped_samples: 0,
+            dropped_frames: 0,
             closed: false,
         }
     }
@@ -52,7 +58,10 @@ impl EventSink {
                 self.dropped_samples += samples.len() as u64;
                 return;
             }
-            Event::Frames(_) => return,
+            Event::Frames(frames) if self.backlog.len() >= FRAMES_BACKLOG_LIMIT => {
+                self.dropped_frames += frames.len() as u64;
+                return;
+            }
             _ => {}
         }
         if self.backlog.len() >= BACKLOG_LIMIT {

@@ -74,14 +74,21 @@ pub async fn run(
         }
     }
     if let Some(mut s) = w.session.take() {
-        close_link(&mut s.link, sink).await;
+        close_link(&mut s.link, w.config.trace, sink).await;
         sink.flush();
     }
 }
 
 /// Close a link politely, and say what closing did (a mapping put back) or why it failed.
-pub(super) async fn close_link(link: &mut AnyLink, sink: &mut EventSink) {
+/// With `trace`, the frames closing took come first.
+pub(super) async fn close_link(link: &mut AnyLink, trace: bool, sink: &mut EventSink) {
     let closed = link.close().await;
+    if trace {
+        let frames = link.take_trace();
+        if !frames.is_empty() {
+            sink.emit(Event::Frames(frames));
+        }
+    }
     for notice in link.take_notices() {
         sink.emit(Event::Notice(notice));
     }
@@ -114,7 +121,7 @@ impl Supervisor {
         let budget = Duration::from_secs_f64(
             OBJECT_SHARE_OF_CYCLE / self.config.poll_rate.clamp(1.0, 2000.0),
         );
-        let result = s.cycle(sink, self.config.trace, budget).await;
+        let result = s.cycle(sink, budget).await;
         s.report_recovered(sink);
         match result {
             Ok(()) => s.exchange_succeeded(sink),
@@ -147,7 +154,7 @@ impl Supervisor {
                 retry_in: Some(self.backoff),
             });
         } else {
-            close_link(&mut s.link, sink).await;
+            close_link(&mut s.link, self.config.trace, sink).await;
             self.wanted = None;
         }
     }
@@ -155,14 +162,14 @@ impl Supervisor {
     /// Close the session and forget a broken link.
     pub(super) async fn close(&mut self, reason: Option<&str>, sink: &mut EventSink) {
         if let Some(mut s) = self.session.take() {
-            close_link(&mut s.link, sink).await;
+            close_link(&mut s.link, self.config.trace, sink).await;
             s.abandon_all(reason.unwrap_or("closed"), sink);
             if reason.is_some_and(|r| r != "disconnected") {
                 sink.emit(Event::Disconnected { reason: None });
             }
         }
         if let Some(mut link) = self.broken.take() {
-            close_link(&mut link, sink).await;
+            close_link(&mut link, self.config.trace, sink).await;
         }
     }
 
@@ -201,13 +208,11 @@ impl Supervisor {
 
     /// Connected: tell the window, and run the session from the next tick.
     fn adopt(&mut self, mut s: Session, sink: &mut EventSink) {
+        // What connecting took (PDO mapping, for one) comes before the news of it.
+        s.trace_out(sink);
         sink.emit(Event::Connected(s.link.info()));
         sink.emit(Event::LinkOwnChanges(s.link.own_changes()));
-        // What connecting took (PDO mapping, for one), and what the link learned.
-        let frames = s.link.take_trace();
-        if self.config.trace && !frames.is_empty() {
-            sink.emit(Event::Frames(frames));
-        }
+        // What the link learned.
         for notice in s.link.take_notices() {
             sink.emit(Event::Notice(notice));
         }

@@ -231,4 +231,23 @@ impl Recording {
             _ => 0.0,
         }
     }
+
+    /// Samples per second its rows were taken at (0 with fewer than two rows).
+    pub fn achieved_rate(&self) -> f64 {
+        let seconds = self.duration();
+        if seconds > 0.0 {
+            (self.len() - 1) as f64 / seconds
+        } else {
+            0.0
+        }
+    }
+
+    /// Write into the header the rate achieved (to 0.1 Hz) beside the rate `asked` for: an
+    /// I/O connection that delivers one image per RPI, a link slower than asked, show in
+    /// the file as what they are.
+    pub fn set_rates(&mut self, asked: f64) {
+        let achieved = self.achieved_rate();
+        self.meta.rate_hz = (self.len() > 1).then_some((achieved * 10.0).round() / 10.0);
+        self.meta.rate_asked_hz = Some(asked);
+    }
 }

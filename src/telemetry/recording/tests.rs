@@ -334,3 +334,26 @@ proptest! {
         let _ = Recording::from_json(&text);
     }
 }
+
+#[test]
+fn the_header_says_the_rate_achieved_beside_the_one_asked() {
+    let mut recording = Recording {
+        meta: Metadata {
+            rate_hz: Some(1000.0),
+            ..Metadata::default()
+        },
+        channels: vec![],
+        // An I/O connection at RPI 10 ms: one row every 10 ms, 1000 Hz asked.
+        times: (0..=100).map(|i| f64::from(i) * 0.010).collect(),
+        columns: vec![],
+        markers: vec![],
+    };
+    recording.set_rates(1000.0);
+    assert_eq!(recording.meta.rate_hz, Some(100.0));
+    assert_eq!(recording.meta.rate_asked_hz, Some(1000.0));
+    // One row says nothing about a rate.
+    recording.times.truncate(1);
+    recording.set_rates(1000.0);
+    assert_eq!(recording.meta.rate_hz, None);
+    assert_eq!(recording.achieved_rate(), 0.0);
+}

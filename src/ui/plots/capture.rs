@@ -376,7 +376,7 @@ fn save_triggered(state: &mut AppState) -> Result<String, String> {
         .recording()
         .cloned()
         .ok_or("no recording yet: arm the trigger, it records when it fires")?;
-    recording.meta.rate_hz = Some(state.settings.poll_rate);
+    recording.set_rates(state.settings.poll_rate);
     save(state, &recording, Export::Recording)
 }
 
@@ -384,9 +384,9 @@ fn save_triggered(state: &mut AppState) -> Result<String, String> {
 pub fn export_visible(state: &mut AppState) -> Result<String, String> {
     let (from, to) = super::time_range(state).ok_or("nothing recorded yet")?;
     let mut meta = state.scope.meta.clone();
-    meta.rate_hz = Some(state.settings.poll_rate);
     meta.note = Some("the visible window of the plots".into());
-    let recording = state.scope.export(from, to, meta, true);
+    let mut recording = state.scope.export(from, to, meta, true);
+    recording.set_rates(state.settings.poll_rate);
     save(state, &recording, Export::Visible)
 }
 
