@@ -1,7 +1,7 @@
 //! drivedeck: a commissioning tool for Nanotec motor controllers.
 //!
 //! Layers, lowest first (ARCHITECTURE.md draws them and gives the table of which module
-//! may import which; a test keeps it): the vocabulary (`number`, `cia`, `pdi`, `od`), the
+//! may import which; a test keeps it): the vocabulary (`number`, `file`, `cia`, `pdi`, `od`), the
 //! shared facts (`signal`, `injection`, `proto`: the sans-IO codecs), the buses (`link`),
 //! the simulated drive (`sim`), opening any link (`connect`), the loop (`worker`,
 //! `telemetry`, `diagnostics`) and the faces (`ui`, `cli`).
@@ -10,6 +10,7 @@ pub mod cia;
 pub mod cli;
 pub mod connect;
 pub mod diagnostics;
+pub mod file;
 pub mod injection;
 pub mod link;
 pub mod number;

@@ -293,7 +293,16 @@ fn the_frame_log_shows_explicit_and_class_1_traffic() {
             ObjectPath::Native,
         )
         .expect("read");
-    let mut texts = vec![];
+    // The read's own frames came before its result.
+    let mut texts: Vec<String> = probe
+        .seen
+        .iter()
+        .filter_map(|e| match e {
+            Event::Frames(frames) => Some(frames.iter().map(|f| f.text.clone())),
+            _ => None,
+        })
+        .flatten()
+        .collect();
     let deadline = Instant::now() + Duration::from_secs(5);
     while !(texts.iter().any(|t: &String| t.contains("GetOD (32h)"))
         && texts.iter().any(|t| t.contains("class 1 O→T"))

@@ -15,12 +15,13 @@ use super::progress;
 use super::session::Session;
 use super::stop::STOP_WAIT;
 use super::{EXIT_FAILED, EXIT_INTERRUPTED, RecordArgs, report};
+use crate::file::{check_writable, write_whole};
 use crate::link::LinkSpec;
 use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{self, Address};
 use crate::telemetry::{
     Builtin, CaptureState, Condition, Edge, Kind, Recording, Scope, ScopeEvent, Trigger,
-    WatchedObject, check_writable, metadata, recording_text, utc_text, watchable, write_whole,
+    WatchedObject, metadata, recording_text, utc_text, watchable,
 };
 use crate::worker::{Event, MAX_WATCHED, Request};
 
@@ -623,7 +624,7 @@ impl Saved {
             Saved::Here { path, .. } | Saved::Elsewhere { path, .. } => Path::new(path),
             Saved::Lost { .. } => return self,
         };
-        if let Err(e) = write_whole(path, &recording_text(recording, path)) {
+        if let Err(e) = write_whole(path, recording_text(recording, path)) {
             tracing::warn!(
                 "{}: {e}; the file holds the recording as first written",
                 path.display()

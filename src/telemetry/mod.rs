@@ -2,15 +2,15 @@
 //! decimation per pixel column), triggers, recordings and their files, and the plot model
 //! that ties them to the worker's samples (`Scope`).
 
-mod file;
 pub mod recording;
 pub mod ring;
+mod save;
 mod scope;
 pub mod trigger;
 
-pub use file::{check_writable, recording_text, save_recording, write_whole};
 pub use recording::{ChannelInfo, Marker, Metadata, Recording, RecordingError};
 pub use ring::{BitSpan, PushError, Ring};
+pub use save::{recording_text, save_recording};
 pub use scope::{
     Builtin, DEFAULT_HISTORY_ROWS, Kind, Scope, ScopeEvent, SignalDef, Source, WatchedObject,
     bit_name, format_number, metadata, utc_text, watchable,

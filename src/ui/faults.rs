@@ -22,7 +22,10 @@ pub fn faults_ui(ui: &mut Ui, state: &mut AppState) {
             .clicked()
         {
             let path = state.settings.timeline_path.clone();
-            let message = match std::fs::write(&path, state.timeline.to_csv()) {
+            let message = match crate::file::write_whole(
+                std::path::Path::new(&path),
+                state.timeline.to_csv(),
+            ) {
                 Ok(()) => format!("saved {} entries to {path}", state.timeline.len()),
                 Err(e) => format!("cannot write {path}: {e}"),
             };

@@ -109,7 +109,7 @@ fn frames_ui(ui: &mut Ui, state: &mut AppState) {
         {
             let text: String = state.frames.iter().map(|f| f.log_line() + "\n").collect();
             let path = state.settings.frame_log_path.clone();
-            match std::fs::write(&path, text) {
+            match crate::file::write_whole(std::path::Path::new(&path), text) {
                 Ok(()) => state.info(format!("{} frames written to {path}", state.frames.len())),
                 Err(e) => state.info(format!("could not write {path}: {e}")),
             }

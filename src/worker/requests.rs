@@ -114,6 +114,7 @@ impl Supervisor {
     fn set_trace(&mut self, on: bool) {
         self.config.trace = on;
         if let Some(s) = self.session.as_mut() {
+            s.trace = on;
             // Start from now: older frames are not news.
             let _ = s.link.take_trace();
         }

@@ -142,7 +142,7 @@ pub fn dump(
     let seconds = started.elapsed().as_secs_f64();
     notes.extend(session.take_notes());
     let file = Backup::new(&link.to_string(), &catalog, &reads, seconds_since_epoch());
-    std::fs::write(&args.out, file.to_json())
+    crate::file::write_whole(&args.out, file.to_json())
         .map_err(|e| failed(format!("cannot write {}: {e}", args.out.display())))?;
     let report = DumpReport {
         file: args.out.display().to_string(),

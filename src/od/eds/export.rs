@@ -88,7 +88,7 @@ impl Eds {
 
     /// Write the EDS to a file.
     pub fn save(&self, path: &Path) -> Result<(), EdsError> {
-        std::fs::write(path, self.to_text()).map_err(|source| EdsError::Write {
+        crate::file::write_whole(path, self.to_text()).map_err(|source| EdsError::Write {
             path: path.to_owned(),
             source,
         })

@@ -462,19 +462,21 @@ impl Browser {
             .map(|d| d.as_secs())
             .unwrap_or(0);
         let file = Backup::new(&self.link_text, self.catalog(), reads, saved_at);
-        self.message = Some(match std::fs::write(path, file.to_json()) {
-            Ok(()) => Ok(format!(
-                "saved {} objects of {} to {path}{}",
-                file.objects.len(),
-                file.identity.summary(),
-                if file.unreadable.is_empty() {
-                    String::new()
-                } else {
-                    format!(" ({} could not be read)", file.unreadable.len())
-                }
-            )),
-            Err(e) => Err(format!("cannot write {path}: {e}")),
-        });
+        self.message = Some(
+            match crate::file::write_whole(std::path::Path::new(path), file.to_json()) {
+                Ok(()) => Ok(format!(
+                    "saved {} objects of {} to {path}{}",
+                    file.objects.len(),
+                    file.identity.summary(),
+                    if file.unreadable.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" ({} could not be read)", file.unreadable.len())
+                    }
+                )),
+                Err(e) => Err(format!("cannot write {path}: {e}")),
+            },
+        );
     }
 
     /// Load a backup file for a comparison or a restore.

@@ -425,14 +425,16 @@ fn save_png(image: &egui::ColorImage, path: &Path) -> Result<String, String> {
 /// An RGBA PNG of `image`.
 pub fn write_png(image: &egui::ColorImage, path: &str) -> Result<String, String> {
     let [width, height] = image.size;
-    let file = std::fs::File::create(path).map_err(|e| format!("cannot write {path}: {e}"))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
+    let mut png_bytes = Vec::new();
+    let mut encoder = png::Encoder::new(&mut png_bytes, width as u32, height as u32);
     encoder.set_color(png::ColorType::Rgba);
     encoder.set_depth(png::BitDepth::Eight);
     let bytes: Vec<u8> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
     encoder
         .write_header()
         .and_then(|mut writer| writer.write_image_data(&bytes))
+        .map_err(|e| format!("cannot make the picture for {path}: {e}"))?;
+    crate::file::write_whole(Path::new(path), &png_bytes)
         .map_err(|e| format!("cannot write {path}: {e}"))?;
     Ok(format!(
         "saved a {width}x{height} picture of the plots to {path}"

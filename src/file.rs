@@ -1,26 +1,13 @@
-//! Recordings on disk: written whole or not at all, to the file the user named (through a
-//! symbolic link to its target, straight into a device or pipe such as `/dev/null`), and a
-//! place checked before a recording starts rather than after it ends.
+//! Files the tool writes (recordings, backups, exports, pictures): written whole or not at
+//! all, to the file the user named (through a symbolic link to its target, straight into a
+//! device or pipe such as `/dev/null`), and a place checked before a long recording starts
+//! rather than after it ends.
 
 use std::fs::OpenOptions;
 #[cfg(unix)]
 use std::fs::Permissions;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-use super::Recording;
-
-/// The recording as the file at `path` wants it: JSON for a `.json` path, CSV otherwise.
-pub fn recording_text(recording: &Recording, path: &Path) -> String {
-    let json = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    if json {
-        recording.to_json()
-    } else {
-        recording.to_csv()
-    }
-}
 
 /// Where writing `path` really writes. A symbolic link is followed (the link stays, its
 /// target gets the text); `Special` is an existing file that is no regular file (a device
@@ -75,7 +62,20 @@ fn beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
         }
         Err(_) => new_file_permissions(&mut builder),
     }
-    builder.tempfile_in(directory(path))
+    builder
+        .tempfile_in(directory(path))
+        .map_err(without_partial_name)
+}
+
+/// tempfile names its own file in an error ("… at path \"/dir/.run.csv.x1Y2.drivedeck-
+/// partial\""): the user never asked for that file, so the error names the cause only (the
+/// caller names the file the user asked for).
+fn without_partial_name(error: std::io::Error) -> std::io::Error {
+    let text = error.to_string();
+    match text.rsplit_once(" at path ") {
+        Some((cause, _)) => std::io::Error::new(error.kind(), cause.to_owned()),
+        None => error,
+    }
 }
 
 /// A new recording is readable by everyone and writable by its owner, less what the umask
@@ -90,23 +90,27 @@ fn new_file_permissions(builder: &mut tempfile::Builder) {
 #[cfg(not(unix))]
 fn new_file_permissions(_: &mut tempfile::Builder) {}
 
-/// Write `text` to `path` whole or not at all: into a hidden file beside it, then renamed
+/// Write `bytes` to `path` whole or not at all: into a hidden file beside it, then renamed
 /// over it, so that a failure midway (a full disk, a vanished directory) never leaves half
 /// a file nor spoils the one that was there. A symbolic link keeps pointing where it did;
 /// a device or pipe (`/dev/null`, `/dev/stdout`) is written into, never replaced.
-pub fn write_whole(path: &Path, text: &str) -> std::io::Result<()> {
+pub fn write_whole(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result<()> {
+    let bytes = bytes.as_ref();
     match place(path)? {
         Place::Special(path) => {
             let mut file = OpenOptions::new().write(true).open(path)?;
-            file.write_all(text.as_bytes())?;
+            file.write_all(bytes)?;
             file.flush()
         }
         Place::Regular(path) => {
             let mut partial = beside(&path)?;
-            partial.write_all(text.as_bytes())?;
+            partial.write_all(bytes)?;
             partial.as_file().sync_all()?;
             // On failure the partial file is removed as it drops.
-            partial.persist(&path).map(drop).map_err(|e| e.error)
+            partial
+                .persist(&path)
+                .map(drop)
+                .map_err(|e| without_partial_name(e.error))
         }
     }
 }
@@ -130,22 +134,6 @@ pub fn check_writable(path: &Path) -> std::io::Result<()> {
         }
         Place::Regular(path) => beside(&path).map(drop),
     }
-}
-
-/// Write a recording as CSV, or JSON for a `.json` path, whole or not at all.
-pub fn save_recording(recording: &Recording, path: &str) -> Result<String, String> {
-    if recording.is_empty() {
-        return Err("nothing to export: no samples in that span".into());
-    }
-    let file = Path::new(path);
-    write_whole(file, &recording_text(recording, file))
-        .map_err(|e| format!("cannot write {path}: {e}"))?;
-    Ok(format!(
-        "saved {} samples of {} signals ({:.2} s) to {path}",
-        recording.len(),
-        recording.channels.len(),
-        recording.duration()
-    ))
 }
 
 #[cfg(test)]
