@@ -1,5 +1,6 @@
 //! Sending a request again: how often, what each try met, and the error when every try
-//! went wrong. Shared by the links that own a byte stream (Modbus TCP/RTU, EtherNet/IP).
+//! went wrong. Shared by the links that own a byte stream (Modbus TCP/RTU, EtherNet/IP)
+//! and by CANopen's SDO transfers.
 
 use std::time::{Duration, Instant};
 

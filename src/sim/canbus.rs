@@ -75,4 +75,8 @@ impl CanBus for SimCanBus {
     fn describe(&self) -> String {
         "the simulated CAN bus".into()
     }
+
+    fn take_troubles(&mut self) -> Vec<String> {
+        self.port.take_troubles()
+    }
 }

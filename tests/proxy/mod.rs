@@ -281,8 +281,12 @@ pub enum Noise {
 #[derive(Default)]
 struct SerialState {
     chunks: u64,
-    plan: Vec<(u64, Noise)>,
+    /// (chunk number, noise, only to a line that starts so): the chunk with that number,
+    /// or with a prefix the first line from that number on that starts with it.
+    plan: Vec<(u64, Noise, Option<Vec<u8>>)>,
     applied: Vec<Noise>,
+    /// The lines applied noise to, as they came from the device.
+    spoiled: Vec<Vec<u8>>,
 }
 
 /// A proxy between two serial devices (each one end of a pty pair): bytes from `host`
@@ -347,10 +351,14 @@ impl SerialProxy {
                         let noise = s
                             .plan
                             .iter()
-                            .position(|(n, _)| *n == at)
+                            .position(|(n, _, only)| match only {
+                                None => *n == at,
+                                Some(prefix) => *n <= at && chunk.starts_with(prefix),
+                            })
                             .map(|i| s.plan.remove(i).1);
                         if let Some(noise) = noise {
                             s.applied.push(noise);
+                            s.spoiled.push(chunk.clone());
                         }
                         noise
                     };
@@ -390,10 +398,27 @@ impl SerialProxy {
     pub fn noise_in(&self, after: u64, noise: Noise) {
         let mut s = self.state.lock().expect("proxy state");
         let at = s.chunks + after;
-        s.plan.push((at, noise));
+        s.plan.push((at, noise, None));
+    }
+
+    /// Put `noise` on the first line from `after` lines on that starts with `prefix` (slcan:
+    /// `t581` for an SDO answer of node 1, `t181` for its TPDO1).
+    pub fn noise_on(&self, after: u64, noise: Noise, prefix: &[u8]) {
+        let mut s = self.state.lock().expect("proxy state");
+        let at = s.chunks + after;
+        s.plan.push((at, noise, Some(prefix.to_vec())));
     }
 
     pub fn applied(&self) -> Vec<Noise> {
         self.state.lock().expect("proxy state").applied.clone()
+    }
+
+    /// The lines noise was put on, as the device sent them.
+    pub fn spoiled(&self) -> Vec<String> {
+        let s = self.state.lock().expect("proxy state");
+        s.spoiled
+            .iter()
+            .map(|l| String::from_utf8_lossy(l).trim_end().to_owned())
+            .collect()
     }
 }

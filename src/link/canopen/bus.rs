@@ -14,6 +14,12 @@ pub trait CanBus {
     async fn recv(&mut self) -> Result<CanFrame, Error>;
     /// For messages: `can0`, `slcan /dev/ttyACM0 at 1 Mbit/s`, `memory bus`.
     fn describe(&self) -> String;
+    /// Troubles the bus got over by itself since the last call (garbled lines skipped,
+    /// lines the adapter refused, frames lost by a slow reader), each kind once with its
+    /// count, for the user's log. The link hands them on through `Link::take_recovered`.
+    fn take_troubles(&mut self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// An in-memory CAN bus: every port receives what every other port sends. Cheap to clone
@@ -29,6 +35,8 @@ pub struct MemoryPort {
     id: usize,
     tx: broadcast::Sender<(usize, CanFrame)>,
     rx: broadcast::Receiver<(usize, CanFrame)>,
+    /// Frames this port was too slow to receive, not yet reported.
+    lagged: u64,
 }
 
 impl MemoryBus {
@@ -44,6 +52,7 @@ impl MemoryBus {
             id: NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             tx: self.tx.clone(),
             rx: self.tx.subscribe(),
+            lagged: 0,
         }
     }
 }
@@ -67,7 +76,8 @@ impl CanBus for MemoryPort {
                 Ok((from, frame)) if from != self.id => return Ok(frame),
                 Ok(_) => {}
                 Err(broadcast::error::RecvError::Lagged(n)) => {
-                    tracing::warn!("memory CAN bus: {n} frames lost by a slow node");
+                    tracing::debug!("memory CAN bus: {n} frames lost by a slow node");
+                    self.lagged += n;
                 }
                 Err(broadcast::error::RecvError::Closed) => {
                     return Err(Error::Disconnected("the memory CAN bus is gone".into()));
@@ -78,6 +88,15 @@ impl CanBus for MemoryPort {
 
     fn describe(&self) -> String {
         "memory bus".into()
+    }
+
+    fn take_troubles(&mut self) -> Vec<String> {
+        match std::mem::take(&mut self.lagged) {
+            0 => Vec::new(),
+            n => vec![format!(
+                "memory bus: {n} frame(s) lost, this node read too slowly"
+            )],
+        }
     }
 }
 

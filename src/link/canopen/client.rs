@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use super::CanBus;
 use crate::cia::{AbortCode, ErrorCode};
+use crate::link::tries::{TRIES, Trouble, gave_up, silence};
 use crate::link::{
     Answer, CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Notice, NoticeKind, Refusal,
     Signals, TraceRecord, TraceRing,
@@ -19,17 +20,35 @@ use crate::proto::canopen::nmt::{self, NmtCommand};
 use crate::proto::canopen::pdo::{self, PdoComm, PdoKind, SdoWrite};
 use crate::proto::canopen::sdo::{SdoClient, SdoEvent};
 
-/// How long one SDO request may wait for its answer.
+/// How long one SDO request may wait for its answer, all its tries together.
+///
+/// A request goes out up to [`TRIES`] times. Each try waits [`SDO_TRY`] (a third of this)
+/// for every answer it expects (the initiate's, then each segment's, protocol notes §2.4),
+/// so a request nobody answers takes this long in all. A lost or garbled answer, or one
+/// that breaks the protocol (a wrong toggle, an unexpected command specifier), ends the
+/// try: the drive is sent the abort for the abandoned transfer (05040000h on a timeout,
+/// the protocol error's own code otherwise, protocol notes §2.5), so its server is free,
+/// and the transfer starts again from its initiate. An initiate answer naming another
+/// object is a late answer to an earlier request: skipped, the try goes on waiting (sending
+/// again would leave a second answer to arrive late in the next transfer, and so on). An
+/// abort from the drive is its answer, a refusal: never sent again.
 pub const SDO_TIMEOUT: Duration = Duration::from_millis(500);
+/// How long one try of an SDO request waits for each answer.
+pub const SDO_TRY: Duration =
+    Duration::from_micros((SDO_TIMEOUT.as_micros() / TRIES as u128) as u64);
 /// TPDO event timer: the drive sends its image at least this often, which is also how the
 /// link knows the drive is alive.
 const EVENT_TIMER_MS: u16 = 100;
+const EVENT_TIMER: Duration = Duration::from_millis(EVENT_TIMER_MS as u64);
 /// Inhibit time of the PDI TPDO: 2 ms (20 × 100 µs) keeps a busy drive from flooding the bus.
 const INHIBIT_100US: u16 = 20;
 /// The RPDO is repeated at least this often while it does not change.
 const RPDO_REFRESH: Duration = Duration::from_millis(50);
-/// No TPDO for this long: the drive is gone.
+/// No TPDO for this long is one failed exchange; each further [`EVENT_TIMER`] without one
+/// is one more (see [`CanopenLink::check_tpdo_silence`]).
 const SILENCE: Duration = Duration::from_millis(3 * EVENT_TIMER_MS as u64 + 200);
+/// Troubles got over kept for `take_recovered` when nobody takes them; more are counted.
+const RECOVERED_KEPT: usize = 64;
 
 /// How the PDI travels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,11 +79,18 @@ pub struct CanopenLink<B: CanBus> {
     /// one (not operational) is noticed as well as one that falls silent.
     last_tpdo: Option<Instant>,
     tpdo_seen: bool,
+    /// Event-timer periods past [`SILENCE`] reported as failed exchanges since the last
+    /// TPDO.
+    missed: u32,
     last_rx: Option<RxImage>,
     last_rpdo: Option<Instant>,
     saved: Saved,
     notices: Vec<Notice>,
     trace: TraceRing,
+    /// SDO troubles got over by sending again, not yet reported (at most
+    /// [`RECOVERED_KEPT`]; `recovered_dropped` counts the rest).
+    recovered: Vec<String>,
+    recovered_dropped: u64,
 }
 
 impl<B: CanBus> std::fmt::Debug for CanopenLink<B> {
@@ -106,11 +132,14 @@ impl<B: CanBus> CanopenLink<B> {
             tx: None,
             last_tpdo: None,
             tpdo_seen: false,
+            missed: 0,
             last_rx: None,
             last_rpdo: None,
             saved: Saved::default(),
             notices: vec![],
             trace: TraceRing::new(),
+            recovered: vec![],
+            recovered_dropped: 0,
         };
         match link.start().await {
             Ok(()) => Ok(link),
@@ -206,6 +235,7 @@ impl<B: CanBus> CanopenLink<B> {
                 self.tx = Some(tx);
                 self.last_tpdo = Some(Instant::now());
                 self.tpdo_seen = true;
+                self.missed = 0;
             }
         } else if cob == 0x80 + node
             && let Ok((_, emcy)) = Emcy::decode(frame)
@@ -230,80 +260,112 @@ impl<B: CanBus> CanopenLink<B> {
         }
     }
 
-    /// Receive until `want` accepts a frame or the timeout passes; everything else is
-    /// handled as unsolicited.
-    async fn await_frame<T>(
-        &mut self,
-        timeout: Duration,
-        what: &str,
-        mut want: impl FnMut(&mut Self, &CanFrame) -> Option<T>,
-    ) -> Result<T, Error> {
-        let deadline = Instant::now() + timeout;
+    /// Receive until the SDO client makes something of a frame (`Some`), or `deadline`
+    /// passes (`None`); every other frame is handled as unsolicited.
+    async fn await_sdo(&mut self, deadline: Instant) -> Result<Option<SdoEvent>, Error> {
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             let frame = match tokio::time::timeout(left, self.bus.recv()).await {
-                Err(_) => {
-                    return Err(Error::Timeout {
-                        what: format!(
-                            "{what} from node {} on {}",
-                            self.options.node,
-                            self.bus.describe()
-                        ),
-                        after: timeout,
-                    });
-                }
+                Err(_) => return Ok(None),
                 Ok(frame) => frame?,
             };
             self.trace(false, &frame);
-            if let Some(result) = want(self, &frame) {
-                return Ok(result);
+            match self.sdo.on_frame(&frame) {
+                SdoEvent::Ignored => self.unsolicited(&frame),
+                event => return Ok(Some(event)),
             }
-            self.unsolicited(&frame);
         }
     }
 
-    /// Run one SDO transfer to its end.
+    /// Run one SDO transfer to its end, `start` (the client's upload or download) sending
+    /// its first frame, up to [`TRIES`] times as [`SDO_TIMEOUT`] says. The drive's abort is
+    /// `Ok(Err(code))`; every try gone wrong is an error naming what each met.
     async fn sdo_transfer(
         &mut self,
-        first: CanFrame,
         what: &str,
+        start: impl Fn(&mut SdoClient) -> CanFrame,
     ) -> Result<Result<Vec<u8>, AbortCode>, Error> {
-        // Frames that arrived before this transfer (a stale answer to someone else's
-        // request, a TPDO) are not its answer.
-        self.drain(Duration::ZERO).await?;
-        self.send(&first).await?;
+        let what = format!("{what} from node {}", self.options.node);
+        let mut troubles = Vec::new();
+        for attempt in 1..=TRIES {
+            // Frames that arrived before this try (a TPDO, an EMCY, a stale answer to an
+            // earlier request) are not its answer.
+            self.drain(Duration::ZERO).await?;
+            let first = start(&mut self.sdo);
+            match self.sdo_try(first, &mut troubles).await {
+                Ok(answer) => {
+                    if !troubles.is_empty() {
+                        let on = if attempt > 1 {
+                            format!(" (answered on try {attempt})")
+                        } else {
+                            String::new()
+                        };
+                        self.got_over(format!("{what}: {}{on}", troubles.join("; ")));
+                    }
+                    return Ok(answer);
+                }
+                Err(Trouble::Retry(trouble)) => troubles.push(trouble),
+                Err(Trouble::Fatal(error)) => return Err(error),
+            }
+        }
+        Err(gave_up(
+            format!("{what} on {}", self.bus.describe()),
+            troubles,
+            SDO_TIMEOUT,
+            "",
+        ))
+    }
+
+    /// One try of an SDO transfer: `first` sent, then each answer awaited for [`SDO_TRY`].
+    /// Late answers to earlier requests, skipped, are added to `notes`.
+    async fn sdo_try(
+        &mut self,
+        first: CanFrame,
+        notes: &mut Vec<String>,
+    ) -> Result<Result<Vec<u8>, AbortCode>, Trouble> {
+        self.send(&first).await.map_err(Trouble::Fatal)?;
+        let mut sent_at = Instant::now();
         loop {
             let event = self
-                .await_frame(SDO_TIMEOUT, what, |link, frame| {
-                    match link.sdo.on_frame(frame) {
-                        SdoEvent::Ignored => None,
-                        event => Some(event),
-                    }
-                })
-                .await;
-            let event = match event {
-                Ok(event) => event,
-                Err(e) => {
-                    // Tell the drive we gave up, so its server is free again.
+                .await_sdo(sent_at + SDO_TRY)
+                .await
+                .map_err(Trouble::Fatal)?;
+            match event {
+                None => {
+                    // Tell the drive we gave up, so its server is free again (a failed
+                    // send shows in the next try's).
                     if let Some(abort) = self.sdo.abort(AbortCode::SDO_TIMEOUT) {
                         let _ = self.send(&abort).await;
                     }
-                    return Err(e);
+                    return Err(silence(sent_at, None));
                 }
-            };
-            match event {
-                SdoEvent::Send(next) => self.send(&next).await?,
-                SdoEvent::Uploaded(data) => return Ok(Ok(data)),
-                SdoEvent::Downloaded => return Ok(Ok(vec![])),
-                SdoEvent::Aborted(code) => return Ok(Err(code)),
-                SdoEvent::Protocol(problem) => {
+                Some(SdoEvent::Send(next)) => {
+                    self.send(&next).await.map_err(Trouble::Fatal)?;
+                    sent_at = Instant::now();
+                }
+                Some(SdoEvent::Uploaded(data)) => return Ok(Ok(data)),
+                Some(SdoEvent::Downloaded) => return Ok(Ok(vec![])),
+                Some(SdoEvent::Aborted(code)) => return Ok(Err(code)),
+                Some(SdoEvent::Stale(note)) => notes.push(note),
+                Some(SdoEvent::Protocol(problem)) => {
                     if let Some(abort) = self.sdo.take_abort() {
                         let _ = self.send(&abort).await;
                     }
-                    return Err(Error::Protocol(format!("{what}: {problem}")));
+                    return Err(Trouble::Retry(format!(
+                        "a reply that breaks the SDO protocol ({problem}): aborted"
+                    )));
                 }
-                SdoEvent::Ignored => {}
+                Some(SdoEvent::Ignored) => {}
             }
+        }
+    }
+
+    /// Keep a trouble got over for `take_recovered`, boundedly.
+    fn got_over(&mut self, trouble: String) {
+        if self.recovered.len() < RECOVERED_KEPT {
+            self.recovered.push(trouble);
+        } else {
+            self.recovered_dropped += 1;
         }
     }
 
@@ -312,10 +374,9 @@ impl<B: CanBus> CanopenLink<B> {
         index: u16,
         sub: u8,
     ) -> Result<Result<Vec<u8>, AbortCode>, Error> {
-        let first = self.sdo.upload(index, sub);
         self.sdo_transfer(
-            first,
             &format!("SDO upload of {}", Address::new(index, sub)),
+            |sdo| sdo.upload(index, sub),
         )
         .await
     }
@@ -326,11 +387,10 @@ impl<B: CanBus> CanopenLink<B> {
         sub: u8,
         data: &[u8],
     ) -> Result<Result<(), AbortCode>, Error> {
-        let first = self.sdo.download(index, sub, data);
         Ok(self
             .sdo_transfer(
-                first,
                 &format!("SDO download to {}", Address::new(index, sub)),
+                |sdo| sdo.download(index, sub, data),
             )
             .await?
             .map(|_| ()))
@@ -485,6 +545,74 @@ impl<B: CanBus> CanopenLink<B> {
         TxImage::from_bytes(&bytes).map_err(|e| Error::Protocol(e.to_string()))
     }
 
+    /// Whether the drive still speaks on the PDO path. Its TPDO comes at least every
+    /// [`EVENT_TIMER`] (the event timer, 1800h:05, protocol notes §2.3). No TPDO for
+    /// [`SILENCE`] fails the exchange once; from then on each further event-timer period
+    /// without one fails it once more: the exchange waits out the period (a TPDO that comes
+    /// meanwhile ends the wait, and the exchange goes through). So the worker's "lost after
+    /// N failed exchanges" means SILENCE + (N - 1) event-timer periods without a TPDO, at any
+    /// poll rate, as N unanswered requests would on the other buses. (Returning the last
+    /// image between those failures would count as a good exchange and start the count
+    /// afresh: a node that answers SDO but sends no PDOs, pre-operational, would never be
+    /// called lost; and the last halt on a loss would seem answered.)
+    async fn check_tpdo_silence(&mut self) -> Result<(), Error> {
+        let Some(last) = self.last_tpdo else {
+            return Err(self.tpdo_missing(SILENCE));
+        };
+        if last.elapsed() <= SILENCE {
+            return Ok(());
+        }
+        let allowed = SILENCE + EVENT_TIMER * self.missed;
+        let until = last + allowed;
+        if Instant::now() < until {
+            self.drain_until(until, |link| link.last_tpdo != Some(last))
+                .await?;
+            if self.last_tpdo != Some(last) {
+                return Ok(());
+            }
+        }
+        self.missed = self.missed.saturating_add(1);
+        Err(self.tpdo_missing(allowed))
+    }
+
+    /// The error for a TPDO that has not come for `after`.
+    fn tpdo_missing(&self, after: Duration) -> Error {
+        let (pdo, node) = (self.options.pdo, self.options.node);
+        Error::Timeout {
+            what: if self.tpdo_seen {
+                format!("TPDO{pdo} from node {node} (it comes every {EVENT_TIMER_MS} ms at least)")
+            } else {
+                format!(
+                    "the first TPDO{pdo} from node {node} after its NMT start (is the node operational?)"
+                )
+            },
+            after,
+        }
+    }
+
+    /// Take what arrives until `deadline`, or until `done` says so after a frame.
+    async fn drain_until(
+        &mut self,
+        deadline: Instant,
+        done: impl Fn(&Self) -> bool,
+    ) -> Result<(), Error> {
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Ok(());
+            }
+            let Ok(frame) = tokio::time::timeout(left, self.bus.recv()).await else {
+                return Ok(());
+            };
+            let frame = frame?;
+            self.trace(false, &frame);
+            self.unsolicited(&frame);
+            if done(self) {
+                return Ok(());
+            }
+        }
+    }
+
     /// Take what arrives within `window` (zero: only what has arrived already).
     async fn drain(&mut self, window: Duration) -> Result<(), Error> {
         let deadline = Instant::now() + window;
@@ -551,21 +679,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
                     self.last_rx = Some(*rx);
                 }
                 self.drain(Duration::from_millis(1)).await?;
-                if self.last_tpdo.is_none_or(|t| t.elapsed() > SILENCE) {
-                    let (pdo, node) = (self.options.pdo, self.options.node);
-                    return Err(Error::Timeout {
-                        what: if self.tpdo_seen {
-                            format!(
-                                "TPDO{pdo} from node {node} (it comes every {EVENT_TIMER_MS} ms at least)"
-                            )
-                        } else {
-                            format!(
-                                "the first TPDO{pdo} from node {node} after its NMT start (is the node operational?)"
-                            )
-                        },
-                        after: SILENCE,
-                    });
-                }
+                self.check_tpdo_silence().await?;
             }
             PdiPath::Absent => {
                 // Nothing to exchange; keep the bus read so EMCY and heartbeats are seen.
@@ -643,6 +757,20 @@ impl<B: CanBus> Link for CanopenLink<B> {
 
     fn take_notices(&mut self) -> Vec<Notice> {
         std::mem::take(&mut self.notices)
+    }
+
+    /// SDO requests answered on a later try, and what the bus got over (garbled slcan
+    /// lines skipped, lines the adapter refused).
+    fn take_recovered(&mut self) -> Vec<String> {
+        let mut troubles = std::mem::take(&mut self.recovered);
+        match std::mem::take(&mut self.recovered_dropped) {
+            0 => {}
+            n => troubles.push(format!(
+                "{n} more SDO request(s) answered on a later try, not kept"
+            )),
+        }
+        troubles.extend(self.bus.take_troubles());
+        troubles
     }
 
     fn own_changes(&self) -> Vec<String> {

@@ -46,6 +46,8 @@ async fn upload<B: CanBus>(
         };
         match client.on_frame(&frame) {
             SdoEvent::Ignored => other(&frame),
+            // A late answer to an earlier read: this one's may still come.
+            SdoEvent::Stale(_) => {}
             SdoEvent::Send(next) => bus.send(&next).await?,
             SdoEvent::Uploaded(data) => return Ok(Some(data)),
             SdoEvent::Downloaded | SdoEvent::Aborted(_) | SdoEvent::Protocol(_) => {

@@ -97,7 +97,8 @@ fn serial_open_error(path: &str, e: tokio_serial::Error) -> Error {
 ///
 /// Opening closes the adapter's channel (`C`), sets the bit rate (`Sn`) and opens it
 /// (`O`), checking each answer. Received frames come from `recv`; the adapter's OK and
-/// `z`/`Z` acknowledgements are skipped there, its refusals (BEL) are logged and counted.
+/// `z`/`Z` acknowledgements are skipped there; its refusals (BEL) and the garbled lines
+/// skipped are counted and handed to the user's log by [`CanBus::take_troubles`].
 /// [`SlcanBus::close`] closes the channel again; dropping the bus leaves it open (the
 /// next open closes it first).
 #[derive(Debug)]
@@ -109,6 +110,16 @@ pub struct SlcanBus<S> {
     frames: VecDeque<CanFrame>,
     refusals: u64,
     garbled_in_a_row: u32,
+    /// Not yet reported: garbled lines skipped (with the last one's fault) and refusals.
+    unreported: Unreported,
+}
+
+/// What [`SlcanBus::recv`] got over since the last [`CanBus::take_troubles`].
+#[derive(Debug, Default)]
+struct Unreported {
+    garbled: u32,
+    last_garbled: Option<SlcanError>,
+    refusals: u32,
 }
 
 /// So many garbled lines with nothing sensible in between make `recv` fail instead of
@@ -155,6 +166,7 @@ impl<S: AsyncRead + AsyncWrite + Unpin> SlcanBus<S> {
             frames: VecDeque::new(),
             refusals: 0,
             garbled_in_a_row: 0,
+            unreported: Unreported::default(),
         };
         // Any answer to `C` will do: a Lawicel adapter refuses to close a closed channel,
         // and a half command left in the adapter by an earlier session turns `C` into
@@ -304,7 +316,8 @@ impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanBus<S> {
                             SlcanLine::Ack => {}
                             SlcanLine::Error => {
                                 self.refusals += 1;
-                                tracing::warn!(
+                                self.unreported.refusals += 1;
+                                tracing::debug!(
                                     "slcan {}: the adapter refused a line (BEL): a frame it could not transmit?",
                                     self.name
                                 );
@@ -316,15 +329,20 @@ impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanBus<S> {
                     }
                     Err(e) => {
                         self.garbled_in_a_row += 1;
-                        tracing::warn!("slcan {}: {e}", self.name);
+                        tracing::debug!("slcan {}: {e}", self.name);
                         if self.garbled_in_a_row >= GARBLED_LIMIT {
-                            // Reported once per so many lines; good lines still get through.
+                            // Reported once per so many lines, by this error alone; good
+                            // lines still get through.
                             self.garbled_in_a_row = 0;
+                            self.unreported.garbled = 0;
+                            self.unreported.last_garbled = None;
                             return Err(Error::Protocol(format!(
                                 "the adapter at {} sends garbage ({GARBLED_LIMIT} lines in a row, the last: {e}): a wrong serial speed, or not an slcan adapter",
                                 self.name
                             )));
                         }
+                        self.unreported.garbled += 1;
+                        self.unreported.last_garbled = Some(e);
                     }
                 }
             }
@@ -346,6 +364,35 @@ impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanBus<S> {
 
     fn describe(&self) -> String {
         format!("slcan {} at {}", self.name, rate_text(self.bitrate))
+    }
+
+    /// At most one line per kind and call, with the count: a noisy line shows as "7 garbled
+    /// lines skipped" per cycle, not as seven lines.
+    fn take_troubles(&mut self) -> Vec<String> {
+        let Unreported {
+            garbled,
+            last_garbled,
+            refusals,
+        } = std::mem::take(&mut self.unreported);
+        let mut troubles = Vec::new();
+        if garbled > 0 {
+            let last = last_garbled.map(|e| e.to_string()).unwrap_or_default();
+            troubles.push(if garbled == 1 {
+                format!("slcan {}: 1 garbled line skipped: {last}", self.name)
+            } else {
+                format!(
+                    "slcan {}: {garbled} garbled lines skipped, the last: {last}",
+                    self.name
+                )
+            });
+        }
+        if refusals > 0 {
+            troubles.push(format!(
+                "slcan {}: the adapter refused {refusals} line(s) (BEL): frames it could not transmit?",
+                self.name
+            ));
+        }
+        troubles
     }
 }
 

@@ -15,8 +15,13 @@ pub enum SdoEvent {
     Aborted(AbortCode),
     /// Not an answer to this client's transfer (another COB-ID, or no transfer running).
     Ignored,
-    /// The server broke the protocol (wrong toggle, wrong index echo, unexpected command
-    /// specifier). The transfer is over; send [`SdoClient::take_abort`] to tell the server.
+    /// An initiate answer naming another object while this transfer waits for its own:
+    /// most likely the late answer to an earlier request that was given up on. The
+    /// transfer still waits (a retry would send a second request, whose answer would then
+    /// arrive late in the next transfer, and so on); the text says what was skipped.
+    Stale(String),
+    /// The server broke the protocol (wrong toggle, unexpected command specifier, a
+    /// segment that does not add up). The transfer is over; send [`SdoClient::take_abort`] to tell the server.
     Protocol(String),
 }
 
@@ -62,7 +67,7 @@ pub(super) enum ClientState {
 /// Start a transfer with [`upload`](Self::upload) or [`download`](Self::download) (which
 /// replaces any transfer still running), send the frame, and feed every received frame to
 /// [`on_frame`](Self::on_frame) until it returns something other than
-/// [`SdoEvent::Send`] / [`SdoEvent::Ignored`]. On a timeout, send
+/// [`SdoEvent::Send`] / [`SdoEvent::Ignored`] / [`SdoEvent::Stale`]. On a timeout, send
 /// [`abort`](Self::abort)`(AbortCode::SDO_TIMEOUT)`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SdoClient {
@@ -178,7 +183,8 @@ impl SdoClient {
                 },
             ) => {
                 if (echo_index, echo_sub) != (index, sub) {
-                    return self.wrong_echo(index, sub, echo_index, echo_sub);
+                    self.state = ClientState::UploadInitiate { index, sub };
+                    return stale(index, sub, echo_index, echo_sub);
                 }
                 match initiate {
                     Initiate::Expedited { .. } => {
@@ -275,7 +281,13 @@ impl SdoClient {
                 },
             ) => {
                 if (echo_index, echo_sub) != (index, sub) {
-                    return self.wrong_echo(index, sub, echo_index, echo_sub);
+                    self.state = ClientState::DownloadInitiate {
+                        index,
+                        sub,
+                        data,
+                        expedited,
+                    };
+                    return stale(index, sub, echo_index, echo_sub);
                 }
                 if expedited {
                     return SdoEvent::Downloaded;
@@ -357,13 +369,12 @@ impl SdoClient {
             ),
         )
     }
+}
 
-    fn wrong_echo(&mut self, index: u16, sub: u8, echo_index: u16, echo_sub: u8) -> SdoEvent {
-        self.fail(
-            index,
-            sub,
-            AbortCode::GENERAL_ERROR,
-            format!("the response names {echo_index:04X}h:{echo_sub:02X}h"),
-        )
-    }
+/// An initiate answer whose multiplexer (protocol notes §2.4, bytes 1-3) is not the running
+/// transfer's: skipped, the transfer keeps waiting.
+fn stale(index: u16, sub: u8, echo_index: u16, echo_sub: u8) -> SdoEvent {
+    SdoEvent::Stale(format!(
+        "an answer for {echo_index:04X}h:{echo_sub:02X}h while waiting for {index:04X}h:{sub:02X}h (a late answer to an earlier request): skipped"
+    ))
 }
