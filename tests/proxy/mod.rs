@@ -6,6 +6,7 @@
 
 #![allow(dead_code)]
 
+pub mod udp;
 use std::io::{Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::path::Path;

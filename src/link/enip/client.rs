@@ -436,6 +436,8 @@ impl EnipLink {
             to_connection: accepted.to_connection,
             target,
             ot_rpi: Duration::from_micros(u64::from(rpi_us.max(1000))),
+            to_rpi: Duration::from_micros(u64::from(open.to_rpi_us)),
+            timeout_factor: connection::timeout_factor(open.timeout_multiplier),
             to_timeout,
             ot_header: true,
             to_header: false,
@@ -474,6 +476,19 @@ impl EnipLink {
     }
 
     async fn forward_close(&mut self, opened: &Opened) {
+        if let Some(reply) = self.send_forward_close(opened).await
+            && !reply.status.is_success()
+        {
+            self.notices.push(format!(
+                "Forward_Close was refused: {}",
+                reply.status_text()
+            ));
+        }
+    }
+
+    /// Stop producing and ask the adapter to close the connection (by its triad, from any
+    /// session: protocol notes §3.4); its reply, if one came.
+    async fn send_forward_close(&mut self, opened: &Opened) -> Option<cip::Reply> {
         opened.handle.stop();
         let close = ForwardClose {
             tick: 0x0A,
@@ -486,14 +501,11 @@ impl EnipLink {
             &Path::object(class::CONNECTION_MANAGER, 1),
             close.encode(),
         );
-        if let Ok((reply, _)) = self.session.request(&request, vec![]).await
-            && !reply.status.is_success()
-        {
-            self.notices.push(format!(
-                "Forward_Close was refused: {}",
-                reply.status_text()
-            ));
-        }
+        self.session
+            .request(&request, vec![])
+            .await
+            .ok()
+            .map(|(reply, _)| reply)
     }
 
     /// The PDI over explicit messages: changed set values, the command last; then the TX
@@ -673,7 +685,11 @@ impl Link for EnipLink {
     }
 
     fn take_recovered(&mut self) -> Vec<String> {
-        self.session.take_recovered()
+        let mut all = self.session.take_recovered();
+        if let Some(opened) = &self.io {
+            all.extend(opened.handle.take_recovered());
+        }
+        all
     }
 
     fn take_trace(&mut self) -> Vec<crate::link::TraceRecord> {
@@ -693,11 +709,26 @@ impl Link for EnipLink {
     }
 
     async fn reconnect(&mut self) -> Result<(), Error> {
-        if let Some(opened) = self.io.take() {
+        let old = self.io.take();
+        if let Some(opened) = &old {
             opened.handle.stop();
         }
-        self.session = Session::open(&self.host, self.port, EXPLICIT_TIMEOUT).await?;
+        self.session = match Session::open(&self.host, self.port, EXPLICIT_TIMEOUT).await {
+            Ok(session) => session,
+            Err(e) => {
+                // Kept, stopped, for the next try to close.
+                self.io = old;
+                return Err(e);
+            }
+        };
         self.explicit_rx = None;
+        // The old I/O connection may live on in the adapter until its own timeout (our
+        // O→T datagrams stopped only when it timed out here) and would refuse the new one
+        // as an ownership conflict (protocol notes §3.5): close it first. The adapter may
+        // have closed it already ("connection not found"), which is as good.
+        if let Some(opened) = &old {
+            let _ = self.send_forward_close(opened).await;
+        }
         self.start().await
     }
 

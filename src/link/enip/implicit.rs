@@ -1,6 +1,11 @@
 //! The scanner side of a class 1 I/O connection: a task that sends the O→T assembly at
 //! the RPI, takes in the adapter's T→O packets, and declares the connection dead when
 //! they stop for the connection timeout. The link hands it outputs and waits for inputs.
+//!
+//! UDP may lose, repeat or reorder datagrams: only one newer (by its encapsulation
+//! sequence number) than every one before carries the current image, and only such a one
+//! keeps the connection alive (protocol notes §3.5). Copies and stale ones are dropped,
+//! counted, and reported as troubles got over, at a bounded rate.
 
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -10,7 +15,7 @@ use tokio::net::UdpSocket;
 use tokio::sync::Notify;
 
 use crate::link::{TraceRecord, TraceRing};
-use crate::proto::enip::io::IoPacket;
+use crate::proto::enip::io::{Arrival, IoPacket, Newest};
 use crate::proto::enip::wire::hex;
 
 /// What the I/O task needs to know.
@@ -23,7 +28,11 @@ pub struct IoConfig {
     /// Where O→T packets go.
     pub target: SocketAddr,
     pub ot_rpi: Duration,
-    /// No T→O packet for this long: the connection is dead.
+    /// The RPI the adapter produces T→O packets at.
+    pub to_rpi: Duration,
+    /// The connection timeout in RPIs (4 << the timeout multiplier, protocol notes §3.4).
+    pub timeout_factor: u32,
+    /// No T→O packet for this long (`to_rpi` × `timeout_factor`): the connection is dead.
     pub to_timeout: Duration,
     /// Whether O→T packets carry the run/idle header (they do, in RUN).
     pub ot_header: bool,
@@ -35,22 +44,78 @@ pub struct IoConfig {
     pub input_len: usize,
 }
 
+/// Dropped T→O datagrams are reported at most this often: a network that reorders does
+/// so again and again, and the log must not fill at the RPI.
+pub const REPORT_EVERY: Duration = Duration::from_secs(1);
+
 /// One T→O assembly as it arrived.
 #[derive(Clone, Debug)]
 pub struct Input {
     pub data: Vec<u8>,
-    /// Packets received up to and including this one.
+    /// Packets taken up to and including this one.
     pub number: u64,
+}
+
+/// T→O datagrams of this connection dropped by their sequence number.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Dropped {
+    /// Older than one already taken.
+    out_of_order: u64,
+    /// The same number as the newest taken.
+    duplicate: u64,
+}
+
+impl Dropped {
+    fn is_empty(&self) -> bool {
+        *self == Dropped::default()
+    }
+
+    /// The troubles in words, one line per kind.
+    fn words(&self) -> Vec<String> {
+        let many = |n: u64| if n == 1 { "" } else { "s" };
+        let mut out = vec![];
+        if self.out_of_order > 0 {
+            out.push(format!(
+                "{} T→O datagram{} came out of order and {} dropped (older than one already taken)",
+                self.out_of_order,
+                many(self.out_of_order),
+                if self.out_of_order == 1 {
+                    "was"
+                } else {
+                    "were"
+                }
+            ));
+        }
+        if self.duplicate > 0 {
+            out.push(format!(
+                "{} T→O datagram{} came twice and the {} dropped",
+                self.duplicate,
+                many(self.duplicate),
+                if self.duplicate == 1 {
+                    "copy was"
+                } else {
+                    "copies were"
+                }
+            ));
+        }
+        out
+    }
 }
 
 #[derive(Debug, Default)]
 struct Shared {
     output: Vec<u8>,
     input: Option<Input>,
+    /// Packets taken (each the newest so far).
     received: u64,
     sent: u64,
     /// Packets for other connections, or with the wrong size.
     stray: u64,
+    /// The sequence numbers of the packets taken.
+    newest: Newest,
+    /// Dropped since the last report.
+    unreported: Dropped,
+    reported_at: Option<Instant>,
     error: Option<String>,
     trace: TraceRing,
 }
@@ -110,6 +175,22 @@ impl IoHandle {
         (s.sent, s.received, s.stray)
     }
 
+    /// The datagrams dropped since the last report, in words: at once the first time,
+    /// then at most every [`REPORT_EVERY`] (the counts add up in between).
+    pub fn take_recovered(&self) -> Vec<String> {
+        let mut s = lock(&self.shared);
+        let now = Instant::now();
+        if s.unreported.is_empty() || s.reported_at.is_some_and(|at| now - at < REPORT_EVERY) {
+            return vec![];
+        }
+        s.reported_at = Some(now);
+        std::mem::take(&mut s.unreported)
+            .words()
+            .into_iter()
+            .map(|w| format!("class 1 I/O: {w}"))
+            .collect()
+    }
+
     /// The first input after packet number `after`, waiting up to `timeout`. An error says
     /// why the connection is dead.
     pub async fn input_after(&self, after: u64, timeout: Duration) -> Result<Input, String> {
@@ -130,10 +211,8 @@ impl IoHandle {
                 }
             }
             if tokio::time::timeout_at(deadline, notified).await.is_err() {
-                return Err(format!(
-                    "no I/O data from the adapter for {} ms",
-                    timeout.as_millis()
-                ));
+                // The task declares the timeout first unless it was kept from running.
+                return Err(timed_out(&self.config, timeout));
             }
         }
     }
@@ -151,6 +230,24 @@ impl Drop for IoHandle {
     fn drop(&mut self) {
         self.task.abort();
     }
+}
+
+/// The connection timed out after `silence` without a T→O datagram: what happened, and
+/// what brings it back. Both sides close a timed-out connection (protocol notes §3.4,
+/// §3.5: the scanner stops producing, so the adapter's own timeout follows), so only a
+/// new Forward_Open reopens it.
+fn timed_out(config: &IoConfig, silence: Duration) -> String {
+    let waited = if silence > config.to_timeout + config.to_rpi {
+        format!(" (none for {} ms)", silence.as_millis())
+    } else {
+        String::new()
+    };
+    format!(
+        "no T→O datagram for {} ms ({} × RPI {} ms): the I/O connection timed out{waited}; reconnecting opens it again",
+        config.to_timeout.as_millis(),
+        config.timeout_factor,
+        config.to_rpi.as_millis(),
+    )
 }
 
 async fn run(socket: UdpSocket, config: IoConfig, shared: Arc<Mutex<Shared>>, notify: Arc<Notify>) {
@@ -174,17 +271,15 @@ async fn run(socket: UdpSocket, config: IoConfig, shared: Arc<Mutex<Shared>>, no
                 };
                 if let Some(silence) = silent {
                     let mut s = lock(&shared);
-                    s.error = Some(format!(
-                        "the I/O connection timed out: no T→O packet for {} ms (timeout {} ms at RPI {} ms){}",
-                        silence.as_millis(),
-                        config.to_timeout.as_millis(),
-                        config.ot_rpi.as_millis(),
-                        if s.received == 0 {
-                            format!("; none ever reached UDP port {} here (a firewall, or another program on that port?)", socket.local_addr().map(|a| a.port()).unwrap_or(0))
-                        } else {
-                            String::new()
-                        }
-                    ));
+                    s.error = Some(if s.received == 0 {
+                        format!(
+                            "no T→O datagram in {} ms since the I/O connection opened; none ever reached UDP port {} here (a firewall, or another program on that port?)",
+                            silence.as_millis(),
+                            socket.local_addr().map(|a| a.port()).unwrap_or(0)
+                        )
+                    } else {
+                        timed_out(&config, silence)
+                    });
                     drop(s);
                     notify.notify_waiters();
                     return;
@@ -231,6 +326,28 @@ async fn run(socket: UdpSocket, config: IoConfig, shared: Arc<Mutex<Shared>>, no
                         if packet.connection == config.to_connection
                             && packet.data.len() == config.input_len =>
                     {
+                        let newest = s.newest.sequence().unwrap_or(0);
+                        let dropped = match s.newest.arrive(packet.sequence) {
+                            Arrival::Newest => None,
+                            Arrival::Duplicate => {
+                                s.unreported.duplicate += 1;
+                                Some("a copy, dropped")
+                            }
+                            Arrival::OutOfOrder => {
+                                s.unreported.out_of_order += 1;
+                                Some("out of order, dropped")
+                            }
+                        };
+                        if let Some(why) = dropped {
+                            // A stale image neither replaces the newest nor keeps the
+                            // connection alive (protocol notes §3.5).
+                            s.record(
+                                false,
+                                bytes,
+                                format!("class 1 T→O #{} count {} after #{newest}: {why}", packet.sequence, packet.count),
+                            );
+                            continue;
+                        }
                         let now = Instant::now();
                         last_input = Some(now);
                         s.received += 1;

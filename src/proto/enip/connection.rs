@@ -254,8 +254,12 @@ impl ForwardOpen {
 
 /// Connection timeout: RPI × 4 << multiplier (multiplier 0 to 7).
 pub fn timeout(rpi_us: u32, multiplier: u8) -> Duration {
-    let factor = 4u64 << multiplier.min(7);
-    Duration::from_micros(u64::from(rpi_us) * factor)
+    Duration::from_micros(u64::from(rpi_us) * u64::from(timeout_factor(multiplier)))
+}
+
+/// How many RPIs the connection timeout is: 4 << multiplier (multiplier 0 to 7).
+pub fn timeout_factor(multiplier: u8) -> u32 {
+    4 << multiplier.min(7)
 }
 
 /// Serial, vendor and originator serial: what Forward_Close and duplicate checks compare.

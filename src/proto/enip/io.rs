@@ -96,9 +96,85 @@ impl IoPacket {
     }
 }
 
+/// `a` comes after `b` in serial-number arithmetic on 32 bits: less than half the number
+/// space ahead, so the encapsulation sequence number may wrap (protocol notes §3.5).
+pub fn sequence_after(a: u32, b: u32) -> bool {
+    (a.wrapping_sub(b) as i32) > 0
+}
+
+/// What a datagram's encapsulation sequence number says about it, against the newest one
+/// taken on its connection (protocol notes §3.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Arrival {
+    /// Newer than any before: its data is the current image.
+    Newest,
+    /// The same number as the newest: a copy, dropped.
+    Duplicate,
+    /// Older than the newest: it came out of order, its image is stale, dropped.
+    OutOfOrder,
+}
+
+/// The consumer's side of one connection's sequence numbers: only a datagram newer than
+/// every one before carries the current image (protocol notes §3.5).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Newest {
+    sequence: Option<u32>,
+}
+
+impl Newest {
+    /// Judge a datagram's sequence number, remembering it when it is the newest. The
+    /// first datagram of a connection is the newest, whatever its number.
+    pub fn arrive(&mut self, sequence: u32) -> Arrival {
+        match self.sequence {
+            Some(newest) if sequence == newest => Arrival::Duplicate,
+            Some(newest) if !sequence_after(sequence, newest) => Arrival::OutOfOrder,
+            _ => {
+                self.sequence = Some(sequence);
+                Arrival::Newest
+            }
+        }
+    }
+
+    /// The newest sequence number taken so far.
+    pub fn sequence(&self) -> Option<u32> {
+        self.sequence
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_newest_datagram_by_sequence_number_wrapping_included() {
+        let mut newest = Newest::default();
+        assert_eq!(
+            newest.arrive(7),
+            Arrival::Newest,
+            "the first, whatever it is"
+        );
+        assert_eq!(newest.arrive(8), Arrival::Newest);
+        assert_eq!(newest.arrive(8), Arrival::Duplicate);
+        assert_eq!(newest.arrive(6), Arrival::OutOfOrder);
+        // One lost: a gap is no reason to drop the next.
+        assert_eq!(newest.arrive(10), Arrival::Newest);
+        assert_eq!(newest.arrive(9), Arrival::OutOfOrder);
+        assert_eq!(newest.sequence(), Some(10));
+        // Across the wrap: 0 comes after FFFFFFFFh, FFFFFFFEh does not after 1.
+        let mut newest = Newest::default();
+        assert_eq!(newest.arrive(u32::MAX - 1), Arrival::Newest);
+        assert_eq!(newest.arrive(u32::MAX), Arrival::Newest);
+        assert_eq!(newest.arrive(0), Arrival::Newest);
+        assert_eq!(newest.arrive(1), Arrival::Newest);
+        assert_eq!(newest.arrive(u32::MAX - 1), Arrival::OutOfOrder);
+        assert_eq!(newest.arrive(u32::MAX), Arrival::OutOfOrder);
+        assert_eq!(newest.arrive(1), Arrival::Duplicate);
+        assert!(sequence_after(0x8000_0000, 1));
+        assert!(
+            !sequence_after(0x8000_0001, 1),
+            "half the space ahead is behind"
+        );
+    }
 
     #[test]
     fn the_ot_packet_of_the_pdi_set_byte_for_byte() {

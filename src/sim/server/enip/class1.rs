@@ -25,7 +25,7 @@ impl Adapter {
         }
         if io
             .last_sequence
-            .is_some_and(|last| !newer(packet.sequence, last))
+            .is_some_and(|last| !sequence_after(packet.sequence, last))
         {
             return;
         }

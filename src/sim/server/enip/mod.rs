@@ -124,7 +124,7 @@ use crate::proto::enip::connection::{
 use crate::proto::enip::cpf::{self, Item, SockAddr};
 use crate::proto::enip::encap::{self, Command, Framed, Packet, RrData, Status};
 use crate::proto::enip::identity::{Identity, NANOTEC_VENDOR};
-use crate::proto::enip::io::{IoPacket, RUN_IDLE_LEN, SEQUENCE_COUNT_LEN};
+use crate::proto::enip::io::{IoPacket, RUN_IDLE_LEN, SEQUENCE_COUNT_LEN, sequence_after};
 use crate::proto::enip::nanotec::{self, Typed};
 use crate::proto::enip::wire::{DecodeError, Put};
 use crate::sim::{Drive, wrap_integer};
@@ -348,11 +348,6 @@ fn malformed(e: &DecodeError) -> GeneralStatus {
         DecodeError::Short { .. } => GeneralStatus::NOT_ENOUGH_DATA,
         DecodeError::Invalid { .. } => GeneralStatus::TOO_MUCH_DATA,
     }
-}
-
-/// `a` comes after `b` in 32-bit sequence arithmetic.
-fn newer(a: u32, b: u32) -> bool {
-    (a.wrapping_sub(b) as i32) > 0
 }
 
 fn int_of(drive: &Drive, index: u16, sub: u8) -> i64 {
