@@ -238,6 +238,50 @@ fn lost_after(lost_after: u32) {
 }
 
 #[test]
+fn a_link_lost_during_a_move_whose_last_halt_gets_through_says_the_drive_took_it() {
+    let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+    let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
+    let mut probe = Probe::connected(modbus(proxy.addr));
+    probe.send(Request::SetLostAfter(1));
+    let id = probe.send(Request::Command(Action::Velocity { speed: 60 }));
+    probe.wait(
+        "the velocity accepted",
+        Duration::from_secs(3),
+        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+    );
+    // One request's three tries are lost; the next frame, the last halt, goes through.
+    proxy.drop_next(3);
+    let lost = probe.wait("the link loss", Duration::from_secs(10), |e| {
+        matches!(e, Event::Disconnected { reason: Some(_) })
+    });
+    let Event::Disconnected {
+        reason: Some(reason),
+    } = lost
+    else {
+        unreachable!()
+    };
+    assert!(
+        reason.contains("a halt was sent and the drive"),
+        "the last halt reached the drive: {reason}"
+    );
+    assert!(!reason.contains("stop it at the machine"), "{reason}");
+    drop(probe);
+    // Found halted by a new connection.
+    let mut after = Probe::connected(modbus(server.addr));
+    after.wait("a sample", Duration::from_secs(3), |e| {
+        matches!(e, Event::Samples(_))
+    });
+    let halted = after.last.expect("a sample");
+    assert!(
+        halted
+            .tx
+            .status
+            .is_set(drivedeck::pdi::StatusBit::QsHaltBit),
+        "{halted:?}"
+    );
+}
+
+#[test]
 fn the_link_counts_as_lost_after_three_failed_exchanges_by_default() {
     lost_after(3);
 }

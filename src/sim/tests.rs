@@ -796,6 +796,23 @@ fn limit_switches_stop_travel_into_them() {
 }
 
 #[test]
+fn auto_setup_against_a_limit_switch_is_given_up_with_an_error() {
+    let mut rig = Rig::new();
+    // Homed onto the negative limit switch: the wiggle of auto setup runs into it.
+    rig.done(Action::Homing { method: 17 }, 30_000);
+    let tag = rig.send(Action::AutoSetup);
+    let (verdict, ms) = rig.finish(tag, 5000);
+    assert!(
+        matches!(verdict, Progress::Failed { .. }),
+        "refused, not waited out: {verdict:?}"
+    );
+    assert!(ms < AUTO_SETUP_TIME.as_millis() as u64, "{ms} ms");
+    let status = rig.status();
+    assert!(status.is_set(StatusBit::LimitReached));
+    assert!(!status.is_set(StatusBit::AutosetupDone));
+}
+
+#[test]
 fn controlword_drives_the_power_state_machine() {
     let mut rig = Rig::new();
     rig.write(0x6040, 0, Value::Uint(0x06));

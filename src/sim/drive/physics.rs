@@ -232,6 +232,12 @@ impl Drive {
             let into_positive = sensors.positive_limit && self.demand.velocity > 0.0;
             if into_negative || into_positive {
                 self.limit_stop = true;
+                // Auto setup cannot finish against a limit switch: the drive gives it up
+                // with PdiStatusError instead of standing there until the master times out.
+                if matches!(self.activity, Activity::AutoSetup { .. }) {
+                    self.activity = Activity::Idle;
+                    self.refuse(AbortCode::DEVICE_STATE);
+                }
             }
         }
 
