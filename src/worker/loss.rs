@@ -165,6 +165,11 @@ impl Session {
                     format!("{what} was sent and the drive answered, without showing it yet")
                 }
             }
+            // A timeout or replies that made no sense: the request may have gone out, but
+            // nothing confirmed it.
+            Ok(Err(e)) if e.is_momentary() => format!(
+                "{what} was sent, but no answer confirmed it ({e}): it may still be moving; stop it at the machine"
+            ),
             Ok(Err(e)) => format!(
                 "{what} did not reach the drive ({e}): it may still be moving; stop it at the machine"
             ),
