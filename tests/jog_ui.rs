@@ -111,9 +111,10 @@ fn escape_sends_quickstop_ahead_of_everything_queued() {
         Duration::from_secs(3),
         |h| velocity(h) > 50.0,
     );
-    // Twelve reads through the PDI queue up: each waits for the one before.
+    // Twenty-eight reads through the PDI queue up (the request channel holds 32): each waits for
+    // the one before, about three cycles each, so they take a while even on a busy machine.
     for sub in 1..=4 {
-        for _ in 0..3 {
+        for _ in 0..7 {
             harness.state_mut().state.request(Request::ReadObject {
                 address: Address::new(0x1018, sub),
                 dtype: Some(DataType::Unsigned32),
@@ -143,8 +144,8 @@ fn escape_sends_quickstop_ahead_of_everything_queued() {
         .filter(|e| e.what.starts_with("read 1018h") && e.outcome == Outcome::Queued)
         .count();
     assert!(
-        waiting >= 8,
-        "the quick stop went out while the reads queued before it still waited ({waiting} of 12)"
+        waiting >= 14,
+        "the quick stop went out while the reads queued before it still waited ({waiting} of 28)"
     );
     step_until(
         &mut harness,
