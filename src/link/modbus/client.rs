@@ -24,14 +24,7 @@ use crate::proto::modbus::registers::{
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(500);
 
 /// The factory TX process image (3602h defaults, NT-3602; protocol notes §1.3).
-pub const FACTORY_TX_MAP: [u32; 6] = [
-    0x6041_0010,
-    0x0005_0008,
-    0x6061_0008,
-    0x6064_0020,
-    0x6044_0010,
-    0x60FD_0020,
-];
+pub use crate::proto::modbus::registers::FACTORY_TX_MAP;
 
 /// Whether the device does something, as far as we know.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
