@@ -190,22 +190,10 @@ pub async fn discover(discovery: &Discovery) -> Result<Vec<FoundDevice>, Error> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::enip::cpf::SockAddr;
 
     #[test]
     fn a_found_adapter_is_reported_at_the_address_it_answered_from() {
-        let identity = Identity {
-            encap_version: 1,
-            socket: SockAddr::new("0.0.0.0:44818".parse().unwrap()),
-            vendor: 0x558,
-            device_type: 0x2B,
-            product_code: 7,
-            revision: (2, 5),
-            status: 0,
-            serial: 99,
-            product_name: "PD4-E".into(),
-            state: 3,
-        };
+        let identity = crate::proto::enip::identity::unaddressed_sample();
         let (address, device) = found(&identity, "10.1.2.3:44818".parse().unwrap());
         assert_eq!(address.to_string(), "10.1.2.3:44818");
         assert_eq!(device.vendor_name(), "Nanotec (ODVA 558h)");
