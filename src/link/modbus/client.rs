@@ -11,7 +11,7 @@
 
 use std::time::Duration;
 
-use super::transport::{Endpoint, Transport};
+use super::transport::Transport;
 use crate::link::{Answer, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
@@ -60,17 +60,16 @@ impl ModbusLink {
         spec: &LinkSpec,
         timeout: Duration,
     ) -> crate::link::Traced<ModbusLink> {
-        let endpoint = Endpoint::from_spec(spec).ok_or_else(|| {
-            (
-                Error::Unsupported(format!("{spec} is not a Modbus connection string")),
-                vec![],
-            )
-        })?;
         let order = match spec {
             LinkSpec::ModbusTcp { words, .. } | LinkSpec::ModbusRtu { words, .. } => *words,
-            _ => WordOrder::High,
+            _ => {
+                return Err((
+                    Error::Unsupported(format!("{spec} is not a Modbus connection string")),
+                    vec![],
+                ));
+            }
         };
-        let transport = Transport::connect(&endpoint, timeout)
+        let transport = Transport::connect(spec, timeout)
             .await
             .map_err(|e| (e, vec![]))?;
         let mut link = ModbusLink {
@@ -220,7 +219,7 @@ impl ModbusLink {
                     self.fc23 = Support::No;
                     self.notices.push(format!(
                         "{} does not support FC 23 (Read/Write Multiple Registers): using FC 16 then FC 4, two transactions per cycle",
-                        self.transport.endpoint().describe()
+                        self.transport.describe()
                     ));
                 }
                 result => {
@@ -314,7 +313,7 @@ impl Link for ModbusLink {
             spec: self.spec.clone(),
             description: format!(
                 "{bus} {} ({})",
-                self.transport.endpoint().describe(),
+                self.transport.describe(),
                 features.join(", ")
             ),
             native_objects: self.fc43 != Support::No,
@@ -447,7 +446,7 @@ impl ModbusLink {
                 self.fc43 = Support::No;
                 self.notices.push(format!(
                     "{} does not support FC 43 (CANopen objects over Modbus): objects go through PDI OD-Read/OD-Write, 32 bits at most",
-                    self.transport.endpoint().describe()
+                    self.transport.describe()
                 ));
                 Refusal::NotSupported
             }
