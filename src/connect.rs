@@ -119,57 +119,43 @@ impl AnyLink {
     }
 }
 
+/// `$body` with `$l` bound to the link inside `$link`, whichever kind it is.
+macro_rules! each_link {
+    ($link:expr, $l:ident => $body:expr) => {
+        match $link {
+            AnyLink::Sim($l) => $body,
+            AnyLink::Modbus($l) => $body,
+            AnyLink::Enip($l) => $body,
+            AnyLink::CanopenSim($l) => $body,
+            AnyLink::CanopenSlcan($l) => $body,
+            #[cfg(target_os = "linux")]
+            AnyLink::CanopenSocketcan($l) => $body,
+        }
+    };
+}
+
 impl Link for AnyLink {
     fn info(&self) -> LinkInfo {
         match self {
-            AnyLink::Sim(l) => l.info(),
-            AnyLink::Modbus(l) => l.info(),
-            AnyLink::Enip(l) => l.info(),
             // The node on the simulated bus is the simulated drive: its methods are known.
             AnyLink::CanopenSim(l) => LinkInfo {
                 homing_methods: Some(crate::sim::SUPPORTED_METHODS.to_vec()),
                 ..l.info()
             },
-            AnyLink::CanopenSlcan(l) => l.info(),
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.info(),
+            other => each_link!(other, l => l.info()),
         }
     }
 
     async fn exchange(&mut self, rx: Option<&RxImage>) -> Result<Exchange, Error> {
-        match self {
-            AnyLink::Sim(l) => l.exchange(rx).await,
-            AnyLink::Modbus(l) => l.exchange(rx).await,
-            AnyLink::Enip(l) => l.exchange(rx).await,
-            AnyLink::CanopenSim(l) => l.exchange(rx).await,
-            AnyLink::CanopenSlcan(l) => l.exchange(rx).await,
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.exchange(rx).await,
-        }
+        each_link!(self, l => l.exchange(rx).await)
     }
 
     async fn read_rx(&mut self) -> Result<Option<RxImage>, Error> {
-        match self {
-            AnyLink::Sim(l) => l.read_rx().await,
-            AnyLink::Modbus(l) => l.read_rx().await,
-            AnyLink::Enip(l) => l.read_rx().await,
-            AnyLink::CanopenSim(l) => l.read_rx().await,
-            AnyLink::CanopenSlcan(l) => l.read_rx().await,
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.read_rx().await,
-        }
+        each_link!(self, l => l.read_rx().await)
     }
 
     async fn read_object(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
-        match self {
-            AnyLink::Sim(l) => l.read_object(address, dtype).await,
-            AnyLink::Modbus(l) => l.read_object(address, dtype).await,
-            AnyLink::Enip(l) => l.read_object(address, dtype).await,
-            AnyLink::CanopenSim(l) => l.read_object(address, dtype).await,
-            AnyLink::CanopenSlcan(l) => l.read_object(address, dtype).await,
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.read_object(address, dtype).await,
-        }
+        each_link!(self, l => l.read_object(address, dtype).await)
     }
 
     async fn write_object(
@@ -178,98 +164,34 @@ impl Link for AnyLink {
         dtype: DataType,
         value: &Value,
     ) -> Answer<()> {
-        match self {
-            AnyLink::Sim(l) => l.write_object(address, dtype, value).await,
-            AnyLink::Modbus(l) => l.write_object(address, dtype, value).await,
-            AnyLink::Enip(l) => l.write_object(address, dtype, value).await,
-            AnyLink::CanopenSim(l) => l.write_object(address, dtype, value).await,
-            AnyLink::CanopenSlcan(l) => l.write_object(address, dtype, value).await,
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.write_object(address, dtype, value).await,
-        }
+        each_link!(self, l => l.write_object(address, dtype, value).await)
     }
 
     async fn scan(&mut self) -> Result<Vec<super_link::FoundDevice>, Error> {
-        match self {
-            AnyLink::Sim(l) => l.scan().await,
-            AnyLink::Modbus(l) => l.scan().await,
-            AnyLink::Enip(l) => l.scan().await,
-            AnyLink::CanopenSim(l) => l.scan().await,
-            AnyLink::CanopenSlcan(l) => l.scan().await,
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.scan().await,
-        }
+        each_link!(self, l => l.scan().await)
     }
 
     fn take_trace(&mut self) -> Vec<super_link::TraceRecord> {
-        match self {
-            AnyLink::Sim(l) => l.take_trace(),
-            AnyLink::Modbus(l) => l.take_trace(),
-            AnyLink::Enip(l) => l.take_trace(),
-            AnyLink::CanopenSim(l) => l.take_trace(),
-            AnyLink::CanopenSlcan(l) => l.take_trace(),
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.take_trace(),
-        }
+        each_link!(self, l => l.take_trace())
     }
 
     fn take_recovered(&mut self) -> Vec<String> {
-        match self {
-            AnyLink::Sim(l) => l.take_recovered(),
-            AnyLink::Modbus(l) => l.take_recovered(),
-            AnyLink::Enip(l) => l.take_recovered(),
-            AnyLink::CanopenSim(l) => l.take_recovered(),
-            AnyLink::CanopenSlcan(l) => l.take_recovered(),
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.take_recovered(),
-        }
+        each_link!(self, l => l.take_recovered())
     }
 
     fn take_notices(&mut self) -> Vec<super_link::Notice> {
-        match self {
-            AnyLink::Sim(l) => l.take_notices(),
-            AnyLink::Modbus(l) => l.take_notices(),
-            AnyLink::Enip(l) => l.take_notices(),
-            AnyLink::CanopenSim(l) => l.take_notices(),
-            AnyLink::CanopenSlcan(l) => l.take_notices(),
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.take_notices(),
-        }
+        each_link!(self, l => l.take_notices())
     }
 
     fn own_changes(&self) -> Vec<String> {
-        match self {
-            AnyLink::Sim(l) => l.own_changes(),
-            AnyLink::Modbus(l) => l.own_changes(),
-            AnyLink::Enip(l) => l.own_changes(),
-            AnyLink::CanopenSim(l) => l.own_changes(),
-            AnyLink::CanopenSlcan(l) => l.own_changes(),
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.own_changes(),
-        }
+        each_link!(self, l => l.own_changes())
     }
 
     async fn reconnect(&mut self) -> Result<(), Error> {
-        match self {
-            AnyLink::Sim(l) => l.reconnect().await,
-            AnyLink::Modbus(l) => l.reconnect().await,
-            AnyLink::Enip(l) => l.reconnect().await,
-            AnyLink::CanopenSim(l) => l.reconnect().await,
-            AnyLink::CanopenSlcan(l) => l.reconnect().await,
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.reconnect().await,
-        }
+        each_link!(self, l => l.reconnect().await)
     }
 
     async fn close(&mut self) -> Result<(), Error> {
-        match self {
-            AnyLink::Sim(l) => l.close().await,
-            AnyLink::Modbus(l) => l.close().await,
-            AnyLink::Enip(l) => l.close().await,
-            AnyLink::CanopenSim(l) => l.close().await,
-            AnyLink::CanopenSlcan(l) => l.close().await,
-            #[cfg(target_os = "linux")]
-            AnyLink::CanopenSocketcan(l) => l.close().await,
-        }
+        each_link!(self, l => l.close().await)
     }
 }

@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use tokio::io::{AsyncWrite, AsyncWriteExt};
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 
 use super::Error;
 
@@ -61,6 +61,31 @@ pub(crate) async fn send_within<W: AsyncWrite + Unpin>(
         })),
         Ok(Err(e)) => Err(Trouble::Fatal(io_error(what, e))),
         Ok(Ok(())) => Ok(()),
+    }
+}
+
+/// Read what comes next (up to `CHUNK` bytes) onto `buffer` before `deadline`: `true`
+/// when something came, `false` at the deadline. A read that fails, or a peer that
+/// closes the stream (`closed` says what closed), ends the request.
+pub(crate) async fn read_within<R: AsyncRead + Unpin, const CHUNK: usize>(
+    reader: &mut R,
+    buffer: &mut Vec<u8>,
+    deadline: Instant,
+    what: &str,
+    closed: &str,
+    io_error: impl FnOnce(&str, std::io::Error) -> Error,
+) -> Result<bool, Trouble> {
+    let mut chunk = [0u8; CHUNK];
+    match tokio::time::timeout_at(deadline.into(), reader.read(&mut chunk)).await {
+        Err(_) => Ok(false),
+        Ok(Err(e)) => Err(Trouble::Fatal(io_error(what, e))),
+        Ok(Ok(0)) => Err(Trouble::Fatal(Error::Disconnected(format!(
+            "{what}: {closed}"
+        )))),
+        Ok(Ok(n)) => {
+            buffer.extend_from_slice(&chunk[..n]);
+            Ok(true)
+        }
     }
 }
 

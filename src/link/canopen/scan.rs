@@ -62,33 +62,7 @@ async fn upload<B: CanBus>(
 
 /// Find the nodes on `bus`.
 pub async fn scan<B: CanBus>(bus: &mut B) -> Result<Vec<FoundDevice>, Error> {
-    let mut states: BTreeMap<u8, NmtState> = BTreeMap::new();
-    let mut vendors: BTreeMap<u8, u32> = BTreeMap::new();
-    let mut clients: Vec<SdoClient> = (1..=127u8).map(SdoClient::new).collect();
-    for client in clients.iter_mut() {
-        bus.send(&client.upload(0x1018, 1)).await?;
-    }
-    let deadline = Instant::now() + ANSWER_WINDOW;
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        let frame = match tokio::time::timeout(left, bus.recv()).await {
-            Err(_) => break,
-            Ok(frame) => frame?,
-        };
-        if let Ok((node, state)) = nmt::decode_heartbeat(&frame) {
-            states.insert(node, state);
-            continue;
-        }
-        let Some(cob) = frame.cob_id() else { continue };
-        if (0x581..=0x5FF).contains(&cob) {
-            let node = (cob - 0x580) as u8;
-            if let Some(client) = clients.get_mut(usize::from(node - 1))
-                && let SdoEvent::Uploaded(data) = client.on_frame(&frame)
-            {
-                vendors.insert(node, u32_of(&data).unwrap_or(0));
-            }
-        }
-    }
+    let (mut states, vendors) = listen(bus).await?;
     let mut found: Vec<u8> = vendors.keys().chain(states.keys()).copied().collect();
     found.sort_unstable();
     found.dedup();
@@ -124,4 +98,39 @@ pub async fn scan<B: CanBus>(bus: &mut B) -> Result<Vec<FoundDevice>, Error> {
         });
     }
     Ok(devices)
+}
+
+/// Read 1018h:01 from every node id at once and listen for [`ANSWER_WINDOW`]: the NMT
+/// states heard (boot-ups, heartbeats) and the vendor ids that came back, by node.
+async fn listen<B: CanBus>(
+    bus: &mut B,
+) -> Result<(BTreeMap<u8, NmtState>, BTreeMap<u8, u32>), Error> {
+    let mut states: BTreeMap<u8, NmtState> = BTreeMap::new();
+    let mut vendors: BTreeMap<u8, u32> = BTreeMap::new();
+    let mut clients: Vec<SdoClient> = (1..=127u8).map(SdoClient::new).collect();
+    for client in clients.iter_mut() {
+        bus.send(&client.upload(0x1018, 1)).await?;
+    }
+    let deadline = Instant::now() + ANSWER_WINDOW;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let frame = match tokio::time::timeout(left, bus.recv()).await {
+            Err(_) => break,
+            Ok(frame) => frame?,
+        };
+        if let Ok((node, state)) = nmt::decode_heartbeat(&frame) {
+            states.insert(node, state);
+            continue;
+        }
+        let Some(cob) = frame.cob_id() else { continue };
+        if (0x581..=0x5FF).contains(&cob) {
+            let node = (cob - 0x580) as u8;
+            if let Some(client) = clients.get_mut(usize::from(node - 1))
+                && let SdoEvent::Uploaded(data) = client.on_frame(&frame)
+            {
+                vendors.insert(node, u32_of(&data).unwrap_or(0));
+            }
+        }
+    }
+    Ok((states, vendors))
 }

@@ -57,6 +57,25 @@ impl<S: AsyncRead + AsyncWrite + Unpin> Wire<S> {
         self.splitter.push(&chunk[..n]);
         Ok(n)
     }
+
+    /// The next of `frames`, else more of the stream read (`None`: split the lines
+    /// again). `closed` is the error when the other end closed the stream, `failed` words
+    /// a read that failed.
+    async fn next_or_fill(
+        &mut self,
+        frames: &mut VecDeque<CanFrame>,
+        closed: impl FnOnce() -> Error,
+        failed: impl FnOnce(io::Error) -> Error,
+    ) -> Result<Option<CanFrame>, Error> {
+        if let Some(frame) = frames.pop_front() {
+            return Ok(Some(frame));
+        }
+        match self.fill().await {
+            Ok(0) => Err(closed()),
+            Ok(_) => Ok(None),
+            Err(e) => Err(failed(e)),
+        }
+    }
 }
 
 /// The other end went away: EOF, a broken pipe, or EIO (a pseudo-terminal whose other
@@ -67,6 +86,16 @@ fn is_gone(e: &io::Error) -> bool {
         e.kind(),
         BrokenPipe | UnexpectedEof | ConnectionReset | ConnectionAborted | WriteZero
     ) || e.raw_os_error() == Some(5)
+}
+
+/// A failed read or write: the other end went away (`gone` says so), or an I/O error in
+/// `context`.
+fn io_error(e: io::Error, context: String, gone: impl FnOnce(&io::Error) -> String) -> Error {
+    if is_gone(&e) {
+        Error::Disconnected(gone(&e))
+    } else {
+        Error::Io { context, source: e }
+    }
 }
 
 fn serial_open_error(path: &str, e: tokio_serial::Error) -> Error {
@@ -221,7 +250,7 @@ impl<S: AsyncRead + AsyncWrite + Unpin> SlcanBus<S> {
         let what = format!("sending `{command}`");
         match tokio::time::timeout_at(deadline, self.wire.flush()).await {
             Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(self.io_error(&what, e)),
+            Ok(Err(e)) => return Err(adapter_io_error(&self.name, &what, e)),
             Err(_) => return Err(self.silent(command, heard, false)),
         }
         let mut garbage = false;
@@ -251,7 +280,13 @@ impl<S: AsyncRead + AsyncWrite + Unpin> SlcanBus<S> {
                     )));
                 }
                 Ok(Ok(_)) => {}
-                Ok(Err(e)) => return Err(self.io_error(&format!("waiting for `{command}`"), e)),
+                Ok(Err(e)) => {
+                    return Err(adapter_io_error(
+                        &self.name,
+                        &format!("waiting for `{command}`"),
+                        e,
+                    ));
+                }
                 Err(_) => return Err(self.silent(command, heard, garbage)),
             }
         }
@@ -281,19 +316,55 @@ impl<S: AsyncRead + AsyncWrite + Unpin> SlcanBus<S> {
         }
     }
 
-    fn io_error(&self, what: &str, e: io::Error) -> Error {
-        if is_gone(&e) {
-            Error::Disconnected(format!(
-                "the adapter at {} went away while {what} ({e}): was it unplugged?",
-                self.name
-            ))
-        } else {
-            Error::Io {
-                context: format!("slcan adapter at {}: {what}", self.name),
-                source: e,
+    /// A line from the adapter: a frame is queued, a refusal counted; a garbled line is
+    /// counted too, and after [`GARBLED_LIMIT`] in a row is an error.
+    fn take_line(&mut self, line: Result<SlcanLine, SlcanError>) -> Result<(), Error> {
+        match line {
+            Ok(line) => {
+                self.garbled_in_a_row = 0;
+                match line {
+                    SlcanLine::Frame(frame) => self.frames.push_back(frame),
+                    SlcanLine::Ack => {}
+                    SlcanLine::Error => {
+                        self.refusals += 1;
+                        self.unreported.refusals += 1;
+                        tracing::debug!(
+                            "slcan {}: the adapter refused a line (BEL): a frame it could not transmit?",
+                            self.name
+                        );
+                    }
+                    SlcanLine::Other(text) => {
+                        tracing::debug!("slcan {}: `{text}`", self.name);
+                    }
+                }
+            }
+            Err(e) => {
+                self.garbled_in_a_row += 1;
+                tracing::debug!("slcan {}: {e}", self.name);
+                if self.garbled_in_a_row >= GARBLED_LIMIT {
+                    // Reported once per so many lines, by this error alone; good
+                    // lines still get through.
+                    self.garbled_in_a_row = 0;
+                    self.unreported.garbled = 0;
+                    self.unreported.last_garbled = None;
+                    return Err(Error::Protocol(format!(
+                        "the adapter at {} sends garbage ({GARBLED_LIMIT} lines in a row, the last: {e}): a wrong serial speed, or not an slcan adapter",
+                        self.name
+                    )));
+                }
+                self.unreported.garbled += 1;
+                self.unreported.last_garbled = Some(e);
             }
         }
+        Ok(())
     }
+}
+
+/// A failed read or write on the host side, the adapter at `name`.
+fn adapter_io_error(name: &str, what: &str, e: io::Error) -> Error {
+    io_error(e, format!("slcan adapter at {name}: {what}"), |e| {
+        format!("the adapter at {name} went away while {what} ({e}): was it unplugged?")
+    })
 }
 
 impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanBus<S> {
@@ -302,62 +373,24 @@ impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanBus<S> {
         self.wire
             .flush()
             .await
-            .map_err(|e| self.io_error(&format!("sending {frame}"), e))
+            .map_err(|e| adapter_io_error(&self.name, &format!("sending {frame}"), e))
     }
 
     async fn recv(&mut self) -> Result<CanFrame, Error> {
         loop {
             while let Some(line) = self.wire.splitter.next_line() {
-                match line {
-                    Ok(line) => {
-                        self.garbled_in_a_row = 0;
-                        match line {
-                            SlcanLine::Frame(frame) => self.frames.push_back(frame),
-                            SlcanLine::Ack => {}
-                            SlcanLine::Error => {
-                                self.refusals += 1;
-                                self.unreported.refusals += 1;
-                                tracing::debug!(
-                                    "slcan {}: the adapter refused a line (BEL): a frame it could not transmit?",
-                                    self.name
-                                );
-                            }
-                            SlcanLine::Other(text) => {
-                                tracing::debug!("slcan {}: `{text}`", self.name);
-                            }
-                        }
-                    }
-                    Err(e) => {
-                        self.garbled_in_a_row += 1;
-                        tracing::debug!("slcan {}: {e}", self.name);
-                        if self.garbled_in_a_row >= GARBLED_LIMIT {
-                            // Reported once per so many lines, by this error alone; good
-                            // lines still get through.
-                            self.garbled_in_a_row = 0;
-                            self.unreported.garbled = 0;
-                            self.unreported.last_garbled = None;
-                            return Err(Error::Protocol(format!(
-                                "the adapter at {} sends garbage ({GARBLED_LIMIT} lines in a row, the last: {e}): a wrong serial speed, or not an slcan adapter",
-                                self.name
-                            )));
-                        }
-                        self.unreported.garbled += 1;
-                        self.unreported.last_garbled = Some(e);
-                    }
-                }
+                self.take_line(line)?;
             }
-            if let Some(frame) = self.frames.pop_front() {
+            let name = &self.name;
+            let closed = || {
+                Error::Disconnected(format!(
+                    "the adapter at {name} closed the port: was it unplugged?"
+                ))
+            };
+            let failed = |e| adapter_io_error(name, "receiving", e);
+            let next = self.wire.next_or_fill(&mut self.frames, closed, failed);
+            if let Some(frame) = next.await? {
                 return Ok(frame);
-            }
-            match self.wire.fill().await {
-                Ok(0) => {
-                    return Err(Error::Disconnected(format!(
-                        "the adapter at {} closed the port: was it unplugged?",
-                        self.name
-                    )));
-                }
-                Ok(_) => {}
-                Err(e) => return Err(self.io_error("receiving", e)),
             }
         }
     }
@@ -448,17 +481,13 @@ impl<S: AsyncRead + AsyncWrite + Unpin> SlcanDevice<S> {
     pub fn into_inner(self) -> S {
         self.wire.stream
     }
+}
 
-    fn io_error(&self, what: &str, e: io::Error) -> Error {
-        if is_gone(&e) {
-            Error::Disconnected(format!("the host left {} while {what} ({e})", self.name))
-        } else {
-            Error::Io {
-                context: format!("slcan device on {}: {what}", self.name),
-                source: e,
-            }
-        }
-    }
+/// A failed read or write on the adapter side, serving on `name`.
+fn device_io_error(name: &str, what: &str, e: io::Error) -> Error {
+    io_error(e, format!("slcan device on {name}: {what}"), |e| {
+        format!("the host left {name} while {what} ({e})")
+    })
 }
 
 impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanDevice<S> {
@@ -473,7 +502,7 @@ impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanDevice<S> {
         self.wire
             .flush()
             .await
-            .map_err(|e| self.io_error(&format!("sending {frame}"), e))
+            .map_err(|e| device_io_error(&self.name, &format!("sending {frame}"), e))
     }
 
     async fn recv(&mut self) -> Result<CanFrame, Error> {
@@ -487,19 +516,13 @@ impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanDevice<S> {
             self.wire
                 .flush()
                 .await
-                .map_err(|e| self.io_error("answering", e))?;
-            if let Some(frame) = self.frames.pop_front() {
+                .map_err(|e| device_io_error(&self.name, "answering", e))?;
+            let name = &self.name;
+            let closed = || Error::Disconnected(format!("the host closed {name}"));
+            let failed = |e| device_io_error(name, "receiving", e);
+            let next = self.wire.next_or_fill(&mut self.frames, closed, failed);
+            if let Some(frame) = next.await? {
                 return Ok(frame);
-            }
-            match self.wire.fill().await {
-                Ok(0) => {
-                    return Err(Error::Disconnected(format!(
-                        "the host closed {}",
-                        self.name
-                    )));
-                }
-                Ok(_) => {}
-                Err(e) => return Err(self.io_error("receiving", e)),
             }
         }
     }

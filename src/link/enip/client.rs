@@ -180,35 +180,38 @@ impl EnipLink {
         Ok(())
     }
 
-    /// Read one entry with GetOD; a CIP error status is the device's refusal.
-    async fn get(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
-        let (reply, _) = self
-            .session
-            .request(&nanotec::get_od(address), vec![])
-            .await?;
+    /// One explicit request; a CIP error status is the device's refusal of `what`.
+    async fn explicit(&mut self, request: &cip::Request, what: String) -> Answer<cip::Reply> {
+        let (reply, _) = self.session.request(request, vec![]).await?;
         if !reply.status.is_success() {
             return Ok(Err(Refusal::Cip {
-                what: format!("GetOD {address}"),
+                what,
                 status: reply.status.0,
                 additional: reply.additional,
             }));
         }
-        Ok(decode_value(address, dtype, &reply.data))
+        Ok(Ok(reply))
+    }
+
+    /// Read one entry with GetOD; a CIP error status is the device's refusal.
+    async fn get(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
+        let request = nanotec::get_od(address);
+        Ok(self
+            .explicit(&request, format!("GetOD {address}"))
+            .await?
+            .and_then(|reply| decode_value(address, dtype, &reply.data)))
     }
 
     /// Read one entry with GetOD Rockwell: its type comes with it.
     pub async fn get_typed(&mut self, address: Address) -> Answer<(DataType, Value)> {
-        let (reply, _) = self
-            .session
-            .request(&nanotec::get_od_rockwell(address), vec![])
-            .await?;
-        if !reply.status.is_success() {
-            return Ok(Err(Refusal::Cip {
-                what: format!("GetOD Rockwell {address}"),
-                status: reply.status.0,
-                additional: reply.additional,
-            }));
-        }
+        let request = nanotec::get_od_rockwell(address);
+        let reply = match self
+            .explicit(&request, format!("GetOD Rockwell {address}"))
+            .await?
+        {
+            Ok(reply) => reply,
+            Err(refusal) => return Ok(Err(refusal)),
+        };
         let typed = match Typed::decode(&reply.data) {
             Ok(t) => t,
             Err(e) => return Ok(Err(Refusal::Malformed(format!("{address}: {e}")))),
@@ -232,15 +235,10 @@ impl EnipLink {
             // Wider than SetOD carries: nothing on EtherNet/IP can write it.
             Err(e) => return Ok(Err(Refusal::Malformed(e.to_string()))),
         };
-        let (reply, _) = self.session.request(&request, vec![]).await?;
-        if !reply.status.is_success() {
-            return Ok(Err(Refusal::Cip {
-                what: format!("SetOD {address}"),
-                status: reply.status.0,
-                additional: reply.additional,
-            }));
-        }
-        Ok(Ok(()))
+        Ok(self
+            .explicit(&request, format!("SetOD {address}"))
+            .await?
+            .map(|_| ()))
     }
 
     /// A PDI object that must be there once the PDI was found.
@@ -327,62 +325,13 @@ impl EnipLink {
             8 => CmdOffset::Eight,
             _ => CmdOffset::Seven,
         };
-        // What the drive holds now: the first packets change nothing.
-        let rx = self.read_rx_explicit().await?;
-        let mut common_out = CommonOut {
-            rx,
-            ..CommonOut::default()
-        };
-        if set == AssemblySet::Common {
-            common_out.digital_outputs = self
-                .get_or_zero(Address::new(0x60FE, 1), DataType::Unsigned32)
-                .await? as u32;
-            for (i, slot) in common_out.nanoj_inputs.iter_mut().enumerate() {
-                *slot = self
-                    .get_or_zero(Address::new(0x2400, i as u8 + 1), DataType::Integer32)
-                    .await? as i32;
-            }
-        }
+        let common_out = self.outputs_now(set).await?;
         let output = match set {
-            AssemblySet::Pdi => assembly::encode_pdi_ot(&rx, cmd),
+            AssemblySet::Pdi => assembly::encode_pdi_ot(&common_out.rx, cmd),
             AssemblySet::Common => common_out.encode().to_vec(),
         };
         let (socket, announce) = self.bind_udp().await?;
-        let rpi_us = self.options.rpi_ms.saturating_mul(1000);
-        let serial = SERIAL
-            .fetch_add(1, Ordering::Relaxed)
-            .wrapping_add(entropy() as u16);
-        let to_connection = entropy() | 1;
-        let path = Path(vec![
-            Segment::Class(class::ASSEMBLY),
-            Segment::Instance(self.options.config),
-            Segment::ConnectionPoint(set.ot_instance()),
-            Segment::ConnectionPoint(set.to_instance()),
-        ])
-        .encode();
-        let open = ForwardOpen {
-            large: false,
-            tick: 0x0A,
-            timeout_ticks: 0x0E,
-            ot_connection: 0,
-            to_connection,
-            serial,
-            vendor: ORIGINATOR_VENDOR,
-            originator_serial: entropy(),
-            timeout_multiplier: multiplier_for(rpi_us),
-            ot_rpi_us: rpi_us,
-            ot_params: NetworkParams::point_to_point(io::connection_size(
-                output.len() as u16,
-                true,
-            )),
-            to_rpi_us: rpi_us,
-            to_params: NetworkParams::point_to_point(io::connection_size(
-                set.to_len() as u16,
-                false,
-            )),
-            transport: TRANSPORT_CLASS1_CYCLIC,
-            path: path.clone(),
-        };
+        let open = self.forward_open(set, output.len());
         let request = cip::Request::new(
             service::FORWARD_OPEN,
             &Path::object(class::CONNECTION_MANAGER, 1),
@@ -393,49 +342,16 @@ impl EnipLink {
             .request(&request, announce.into_iter().collect())
             .await?;
         if !reply.status.is_success() {
-            return Err(Error::Refused(format!(
-                "the adapter refused the I/O connection for the {}: {}{}",
-                set.name(),
-                reply.status_text(),
-                match reply.additional.first() {
-                    Some(&connection::extended::OWNERSHIP_CONFLICT) =>
-                        " (another scanner, a PLC perhaps, owns the drive's I/O)",
-                    Some(&connection::extended::INVALID_OT_SIZE) if cmd == CmdOffset::Eight =>
-                        " (try cmd_at=7)",
-                    Some(&connection::extended::INVALID_OT_SIZE) => " (try cmd_at=8)",
-                    _ => "",
-                }
-            )));
+            return Err(Error::Refused(refused_io(set, cmd, &reply)));
         }
         let accepted = ForwardOpenReply::decode(&reply.data)
             .map_err(|e| Error::Protocol(format!("Forward_Open reply: {e}")))?;
-        // Where O→T packets go: the adapter's sockaddr item, else its IP and port 2222.
-        let peer_ip = self
-            .session
-            .addresses()
-            .1
-            .map(|a| a.ip())
-            .unwrap_or(IpAddr::V4(Ipv4Addr::LOCALHOST));
-        let target = items
-            .iter()
-            .find_map(|i| match i {
-                Item::SockaddrOt(s) => Some(SocketAddr::new(
-                    if s.ip.is_unspecified() {
-                        peer_ip
-                    } else {
-                        IpAddr::V4(s.ip)
-                    },
-                    s.port,
-                )),
-                _ => None,
-            })
-            .unwrap_or(SocketAddr::new(peer_ip, UDP_IO_PORT));
         let to_timeout = open.to_timeout();
         let config = IoConfig {
             ot_connection: accepted.ot_connection,
             to_connection: accepted.to_connection,
-            target,
-            ot_rpi: Duration::from_micros(u64::from(rpi_us.max(1000))),
+            target: self.io_target(&items),
+            ot_rpi: Duration::from_micros(u64::from(open.ot_rpi_us.max(1000))),
             to_rpi: Duration::from_micros(u64::from(open.to_rpi_us)),
             timeout_factor: connection::timeout_factor(open.timeout_multiplier),
             to_timeout,
@@ -452,11 +368,98 @@ impl EnipLink {
             set,
             cmd,
             triad: open.triad(),
-            path,
+            path: open.path,
             handle,
             common_out,
         };
-        // The adapter must be producing before the link reports itself open.
+        self.first_input(opened, to_timeout).await
+    }
+
+    /// The outputs as the drive holds them now, so that the first packets change nothing:
+    /// the PDI's RX image and, for the Common set, the digital and NanoJ outputs.
+    async fn outputs_now(&mut self, set: AssemblySet) -> Result<CommonOut, Error> {
+        let rx = self.read_rx_explicit().await?;
+        let mut common_out = CommonOut {
+            rx,
+            ..CommonOut::default()
+        };
+        if set == AssemblySet::Common {
+            common_out.digital_outputs = self
+                .get_or_zero(Address::new(0x60FE, 1), DataType::Unsigned32)
+                .await? as u32;
+            for (i, slot) in common_out.nanoj_inputs.iter_mut().enumerate() {
+                *slot = self
+                    .get_or_zero(Address::new(0x2400, i as u8 + 1), DataType::Integer32)
+                    .await? as i32;
+            }
+        }
+        Ok(common_out)
+    }
+
+    /// The Forward_Open for `set` with `output_len` bytes O→T, at the RPI asked for, under
+    /// a fresh connection serial and T→O id.
+    fn forward_open(&self, set: AssemblySet, output_len: usize) -> ForwardOpen {
+        let rpi_us = self.options.rpi_ms.saturating_mul(1000);
+        let serial = SERIAL
+            .fetch_add(1, Ordering::Relaxed)
+            .wrapping_add(entropy() as u16);
+        let to_connection = entropy() | 1;
+        let path = Path(vec![
+            Segment::Class(class::ASSEMBLY),
+            Segment::Instance(self.options.config),
+            Segment::ConnectionPoint(set.ot_instance()),
+            Segment::ConnectionPoint(set.to_instance()),
+        ])
+        .encode();
+        ForwardOpen {
+            large: false,
+            tick: 0x0A,
+            timeout_ticks: 0x0E,
+            ot_connection: 0,
+            to_connection,
+            serial,
+            vendor: ORIGINATOR_VENDOR,
+            originator_serial: entropy(),
+            timeout_multiplier: multiplier_for(rpi_us),
+            ot_rpi_us: rpi_us,
+            ot_params: NetworkParams::point_to_point(io::connection_size(output_len as u16, true)),
+            to_rpi_us: rpi_us,
+            to_params: NetworkParams::point_to_point(io::connection_size(
+                set.to_len() as u16,
+                false,
+            )),
+            transport: TRANSPORT_CLASS1_CYCLIC,
+            path,
+        }
+    }
+
+    /// Where O→T packets go: the adapter's sockaddr item, else its IP and port 2222.
+    fn io_target(&self, items: &[Item]) -> SocketAddr {
+        let peer_ip = self
+            .session
+            .addresses()
+            .1
+            .map(|a| a.ip())
+            .unwrap_or(IpAddr::V4(Ipv4Addr::LOCALHOST));
+        items
+            .iter()
+            .find_map(|i| match i {
+                Item::SockaddrOt(s) => Some(SocketAddr::new(
+                    if s.ip.is_unspecified() {
+                        peer_ip
+                    } else {
+                        IpAddr::V4(s.ip)
+                    },
+                    s.port,
+                )),
+                _ => None,
+            })
+            .unwrap_or(SocketAddr::new(peer_ip, UDP_IO_PORT))
+    }
+
+    /// The adapter must be producing before the link reports itself open: `opened` once
+    /// its first packet came, else closed again and `Error::Refused`.
+    async fn first_input(&mut self, opened: Opened, to_timeout: Duration) -> Result<Opened, Error> {
         let first = opened
             .handle
             .input_after(
@@ -575,6 +578,23 @@ impl EnipLink {
 }
 
 /// A value from the bytes GetOD returned, strictly sized.
+/// Why the adapter refused the I/O connection for `set`, with a hint where one helps.
+fn refused_io(set: AssemblySet, cmd: CmdOffset, reply: &cip::Reply) -> String {
+    format!(
+        "the adapter refused the I/O connection for the {}: {}{}",
+        set.name(),
+        reply.status_text(),
+        match reply.additional.first() {
+            Some(&connection::extended::OWNERSHIP_CONFLICT) =>
+                " (another scanner, a PLC perhaps, owns the drive's I/O)",
+            Some(&connection::extended::INVALID_OT_SIZE) if cmd == CmdOffset::Eight =>
+                " (try cmd_at=7)",
+            Some(&connection::extended::INVALID_OT_SIZE) => " (try cmd_at=8)",
+            _ => "",
+        }
+    )
+}
+
 fn decode_value(address: Address, dtype: DataType, data: &[u8]) -> Result<Value, Refusal> {
     if let Some(size) = dtype.size()
         && size != data.len()

@@ -87,77 +87,21 @@ fn found(identity: &Identity, from: SocketAddr) -> (SocketAddrV4, FoundDevice) {
     (address, device)
 }
 
+/// An identity and where its reply came from.
+type Heard = (SocketAddr, Identity);
+
 /// Ask, collect for `wait`, and list each adapter once, by address.
 pub async fn discover(discovery: &Discovery) -> Result<Vec<FoundDevice>, Error> {
-    let (tx, mut rx) = mpsc::unbounded_channel::<(SocketAddr, Identity)>();
-    let mut sockets = vec![];
+    let (tx, mut rx) = mpsc::unbounded_channel::<Heard>();
     let mut problems = vec![];
-    if discovery.broadcast {
-        let chosen: Vec<Interface> = interfaces()
-            .into_iter()
-            .filter(|i| match &discovery.interface {
-                Some(pick) => i.name == *pick || i.ip.to_string() == *pick,
-                None => i.broadcast.is_some(),
-            })
-            .collect();
-        if let Some(pick) = &discovery.interface
-            && chosen.is_empty()
-        {
-            return Err(Error::Unsupported(format!(
-                "no IPv4 interface '{pick}' here; the interfaces are: {}",
-                interfaces()
-                    .iter()
-                    .map(Interface::label)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )));
-        }
-        for interface in chosen {
-            let target = interface.broadcast.unwrap_or(Ipv4Addr::BROADCAST);
-            match UdpSocket::bind((interface.ip, 0)).await {
-                Ok(socket) => {
-                    let _ = socket.set_broadcast(true);
-                    match socket
-                        .send_to(&list_identity_request(), (target, discovery.port))
-                        .await
-                    {
-                        Ok(_) => sockets.push(socket),
-                        Err(e) => problems.push(format!("broadcast on {}: {e}", interface.label())),
-                    }
-                }
-                Err(e) => problems.push(format!("{}: {e}", interface.label())),
-            }
-        }
-    }
+    let mut sockets = if discovery.broadcast {
+        broadcast(discovery, &mut problems).await?
+    } else {
+        vec![]
+    };
     let mut tcp = tokio::task::JoinSet::new();
     if !discovery.unicast.is_empty() {
-        let socket = UdpSocket::bind((Ipv4Addr::UNSPECIFIED, 0))
-            .await
-            .map_err(|e| Error::Io {
-                context: "binding a UDP socket for discovery".into(),
-                source: e,
-            })?;
-        for host in &discovery.unicast {
-            match tokio::net::lookup_host((host.as_str(), discovery.port)).await {
-                Ok(addresses) => {
-                    for address in addresses.filter(SocketAddr::is_ipv4) {
-                        let _ = socket.send_to(&list_identity_request(), address).await;
-                    }
-                }
-                Err(e) => problems.push(format!("{host}: {e}")),
-            }
-            let (host, port, wait, tx) = (host.clone(), discovery.port, discovery.wait, tx.clone());
-            tcp.spawn(async move {
-                if let Ok(mut session) = Session::open(&host, port, wait).await
-                    && let Ok(identity) = session.list_identity().await
-                    && let (_, Some(peer)) = session.addresses()
-                {
-                    let _ = tx.send((peer, identity));
-                    session.close().await;
-                }
-            });
-        }
-        sockets.push(socket);
+        sockets.push(unicast(discovery, &tx, &mut tcp, &mut problems).await?);
     }
     for socket in sockets {
         let tx = tx.clone();
@@ -187,25 +131,99 @@ pub async fn discover(discovery: &Discovery) -> Result<Vec<FoundDevice>, Error> 
     Ok(devices.into_values().collect())
 }
 
+/// The interfaces to broadcast on: the one picked, or every one with a broadcast address.
+fn chosen_interfaces(discovery: &Discovery) -> Result<Vec<Interface>, Error> {
+    let chosen: Vec<Interface> = interfaces()
+        .into_iter()
+        .filter(|i| match &discovery.interface {
+            Some(pick) => i.name == *pick || i.ip.to_string() == *pick,
+            None => i.broadcast.is_some(),
+        })
+        .collect();
+    if let Some(pick) = &discovery.interface
+        && chosen.is_empty()
+    {
+        return Err(Error::Unsupported(format!(
+            "no IPv4 interface '{pick}' here; the interfaces are: {}",
+            interfaces()
+                .iter()
+                .map(Interface::label)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+    Ok(chosen)
+}
+
+/// Broadcast ListIdentity on the chosen interfaces: the sockets the replies come to.
+async fn broadcast(
+    discovery: &Discovery,
+    problems: &mut Vec<String>,
+) -> Result<Vec<UdpSocket>, Error> {
+    let mut sockets = vec![];
+    for interface in chosen_interfaces(discovery)? {
+        let target = interface.broadcast.unwrap_or(Ipv4Addr::BROADCAST);
+        match UdpSocket::bind((interface.ip, 0)).await {
+            Ok(socket) => {
+                let _ = socket.set_broadcast(true);
+                match socket
+                    .send_to(&list_identity_request(), (target, discovery.port))
+                    .await
+                {
+                    Ok(_) => sockets.push(socket),
+                    Err(e) => problems.push(format!("broadcast on {}: {e}", interface.label())),
+                }
+            }
+            Err(e) => problems.push(format!("{}: {e}", interface.label())),
+        }
+    }
+    Ok(sockets)
+}
+
+/// Ask each named host directly: ListIdentity by UDP from the socket returned, and over
+/// TCP in a task of `tcp` that sends what it hears to `tx`.
+async fn unicast(
+    discovery: &Discovery,
+    tx: &mpsc::UnboundedSender<Heard>,
+    tcp: &mut tokio::task::JoinSet<()>,
+    problems: &mut Vec<String>,
+) -> Result<UdpSocket, Error> {
+    let socket = UdpSocket::bind((Ipv4Addr::UNSPECIFIED, 0))
+        .await
+        .map_err(|e| Error::Io {
+            context: "binding a UDP socket for discovery".into(),
+            source: e,
+        })?;
+    for host in &discovery.unicast {
+        match tokio::net::lookup_host((host.as_str(), discovery.port)).await {
+            Ok(addresses) => {
+                for address in addresses.filter(SocketAddr::is_ipv4) {
+                    let _ = socket.send_to(&list_identity_request(), address).await;
+                }
+            }
+            Err(e) => problems.push(format!("{host}: {e}")),
+        }
+        let (host, port, wait, tx) = (host.clone(), discovery.port, discovery.wait, tx.clone());
+        tcp.spawn(async move {
+            if let Ok(mut session) = Session::open(&host, port, wait).await
+                && let Ok(identity) = session.list_identity().await
+                && let (_, Some(peer)) = session.addresses()
+            {
+                let _ = tx.send((peer, identity));
+                session.close().await;
+            }
+        });
+    }
+    Ok(socket)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::proto::enip::cpf::SockAddr;
 
     #[test]
     fn a_found_adapter_is_reported_at_the_address_it_answered_from() {
-        let identity = Identity {
-            encap_version: 1,
-            socket: SockAddr::new("0.0.0.0:44818".parse().unwrap()),
-            vendor: 0x558,
-            device_type: 0x2B,
-            product_code: 7,
-            revision: (2, 5),
-            status: 0,
-            serial: 99,
-            product_name: "PD4-E".into(),
-            state: 3,
-        };
+        let identity = crate::proto::enip::identity::unaddressed_sample();
         let (address, device) = found(&identity, "10.1.2.3:44818".parse().unwrap());
         assert_eq!(address.to_string(), "10.1.2.3:44818");
         assert_eq!(device.vendor_name(), "Nanotec (ODVA 558h)");

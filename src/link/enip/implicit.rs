@@ -8,6 +8,7 @@
 //! counted, and reported as troubles got over, at a bounded rate.
 
 use std::net::SocketAddr;
+use std::ops::ControlFlow;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -250,131 +251,191 @@ fn timed_out(config: &IoConfig, silence: Duration) -> String {
     )
 }
 
+/// The I/O task's state between packets.
+struct Task {
+    socket: UdpSocket,
+    config: IoConfig,
+    shared: Arc<Mutex<Shared>>,
+    notify: Arc<Notify>,
+    opened: Instant,
+    /// The first packet may take a little longer than the steady-state timeout.
+    first_grace: Duration,
+    last_input: Option<Instant>,
+    sequence: u32,
+    count: u16,
+    last_sent: Option<Vec<u8>>,
+}
+
 async fn run(socket: UdpSocket, config: IoConfig, shared: Arc<Mutex<Shared>>, notify: Arc<Notify>) {
     let mut ticker = tokio::time::interval(config.ot_rpi);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    let opened = Instant::now();
-    // The first packet may take a little longer than the steady-state timeout.
-    let first_grace = config.to_timeout.max(Duration::from_secs(1));
-    let mut last_input: Option<Instant> = None;
-    let mut sequence: u32 = 0;
-    let mut count: u16 = 0;
-    let mut last_sent: Option<Vec<u8>> = None;
+    let mut task = Task {
+        socket,
+        opened: Instant::now(),
+        first_grace: config.to_timeout.max(Duration::from_secs(1)),
+        config,
+        shared,
+        notify,
+        last_input: None,
+        sequence: 0,
+        count: 0,
+        last_sent: None,
+    };
     let mut buffer = vec![0u8; 1500];
     loop {
         tokio::select! {
             _ = ticker.tick() => {
-                let now = Instant::now();
-                let silent = match last_input {
-                    Some(at) => (now - at > config.to_timeout).then(|| now - at),
-                    None => (now - opened > first_grace).then(|| now - opened),
-                };
-                if let Some(silence) = silent {
-                    let mut s = lock(&shared);
-                    s.error = Some(if s.received == 0 {
-                        format!(
-                            "no T→O datagram in {} ms since the I/O connection opened; none ever reached UDP port {} here (a firewall, or another program on that port?)",
-                            silence.as_millis(),
-                            socket.local_addr().map(|a| a.port()).unwrap_or(0)
-                        )
-                    } else {
-                        timed_out(&config, silence)
-                    });
-                    drop(s);
-                    notify.notify_waiters();
+                if task.on_tick().await.is_break() {
                     return;
                 }
-                let output = lock(&shared).output.clone();
-                if last_sent.as_ref() != Some(&output) {
-                    count = count.wrapping_add(1);
-                }
-                sequence = sequence.wrapping_add(1);
-                let packet = IoPacket {
-                    connection: config.ot_connection,
-                    sequence,
-                    count,
-                    run: config.ot_header.then_some(true),
-                    data: output.clone(),
-                };
-                let bytes = packet.encode();
-                let sent = socket.send_to(&bytes, config.target).await;
-                let mut s = lock(&shared);
-                match sent {
-                    Ok(_) => {
-                        s.sent += 1;
-                        s.record(true, &bytes, format!("class 1 O→T #{sequence} count {count}: {}", hex(&output)));
-                        last_sent = Some(output);
-                    }
-                    Err(e) => {
-                        s.error = Some(format!("sending I/O to {}: {e}", config.target));
-                        drop(s);
-                        notify.notify_waiters();
-                        return;
-                    }
-                }
             }
-            received = socket.recv_from(&mut buffer) => {
-                let Ok((n, _from)) = received else {
-                    // ICMP errors from an earlier send surface here on some systems: keep
-                    // listening; the timeout decides.
-                    continue;
-                };
-                let bytes = &buffer[..n];
-                let mut s = lock(&shared);
-                match IoPacket::decode(bytes, config.to_header) {
-                    Ok(packet)
-                        if packet.connection == config.to_connection
-                            && packet.data.len() == config.input_len =>
-                    {
-                        let newest = s.newest.sequence().unwrap_or(0);
-                        let dropped = match s.newest.arrive(packet.sequence) {
-                            Arrival::Newest => None,
-                            Arrival::Duplicate => {
-                                s.unreported.duplicate += 1;
-                                Some("a copy, dropped")
-                            }
-                            Arrival::OutOfOrder => {
-                                s.unreported.out_of_order += 1;
-                                Some("out of order, dropped")
-                            }
-                        };
-                        if let Some(why) = dropped {
-                            // A stale image neither replaces the newest nor keeps the
-                            // connection alive (protocol notes §3.5).
-                            s.record(
-                                false,
-                                bytes,
-                                format!("class 1 T→O #{} count {} after #{newest}: {why}", packet.sequence, packet.count),
-                            );
-                            continue;
-                        }
-                        let now = Instant::now();
-                        last_input = Some(now);
-                        s.received += 1;
-                        let number = s.received;
-                        s.record(
-                            false,
-                            bytes,
-                            format!("class 1 T→O #{} count {}: {}", packet.sequence, packet.count, hex(&packet.data)),
-                        );
-                        s.input = Some(Input { data: packet.data, number });
-                        drop(s);
-                        notify.notify_waiters();
-                    }
-                    Ok(packet) => {
-                        s.stray += 1;
-                        s.record(false, bytes, format!(
-                            "class 1 packet for connection {:08X}h with {} bytes, ignored",
-                            packet.connection,
-                            packet.data.len()
-                        ));
-                    }
-                    Err(e) => {
-                        s.stray += 1;
-                        s.record(false, bytes, format!("not a class 1 packet: {e}"));
-                    }
+            received = task.socket.recv_from(&mut buffer) => {
+                // ICMP errors from an earlier send surface here on some systems: keep
+                // listening; the timeout decides.
+                if let Ok((n, _from)) = received {
+                    task.on_datagram(&buffer[..n]);
                 }
             }
         }
+    }
+}
+
+impl Task {
+    /// At each RPI: declare the connection dead after its timeout, else send the outputs.
+    async fn on_tick(&mut self) -> ControlFlow<()> {
+        let now = Instant::now();
+        let silent = match self.last_input {
+            Some(at) => (now - at > self.config.to_timeout).then(|| now - at),
+            None => (now - self.opened > self.first_grace).then(|| now - self.opened),
+        };
+        if let Some(silence) = silent {
+            let error = if lock(&self.shared).received == 0 {
+                format!(
+                    "no T→O datagram in {} ms since the I/O connection opened; none ever reached UDP port {} here (a firewall, or another program on that port?)",
+                    silence.as_millis(),
+                    self.socket.local_addr().map(|a| a.port()).unwrap_or(0)
+                )
+            } else {
+                timed_out(&self.config, silence)
+            };
+            return self.fail(error);
+        }
+        self.send().await
+    }
+
+    /// The O→T packet with the outputs as they are now (a new count when they changed).
+    async fn send(&mut self) -> ControlFlow<()> {
+        let output = lock(&self.shared).output.clone();
+        if self.last_sent.as_ref() != Some(&output) {
+            self.count = self.count.wrapping_add(1);
+        }
+        self.sequence = self.sequence.wrapping_add(1);
+        let (sequence, count) = (self.sequence, self.count);
+        let packet = IoPacket {
+            connection: self.config.ot_connection,
+            sequence,
+            count,
+            run: self.config.ot_header.then_some(true),
+            data: output.clone(),
+        };
+        let bytes = packet.encode();
+        if let Err(e) = self.socket.send_to(&bytes, self.config.target).await {
+            return self.fail(format!("sending I/O to {}: {e}", self.config.target));
+        }
+        let mut s = lock(&self.shared);
+        s.sent += 1;
+        s.record(
+            true,
+            &bytes,
+            format!("class 1 O→T #{sequence} count {count}: {}", hex(&output)),
+        );
+        self.last_sent = Some(output);
+        ControlFlow::Continue(())
+    }
+
+    /// The connection is dead: say why to whoever waits, and end the task.
+    fn fail(&self, error: String) -> ControlFlow<()> {
+        lock(&self.shared).error = Some(error);
+        self.notify.notify_waiters();
+        ControlFlow::Break(())
+    }
+
+    /// A datagram on the socket: this connection's T→O packet, or a stray one.
+    fn on_datagram(&mut self, bytes: &[u8]) {
+        match IoPacket::decode(bytes, self.config.to_header) {
+            Ok(packet)
+                if packet.connection == self.config.to_connection
+                    && packet.data.len() == self.config.input_len =>
+            {
+                self.on_input(bytes, packet);
+            }
+            Ok(packet) => {
+                let mut s = lock(&self.shared);
+                s.stray += 1;
+                s.record(
+                    false,
+                    bytes,
+                    format!(
+                        "class 1 packet for connection {:08X}h with {} bytes, ignored",
+                        packet.connection,
+                        packet.data.len()
+                    ),
+                );
+            }
+            Err(e) => {
+                let mut s = lock(&self.shared);
+                s.stray += 1;
+                s.record(false, bytes, format!("not a class 1 packet: {e}"));
+            }
+        }
+    }
+
+    /// A T→O packet of this connection: the new input if it is the newest so far.
+    fn on_input(&mut self, bytes: &[u8], packet: IoPacket) {
+        let mut s = lock(&self.shared);
+        let newest = s.newest.sequence().unwrap_or(0);
+        let dropped = match s.newest.arrive(packet.sequence) {
+            Arrival::Newest => None,
+            Arrival::Duplicate => {
+                s.unreported.duplicate += 1;
+                Some("a copy, dropped")
+            }
+            Arrival::OutOfOrder => {
+                s.unreported.out_of_order += 1;
+                Some("out of order, dropped")
+            }
+        };
+        if let Some(why) = dropped {
+            // A stale image neither replaces the newest nor keeps the connection alive
+            // (protocol notes §3.5).
+            s.record(
+                false,
+                bytes,
+                format!(
+                    "class 1 T→O #{} count {} after #{newest}: {why}",
+                    packet.sequence, packet.count
+                ),
+            );
+            return;
+        }
+        self.last_input = Some(Instant::now());
+        s.received += 1;
+        let number = s.received;
+        s.record(
+            false,
+            bytes,
+            format!(
+                "class 1 T→O #{} count {}: {}",
+                packet.sequence,
+                packet.count,
+                hex(&packet.data)
+            ),
+        );
+        s.input = Some(Input {
+            data: packet.data,
+            number,
+        });
+        drop(s);
+        self.notify.notify_waiters();
     }
 }

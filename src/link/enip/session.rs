@@ -4,10 +4,10 @@
 
 use std::time::{Duration, Instant};
 
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::io::AsyncWriteExt;
 use tokio::net::TcpStream;
 
-use crate::link::tries::{TRIES, Trouble, gave_up, send_within, silence};
+use crate::link::tries::{TRIES, Trouble, gave_up, read_within, send_within, silence};
 use crate::link::{Error, TraceRecord, TraceRing};
 use crate::proto::enip::cip::{self, Reply, Request};
 use crate::proto::enip::cpf::Item;
@@ -229,63 +229,78 @@ impl Session {
         .await?;
         let sent_at = Instant::now();
         loop {
+            if let Some(reply) = self.buffered_reply(command, contexts) {
+                return reply;
+            }
+            let closed = "the adapter closed the connection";
+            let read = read_within::<_, 2048>(
+                &mut self.stream,
+                &mut self.buffer,
+                deadline,
+                what,
+                closed,
+                io_error,
+            );
+            if !read.await? {
+                // Half a message: its rest may never come; start clean.
+                let partial = (!self.buffer.is_empty()).then(|| {
+                    let raw = std::mem::take(&mut self.buffer);
+                    self.record(false, &raw, "incomplete".into());
+                    ("message", hex(&raw))
+                });
+                return Err(silence(sent_at, partial));
+            }
+        }
+    }
+
+    /// The reply to this try or an earlier one (`contexts`) among the bytes received,
+    /// stale replies skipped; `None` until a whole message is there.
+    fn buffered_reply(
+        &mut self,
+        command: Command,
+        contexts: &[[u8; 8]],
+    ) -> Option<Result<Packet, Trouble>> {
+        loop {
             match encap::split(&self.buffer) {
                 Framed::Packet(reply, used) => {
                     let raw = self.buffer[..used].to_vec();
                     self.buffer.drain(..used);
                     self.record(false, &raw, describe(&reply));
-                    if !contexts.contains(&reply.context) {
-                        // A stale reply to an earlier, timed-out request: skip it.
-                        continue;
+                    if contexts.contains(&reply.context) {
+                        return Some(self.check_reply(command, reply));
                     }
-                    if reply.command != command {
-                        return Err(Trouble::Retry(format!(
-                            "a reply with command {} to our {}: rejected",
-                            reply.command, command
-                        )));
-                    }
-                    // RegisterSession is answered with the new handle; everything after
-                    // carries ours.
-                    if command != Command::REGISTER_SESSION && reply.session != self.handle {
-                        return Err(Trouble::Retry(format!(
-                            "a reply with session handle {:08X}h, ours is {:08X}h: rejected",
-                            reply.session, self.handle
-                        )));
-                    }
-                    return Ok(reply);
+                    // A stale reply to an earlier, timed-out request: skip it.
                 }
                 Framed::TooLong(header) => {
                     let raw = std::mem::take(&mut self.buffer);
                     self.record(false, &raw, "garbage".into());
-                    return Err(Trouble::Retry(format!(
+                    return Some(Err(Trouble::Retry(format!(
                         "a reply that announces {} bytes, more than any adapter sends (corrupted): {}",
                         header.length,
                         hex(&raw)
-                    )));
-                }
-                Framed::Incomplete => {}
-            }
-            let mut chunk = [0u8; 2048];
-            let read = tokio::time::timeout_at(deadline.into(), self.stream.read(&mut chunk)).await;
-            match read {
-                Err(_) => {
-                    // Half a message: its rest may never come; start clean.
-                    let partial = (!self.buffer.is_empty()).then(|| {
-                        let raw = std::mem::take(&mut self.buffer);
-                        self.record(false, &raw, "incomplete".into());
-                        ("message", hex(&raw))
-                    });
-                    return Err(silence(sent_at, partial));
-                }
-                Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
-                Ok(Ok(0)) => {
-                    return Err(Trouble::Fatal(Error::Disconnected(format!(
-                        "{what}: the adapter closed the connection"
                     ))));
                 }
-                Ok(Ok(n)) => self.buffer.extend_from_slice(&chunk[..n]),
+                Framed::Incomplete => return None,
             }
         }
+    }
+
+    /// A reply to `command` must answer it, in our session.
+    fn check_reply(&self, command: Command, reply: Packet) -> Result<Packet, Trouble> {
+        if reply.command != command {
+            return Err(Trouble::Retry(format!(
+                "a reply with command {} to our {}: rejected",
+                reply.command, command
+            )));
+        }
+        // RegisterSession is answered with the new handle; everything after carries ours.
+        if command != Command::REGISTER_SESSION && reply.session != self.handle {
+            return Err(Trouble::Retry(format!(
+                "a reply with session handle {:08X}h, ours is {:08X}h: rejected",
+                reply.session, self.handle
+            )));
+        }
+        Ok(reply)
     }
 
     /// Troubles got over by sending again, since the last call.

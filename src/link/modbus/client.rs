@@ -11,7 +11,7 @@
 
 use std::time::Duration;
 
-use super::transport::{Endpoint, Transport};
+use super::transport::Transport;
 use crate::link::{Answer, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
@@ -24,14 +24,7 @@ use crate::proto::modbus::registers::{
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(500);
 
 /// The factory TX process image (3602h defaults, NT-3602; protocol notes §1.3).
-pub const FACTORY_TX_MAP: [u32; 6] = [
-    0x6041_0010,
-    0x0005_0008,
-    0x6061_0008,
-    0x6064_0020,
-    0x6044_0010,
-    0x60FD_0020,
-];
+pub use crate::proto::modbus::registers::FACTORY_TX_MAP;
 
 /// Whether the device does something, as far as we know.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,17 +60,16 @@ impl ModbusLink {
         spec: &LinkSpec,
         timeout: Duration,
     ) -> crate::link::Traced<ModbusLink> {
-        let endpoint = Endpoint::from_spec(spec).ok_or_else(|| {
-            (
-                Error::Unsupported(format!("{spec} is not a Modbus connection string")),
-                vec![],
-            )
-        })?;
         let order = match spec {
             LinkSpec::ModbusTcp { words, .. } | LinkSpec::ModbusRtu { words, .. } => *words,
-            _ => WordOrder::High,
+            _ => {
+                return Err((
+                    Error::Unsupported(format!("{spec} is not a Modbus connection string")),
+                    vec![],
+                ));
+            }
         };
-        let transport = Transport::connect(&endpoint, timeout)
+        let transport = Transport::connect(spec, timeout)
             .await
             .map_err(|e| (e, vec![]))?;
         let mut link = ModbusLink {
@@ -227,7 +219,7 @@ impl ModbusLink {
                     self.fc23 = Support::No;
                     self.notices.push(format!(
                         "{} does not support FC 23 (Read/Write Multiple Registers): using FC 16 then FC 4, two transactions per cycle",
-                        self.transport.endpoint().describe()
+                        self.transport.describe()
                     ));
                 }
                 result => {
@@ -321,7 +313,7 @@ impl Link for ModbusLink {
             spec: self.spec.clone(),
             description: format!(
                 "{bus} {} ({})",
-                self.transport.endpoint().describe(),
+                self.transport.describe(),
                 features.join(", ")
             ),
             native_objects: self.fc43 != Support::No,
@@ -454,7 +446,7 @@ impl ModbusLink {
                 self.fc43 = Support::No;
                 self.notices.push(format!(
                     "{} does not support FC 43 (CANopen objects over Modbus): objects go through PDI OD-Read/OD-Write, 32 bits at most",
-                    self.transport.endpoint().describe()
+                    self.transport.describe()
                 ));
                 Refusal::NotSupported
             }

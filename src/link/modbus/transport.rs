@@ -5,11 +5,11 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::io::AsyncWriteExt;
 use tokio::net::TcpStream;
 use tokio_serial::{SerialPort, SerialPortBuilderExt, SerialStream};
 
-use crate::link::tries::{NO_ANSWER, TRIES, Trouble, gave_up, send_within, silence};
+use crate::link::tries::{NO_ANSWER, TRIES, Trouble, gave_up, read_within, send_within, silence};
 use crate::link::{Error, LinkSpec, Parity, TraceRecord, TraceRing};
 use crate::proto::modbus::frame::{self, Direction};
 use crate::proto::modbus::pdu::{Exception, Request, Response};
@@ -17,56 +17,6 @@ use crate::proto::modbus::pdu::{Exception, Request, Response};
 /// Transaction ids remembered, so that a late answer to an earlier request is told from
 /// a reply for a transaction never asked for.
 const SENT_KEPT: usize = 64;
-
-/// Where a Modbus connection goes.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Endpoint {
-    Tcp {
-        host: String,
-        port: u16,
-        unit: u8,
-    },
-    Rtu {
-        path: String,
-        baud: u32,
-        parity: Parity,
-        stop_bits: u8,
-        slave: u8,
-    },
-}
-
-impl Endpoint {
-    pub fn from_spec(spec: &LinkSpec) -> Option<Endpoint> {
-        match spec.clone() {
-            LinkSpec::ModbusTcp {
-                host, port, unit, ..
-            } => Some(Endpoint::Tcp { host, port, unit }),
-            LinkSpec::ModbusRtu {
-                path,
-                baud,
-                parity,
-                stop_bits,
-                slave,
-                ..
-            } => Some(Endpoint::Rtu {
-                path,
-                baud,
-                parity,
-                stop_bits,
-                slave,
-            }),
-            _ => None,
-        }
-    }
-
-    /// Where, for messages: `192.168.2.100:502` or `/dev/ttyUSB0 slave 5`.
-    pub fn describe(&self) -> String {
-        match self {
-            Endpoint::Tcp { host, port, .. } => format!("{host}:{port}"),
-            Endpoint::Rtu { path, slave, .. } => format!("{path} slave {slave}"),
-        }
-    }
-}
 
 enum Io {
     Tcp(TcpStream),
@@ -78,7 +28,8 @@ enum Io {
 
 /// A live Modbus connection.
 pub struct Transport {
-    endpoint: Endpoint,
+    /// Where it goes: a Modbus TCP or RTU connection string.
+    spec: LinkSpec,
     io: Io,
     timeout: Duration,
     transaction: u16,
@@ -94,7 +45,7 @@ pub struct Transport {
 impl std::fmt::Debug for Transport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Transport")
-            .field("endpoint", &self.endpoint)
+            .field("spec", &self.spec)
             .field("timeout", &self.timeout)
             .finish_non_exhaustive()
     }
@@ -118,11 +69,11 @@ fn rtu_gap(baud: u32) -> Duration {
 }
 
 impl Transport {
-    /// Open the connection.
-    pub async fn connect(endpoint: &Endpoint, timeout: Duration) -> Result<Transport, Error> {
-        let io = open(endpoint, timeout).await?;
+    /// Open the connection `spec` names (Modbus TCP or RTU).
+    pub async fn connect(spec: &LinkSpec, timeout: Duration) -> Result<Transport, Error> {
+        let io = open(spec, timeout).await?;
         Ok(Transport {
-            endpoint: endpoint.clone(),
+            spec: spec.clone(),
             io,
             timeout,
             transaction: 0,
@@ -134,8 +85,13 @@ impl Transport {
         })
     }
 
-    pub fn endpoint(&self) -> &Endpoint {
-        &self.endpoint
+    /// Where, for messages: `192.168.2.100:502` or `/dev/ttyUSB0 slave 5`.
+    pub fn describe(&self) -> String {
+        match &self.spec {
+            LinkSpec::ModbusTcp { host, port, .. } => format!("{host}:{port}"),
+            LinkSpec::ModbusRtu { path, slave, .. } => format!("{path} slave {slave}"),
+            other => other.to_string(),
+        }
     }
 
     /// The frames sent and received since the last call, oldest first.
@@ -147,7 +103,7 @@ impl Transport {
     pub async fn reconnect(&mut self) -> Result<(), Error> {
         self.close().await;
         self.io = Io::Closed;
-        self.io = open(&self.endpoint, self.timeout).await?;
+        self.io = open(&self.spec, self.timeout).await?;
         self.buffer.clear();
         Ok(())
     }
@@ -183,7 +139,7 @@ impl Transport {
         request: &Request,
     ) -> Result<Result<Response, Exception>, Error> {
         let pdu = request.encode();
-        let what = format!("{} to {}", request.describe(), self.endpoint.describe());
+        let what = format!("{} to {}", request.describe(), self.describe());
         let started = Instant::now();
         let deadline = started + self.timeout;
         let per_try = self.timeout / TRIES;
@@ -221,9 +177,9 @@ impl Transport {
                 Err(Trouble::Fatal(error)) => return Err(error),
             }
         }
-        let hint = match self.endpoint {
-            Endpoint::Rtu { .. } => "check the slave address, baud rate and parity",
-            Endpoint::Tcp { .. } => "",
+        let hint = match self.spec {
+            LinkSpec::ModbusRtu { .. } => "check the slave address, baud rate and parity",
+            _ => "",
         };
         Err(gave_up(what, troubles, self.timeout, hint))
     }
@@ -245,10 +201,8 @@ impl Transport {
         deadline: Instant,
         ids: &mut Vec<u16>,
     ) -> Result<Vec<u8>, Trouble> {
-        let Endpoint::Tcp { unit, .. } = self.endpoint else {
-            return Err(Trouble::Fatal(Error::Protocol(
-                "TCP transaction on a serial link".into(),
-            )));
+        let LinkSpec::ModbusTcp { unit, .. } = self.spec else {
+            return Err(not_tcp());
         };
         self.transaction = self.transaction.wrapping_add(1);
         let transaction = self.transaction;
@@ -259,65 +213,65 @@ impl Transport {
         self.sent.push_back(transaction);
         let adu = frame::encode_tcp(transaction, unit, pdu);
         self.record(true, &adu);
-        let Io::Tcp(stream) = &mut self.io else {
-            return Err(Trouble::Fatal(Error::Protocol(
-                "TCP transaction on a serial link".into(),
-            )));
-        };
+        let stream = tcp(&mut self.io)?;
         send_within(stream, &adu, deadline, what, self.timeout, io_error).await?;
         let sent_at = Instant::now();
         loop {
-            // A whole frame waiting already?
+            if let Some(answer) = self.buffered_tcp(transaction, ids) {
+                return answer;
+            }
+            let stream = tcp(&mut self.io)?;
+            let read = read_within::<_, 512>(
+                stream,
+                &mut self.buffer,
+                deadline,
+                what,
+                TCP_CLOSED,
+                io_error,
+            );
+            if !read.await? {
+                // Half a frame: its rest may never come; start clean.
+                let partial = (!self.buffer.is_empty()).then(|| {
+                    let raw = std::mem::take(&mut self.buffer);
+                    self.record(false, &raw);
+                    ("frame", hex(&raw))
+                });
+                return Err(silence(sent_at, partial));
+            }
+        }
+    }
+
+    /// The answer to this try's `transaction` or an earlier try's (`ids`) among the bytes
+    /// received, late answers to earlier requests skipped; `None` until a whole frame is
+    /// there.
+    fn buffered_tcp(&mut self, transaction: u16, ids: &[u16]) -> Option<Result<Vec<u8>, Trouble>> {
+        loop {
             match frame::decode_tcp(&self.buffer) {
                 Ok(Some((frame, used))) => {
                     let raw = self.buffer[..used].to_vec();
                     self.buffer.drain(..used);
                     self.record(false, &raw);
                     if ids.contains(&frame.transaction) {
-                        return Ok(frame.pdu);
+                        return Some(Ok(frame.pdu));
                     }
                     if self.sent.contains(&frame.transaction) {
                         // A late answer to a request that timed out: skip it.
                         continue;
                     }
-                    return Err(Trouble::Retry(format!(
+                    return Some(Err(Trouble::Retry(format!(
                         "a reply for another transaction ({:04X}h, ours {transaction:04X}h): discarded",
                         frame.transaction
-                    )));
+                    ))));
                 }
-                Ok(None) => {}
+                Ok(None) => return None,
                 Err(e) => {
                     let raw = std::mem::take(&mut self.buffer);
                     self.record(false, &raw);
-                    return Err(Trouble::Retry(format!(
+                    return Some(Err(Trouble::Retry(format!(
                         "garbage instead of a Modbus TCP frame ({e}): {}",
                         hex(&raw)
-                    )));
-                }
-            }
-            let Io::Tcp(stream) = &mut self.io else {
-                return Err(Trouble::Fatal(Error::Protocol(
-                    "TCP transaction on a serial link".into(),
-                )));
-            };
-            let mut chunk = [0u8; 512];
-            match tokio::time::timeout_at(deadline.into(), stream.read(&mut chunk)).await {
-                Err(_) => {
-                    // Half a frame: its rest may never come; start clean.
-                    let partial = (!self.buffer.is_empty()).then(|| {
-                        let raw = std::mem::take(&mut self.buffer);
-                        self.record(false, &raw);
-                        ("frame", hex(&raw))
-                    });
-                    return Err(silence(sent_at, partial));
-                }
-                Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
-                Ok(Ok(0)) => {
-                    return Err(Trouble::Fatal(Error::Disconnected(format!(
-                        "{what}: the drive closed the connection (a Nanotec drive allows one Modbus TCP connection; if another client such as Plug & Drive Studio or a PLC holds it, close that one)"
                     ))));
                 }
-                Ok(Ok(n)) => self.buffer.extend_from_slice(&chunk[..n]),
             }
         }
     }
@@ -332,10 +286,8 @@ impl Transport {
         what: &str,
         deadline: Instant,
     ) -> Result<Vec<u8>, Trouble> {
-        let Endpoint::Rtu { slave, baud, .. } = self.endpoint else {
-            return Err(Trouble::Fatal(Error::Protocol(
-                "RTU transaction on a TCP link".into(),
-            )));
+        let LinkSpec::ModbusRtu { slave, baud, .. } = self.spec else {
+            return Err(not_rtu());
         };
         // Keep the bus silent long enough between frames.
         if let Some(last) = self.last_answer {
@@ -344,96 +296,131 @@ impl Transport {
         }
         let adu = frame::encode_rtu(slave, pdu);
         self.record(true, &adu);
-        let Io::Rtu(port) = &mut self.io else {
-            return Err(Trouble::Fatal(Error::Protocol(
-                "RTU transaction on a TCP link".into(),
-            )));
-        };
+        let port = rtu(&mut self.io)?;
         // Whatever is still in the buffer belongs to nothing we asked.
         let _ = port.clear(tokio_serial::ClearBuffer::Input);
         self.buffer.clear();
-        send_within(port.as_mut(), &adu, deadline, what, self.timeout, io_error).await?;
+        send_within(port, &adu, deadline, what, self.timeout, io_error).await?;
         let sent_at = Instant::now();
-        // Bytes skipped as noise, and the first reason, for the message.
-        let mut noise: Vec<u8> = Vec::new();
-        let mut first_error: Option<String> = None;
-        let mut other_slave: Option<u8> = None;
+        let mut skipped = Skipped::default();
         loop {
-            loop {
-                match frame::decode_rtu(&self.buffer, Direction::Response) {
-                    Ok(Some((frame, used))) => {
-                        let raw = self.buffer[..used].to_vec();
-                        self.buffer.drain(..used);
-                        if !noise.is_empty() {
-                            let skipped = std::mem::take(&mut noise);
-                            self.record(false, &skipped);
-                        }
-                        self.record(false, &raw);
-                        self.last_answer = Some(Instant::now());
-                        if frame.slave != slave {
-                            other_slave = Some(frame.slave);
-                            continue;
-                        }
-                        return Ok(frame.pdu);
-                    }
-                    Ok(None) => break,
-                    Err(e) => {
-                        // Not a frame from here: drop one byte and look again.
-                        first_error.get_or_insert_with(|| e.to_string());
-                        noise.push(self.buffer.remove(0));
-                    }
-                }
+            if let Some(answer) = self.buffered_rtu(slave, &mut skipped) {
+                return Ok(answer);
             }
             // After something garbled, a quiet line means nothing good is coming.
-            let garbled = first_error.is_some() || other_slave.is_some();
+            let garbled = skipped.first_error.is_some() || skipped.other_slave.is_some();
             let wait_until = if garbled {
                 (Instant::now() + rtu_gap(baud) * 4).min(deadline)
             } else {
                 deadline
             };
-            let Io::Rtu(port) = &mut self.io else {
-                return Err(Trouble::Fatal(Error::Protocol(
-                    "RTU transaction on a TCP link".into(),
-                )));
-            };
-            let mut chunk = [0u8; 256];
-            match tokio::time::timeout_at(wait_until.into(), port.read(&mut chunk)).await {
-                Err(_) => {
-                    self.last_answer = Some(Instant::now());
-                    let mut heard = std::mem::take(&mut noise);
-                    heard.append(&mut self.buffer);
-                    if !heard.is_empty() {
-                        self.record(false, &heard);
-                    }
-                    let text = match (first_error, other_slave) {
-                        (Some(e), _) => format!(
-                            "a garbled answer ({e}; noise on the line, or a wrong baud rate or parity): {}",
-                            hex(&heard)
-                        ),
-                        (None, Some(other)) => format!(
-                            "an answer from slave {other} instead of {slave} (another device answers on this address?)"
-                        ),
-                        (None, None) if heard.is_empty() => format!(
-                            "{NO_ANSWER} {} ms (check the slave address, baud rate and parity)",
-                            sent_at.elapsed().as_millis()
-                        ),
-                        (None, None) => format!(
-                            "{NO_ANSWER} {} ms but an incomplete one: {} (check baud rate and parity)",
-                            sent_at.elapsed().as_millis(),
-                            hex(&heard)
-                        ),
-                    };
-                    return Err(Trouble::Retry(text));
-                }
-                Ok(Err(e)) => return Err(Trouble::Fatal(io_error(what, e))),
-                Ok(Ok(0)) => {
-                    return Err(Trouble::Fatal(Error::Disconnected(format!(
-                        "{what}: the serial port closed"
-                    ))));
-                }
-                Ok(Ok(n)) => self.buffer.extend_from_slice(&chunk[..n]),
+            let port = rtu(&mut self.io)?;
+            let closed = "the serial port closed";
+            let read =
+                read_within::<_, 256>(port, &mut self.buffer, wait_until, what, closed, io_error);
+            if !read.await? {
+                return Err(Trouble::Retry(self.rtu_silence(slave, sent_at, skipped)));
             }
         }
+    }
+
+    /// The answer from `slave` among the bytes received: noise before it skipped byte by
+    /// byte, frames from other slaves skipped, both noted in `skipped`; `None` until a
+    /// whole frame from `slave` is there.
+    fn buffered_rtu(&mut self, slave: u8, skipped: &mut Skipped) -> Option<Vec<u8>> {
+        loop {
+            match frame::decode_rtu(&self.buffer, Direction::Response) {
+                Ok(Some((frame, used))) => {
+                    let raw = self.buffer[..used].to_vec();
+                    self.buffer.drain(..used);
+                    if !skipped.noise.is_empty() {
+                        let noise = std::mem::take(&mut skipped.noise);
+                        self.record(false, &noise);
+                    }
+                    self.record(false, &raw);
+                    self.last_answer = Some(Instant::now());
+                    if frame.slave != slave {
+                        skipped.other_slave = Some(frame.slave);
+                        continue;
+                    }
+                    return Some(frame.pdu);
+                }
+                Ok(None) => return None,
+                Err(e) => {
+                    // Not a frame from here: drop one byte and look again.
+                    skipped.first_error.get_or_insert_with(|| e.to_string());
+                    skipped.noise.push(self.buffer.remove(0));
+                }
+            }
+        }
+    }
+
+    /// The line went quiet without an answer from `slave`: what was heard instead, in words.
+    fn rtu_silence(&mut self, slave: u8, sent_at: Instant, skipped: Skipped) -> String {
+        self.last_answer = Some(Instant::now());
+        let Skipped {
+            noise: mut heard,
+            first_error,
+            other_slave,
+        } = skipped;
+        heard.append(&mut self.buffer);
+        if !heard.is_empty() {
+            self.record(false, &heard);
+        }
+        match (first_error, other_slave) {
+            (Some(e), _) => format!(
+                "a garbled answer ({e}; noise on the line, or a wrong baud rate or parity): {}",
+                hex(&heard)
+            ),
+            (None, Some(other)) => format!(
+                "an answer from slave {other} instead of {slave} (another device answers on this address?)"
+            ),
+            (None, None) if heard.is_empty() => format!(
+                "{NO_ANSWER} {} ms (check the slave address, baud rate and parity)",
+                sent_at.elapsed().as_millis()
+            ),
+            (None, None) => format!(
+                "{NO_ANSWER} {} ms but an incomplete one: {} (check baud rate and parity)",
+                sent_at.elapsed().as_millis(),
+                hex(&heard)
+            ),
+        }
+    }
+}
+
+/// What an RTU try heard besides its answer, for the message when none comes: the bytes
+/// skipped as noise and the first reason, and the last other slave that answered.
+#[derive(Default)]
+struct Skipped {
+    noise: Vec<u8>,
+    first_error: Option<String>,
+    other_slave: Option<u8>,
+}
+
+/// What the drive closing the TCP connection means.
+const TCP_CLOSED: &str = "the drive closed the connection (a Nanotec drive allows one Modbus TCP connection; if another client such as Plug & Drive Studio or a PLC holds it, close that one)";
+
+fn not_tcp() -> Trouble {
+    Trouble::Fatal(Error::Protocol("TCP transaction on a serial link".into()))
+}
+
+fn not_rtu() -> Trouble {
+    Trouble::Fatal(Error::Protocol("RTU transaction on a TCP link".into()))
+}
+
+/// The TCP stream of a TCP connection.
+fn tcp(io: &mut Io) -> Result<&mut TcpStream, Trouble> {
+    match io {
+        Io::Tcp(stream) => Ok(stream),
+        _ => Err(not_tcp()),
+    }
+}
+
+/// The serial port of an RTU connection.
+fn rtu(io: &mut Io) -> Result<&mut SerialStream, Trouble> {
+    match io {
+        Io::Rtu(port) => Ok(port.as_mut()),
+        _ => Err(not_rtu()),
     }
 }
 
@@ -452,9 +439,9 @@ fn io_error(what: &str, e: std::io::Error) -> Error {
     }
 }
 
-async fn open(endpoint: &Endpoint, timeout: Duration) -> Result<Io, Error> {
-    match endpoint {
-        Endpoint::Tcp { host, port, .. } => {
+async fn open(spec: &LinkSpec, timeout: Duration) -> Result<Io, Error> {
+    match spec {
+        LinkSpec::ModbusTcp { host, port, .. } => {
             let target = format!("{host}:{port}");
             let connect = TcpStream::connect((host.as_str(), *port));
             match tokio::time::timeout(timeout, connect).await {
@@ -479,7 +466,7 @@ async fn open(endpoint: &Endpoint, timeout: Duration) -> Result<Io, Error> {
                 }
             }
         }
-        Endpoint::Rtu {
+        LinkSpec::ModbusRtu {
             path,
             baud,
             parity,
@@ -507,5 +494,8 @@ async fn open(endpoint: &Endpoint, timeout: Duration) -> Result<Io, Error> {
                     source: std::io::Error::other(e.to_string()),
                 })
         }
+        other => Err(Error::Unsupported(format!(
+            "{other} is not a Modbus connection string"
+        ))),
     }
 }

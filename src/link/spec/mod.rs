@@ -87,27 +87,24 @@ pub struct SpecError {
 impl LinkSpec {
     /// The scheme word, e.g. `modbus-tcp`.
     pub fn scheme(&self) -> &'static str {
-        match self {
-            LinkSpec::Sim => "sim",
-            LinkSpec::ModbusTcp { .. } => "modbus-tcp",
-            LinkSpec::ModbusRtu { .. } => "modbus-rtu",
-            LinkSpec::CanopenSocketcan { .. } => "canopen+socketcan",
-            LinkSpec::CanopenSlcan { .. } => "canopen+slcan",
-            LinkSpec::CanopenSim { .. } => "canopen+sim",
-            LinkSpec::Enip { .. } => "enip",
-        }
+        self.names().0
     }
 
     /// The bus in words, for the UI.
     pub fn bus_name(&self) -> &'static str {
+        self.names().1
+    }
+
+    /// The scheme word and the bus in words.
+    fn names(&self) -> (&'static str, &'static str) {
         match self {
-            LinkSpec::Sim => "Simulated drive",
-            LinkSpec::ModbusTcp { .. } => "Modbus TCP",
-            LinkSpec::ModbusRtu { .. } => "Modbus RTU",
-            LinkSpec::CanopenSocketcan { .. } => "CANopen (SocketCAN)",
-            LinkSpec::CanopenSlcan { .. } => "CANopen (slcan)",
-            LinkSpec::CanopenSim { .. } => "CANopen (simulated bus)",
-            LinkSpec::Enip { .. } => "EtherNet/IP",
+            LinkSpec::Sim => ("sim", "Simulated drive"),
+            LinkSpec::ModbusTcp { .. } => ("modbus-tcp", "Modbus TCP"),
+            LinkSpec::ModbusRtu { .. } => ("modbus-rtu", "Modbus RTU"),
+            LinkSpec::CanopenSocketcan { .. } => ("canopen+socketcan", "CANopen (SocketCAN)"),
+            LinkSpec::CanopenSlcan { .. } => ("canopen+slcan", "CANopen (slcan)"),
+            LinkSpec::CanopenSim { .. } => ("canopen+sim", "CANopen (simulated bus)"),
+            LinkSpec::Enip { .. } => ("enip", "EtherNet/IP"),
         }
     }
 
@@ -125,12 +122,7 @@ impl LinkSpec {
                 words: WordOrder::High,
             },
             "modbus-rtu" => LinkSpec::ModbusRtu {
-                path: if cfg!(windows) {
-                    "COM3"
-                } else {
-                    "/dev/ttyUSB0"
-                }
-                .into(),
+                path: serial_port("COM3", "/dev/ttyUSB0"),
                 baud: 19_200,
                 parity: Parity::Even,
                 stop_bits: 1,
@@ -142,12 +134,7 @@ impl LinkSpec {
                 can: CanopenOptions::default(),
             },
             "canopen+slcan" => LinkSpec::CanopenSlcan {
-                path: if cfg!(windows) {
-                    "COM4"
-                } else {
-                    "/dev/ttyACM0"
-                }
-                .into(),
+                path: serial_port("COM4", "/dev/ttyACM0"),
                 bitrate: 1_000_000,
                 can: CanopenOptions::default(),
             },
@@ -244,24 +231,42 @@ impl LinkSpec {
     }
 
     /// This spec with the target of a string in place of its own.
-    fn with_target(self, target: &str) -> Result<LinkSpec, String> {
-        Ok(match self {
-            LinkSpec::Sim => {
-                if !target.is_empty() {
-                    return Err("the simulator takes no target".into());
-                }
-                LinkSpec::Sim
+    fn with_target(mut self, target: &str) -> Result<LinkSpec, String> {
+        match &mut self {
+            LinkSpec::Sim => no_target(target, "the simulator takes no target")?,
+            LinkSpec::ModbusTcp { host, port, .. } | LinkSpec::Enip { host, port, .. } => {
+                (*host, *port) = host_port(target, *port)?;
             }
-            LinkSpec::ModbusTcp {
-                port, unit, words, ..
-            } => {
-                let (host, port) = host_port(target, port)?;
-                LinkSpec::ModbusTcp {
-                    host,
-                    port,
-                    unit,
-                    words,
+            LinkSpec::ModbusRtu { path, .. } => {
+                *path = serial_path(target, "modbus-rtu:///dev/ttyUSB0")?;
+            }
+            LinkSpec::CanopenSocketcan { iface, .. } => {
+                if target.is_empty() || target.contains('/') {
+                    return Err(
+                        "the CAN interface name is missing (e.g. canopen+socketcan://can0)".into(),
+                    );
                 }
+                *iface = target.to_owned();
+            }
+            LinkSpec::CanopenSlcan { path, .. } => {
+                *path = serial_path(target, "canopen+slcan:///dev/ttyACM0")?;
+            }
+            LinkSpec::CanopenSim { .. } => no_target(
+                target,
+                "the simulated CAN bus takes no target (canopen+sim://?node=1)",
+            )?,
+        }
+        Ok(self)
+    }
+
+    /// This spec with what `q` gives replacing its values; anything left in `q` is an
+    /// error.
+    fn with_params(mut self, q: &mut Query) -> Result<LinkSpec, String> {
+        match &mut self {
+            LinkSpec::Sim => {}
+            LinkSpec::ModbusTcp { unit, words, .. } => {
+                *unit = q.number("unit", *unit, UNITS)?;
+                *words = q.words(*words)?;
             }
             LinkSpec::ModbusRtu {
                 baud,
@@ -271,127 +276,64 @@ impl LinkSpec {
                 words,
                 ..
             } => {
-                if target.is_empty() {
-                    return Err(
-                        "the serial port path is missing (e.g. modbus-rtu:///dev/ttyUSB0)".into(),
-                    );
-                }
-                LinkSpec::ModbusRtu {
-                    path: target.to_owned(),
-                    baud,
-                    parity,
-                    stop_bits,
-                    slave,
-                    words,
-                }
+                *baud = q.number("baud", *baud, BAUDS)?;
+                *parity = parity_param(q, *parity)?;
+                *stop_bits = q.number("stop", *stop_bits, STOP_BITS)?;
+                *slave = q.number("slave", *slave, SLAVES)?;
+                *words = q.words(*words)?;
             }
-            LinkSpec::CanopenSocketcan { can, .. } => {
-                if target.is_empty() || target.contains('/') {
-                    return Err(
-                        "the CAN interface name is missing (e.g. canopen+socketcan://can0)".into(),
-                    );
-                }
-                LinkSpec::CanopenSocketcan {
-                    iface: target.to_owned(),
-                    can,
-                }
+            LinkSpec::CanopenSocketcan { can, .. } | LinkSpec::CanopenSim { can } => {
+                *can = can.with_params(q)?;
             }
             LinkSpec::CanopenSlcan { bitrate, can, .. } => {
-                if target.is_empty() {
-                    return Err(
-                        "the serial port path is missing (e.g. canopen+slcan:///dev/ttyACM0)"
-                            .into(),
-                    );
-                }
-                LinkSpec::CanopenSlcan {
-                    path: target.to_owned(),
-                    bitrate,
-                    can,
-                }
-            }
-            LinkSpec::CanopenSim { can } => {
-                if !target.is_empty() {
-                    return Err(
-                        "the simulated CAN bus takes no target (canopen+sim://?node=1)".into(),
-                    );
-                }
-                LinkSpec::CanopenSim { can }
-            }
-            LinkSpec::Enip { port, enip, .. } => {
-                let (host, port) = host_port(target, port)?;
-                LinkSpec::Enip { host, port, enip }
-            }
-        })
-    }
-
-    /// This spec with what `q` gives replacing its values; anything left in `q` is an
-    /// error.
-    fn with_params(self, q: &mut Query) -> Result<LinkSpec, String> {
-        let spec = match self {
-            LinkSpec::Sim => LinkSpec::Sim,
-            LinkSpec::ModbusTcp {
-                host,
-                port,
-                unit,
-                words,
-            } => LinkSpec::ModbusTcp {
-                host,
-                port,
-                unit: q.number("unit", unit, UNITS)?,
-                words: q.words(words)?,
-            },
-            LinkSpec::ModbusRtu {
-                path,
-                baud,
-                parity,
-                stop_bits,
-                slave,
-                words,
-            } => LinkSpec::ModbusRtu {
-                path,
-                baud: q.number("baud", baud, BAUDS)?,
-                parity: match q.take("parity").as_deref() {
-                    None => parity,
-                    Some("even") | Some("e") => Parity::Even,
-                    Some("none") | Some("n") => Parity::None,
-                    Some("odd") | Some("o") => Parity::Odd,
-                    Some(other) => return Err(format!("parity='{other}': use none, even or odd")),
-                },
-                stop_bits: q.number("stop", stop_bits, STOP_BITS)?,
-                slave: q.number("slave", slave, SLAVES)?,
-                words: q.words(words)?,
-            },
-            LinkSpec::CanopenSocketcan { iface, can } => LinkSpec::CanopenSocketcan {
-                iface,
-                can: can.with_params(q)?,
-            },
-            LinkSpec::CanopenSlcan { path, bitrate, can } => {
-                let bitrate = q.number("bitrate", bitrate, 10_000..=1_000_000)?;
-                if !CAN_BITRATES.contains(&bitrate) {
+                *bitrate = q.number("bitrate", *bitrate, 10_000..=1_000_000)?;
+                if !CAN_BITRATES.contains(bitrate) {
                     return Err(format!(
                         "bitrate={bitrate} is not a CAN bit rate slcan adapters support ({})",
                         CAN_BITRATES.map(|b| b.to_string()).join(", ")
                     ));
                 }
-                LinkSpec::CanopenSlcan {
-                    path,
-                    bitrate,
-                    can: can.with_params(q)?,
-                }
+                *can = can.with_params(q)?;
             }
-            LinkSpec::CanopenSim { can } => LinkSpec::CanopenSim {
-                can: can.with_params(q)?,
-            },
-            LinkSpec::Enip { host, port, enip } => LinkSpec::Enip {
-                host,
-                port,
-                enip: enip.with_params(q)?,
-            },
-        };
-        let keys: Vec<&str> = spec.params().iter().map(|p| p.key).collect();
+            LinkSpec::Enip { enip, .. } => *enip = enip.with_params(q)?,
+        }
+        let keys: Vec<&str> = self.params().iter().map(|p| p.key).collect();
         q.finish(&keys)?;
-        Ok(spec)
+        Ok(self)
     }
+}
+
+/// The usual name of a serial port: on Windows, elsewhere.
+fn serial_port(windows: &str, elsewhere: &str) -> String {
+    if cfg!(windows) { windows } else { elsewhere }.into()
+}
+
+/// A target where the bus takes none: an error saying `why` unless it is empty.
+fn no_target(target: &str, why: &str) -> Result<(), String> {
+    if target.is_empty() {
+        Ok(())
+    } else {
+        Err(why.into())
+    }
+}
+
+/// A serial port path, which a string must name (`example` shows how).
+fn serial_path(target: &str, example: &str) -> Result<String, String> {
+    if target.is_empty() {
+        return Err(format!("the serial port path is missing (e.g. {example})"));
+    }
+    Ok(target.to_owned())
+}
+
+/// `parity=`: none, even or odd (or their first letters).
+fn parity_param(q: &mut Query, current: Parity) -> Result<Parity, String> {
+    Ok(match q.take("parity").as_deref() {
+        None => current,
+        Some("even") | Some("e") => Parity::Even,
+        Some("none") | Some("n") => Parity::None,
+        Some("odd") | Some("o") => Parity::Odd,
+        Some(other) => return Err(format!("parity='{other}': use none, even or odd")),
+    })
 }
 
 impl fmt::Display for LinkSpec {

@@ -309,6 +309,32 @@ pub struct Handled {
     pub frame: Option<CanFrame>,
 }
 
+impl Handled {
+    /// `\r`, with the frame to transmit if any.
+    fn ok(frame: Option<CanFrame>) -> Self {
+        Handled {
+            reply: vec![OK],
+            frame,
+        }
+    }
+
+    /// BEL: the adapter refuses the line.
+    fn refuse() -> Self {
+        Handled {
+            reply: vec![BEL],
+            frame: None,
+        }
+    }
+
+    /// A reply with text (`V1010\r`, …).
+    fn answer(text: &[u8]) -> Self {
+        Handled {
+            reply: text.to_vec(),
+            frame: None,
+        }
+    }
+}
+
 /// `V`: hardware 1.0, software 1.0 (python-can's `get_version` reads two decimal pairs).
 const VERSION_REPLY: &[u8] = b"V1010\r";
 /// `v`: firmware version (USBtin style).
@@ -352,94 +378,83 @@ impl AdapterState {
 
     /// Act on one line from the host, at `now` (the timestamps count from the opening).
     pub fn handle(&mut self, line: Result<SlcanLine, SlcanError>, now: Instant) -> Handled {
-        let ok = |frame| Handled {
-            reply: vec![OK],
-            frame,
-        };
-        let refuse = || Handled {
-            reply: vec![BEL],
-            frame: None,
-        };
-        let answer = |text: &[u8]| Handled {
-            reply: text.to_vec(),
-            frame: None,
-        };
         let line = match line {
             Ok(line) => line,
-            Err(_) => return refuse(),
+            Err(_) => return Handled::refuse(),
         };
         match line {
             // An empty command (python-can sends one after `S8`): nothing to do.
-            SlcanLine::Ack => ok(None),
+            SlcanLine::Ack => Handled::ok(None),
             // The host does not send errors; nothing to answer.
             SlcanLine::Error => Handled::default(),
             SlcanLine::Frame(frame) => match self.open {
-                Some(Mode::Normal) => ok(Some(frame)),
+                Some(Mode::Normal) => Handled::ok(Some(frame)),
                 // Closed: nothing goes on the bus. Listen-only: the adapter may not send.
-                _ => refuse(),
+                _ => Handled::refuse(),
             },
-            SlcanLine::Other(command) => {
-                let closed = self.open.is_none();
-                match command.as_bytes() {
-                    b"O" | b"L" => {
-                        let mode = if command == "O" {
-                            Mode::Normal
-                        } else {
-                            Mode::ListenOnly
-                        };
-                        // Opening an open channel is fine (a CANable does not mind, and
-                        // python-can sends `O` twice).
-                        if self.open != Some(mode) {
-                            self.open = Some(mode);
-                            self.opened_at = Some(now);
-                        }
-                        ok(None)
-                    }
-                    b"C" => {
-                        self.open = None;
-                        self.opened_at = None;
-                        ok(None)
-                    }
-                    [b'S', digit @ b'0'..=b'8'] if closed => {
-                        self.bitrate = Some(BITRATES[usize::from(digit - b'0')].0);
-                        ok(None)
-                    }
-                    // BTR0/BTR1 (SJA1000) or a CANable 2 timing: accepted, rate unknown.
-                    [b's', timing @ ..]
-                        if closed
-                            && matches!(timing.len(), 4 | 8)
-                            && timing.iter().all(u8::is_ascii_hexdigit) =>
-                    {
-                        self.bitrate = None;
-                        ok(None)
-                    }
-                    b"V" => answer(VERSION_REPLY),
-                    b"v" => answer(FIRMWARE_REPLY),
-                    b"N" => answer(SERIAL_REPLY),
-                    // Status flags: nothing to report (Lawicel: only while open).
-                    b"F" if !closed => answer(b"F00\r"),
-                    [b'Z', flag @ (b'0' | b'1')] => {
-                        self.timestamps = *flag == b'1';
-                        ok(None)
-                    }
-                    // Auto poll, auto start, UART speed, filter mode, automatic
-                    // retransmission, CANable mode: accepted, nothing changes here.
-                    [b'X', b'0' | b'1']
-                    | [b'Q', b'0'..=b'2']
-                    | [b'U', b'0'..=b'6']
-                    | [b'W', b'0'..=b'2']
-                    | [b'A' | b'a', b'0' | b'1']
-                    | [b'M' | b'm', b'0' | b'1'] => ok(None),
-                    // Acceptance code and mask: everything passes.
-                    [b'M' | b'm', code @ ..]
-                        if closed && code.len() == 8 && code.iter().all(u8::is_ascii_hexdigit) =>
-                    {
-                        ok(None)
-                    }
-                    _ => refuse(),
-                }
-            }
+            SlcanLine::Other(command) => self.command(command.as_bytes(), now),
         }
+    }
+
+    /// A command other than a frame: open, close, bit rate, version, settings.
+    fn command(&mut self, command: &[u8], now: Instant) -> Handled {
+        let closed = self.open.is_none();
+        match command {
+            b"O" => self.open_channel(Mode::Normal, now),
+            b"L" => self.open_channel(Mode::ListenOnly, now),
+            b"C" => {
+                self.open = None;
+                self.opened_at = None;
+                Handled::ok(None)
+            }
+            [b'S', digit @ b'0'..=b'8'] if closed => {
+                self.bitrate = Some(BITRATES[usize::from(digit - b'0')].0);
+                Handled::ok(None)
+            }
+            // BTR0/BTR1 (SJA1000) or a CANable 2 timing: accepted, rate unknown.
+            [b's', timing @ ..]
+                if closed
+                    && matches!(timing.len(), 4 | 8)
+                    && timing.iter().all(u8::is_ascii_hexdigit) =>
+            {
+                self.bitrate = None;
+                Handled::ok(None)
+            }
+            b"V" => Handled::answer(VERSION_REPLY),
+            b"v" => Handled::answer(FIRMWARE_REPLY),
+            b"N" => Handled::answer(SERIAL_REPLY),
+            // Status flags: nothing to report (Lawicel: only while open).
+            b"F" if !closed => Handled::answer(b"F00\r"),
+            [b'Z', flag @ (b'0' | b'1')] => {
+                self.timestamps = *flag == b'1';
+                Handled::ok(None)
+            }
+            // Auto poll, auto start, UART speed, filter mode, automatic
+            // retransmission, CANable mode: accepted, nothing changes here.
+            [b'X', b'0' | b'1']
+            | [b'Q', b'0'..=b'2']
+            | [b'U', b'0'..=b'6']
+            | [b'W', b'0'..=b'2']
+            | [b'A' | b'a', b'0' | b'1']
+            | [b'M' | b'm', b'0' | b'1'] => Handled::ok(None),
+            // Acceptance code and mask: everything passes.
+            [b'M' | b'm', code @ ..]
+                if closed && code.len() == 8 && code.iter().all(u8::is_ascii_hexdigit) =>
+            {
+                Handled::ok(None)
+            }
+            _ => Handled::refuse(),
+        }
+    }
+
+    /// `O` or `L`. Opening an open channel is fine (a CANable does not mind, and
+    /// python-can sends `O` twice).
+    fn open_channel(&mut self, mode: Mode, now: Instant) -> Handled {
+        if self.open != Some(mode) {
+            self.open = Some(mode);
+            self.opened_at = Some(now);
+        }
+        Handled::ok(None)
     }
 
     /// The line that reports `frame` from the bus to the host, `None` while the channel is

@@ -278,19 +278,6 @@ impl Path {
         let mut segments = Vec::new();
         while r.remaining() > 0 {
             let kind = r.u8("segment type")?;
-            let logical = |r: &mut Reader<'_>, kind: u8| -> Result<u16, DecodeError> {
-                match kind & 0x03 {
-                    0 => Ok(u16::from(r.u8("8-bit logical value")?)),
-                    1 => {
-                        r.u8("pad byte")?;
-                        r.u16("16-bit logical value")
-                    }
-                    _ => Err(DecodeError::invalid(
-                        "EPATH",
-                        format!("logical segment {kind:02X}h: 32-bit values are not supported"),
-                    )),
-                }
-            };
             let segment = match kind {
                 0x20..=0x22 => Segment::Class(logical(&mut r, kind)?),
                 0x24..=0x26 => Segment::Instance(logical(&mut r, kind)?),
@@ -309,24 +296,7 @@ impl Path {
                     key.copy_from_slice(r.take(8, "electronic key")?);
                     Segment::ElectronicKey(key)
                 }
-                0x00..=0x1F => {
-                    let start = r.position() - 1;
-                    let link_size = if kind & 0x10 != 0 {
-                        usize::from(r.u8("link address size")?)
-                    } else {
-                        1
-                    };
-                    let port = if kind & 0x0F == 0x0F {
-                        r.u16("extended port")?
-                    } else {
-                        u16::from(kind & 0x0F)
-                    };
-                    let link = r.take(link_size, "link address")?.to_vec();
-                    if (r.position() - start) % 2 == 1 {
-                        r.u8("pad byte")?;
-                    }
-                    Segment::Port { port, link }
-                }
+                0x00..=0x1F => port_segment(&mut r, kind)?,
                 0x80 => {
                     let words = usize::from(r.u8("data size")?);
                     Segment::Data(r.take(words * 2, "data words")?.to_vec())
@@ -342,6 +312,42 @@ impl Path {
         }
         Ok(Path(segments))
     }
+}
+
+/// The value of a logical segment of type `kind`: 8 or 16 bits (after a pad byte).
+fn logical(r: &mut Reader<'_>, kind: u8) -> Result<u16, DecodeError> {
+    match kind & 0x03 {
+        0 => Ok(u16::from(r.u8("8-bit logical value")?)),
+        1 => {
+            r.u8("pad byte")?;
+            r.u16("16-bit logical value")
+        }
+        _ => Err(DecodeError::invalid(
+            "EPATH",
+            format!("logical segment {kind:02X}h: 32-bit values are not supported"),
+        )),
+    }
+}
+
+/// A port segment of type `kind` (already read): the port, extended or not, and the
+/// link address, padded to an even length.
+fn port_segment(r: &mut Reader<'_>, kind: u8) -> Result<Segment, DecodeError> {
+    let start = r.position() - 1;
+    let link_size = if kind & 0x10 != 0 {
+        usize::from(r.u8("link address size")?)
+    } else {
+        1
+    };
+    let port = if kind & 0x0F == 0x0F {
+        r.u16("extended port")?
+    } else {
+        u16::from(kind & 0x0F)
+    };
+    let link = r.take(link_size, "link address")?.to_vec();
+    if (r.position() - start) % 2 == 1 {
+        r.u8("pad byte")?;
+    }
+    Ok(Segment::Port { port, link })
 }
 
 impl fmt::Display for Path {

@@ -127,24 +127,31 @@ pub fn decode_list_identity_reply(bytes: &[u8]) -> Vec<Identity> {
         .collect()
 }
 
+/// For tests: a Nanotec PD4-E, revision 2.5, that announces 0.0.0.0:44818 (so its address
+/// is where its reply came from).
+#[cfg(test)]
+pub(crate) fn unaddressed_sample() -> Identity {
+    Identity {
+        encap_version: 1,
+        socket: SockAddr::new(SocketAddrV4::new(Ipv4Addr::UNSPECIFIED, 44818)),
+        vendor: 0x558,
+        device_type: 0x2B,
+        product_code: 7,
+        revision: (2, 5),
+        status: 0,
+        serial: 99,
+        product_name: "PD4-E".into(),
+        state: 3,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn a_reply_datagram_lists_its_identities() {
-        let identity = Identity {
-            encap_version: 1,
-            socket: SockAddr::new("0.0.0.0:44818".parse().expect("address")),
-            vendor: 0x558,
-            device_type: 0x2B,
-            product_code: 7,
-            revision: (2, 5),
-            status: 0,
-            serial: 99,
-            product_name: "PD4-E".into(),
-            state: 3,
-        };
+        let identity = unaddressed_sample();
         let mut data = vec![];
         cpf::encode(&[Item::Identity(Box::new(identity.clone()))], &mut data);
         let bytes = Packet::new(Command::LIST_IDENTITY, 0, [0; 8], data).encode();

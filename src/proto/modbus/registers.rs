@@ -28,6 +28,16 @@ pub const PDI_REGISTERS: u16 = 4;
 pub const TX_IMAGE: u16 = 5000;
 /// The default RX process image (3502h) starts here, right after the PDI RX block.
 pub const RX_IMAGE: u16 = 6000;
+/// The factory TX process image (3602h defaults, NT-3602; protocol notes §1.3): 6041h,
+/// dummy 8 bit, 6061h, 6064h, 6044h, 60FDh.
+pub const FACTORY_TX_MAP: [u32; 6] = [
+    0x6041_0010,
+    0x0005_0008,
+    0x6061_0008,
+    0x6064_0020,
+    0x6044_0010,
+    0x60FD_0020,
+];
 /// NanoJ outputs 2500h:01..20h, 32 × i32, read only (N5/CL4-E numbering, protocol notes §5.15).
 pub const NANOJ_OUTPUTS: u16 = 2000;
 /// NanoJ inputs 2400h:01..20h, 32 × i32, write only.
@@ -304,17 +314,9 @@ mod tests {
         assert_eq!(low.return_value, 0x0001_0000);
     }
 
-    /// 3602h defaults (NT-3602, protocol notes §1.3): 6041h, dummy 8 bit, 6061h, 6064h,
-    /// 6044h, 60FDh.
+    /// 3602h defaults.
     fn default_tx_layout() -> ImageLayout {
-        ImageLayout::from_entries(&[
-            0x6041_0010,
-            0x0005_0008,
-            0x6061_0008,
-            0x6064_0020,
-            0x6044_0010,
-            0x60FD_0020,
-        ])
+        ImageLayout::from_entries(&FACTORY_TX_MAP)
     }
 
     #[test]

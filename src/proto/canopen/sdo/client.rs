@@ -181,96 +181,13 @@ impl SdoClient {
                     sub: echo_sub,
                     initiate,
                 },
-            ) => {
-                if (echo_index, echo_sub) != (index, sub) {
-                    self.state = ClientState::UploadInitiate { index, sub };
-                    return stale(index, sub, echo_index, echo_sub);
-                }
-                match initiate {
-                    Initiate::Expedited { .. } => {
-                        SdoEvent::Uploaded(initiate.expedited_data().unwrap_or_default().to_vec())
-                    }
-                    Initiate::Segmented { size } => {
-                        if let Some(size) = size
-                            && usize::try_from(size).map_or(true, |s| s > MAX_TRANSFER)
-                        {
-                            return self.fail(
-                                index,
-                                sub,
-                                AbortCode::OUT_OF_MEMORY,
-                                format!(
-                                    "the object has {size} bytes, more than the {MAX_TRANSFER} a transfer may bring"
-                                ),
-                            );
-                        }
-                        self.state = ClientState::Uploading {
-                            index,
-                            sub,
-                            toggle: false,
-                            size,
-                            data: Vec::new(),
-                        };
-                        SdoEvent::Send(Request::UploadSegment { toggle: false }.frame(self.node))
-                    }
-                }
-            }
+            ) => self.upload_initiated(index, sub, (echo_index, echo_sub), initiate),
             (
                 ClientState::Uploading {
-                    toggle,
-                    size,
-                    mut data,
-                    ..
+                    toggle, size, data, ..
                 },
                 Response::UploadSegment(segment),
-            ) => {
-                if segment.toggle != toggle {
-                    return self.wrong_toggle(index, sub, toggle);
-                }
-                data.extend_from_slice(segment.data());
-                let expected = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
-                if let Some(expected) = expected
-                    && data.len() > expected
-                {
-                    return self.fail(
-                        index,
-                        sub,
-                        AbortCode::GENERAL_ERROR,
-                        format!("the upload brings more than the {expected} bytes it announced"),
-                    );
-                }
-                if data.len() > MAX_TRANSFER {
-                    return self.fail(
-                        index,
-                        sub,
-                        AbortCode::OUT_OF_MEMORY,
-                        format!("the upload brings more than {MAX_TRANSFER} bytes"),
-                    );
-                }
-                if segment.last {
-                    if let Some(expected) = expected
-                        && data.len() != expected
-                    {
-                        return self.fail(
-                            index,
-                            sub,
-                            AbortCode::GENERAL_ERROR,
-                            format!(
-                                "the upload ended after {} bytes, {expected} were announced",
-                                data.len()
-                            ),
-                        );
-                    }
-                    return SdoEvent::Uploaded(data);
-                }
-                self.state = ClientState::Uploading {
-                    index,
-                    sub,
-                    toggle: !toggle,
-                    size,
-                    data,
-                };
-                SdoEvent::Send(Request::UploadSegment { toggle: !toggle }.frame(self.node))
-            }
+            ) => self.upload_segment(index, sub, toggle, size, data, &segment),
             (
                 ClientState::DownloadInitiate {
                     data, expedited, ..
@@ -279,53 +196,188 @@ impl SdoClient {
                     index: echo_index,
                     sub: echo_sub,
                 },
-            ) => {
-                if (echo_index, echo_sub) != (index, sub) {
-                    self.state = ClientState::DownloadInitiate {
-                        index,
-                        sub,
-                        data,
-                        expedited,
-                    };
-                    return stale(index, sub, echo_index, echo_sub);
-                }
-                if expedited {
-                    return SdoEvent::Downloaded;
-                }
-                self.next_segment(index, sub, false, data, 0)
-            }
+            ) => self.download_initiated(index, sub, (echo_index, echo_sub), data, expedited),
             (
                 ClientState::Downloading {
                     toggle, data, sent, ..
                 },
                 Response::DownloadSegment { toggle: echo },
-            ) => {
-                if echo != toggle {
-                    return self.wrong_toggle(index, sub, toggle);
-                }
-                if sent >= data.len() {
-                    return SdoEvent::Downloaded;
-                }
-                self.next_segment(index, sub, !toggle, data, sent)
+            ) => self.download_segment(index, sub, (toggle, echo), data, sent),
+            (state, response) => self.unexpected(index, sub, &state, &response),
+        }
+    }
+
+    /// The upload initiate answer naming `echo`: skipped when that is not the running
+    /// transfer's object; else the value itself (expedited), or the first segment request
+    /// (segmented, when the announced size may come).
+    fn upload_initiated(
+        &mut self,
+        index: u16,
+        sub: u8,
+        echo: (u16, u8),
+        initiate: Initiate,
+    ) -> SdoEvent {
+        if echo != (index, sub) {
+            self.state = ClientState::UploadInitiate { index, sub };
+            return stale(index, sub, echo.0, echo.1);
+        }
+        match initiate {
+            Initiate::Expedited { .. } => {
+                SdoEvent::Uploaded(initiate.expedited_data().unwrap_or_default().to_vec())
             }
-            (state, response) => {
-                let waiting = match state {
-                    ClientState::UploadInitiate { .. } => "the upload initiate response",
-                    ClientState::Uploading { .. } => "an upload segment",
-                    ClientState::DownloadInitiate { .. } => "the download initiate response",
-                    _ => "a download segment acknowledgement",
-                };
-                self.fail(
+            Initiate::Segmented { size } => {
+                if let Some(size) = size
+                    && usize::try_from(size).map_or(true, |s| s > MAX_TRANSFER)
+                {
+                    return self.fail(
+                        index,
+                        sub,
+                        AbortCode::OUT_OF_MEMORY,
+                        format!(
+                            "the object has {size} bytes, more than the {MAX_TRANSFER} a transfer may bring"
+                        ),
+                    );
+                }
+                self.state = ClientState::Uploading {
                     index,
                     sub,
-                    AbortCode::INVALID_COMMAND_SPECIFIER,
-                    format!(
-                        "expected {waiting}, got command byte {:02X}h",
-                        response.encode()[0]
-                    ),
-                )
+                    toggle: false,
+                    size,
+                    data: Vec::new(),
+                };
+                SdoEvent::Send(Request::UploadSegment { toggle: false }.frame(self.node))
             }
         }
+    }
+
+    /// An upload segment, after `data` with the announced `size`, expected with `toggle`:
+    /// the whole value on the last segment, else the request for the next one.
+    fn upload_segment(
+        &mut self,
+        index: u16,
+        sub: u8,
+        toggle: bool,
+        size: Option<u32>,
+        mut data: Vec<u8>,
+        segment: &Segment,
+    ) -> SdoEvent {
+        if segment.toggle != toggle {
+            return self.wrong_toggle(index, sub, toggle);
+        }
+        data.extend_from_slice(segment.data());
+        let expected = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
+        if let Some(expected) = expected
+            && data.len() > expected
+        {
+            return self.fail(
+                index,
+                sub,
+                AbortCode::GENERAL_ERROR,
+                format!("the upload brings more than the {expected} bytes it announced"),
+            );
+        }
+        if data.len() > MAX_TRANSFER {
+            return self.fail(
+                index,
+                sub,
+                AbortCode::OUT_OF_MEMORY,
+                format!("the upload brings more than {MAX_TRANSFER} bytes"),
+            );
+        }
+        if segment.last {
+            if let Some(expected) = expected
+                && data.len() != expected
+            {
+                return self.fail(
+                    index,
+                    sub,
+                    AbortCode::GENERAL_ERROR,
+                    format!(
+                        "the upload ended after {} bytes, {expected} were announced",
+                        data.len()
+                    ),
+                );
+            }
+            return SdoEvent::Uploaded(data);
+        }
+        self.state = ClientState::Uploading {
+            index,
+            sub,
+            toggle: !toggle,
+            size,
+            data,
+        };
+        SdoEvent::Send(Request::UploadSegment { toggle: !toggle }.frame(self.node))
+    }
+
+    /// The download initiate answer naming `echo`: skipped when that is not the running
+    /// transfer's object; else done (expedited) or the first segment.
+    fn download_initiated(
+        &mut self,
+        index: u16,
+        sub: u8,
+        echo: (u16, u8),
+        data: Vec<u8>,
+        expedited: bool,
+    ) -> SdoEvent {
+        if echo != (index, sub) {
+            self.state = ClientState::DownloadInitiate {
+                index,
+                sub,
+                data,
+                expedited,
+            };
+            return stale(index, sub, echo.0, echo.1);
+        }
+        if expedited {
+            return SdoEvent::Downloaded;
+        }
+        self.next_segment(index, sub, false, data, 0)
+    }
+
+    /// A download segment's acknowledgement (`toggles`: the one sent, the one echoed):
+    /// done when all `data` is `sent`, else the next segment.
+    fn download_segment(
+        &mut self,
+        index: u16,
+        sub: u8,
+        toggles: (bool, bool),
+        data: Vec<u8>,
+        sent: usize,
+    ) -> SdoEvent {
+        let (toggle, echo) = toggles;
+        if echo != toggle {
+            return self.wrong_toggle(index, sub, toggle);
+        }
+        if sent >= data.len() {
+            return SdoEvent::Downloaded;
+        }
+        self.next_segment(index, sub, !toggle, data, sent)
+    }
+
+    /// An answer the running transfer did not wait for: a protocol error.
+    fn unexpected(
+        &mut self,
+        index: u16,
+        sub: u8,
+        state: &ClientState,
+        response: &Response,
+    ) -> SdoEvent {
+        let waiting = match state {
+            ClientState::UploadInitiate { .. } => "the upload initiate response",
+            ClientState::Uploading { .. } => "an upload segment",
+            ClientState::DownloadInitiate { .. } => "the download initiate response",
+            _ => "a download segment acknowledgement",
+        };
+        self.fail(
+            index,
+            sub,
+            AbortCode::INVALID_COMMAND_SPECIFIER,
+            format!(
+                "expected {waiting}, got command byte {:02X}h",
+                response.encode()[0]
+            ),
+        )
     }
 
     fn next_segment(

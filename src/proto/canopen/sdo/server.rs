@@ -83,104 +83,127 @@ impl SdoServer {
         match request {
             Request::Abort { .. } => None,
             Request::InitiateUpload { index, sub } => Some(self.initiate_upload(index, sub, od)),
-            Request::UploadSegment { toggle } => {
-                let ServerState::Uploading {
-                    index,
-                    sub,
-                    data,
-                    offset,
-                    toggle: expected,
-                } = state
-                else {
-                    return self.abort_state(&state, AbortCode::INVALID_COMMAND_SPECIFIER);
-                };
-                if toggle != expected {
-                    return self.abort(index, sub, AbortCode::TOGGLE_BIT_NOT_ALTERNATED);
-                }
-                let end = data.len().min(offset.saturating_add(7));
-                let last = end >= data.len();
-                let segment = Segment::new(toggle, data.get(offset..end).unwrap_or_default(), last);
-                if !last {
-                    self.state = ServerState::Uploading {
-                        index,
-                        sub,
-                        data,
-                        offset: end,
-                        toggle: !toggle,
-                    };
-                }
-                Some(Response::UploadSegment(segment))
-            }
+            Request::UploadSegment { toggle } => self.upload_segment(state, toggle),
             Request::InitiateDownload {
                 index,
                 sub,
                 initiate,
-            } => match initiate {
-                Initiate::Expedited { .. } => {
-                    let data = initiate.expedited_data().unwrap_or_default();
-                    match od.write(index, sub, data) {
-                        Ok(()) => Some(Response::DownloadInitiated { index, sub }),
-                        Err(code) => self.abort(index, sub, code),
-                    }
-                }
-                Initiate::Segmented { size } => {
-                    let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
-                    if size.is_some_and(|s| s > MAX_TRANSFER) {
-                        return self.abort(index, sub, AbortCode::OUT_OF_MEMORY);
-                    }
-                    self.state = ServerState::Downloading {
-                        index,
-                        sub,
-                        size,
-                        data: Vec::new(),
-                        toggle: false,
-                    };
-                    Some(Response::DownloadInitiated { index, sub })
-                }
-            },
-            Request::DownloadSegment(segment) => {
-                let ServerState::Downloading {
-                    index,
-                    sub,
-                    size,
-                    mut data,
-                    toggle,
-                } = state
-                else {
-                    return self.abort_state(&state, AbortCode::INVALID_COMMAND_SPECIFIER);
-                };
-                if segment.toggle != toggle {
-                    return self.abort(index, sub, AbortCode::TOGGLE_BIT_NOT_ALTERNATED);
-                }
-                data.extend_from_slice(segment.data());
-                if data.len() > size.unwrap_or(MAX_TRANSFER) {
-                    let code = match size {
-                        Some(_) => AbortCode::TYPE_LENGTH_TOO_HIGH,
-                        None => AbortCode::OUT_OF_MEMORY,
-                    };
-                    return self.abort(index, sub, code);
-                }
-                if !segment.last {
-                    self.state = ServerState::Downloading {
-                        index,
-                        sub,
-                        size,
-                        data,
-                        toggle: !toggle,
-                    };
-                    return Some(Response::DownloadSegment { toggle });
-                }
-                if size.is_some_and(|s| data.len() < s) {
-                    return self.abort(index, sub, AbortCode::TYPE_LENGTH_TOO_LOW);
-                }
-                match od.write(index, sub, &data) {
-                    Ok(()) => Some(Response::DownloadSegment { toggle }),
-                    Err(code) => self.abort(index, sub, code),
-                }
-            }
+            } => self.initiate_download(index, sub, initiate, od),
+            Request::DownloadSegment(segment) => self.download_segment(state, &segment, od),
             Request::Unknown { index, sub, .. } => {
                 self.abort(index, sub, AbortCode::INVALID_COMMAND_SPECIFIER)
             }
+        }
+    }
+
+    /// The next segment of the upload `state` runs, asked for with `toggle`.
+    fn upload_segment(&mut self, state: ServerState, toggle: bool) -> Option<Response> {
+        let ServerState::Uploading {
+            index,
+            sub,
+            data,
+            offset,
+            toggle: expected,
+        } = state
+        else {
+            return self.abort_state(&state, AbortCode::INVALID_COMMAND_SPECIFIER);
+        };
+        if toggle != expected {
+            return self.abort(index, sub, AbortCode::TOGGLE_BIT_NOT_ALTERNATED);
+        }
+        let end = data.len().min(offset.saturating_add(7));
+        let last = end >= data.len();
+        let segment = Segment::new(toggle, data.get(offset..end).unwrap_or_default(), last);
+        if !last {
+            self.state = ServerState::Uploading {
+                index,
+                sub,
+                data,
+                offset: end,
+                toggle: !toggle,
+            };
+        }
+        Some(Response::UploadSegment(segment))
+    }
+
+    /// A download's start: an expedited one writes at once, a segmented one waits for its
+    /// segments.
+    fn initiate_download(
+        &mut self,
+        index: u16,
+        sub: u8,
+        initiate: Initiate,
+        od: &mut impl ObjectAccess,
+    ) -> Option<Response> {
+        match initiate {
+            Initiate::Expedited { .. } => {
+                let data = initiate.expedited_data().unwrap_or_default();
+                match od.write(index, sub, data) {
+                    Ok(()) => Some(Response::DownloadInitiated { index, sub }),
+                    Err(code) => self.abort(index, sub, code),
+                }
+            }
+            Initiate::Segmented { size } => {
+                let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
+                if size.is_some_and(|s| s > MAX_TRANSFER) {
+                    return self.abort(index, sub, AbortCode::OUT_OF_MEMORY);
+                }
+                self.state = ServerState::Downloading {
+                    index,
+                    sub,
+                    size,
+                    data: Vec::new(),
+                    toggle: false,
+                };
+                Some(Response::DownloadInitiated { index, sub })
+            }
+        }
+    }
+
+    /// A segment of the download `state` runs; the last one writes the object.
+    fn download_segment(
+        &mut self,
+        state: ServerState,
+        segment: &Segment,
+        od: &mut impl ObjectAccess,
+    ) -> Option<Response> {
+        let ServerState::Downloading {
+            index,
+            sub,
+            size,
+            mut data,
+            toggle,
+        } = state
+        else {
+            return self.abort_state(&state, AbortCode::INVALID_COMMAND_SPECIFIER);
+        };
+        if segment.toggle != toggle {
+            return self.abort(index, sub, AbortCode::TOGGLE_BIT_NOT_ALTERNATED);
+        }
+        data.extend_from_slice(segment.data());
+        if data.len() > size.unwrap_or(MAX_TRANSFER) {
+            let code = match size {
+                Some(_) => AbortCode::TYPE_LENGTH_TOO_HIGH,
+                None => AbortCode::OUT_OF_MEMORY,
+            };
+            return self.abort(index, sub, code);
+        }
+        if !segment.last {
+            self.state = ServerState::Downloading {
+                index,
+                sub,
+                size,
+                data,
+                toggle: !toggle,
+            };
+            return Some(Response::DownloadSegment { toggle });
+        }
+        if size.is_some_and(|s| data.len() < s) {
+            return self.abort(index, sub, AbortCode::TYPE_LENGTH_TOO_LOW);
+        }
+        match od.write(index, sub, &data) {
+            Ok(()) => Some(Response::DownloadSegment { toggle }),
+            Err(code) => self.abort(index, sub, code),
         }
     }
 

@@ -323,14 +323,7 @@ struct Context {
 }
 
 fn answer(request: &Packet, status: Status, data: Vec<u8>) -> Packet {
-    Packet {
-        command: request.command,
-        session: request.session,
-        status,
-        context: request.context,
-        options: 0,
-        data,
-    }
+    Packet::reply_to(&request.header(), status, data)
 }
 
 fn error(service: u8, status: GeneralStatus) -> Reply {
