@@ -322,15 +322,9 @@ struct Context {
     depth: u8,
 }
 
+/// The answer to `request`: its command, session and context.
 fn answer(request: &Packet, status: Status, data: Vec<u8>) -> Packet {
-    Packet {
-        command: request.command,
-        session: request.session,
-        status,
-        context: request.context,
-        options: 0,
-        data,
-    }
+    Packet::reply_to(&request.header(), status, data)
 }
 
 fn error(service: u8, status: GeneralStatus) -> Reply {
