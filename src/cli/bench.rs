@@ -209,7 +209,63 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
             return ExitCode::from(EXIT_FAILED);
         }
     };
-    // --serve-sim BUS: the simulated drive served on loopback, in this process.
+    let targets = match targets(link, args) {
+        Ok(targets) => targets,
+        Err(code) => return code,
+    };
+    let seconds = Duration::from_secs_f64(args.seconds.clamp(0.2, 600.0));
+    let mut report = Report {
+        links: vec![],
+        peer: None,
+        peer_skipped: None,
+    };
+    for target in &targets {
+        if !json {
+            outln!("link {}", target.spec);
+        }
+        let results = match runtime.block_on(measure(&target.spec, seconds)) {
+            Ok(results) => results,
+            Err(e) => {
+                eprintln!("drivedeck bench: {}: {e}", target.spec);
+                return ExitCode::from(EXIT_FAILED);
+            }
+        };
+        if !json {
+            for figures in &results {
+                outln!("  {figures}");
+            }
+        }
+        report.links.push(LinkReport {
+            link: target.spec.to_string(),
+            results,
+        });
+        // The independent client on the same Modbus TCP server, after ours let go of
+        // it (the server, like the drive, takes one client at a time).
+        if let (Some(server), LinkSpec::ModbusTcp { .. }, false) =
+            (&target.server, &target.spec, args.no_peer)
+        {
+            compare_with_peer(&python(args), server.addr, seconds, json, &mut report);
+        }
+    }
+    print_report(&report, json);
+    ExitCode::SUCCESS
+}
+
+/// The whole run as JSON, or the table when there is more than one line to compare.
+fn print_report(report: &Report, json: bool) {
+    if json {
+        match serde_json::to_string_pretty(report) {
+            Ok(text) => outln!("{text}"),
+            Err(e) => eprintln!("drivedeck bench: {e}"),
+        }
+    } else if report.links.len() > 1 || report.peer.is_some() {
+        print_table(report);
+    }
+}
+
+/// The links to measure: the simulated drive served on loopback in this process for each
+/// bus of --serve-sim, else the --link given. `Err` is the exit code of a failed start.
+fn targets(link: Option<LinkSpec>, args: &BenchArgs) -> Result<Vec<Target>, ExitCode> {
     let buses: Vec<ServedBus> = match (args.serve_sim, &link) {
         (Some(ServedBus::All), _) => vec![
             ServedBus::Modbus,
@@ -223,7 +279,7 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
             eprintln!(
                 "drivedeck bench: give --link URL, or --serve-sim [all|modbus|enip|enip-explicit|canopen] to bench the simulated drive on loopback"
             );
-            return ExitCode::from(EXIT_USAGE);
+            return Err(ExitCode::from(EXIT_USAGE));
         }
     };
     let mut targets = vec![];
@@ -232,70 +288,38 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
             Ok(target) => targets.push(target),
             Err(e) => {
                 eprintln!("drivedeck bench: cannot start the simulated server: {e}");
-                return ExitCode::from(EXIT_FAILED);
+                return Err(ExitCode::from(EXIT_FAILED));
             }
         }
     }
     if let (true, Some(spec)) = (targets.is_empty(), link) {
         targets.push(Target { server: None, spec });
     }
-    let seconds = Duration::from_secs_f64(args.seconds.clamp(0.2, 600.0));
-    let mut report = Report {
-        links: vec![],
-        peer: None,
-        peer_skipped: None,
-    };
-    for target in &targets {
-        if !json {
-            outln!("link {}", target.spec);
+    Ok(targets)
+}
+
+/// pymodbus on the server at `addr`, into the report (or why it did not run).
+fn compare_with_peer(
+    python: &std::path::Path,
+    addr: std::net::SocketAddr,
+    seconds: Duration,
+    json: bool,
+    report: &mut Report,
+) {
+    match pymodbus_figures(python, addr, seconds) {
+        Ok(figures) => {
+            if !json {
+                outln!("  {figures}");
+            }
+            report.peer = Some(figures);
         }
-        match runtime.block_on(measure(&target.spec, seconds)) {
-            Ok(results) => {
-                if !json {
-                    for figures in &results {
-                        outln!("  {figures}");
-                    }
-                }
-                report.links.push(LinkReport {
-                    link: target.spec.to_string(),
-                    results,
-                });
+        Err(why) => {
+            if !json {
+                outln!("  pymodbus comparison skipped: {why}");
             }
-            Err(e) => {
-                eprintln!("drivedeck bench: {}: {e}", target.spec);
-                return ExitCode::from(EXIT_FAILED);
-            }
-        }
-        // The independent client on the same Modbus TCP server, after ours let go of
-        // it (the server, like the drive, takes one client at a time).
-        if let (Some(server), LinkSpec::ModbusTcp { .. }, false) =
-            (&target.server, &target.spec, args.no_peer)
-        {
-            match pymodbus_figures(&python(args), server.addr, seconds) {
-                Ok(figures) => {
-                    if !json {
-                        outln!("  {figures}");
-                    }
-                    report.peer = Some(figures);
-                }
-                Err(why) => {
-                    if !json {
-                        outln!("  pymodbus comparison skipped: {why}");
-                    }
-                    report.peer_skipped = Some(why);
-                }
-            }
+            report.peer_skipped = Some(why);
         }
     }
-    if json {
-        match serde_json::to_string_pretty(&report) {
-            Ok(text) => outln!("{text}"),
-            Err(e) => eprintln!("drivedeck bench: {e}"),
-        }
-    } else if report.links.len() > 1 || report.peer.is_some() {
-        print_table(&report);
-    }
-    ExitCode::SUCCESS
 }
 
 /// The PDI exchanges side by side.

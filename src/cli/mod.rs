@@ -194,14 +194,10 @@ pub struct OdDumpArgs {
     pub node: Option<u8>,
 }
 
+// The dictionary a backup file is judged by, for `od diff` and `od restore` (a plain
+// comment, so that clap takes no help text from it).
 #[derive(Args, Debug, Clone)]
-pub struct OdFileArgs {
-    /// A backup file written by `od dump` or the window's "Save backup".
-    #[arg(value_name = "FILE.json")]
-    pub file: std::path::PathBuf,
-    /// List the objects that match too, not only the differences.
-    #[arg(long)]
-    pub all: bool,
+pub struct JudgeArgs {
     /// The dictionary that judges the file: this EDS's instead of the built-in catalog's
     /// (give the one the backup was saved with). Objects it does not know as settings are
     /// skipped, never written.
@@ -210,6 +206,19 @@ pub struct OdFileArgs {
     /// The node id for the EDS's $NODEID formulas.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
     pub node: Option<u8>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct OdFileArgs {
+    /// A backup file written by `od dump` or the window's "Save backup".
+    #[arg(value_name = "FILE.json")]
+    pub file: std::path::PathBuf,
+    /// List the objects that match too, not only the differences.
+    #[arg(long)]
+    pub all: bool,
+    // --eds and --node.
+    #[command(flatten)]
+    pub judge: JudgeArgs,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -227,14 +236,9 @@ pub struct OdRestoreArgs {
     /// Restore a file saved from another kind of device (vendor or product differ).
     #[arg(long)]
     pub force: bool,
-    /// The dictionary that judges the file: this EDS's instead of the built-in catalog's
-    /// (give the one the backup was saved with). Objects it does not know as settings are
-    /// skipped, never written.
-    #[arg(long, value_name = "FILE")]
-    pub eds: Option<std::path::PathBuf>,
-    /// The node id for the EDS's $NODEID formulas.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
-    pub node: Option<u8>,
+    // --eds and --node.
+    #[command(flatten)]
+    pub judge: JudgeArgs,
 }
 
 #[derive(Args, Debug, Clone)]

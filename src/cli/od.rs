@@ -8,12 +8,11 @@
 
 use std::path::Path;
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use serde::Serialize;
 
 use super::failure::{Failure, usage};
-use super::progress;
 use super::session::Session;
 use super::{EXIT_FAILED, OdArgs, OdCommand, OdListArgs, report};
 use crate::link::LinkSpec;
@@ -122,33 +121,15 @@ fn list_objects(
 ) -> Result<(ListReport, bool), Failure> {
     let mut warnings = vec![];
     let mut notes = vec![];
+    let filter = args.filter.as_deref().unwrap_or("");
     let (catalog, eds): (Catalog, Option<Eds>) = match &args.eds {
         Some(path) => {
             let node_id = args.node.or_else(|| link.and_then(link_node_id));
-            let eds = load_eds(path, node_id)?;
-            let file = path.file_name().map_or_else(
-                || path.display().to_string(),
-                |n| n.to_string_lossy().into(),
-            );
-            warnings.extend(eds.warnings.iter().map(|w| format!("{file} {w}")));
-            let merged = eds.merged_with(od::builtin());
-            let listed: Vec<_> = merged
-                .catalog
-                .filter(args.filter.as_deref().unwrap_or(""))
-                .map(|e| e.address)
-                .collect();
-            notes.extend(
-                merged
-                    .notes
-                    .into_iter()
-                    .filter(|n| listed.contains(&n.address))
-                    .map(|n| n.message),
-            );
-            (merged.catalog, Some(eds))
+            let (catalog, eds) = eds_catalog(path, node_id, filter, &mut warnings, &mut notes)?;
+            (catalog, Some(eds))
         }
         None => (od::builtin().clone(), None),
     };
-    let filter = args.filter.as_deref().unwrap_or("");
     let entries: Vec<&Entry> = catalog.filter(filter).collect();
     if entries.is_empty() {
         notes.push(format!("no object matches '{filter}'"));
@@ -165,39 +146,7 @@ fn list_objects(
     }
     let mut stopped: Option<String> = None;
     if let Some(link) = link {
-        let mut session = Session::open(link, timeout, trace)?;
-        let readable: Vec<_> = entries
-            .iter()
-            .filter(|e| e.access.readable())
-            .map(|e| (e.address, e.dtype))
-            .collect();
-        let started = Instant::now();
-        let count = readable.len();
-        let (reads, failure) = session.read_many(readable, timeout, progress::bar("reading"));
-        progress::done(count, reads.len(), started.elapsed(), &mut notes);
-        notes.extend(session.take_notes());
-        if let Some(f) = failure {
-            stopped = Some(f.message);
-        }
-        for (row, entry) in rows.iter_mut().zip(&entries) {
-            match reads.get(&entry.address) {
-                _ if !entry.access.readable() => {
-                    row.error = Some("not read: a write-only object".into());
-                }
-                Some(Ok(value)) => {
-                    row.text = Some(value.to_string());
-                    row.hex = Some(value.to_hex(entry.dtype)).filter(|h| !h.is_empty());
-                    row.value = Some(value.clone());
-                }
-                Some(Err(refusal)) => row.error = Some(refusal.to_string()),
-                None => {
-                    row.error = Some(format!(
-                        "not read: {}",
-                        stopped.as_deref().unwrap_or("no answer")
-                    ));
-                }
-            }
-        }
+        stopped = read_values(link, &entries, &mut rows, timeout, trace, &mut notes)?;
         if let Some(reason) = &stopped {
             warnings.push(format!(
                 "reading stopped: {reason}; the objects after it were not read"
@@ -217,6 +166,75 @@ fn list_objects(
         notes,
     };
     Ok((report, stopped.is_some()))
+}
+
+/// An EDS's dictionary, with the catalog's units and descriptions where the file lacks
+/// them. The file's warnings go to `warnings`, the merge's notes on the objects that
+/// `filter` lists to `notes`.
+fn eds_catalog(
+    path: &Path,
+    node_id: Option<u8>,
+    filter: &str,
+    warnings: &mut Vec<String>,
+    notes: &mut Vec<String>,
+) -> Result<(Catalog, Eds), Failure> {
+    let eds = load_eds(path, node_id)?;
+    let file = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into(),
+    );
+    warnings.extend(eds.warnings.iter().map(|w| format!("{file} {w}")));
+    let merged = eds.merged_with(od::builtin());
+    let listed: Vec<_> = merged.catalog.filter(filter).map(|e| e.address).collect();
+    notes.extend(
+        merged
+            .notes
+            .into_iter()
+            .filter(|n| listed.contains(&n.address))
+            .map(|n| n.message),
+    );
+    Ok((merged.catalog, eds))
+}
+
+/// With --link: every readable object's value (or why it has none) in its row; the
+/// reason when a broken link stopped the reading.
+fn read_values(
+    link: &LinkSpec,
+    entries: &[&Entry],
+    rows: &mut [Row],
+    timeout: Duration,
+    trace: bool,
+    notes: &mut Vec<String>,
+) -> Result<Option<String>, Failure> {
+    let mut session = Session::open(link, timeout, trace)?;
+    let readable: Vec<_> = entries
+        .iter()
+        .filter(|e| e.access.readable())
+        .map(|e| (e.address, e.dtype))
+        .collect();
+    let (reads, failure) = session.read_many_shown(readable, timeout, "reading", notes);
+    notes.extend(session.take_notes());
+    let stopped = failure.map(|f| f.message);
+    for (row, entry) in rows.iter_mut().zip(entries) {
+        match reads.get(&entry.address) {
+            _ if !entry.access.readable() => {
+                row.error = Some("not read: a write-only object".into());
+            }
+            Some(Ok(value)) => {
+                row.text = Some(value.to_string());
+                row.hex = Some(value.to_hex(entry.dtype)).filter(|h| !h.is_empty());
+                row.value = Some(value.clone());
+            }
+            Some(Err(refusal)) => row.error = Some(refusal.to_string()),
+            None => {
+                row.error = Some(format!(
+                    "not read: {}",
+                    stopped.as_deref().unwrap_or("no answer")
+                ));
+            }
+        }
+    }
+    Ok(stopped)
 }
 
 fn row(entry: &Entry, eds: Option<&Eds>) -> Row {
@@ -261,17 +279,9 @@ fn default_text(row: &Row) -> String {
 }
 
 fn print(report: &ListReport, json: bool) {
-    for note in &report.notes {
-        eprintln!("note: {note}");
-    }
-    for warning in &report.warnings {
-        eprintln!("warning: {warning}");
-    }
+    report::print_lines(&report.notes, &report.warnings);
     if json {
-        match serde_json::to_string_pretty(report) {
-            Ok(text) => outln!("{text}"),
-            Err(e) => eprintln!("drivedeck: cannot format the list as JSON: {e}"),
-        }
+        report::print_json(report, "list");
         return;
     }
     if report.objects.is_empty() {
@@ -303,27 +313,10 @@ fn print(report: &ListReport, json: bool) {
         "LIMITS"
     );
     for row in &report.objects {
-        let unit = row.unit.as_deref().unwrap_or("");
         let last = if with_values {
-            match (&row.text, &row.error) {
-                (_, Some(error)) => format!("error: {error}"),
-                (Some(text), None) => {
-                    // Hex for integers; text and bytes speak for themselves.
-                    let hex = match (&row.value, &row.hex) {
-                        (Some(Value::Int(_) | Value::Uint(_)), Some(h)) => format!(" ({h})"),
-                        _ => String::new(),
-                    };
-                    let unit = if unit.is_empty() {
-                        String::new()
-                    } else {
-                        format!(" {unit}")
-                    };
-                    format!("{text}{unit}{hex}")
-                }
-                (None, None) => String::new(),
-            }
+            value_text(row)
         } else {
-            unit.to_owned()
+            row.unit.clone().unwrap_or_default()
         };
         let line = format!(
             "{:<9}  {:<7} {:<6} {:<name_width$}  {:<default_width$}  {:<12}  {last}",
@@ -335,5 +328,26 @@ fn print(report: &ListReport, json: bool) {
             limits(row),
         );
         outln!("{}", line.trim_end());
+    }
+}
+
+/// The value column of a row read with --link: the value with its unit (and hex for
+/// integers), or why it was not read.
+fn value_text(row: &Row) -> String {
+    match (&row.text, &row.error) {
+        (_, Some(error)) => format!("error: {error}"),
+        (Some(text), None) => {
+            // Hex for integers; text and bytes speak for themselves.
+            let hex = match (&row.value, &row.hex) {
+                (Some(Value::Int(_) | Value::Uint(_)), Some(h)) => format!(" ({h})"),
+                _ => String::new(),
+            };
+            let unit = match row.unit.as_deref() {
+                None | Some("") => String::new(),
+                Some(unit) => format!(" {unit}"),
+            };
+            format!("{text}{unit}{hex}")
+        }
+        (None, None) => String::new(),
     }
 }

@@ -159,23 +159,7 @@ fn execute(
             Report::Object(report::object(w.address, Some(dtype), &value, true))
         }
         (Command::Torque(t), Some((request, wait))) => {
-            if let Some(slope) = t.slope {
-                session.write(
-                    Address::new(0x6087, 0),
-                    DataType::Unsigned32,
-                    Value::Uint(u64::from(slope)),
-                    ObjectPath::Auto,
-                    timeout,
-                )?;
-            } else {
-                match session.read(Address::new(0x6087, 0), Some(DataType::Unsigned32), ObjectPath::Auto, timeout) {
-                    Ok(v) if v.as_i128() == Some(0) => session.warnings.push(
-                        "torque slope 6087h is 0 (the factory value): the torque will not build up and the motor will not move; give --slope N (‰/s)".into(),
-                    ),
-                    Ok(_) => {}
-                    Err(e) => session.warnings.push(format!("could not check the torque slope: {}", e.message)),
-                }
-            }
+            torque_slope(&mut session, t.slope, timeout)?;
             motion(&mut session, request, wait, timeout)?
         }
         (command, Some((request, wait))) if moves(command) => {
@@ -190,6 +174,33 @@ fn execute(
     report.set_warnings(std::mem::take(&mut session.warnings));
     report.set_notes(std::mem::take(&mut session.notes));
     Ok(report)
+}
+
+/// Profile Torque's slope 6087h: set to `--slope`, or else checked, since the factory's 0
+/// never builds up a torque (a warning, not a refusal).
+fn torque_slope(
+    session: &mut Session,
+    slope: Option<u32>,
+    timeout: Duration,
+) -> Result<(), Failure> {
+    let address = Address::new(0x6087, 0);
+    if let Some(slope) = slope {
+        return session.write(
+            address,
+            DataType::Unsigned32,
+            Value::Uint(u64::from(slope)),
+            ObjectPath::Auto,
+            timeout,
+        );
+    }
+    match session.read(address, Some(DataType::Unsigned32), ObjectPath::Auto, timeout) {
+        Ok(v) if v.as_i128() == Some(0) => session.warnings.push(
+            "torque slope 6087h is 0 (the factory value): the torque will not build up and the motor will not move; give --slope N (‰/s)".into(),
+        ),
+        Ok(_) => {}
+        Err(e) => session.warnings.push(format!("could not check the torque slope: {}", e.message)),
+    }
+    Ok(())
 }
 
 /// Commands that start motion or wait on it: an interrupt, or a --wait that times out,

@@ -207,83 +207,99 @@ pub fn command(what: String, image: Option<[u8; 8]>, progress: &CommandProgress)
 }
 
 pub fn print(report: &Report, json: bool) {
-    for note in report.notes() {
-        eprintln!("note: {note}");
-    }
-    for warning in report.warnings() {
-        eprintln!("warning: {warning}");
-    }
+    print_lines(report.notes(), report.warnings());
     if json {
-        match serde_json::to_string_pretty(report) {
-            Ok(text) => outln!("{text}"),
-            Err(e) => eprintln!("drivedeck: cannot format the report as JSON: {e}"),
-        }
+        print_json(report, "report");
         return;
     }
     match report {
         Report::Status(s) => print_status(s),
-        Report::Scan(r) => {
-            if r.nodes.is_empty() {
-                outln!("nothing answered on {}", r.bus);
-            }
-            let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
-            for n in &r.nodes {
-                let (place, revision) = match n.node {
-                    Some(node) => (format!("node {node:>3}"), hex(n.revision)),
-                    // EtherNet/IP: the address, and the revision as major.minor.
-                    None => (
-                        n.address.clone(),
-                        n.revision
-                            .map_or("?".into(), |r| format!("{}.{}", r >> 16, r & 0xFFFF)),
-                    ),
-                };
-                outln!(
-                    "{place}  vendor {}  product {}  revision {revision}  serial {}  {:<15} {}",
-                    hex(n.vendor),
-                    hex(n.product),
-                    hex(n.serial),
-                    n.state.clone().unwrap_or_default(),
-                    n.name.clone().unwrap_or_default()
-                );
-            }
-        }
-        Report::Object(o) => {
-            let name = o
-                .name
-                .as_deref()
-                .map(|n| format!(" {n}"))
-                .unwrap_or_default();
-            let unit = o
-                .unit
-                .as_deref()
-                .map(|u| format!(" {u}"))
-                .unwrap_or_default();
-            let hex = o
-                .hex
-                .as_deref()
-                .map(|h| format!(" ({h})"))
-                .unwrap_or_default();
-            let verb = if o.written { "written: " } else { "" };
-            outln!("{}{name} = {verb}{}{unit}{hex}", o.address, o.text);
-        }
-        Report::Command(c) => {
-            let image = c
-                .image
-                .map(|b| {
-                    format!(
-                        " [{}]",
-                        b.iter()
-                            .map(|x| format!("{x:02X}"))
-                            .collect::<Vec<_>>()
-                            .join(" ")
-                    )
-                })
-                .unwrap_or_default();
-            match c.return_value {
-                Some(rv) => outln!("{}{image}: {} (ReturnValue {rv})", c.command, c.outcome),
-                None => outln!("{}{image}: {}", c.command, c.outcome),
-            }
-        }
+        Report::Scan(r) => print_scan(r),
+        Report::Object(o) => print_object(o),
+        Report::Command(c) => print_command(c),
+    }
+}
+
+/// A report's notes and warnings, on stderr.
+pub fn print_lines(notes: &[String], warnings: &[String]) {
+    for note in notes {
+        eprintln!("note: {note}");
+    }
+    for warning in warnings {
+        eprintln!("warning: {warning}");
+    }
+}
+
+/// A report as JSON on stdout; `what` names it when it cannot be formatted.
+pub fn print_json(report: &impl Serialize, what: &str) {
+    match serde_json::to_string_pretty(report) {
+        Ok(text) => outln!("{text}"),
+        Err(e) => eprintln!("drivedeck: cannot format the {what} as JSON: {e}"),
+    }
+}
+
+fn print_scan(r: &ScanReport) {
+    if r.nodes.is_empty() {
+        outln!("nothing answered on {}", r.bus);
+    }
+    let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
+    for n in &r.nodes {
+        let (place, revision) = match n.node {
+            Some(node) => (format!("node {node:>3}"), hex(n.revision)),
+            // EtherNet/IP: the address, and the revision as major.minor.
+            None => (
+                n.address.clone(),
+                n.revision
+                    .map_or("?".into(), |r| format!("{}.{}", r >> 16, r & 0xFFFF)),
+            ),
+        };
+        outln!(
+            "{place}  vendor {}  product {}  revision {revision}  serial {}  {:<15} {}",
+            hex(n.vendor),
+            hex(n.product),
+            hex(n.serial),
+            n.state.clone().unwrap_or_default(),
+            n.name.clone().unwrap_or_default()
+        );
+    }
+}
+
+fn print_object(o: &ObjectReport) {
+    let name = o
+        .name
+        .as_deref()
+        .map(|n| format!(" {n}"))
+        .unwrap_or_default();
+    let unit = o
+        .unit
+        .as_deref()
+        .map(|u| format!(" {u}"))
+        .unwrap_or_default();
+    let hex = o
+        .hex
+        .as_deref()
+        .map(|h| format!(" ({h})"))
+        .unwrap_or_default();
+    let verb = if o.written { "written: " } else { "" };
+    outln!("{}{name} = {verb}{}{unit}{hex}", o.address, o.text);
+}
+
+fn print_command(c: &CommandReport) {
+    let image = c
+        .image
+        .map(|b| {
+            format!(
+                " [{}]",
+                b.iter()
+                    .map(|x| format!("{x:02X}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            )
+        })
+        .unwrap_or_default();
+    match c.return_value {
+        Some(rv) => outln!("{}{image}: {} (ReturnValue {rv})", c.command, c.outcome),
+        None => outln!("{}{image}: {}", c.command, c.outcome),
     }
 }
 

@@ -8,12 +8,16 @@ use std::time::{Duration, Instant};
 use super::failure::{Failure, failed, interrupted, usage};
 use super::interrupt;
 use super::policy::policy;
+use super::progress;
 use crate::link::LinkSpec;
 use crate::od::{Address, DataType, Value};
 use crate::pdi::Timing;
 use crate::worker::{
     self, CommandProgress, Event, ObjectError, ObjectPath, Request, Sample, Worker,
 };
+
+/// Objects read, each with its value or why it has none.
+pub(super) type Reads = BTreeMap<Address, Result<Value, ObjectError>>;
 
 /// Samples kept from the start of a session for a recording (the rest are the
 /// recording's own business).
@@ -278,21 +282,58 @@ impl Session {
         path: ObjectPath,
         timeout: Duration,
     ) -> Result<Result<Value, ObjectError>, Failure> {
-        let id = self.send(Request::ReadObject {
+        let request = Request::ReadObject {
             address,
             dtype,
             path,
-        })?;
+        };
+        self.await_object(request, timeout, |event| match event {
+            Event::ObjectRead { id, result, .. } => Some((id, result)),
+            _ => None,
+        })
+    }
+
+    /// Send an object request and wait for its answer, which `answer` picks from the
+    /// events with the request's id. The worker's rejection is a refusal (`Ok(Err(_))`);
+    /// a broken link or a timeout is `Err`.
+    fn await_object<T>(
+        &mut self,
+        request: Request,
+        timeout: Duration,
+        answer: impl Fn(Event) -> Option<(u64, Result<T, ObjectError>)>,
+    ) -> Result<Result<T, ObjectError>, Failure> {
+        let id = self.send(request)?;
         let deadline = Instant::now() + timeout;
         loop {
             match self.next(deadline)? {
-                Event::ObjectRead { id: i, result, .. } if i == id => return Ok(result),
                 Event::Rejected { id: i, reason, .. } if i == id => {
                     return Ok(Err(ObjectError::NotSent(reason)));
                 }
-                _ => {}
+                event => {
+                    if let Some((i, result)) = answer(event)
+                        && i == id
+                    {
+                        return Ok(result);
+                    }
+                }
             }
         }
+    }
+
+    /// [`Session::read_many`] with a bar saying `what` on stderr, and its summary (how
+    /// many, how fast) in `notes`.
+    pub(super) fn read_many_shown(
+        &mut self,
+        objects: Vec<(Address, DataType)>,
+        timeout: Duration,
+        what: &'static str,
+        notes: &mut Vec<String>,
+    ) -> (Reads, Option<Failure>) {
+        let started = Instant::now();
+        let asked = objects.len();
+        let (reads, failure) = self.read_many(objects, timeout, progress::bar(what));
+        progress::done(asked, reads.len(), started.elapsed(), notes);
+        (reads, failure)
     }
 
     /// Read many objects in one queued request, in order; `progress(done, total)` after
@@ -304,10 +345,7 @@ impl Session {
         objects: Vec<(Address, DataType)>,
         timeout: Duration,
         mut progress: impl FnMut(usize, usize),
-    ) -> (
-        BTreeMap<Address, Result<Value, ObjectError>>,
-        Option<Failure>,
-    ) {
+    ) -> (Reads, Option<Failure>) {
         let total = objects.len();
         let mut reads = BTreeMap::new();
         if total == 0 {
@@ -360,22 +398,13 @@ impl Session {
         value: Value,
         timeout: Duration,
     ) -> Result<Result<(), ObjectError>, Failure> {
-        let id = self.send(Request::WriteObject {
+        let request = Request::WriteObject {
             address,
             dtype,
             value,
             path: ObjectPath::Auto,
-        })?;
-        let deadline = Instant::now() + timeout;
-        loop {
-            match self.next(deadline)? {
-                Event::ObjectWritten { id: i, result, .. } if i == id => return Ok(result),
-                Event::Rejected { id: i, reason, .. } if i == id => {
-                    return Ok(Err(ObjectError::NotSent(reason)));
-                }
-                _ => {}
-            }
-        }
+        };
+        self.await_object(request, timeout, written)
     }
 
     /// Notices the worker gave (fallbacks, mapping changes), for the report.
@@ -392,29 +421,27 @@ impl Session {
         timeout: Duration,
     ) -> Result<(), Failure> {
         let shown = value.to_string();
-        let id = self.send(Request::WriteObject {
+        let request = Request::WriteObject {
             address,
             dtype,
             value,
             path,
-        })?;
-        let deadline = Instant::now() + timeout;
-        loop {
-            match self.next(deadline)? {
-                Event::ObjectWritten { id: i, result, .. } if i == id => {
-                    return result.map_err(|e| failed(format!("write {shown} to {address}: {e}")));
-                }
-                Event::Rejected { id: i, reason, .. } if i == id => {
-                    return Err(failed(format!("write {shown} to {address}: {reason}")));
-                }
-                _ => {}
-            }
-        }
+        };
+        self.await_object(request, timeout, written)?
+            .map_err(|e| failed(format!("write {shown} to {address}: {e}")))
     }
 
     /// Let a few more samples arrive, so a status printed after a command shows its effect.
     pub(super) fn refresh(&mut self) {
         let deadline = Instant::now() + Duration::from_millis(60);
         while self.next(deadline).is_ok() {}
+    }
+}
+
+/// The outcome of a write, picked from the events for [`Session::await_object`].
+fn written(event: Event) -> Option<(u64, Result<(), ObjectError>)> {
+    match event {
+        Event::ObjectWritten { id, result, .. } => Some((id, result)),
+        _ => None,
     }
 }

@@ -16,7 +16,7 @@ impl Session {
     /// Signals are not caught from here on: a second Ctrl-C ends the process at once.
     pub(super) fn stop_drive(&mut self, action: LinkLossAction, wait: Duration) -> String {
         self.interruptible = false;
-        let (mut what, request) = match action {
+        let (what, request) = match action {
             LinkLossAction::Nothing => {
                 return format!(
                     "the drive is left as it is (--on-exit leave): {}",
@@ -26,34 +26,27 @@ impl Session {
             LinkLossAction::Halt => ("halt", Request::Halt),
             LinkLossAction::SwitchOff => ("switch-off", Request::Command(Action::SwitchOff)),
         };
-        let mut id = match self.send(request) {
-            Ok(id) => id,
-            Err(f) => {
-                return format!(
-                    "no {what} could be sent ({}): the drive may still be moving; stop it at the machine",
-                    f.message
-                );
-            }
-        };
+        match self.send(request) {
+            Ok(id) => self.await_stop(what, id, wait),
+            Err(f) => format!(
+                "no {what} could be sent ({}): the drive may still be moving; stop it at the machine",
+                f.message
+            ),
+        }
+    }
+
+    /// Wait up to `wait` for the stop request `id` (a `what`) to finish, and say what came
+    /// of it. A refused halt (no travel command to halt) becomes a quick stop.
+    fn await_stop(&mut self, mut what: &'static str, mut id: u64, wait: Duration) -> String {
         let mut instead = String::new();
         let mut acknowledged = false;
         let deadline = Instant::now() + wait;
         loop {
             let event = match self.next(deadline) {
                 Ok(event) => event,
-                Err(f) if acknowledged => {
-                    return format!(
-                        "{instead}{what} sent and acknowledged, but not finished within {:.1} s ({}): {}",
-                        wait.as_secs_f64(),
-                        f.message,
-                        self.motion_now()
-                    );
-                }
                 Err(f) => {
-                    return format!(
-                        "{instead}{what} sent, but the drive did not acknowledge it ({}): it may still be moving; stop it at the machine",
-                        f.message
-                    );
+                    let sent = format!("{instead}{what} sent");
+                    return self.unfinished(&sent, acknowledged, wait, &f.message);
                 }
             };
             match event {
@@ -92,6 +85,21 @@ impl Session {
                 },
                 _ => {}
             }
+        }
+    }
+
+    /// The waiting for a stop (`sent`) ended before it finished, for `why`.
+    fn unfinished(&self, sent: &str, acknowledged: bool, wait: Duration, why: &str) -> String {
+        if acknowledged {
+            format!(
+                "{sent} and acknowledged, but not finished within {:.1} s ({why}): {}",
+                wait.as_secs_f64(),
+                self.motion_now()
+            )
+        } else {
+            format!(
+                "{sent}, but the drive did not acknowledge it ({why}): it may still be moving; stop it at the machine"
+            )
         }
     }
 

@@ -475,15 +475,10 @@ pub fn restore_plan<E: std::fmt::Display>(
             steps.extend(mapping_steps(&differences, &current, &saved));
         }
         steps.push(Step {
-            address: difference.address,
-            name: difference.name.clone(),
-            dtype: difference.dtype,
-            value: difference.file.clone(),
-            before: current(difference.address),
-            why: Why::Restore,
             warning: LINK_SETTINGS
                 .contains(&difference.address.index)
                 .then(|| "changes how the drive is reached once stored and restarted: this link may need new settings".to_owned()),
+            ..Step::restore(difference, current(difference.address))
         });
     }
     if !mapping_done {
@@ -505,87 +500,103 @@ fn mapping_steps(
         .collect();
     indices.sort_unstable();
     indices.dedup();
+    indices
+        .into_iter()
+        .flat_map(|index| remap(index, differences, current, saved))
+        .collect()
+}
+
+/// One mapping object's procedure: the PDO invalid (if it is one), the count 0, the
+/// entries, the count, and the PDO valid again with the file's COB-ID.
+fn remap(
+    index: u16,
+    differences: &[Difference],
+    current: &dyn Fn(Address) -> Option<Value>,
+    saved: &dyn Fn(Address) -> Option<Value>,
+) -> Vec<Step> {
     let mut steps = vec![];
-    for index in indices {
-        let count = Address::new(index, 0);
-        let entries: Vec<&Difference> = differences
-            .iter()
-            .filter(|d| d.address.index == index && d.address.sub > 0)
-            .collect();
-        let cob = pdo_comm(index).map(|comm| Address::new(comm, 1));
-        // PDO: invalid while its mapping changes.
-        let cob_now = cob.and_then(current);
-        if let (Some(cob), Some(Value::Uint(id))) = (cob, &cob_now)
-            && id & 0x8000_0000 == 0
+    let count = Address::new(index, 0);
+    let entries: Vec<&Difference> = differences
+        .iter()
+        .filter(|d| d.address.index == index && d.address.sub > 0)
+        .collect();
+    let cob = pdo_comm(index).map(|comm| Address::new(comm, 1));
+    // PDO: invalid while its mapping changes.
+    let cob_now = cob.and_then(current);
+    if let (Some(cob), Some(Value::Uint(id))) = (cob, &cob_now)
+        && id & 0x8000_0000 == 0
+    {
+        let invalid = Value::Uint(id | 0x8000_0000);
+        let why = Why::Procedure("invalidate the PDO while its mapping changes");
+        steps.push(cob_id_step(index, cob, invalid, cob_now.clone(), why));
+    }
+    let count_file = saved(count).or_else(|| current(count));
+    if !entries.is_empty() {
+        let why = Why::Procedure("count 0 before the entries change");
+        steps.push(count_step(index, Value::Uint(0), current(count), why));
+        steps.extend(entries.iter().map(|e| Step::restore(e, current(e.address))));
+    }
+    if let Some(count_value) = count_file {
+        let why = if saved(count).is_some() {
+            Why::Restore
+        } else {
+            Why::Procedure("the count back")
+        };
+        steps.push(count_step(index, count_value, current(count), why));
+    }
+    // The PDO valid again, with the file's COB-ID where it has one.
+    if let Some(cob) = cob {
+        let target = saved(cob).or_else(|| cob_now.clone());
+        if let Some(target) = target
+            && (Some(&target) != cob_now.as_ref()
+                || matches!(&cob_now, Some(Value::Uint(id)) if id & 0x8000_0000 == 0))
         {
-            steps.push(Step {
-                address: cob,
-                name: format!("COB-ID of the PDO mapped by {index:04X}h"),
-                dtype: DataType::Unsigned32,
-                value: Value::Uint(id | 0x8000_0000),
-                before: cob_now.clone(),
-                why: Why::Procedure("invalidate the PDO while its mapping changes"),
-                warning: None,
-            });
-        }
-        let count_file = saved(count).or_else(|| current(count));
-        if !entries.is_empty() {
-            steps.push(Step {
-                address: count,
-                name: format!("{index:04X}h number of mapped objects"),
-                dtype: DataType::Unsigned8,
-                value: Value::Uint(0),
-                before: current(count),
-                why: Why::Procedure("count 0 before the entries change"),
-                warning: None,
-            });
-            for entry in entries {
-                steps.push(Step {
-                    address: entry.address,
-                    name: entry.name.clone(),
-                    dtype: entry.dtype,
-                    value: entry.file.clone(),
-                    before: current(entry.address),
-                    why: Why::Restore,
-                    warning: None,
-                });
-            }
-        }
-        if let Some(count_value) = count_file {
-            steps.push(Step {
-                address: count,
-                name: format!("{index:04X}h number of mapped objects"),
-                dtype: DataType::Unsigned8,
-                value: count_value,
-                before: current(count),
-                why: if saved(count).is_some() {
-                    Why::Restore
-                } else {
-                    Why::Procedure("the count back")
-                },
-                warning: None,
-            });
-        }
-        // The PDO valid again, with the file's COB-ID where it has one.
-        if let Some(cob) = cob {
-            let target = saved(cob).or_else(|| cob_now.clone());
-            if let Some(target) = target
-                && (Some(&target) != cob_now.as_ref()
-                    || matches!(&cob_now, Some(Value::Uint(id)) if id & 0x8000_0000 == 0))
-            {
-                steps.push(Step {
-                    address: cob,
-                    name: format!("COB-ID of the PDO mapped by {index:04X}h"),
-                    dtype: DataType::Unsigned32,
-                    value: target,
-                    before: cob_now.clone(),
-                    why: Why::Procedure("the PDO's COB-ID as in the file"),
-                    warning: None,
-                });
-            }
+            let why = Why::Procedure("the PDO's COB-ID as in the file");
+            steps.push(cob_id_step(index, cob, target, cob_now.clone(), why));
         }
     }
     steps
+}
+
+/// A write of the COB-ID (`cob`) of the PDO that mapping object `index` maps.
+fn cob_id_step(index: u16, cob: Address, value: Value, before: Option<Value>, why: Why) -> Step {
+    Step {
+        address: cob,
+        name: format!("COB-ID of the PDO mapped by {index:04X}h"),
+        dtype: DataType::Unsigned32,
+        value,
+        before,
+        why,
+        warning: None,
+    }
+}
+
+/// A write of the number of objects mapping object `index` maps (its sub 0).
+fn count_step(index: u16, value: Value, before: Option<Value>, why: Why) -> Step {
+    Step {
+        address: Address::new(index, 0),
+        name: format!("{index:04X}h number of mapped objects"),
+        dtype: DataType::Unsigned8,
+        value,
+        before,
+        why,
+        warning: None,
+    }
+}
+
+impl Step {
+    /// The file's value of a difference, where the device holds `before`.
+    fn restore(difference: &Difference, before: Option<Value>) -> Step {
+        Step {
+            address: difference.address,
+            name: difference.name.clone(),
+            dtype: difference.dtype,
+            value: difference.file.clone(),
+            before,
+            why: Why::Restore,
+            warning: None,
+        }
+    }
 }
 
 #[cfg(test)]

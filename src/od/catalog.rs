@@ -282,78 +282,86 @@ fn optional_value(
 }
 
 impl ObjectDef {
-    fn add_to(self, catalog: &mut Catalog) -> Result<(), Error> {
+    fn add_to(mut self, catalog: &mut Catalog) -> Result<(), Error> {
         let index = parse_hex_u32(&self.index, "index", 0xFFFF)? as u16;
-        let group = Group::of_index(index);
-        let here =
-            |msg: &str| Error::Catalog(format!("object {:04X}h {}: {msg}", index, self.name));
         if self.subs.is_empty() {
-            let dtype = self.dtype.ok_or_else(|| here("a variable needs a type"))?;
-            let access = self
-                .access
-                .ok_or_else(|| here("a variable needs an access"))?;
-            let address = Address::new(index, 0);
-            let entry = Entry {
-                address,
-                object_name: self.name.clone(),
-                name: self.name.clone(),
-                dtype,
-                access,
-                unit: self.unit.clone(),
-                description: self.description.clone(),
-                default: optional_value(&self.default, dtype, address, "default")?,
-                min: optional_value(&self.min, dtype, address, "min")?,
-                max: optional_value(&self.max, dtype, address, "max")?,
-                group,
-                role: Role::of(address, access, dtype),
-            };
-            if catalog.entries.contains_key(&address) {
-                return Err(here("defined twice"));
+            let entry = self.variable(index)?;
+            if catalog.entries.contains_key(&entry.address) {
+                return Err(self.error(index, "defined twice"));
             }
             catalog.insert(entry);
             return Ok(());
         }
         if self.dtype.is_some() || self.access.is_some() || self.default.is_some() {
-            return Err(here(
+            return Err(self.error(
+                index,
                 "an object with subindices takes type, access and default per subindex",
             ));
         }
-        for sub in self.subs {
-            let address = Address::new(index, parse_hex_u32(&sub.sub, "subindex", 0xFF)? as u8);
-            let entry = Entry {
-                address,
-                object_name: self.name.clone(),
-                name: sub.name,
-                dtype: sub.dtype,
-                access: sub.access,
-                unit: sub.unit.or_else(|| self.unit.clone()),
-                description: if sub.description.is_empty() {
-                    self.description.clone()
-                } else {
-                    sub.description
-                },
-                default: optional_value(&sub.default, sub.dtype, address, "default")?,
-                min: optional_value(
-                    &sub.min.or_else(|| self.min.clone()),
-                    sub.dtype,
-                    address,
-                    "min",
-                )?,
-                max: optional_value(
-                    &sub.max.or_else(|| self.max.clone()),
-                    sub.dtype,
-                    address,
-                    "max",
-                )?,
-                group,
-                role: Role::of(address, sub.access, sub.dtype),
-            };
-            if catalog.entries.contains_key(&address) {
-                return Err(Error::Catalog(format!("{address} defined twice")));
+        for sub in std::mem::take(&mut self.subs) {
+            let entry = self.sub_entry(index, sub)?;
+            if catalog.entries.contains_key(&entry.address) {
+                return Err(Error::Catalog(format!("{} defined twice", entry.address)));
             }
             catalog.insert(entry);
         }
         Ok(())
+    }
+
+    /// A problem with this object of the catalog file.
+    fn error(&self, index: u16, msg: &str) -> Error {
+        Error::Catalog(format!("object {:04X}h {}: {msg}", index, self.name))
+    }
+
+    /// The entry of an object without subindices (a variable, at sub 0).
+    fn variable(&self, index: u16) -> Result<Entry, Error> {
+        let dtype = self
+            .dtype
+            .ok_or_else(|| self.error(index, "a variable needs a type"))?;
+        let access = self
+            .access
+            .ok_or_else(|| self.error(index, "a variable needs an access"))?;
+        let address = Address::new(index, 0);
+        Ok(Entry {
+            address,
+            object_name: self.name.clone(),
+            name: self.name.clone(),
+            dtype,
+            access,
+            unit: self.unit.clone(),
+            description: self.description.clone(),
+            default: optional_value(&self.default, dtype, address, "default")?,
+            min: optional_value(&self.min, dtype, address, "min")?,
+            max: optional_value(&self.max, dtype, address, "max")?,
+            group: Group::of_index(index),
+            role: Role::of(address, access, dtype),
+        })
+    }
+
+    /// The entry of one subindex; unit, description and limits it leaves out are the
+    /// object's.
+    fn sub_entry(&self, index: u16, sub: SubDef) -> Result<Entry, Error> {
+        let address = Address::new(index, parse_hex_u32(&sub.sub, "subindex", 0xFF)? as u8);
+        let min = sub.min.or_else(|| self.min.clone());
+        let max = sub.max.or_else(|| self.max.clone());
+        Ok(Entry {
+            address,
+            object_name: self.name.clone(),
+            name: sub.name,
+            dtype: sub.dtype,
+            access: sub.access,
+            unit: sub.unit.or_else(|| self.unit.clone()),
+            description: if sub.description.is_empty() {
+                self.description.clone()
+            } else {
+                sub.description
+            },
+            default: optional_value(&sub.default, sub.dtype, address, "default")?,
+            min: optional_value(&min, sub.dtype, address, "min")?,
+            max: optional_value(&max, sub.dtype, address, "max")?,
+            group: Group::of_index(index),
+            role: Role::of(address, sub.access, sub.dtype),
+        })
     }
 }
 

@@ -317,43 +317,18 @@ impl Action {
                 got: inputs.len(),
             });
         }
-        let mut checked = [0i64; 3];
-        for (slot, (spec, value)) in checked.iter_mut().zip(specs.iter().zip(inputs)) {
-            *slot = spec.check(*value)?;
+        // Each value goes to its field; the check bounds it to the field's width (or, for
+        // an unsigned OD value, to its 32 bits), so the narrowing below is exact.
+        let mut values = SetValues::default();
+        for (spec, value) in specs.iter().zip(inputs) {
+            let value = spec.check(*value)?;
+            match spec.field {
+                Field::SetValue1 => values.value1 = value as i32,
+                Field::SetValue2 => values.value2 = value as i16,
+                Field::SetValue3 => values.value3 = value as i8,
+            }
         }
-        // The checks above bound every value to its field, so the narrowing below is exact.
-        let [a, b, c] = checked;
-        Ok(match opcode {
-            Opcode::Nop => Action::Nop,
-            Opcode::SwitchOff => Action::SwitchOff,
-            Opcode::ClearError => Action::ClearError,
-            Opcode::Quickstop => Action::Quickstop,
-            Opcode::AutoSetup => Action::AutoSetup,
-            Opcode::OdRead => Action::OdRead {
-                index: a as u16,
-                sub: b as u8,
-            },
-            Opcode::OdWrite => Action::OdWrite {
-                index: a as u16,
-                sub: b as u8,
-                value: c as u32 as i32,
-            },
-            Opcode::HomeHere => Action::HomeHere { position: a as i32 },
-            Opcode::Homing => Action::Homing { method: a as i8 },
-            Opcode::MoveAbsolute => Action::MoveAbsolute {
-                target: a as i32,
-                speed: b as i16,
-            },
-            Opcode::MoveRelative => Action::MoveRelative {
-                distance: a as i32,
-                speed: b as i16,
-            },
-            Opcode::Velocity => Action::Velocity { speed: a as i32 },
-            Opcode::Torque => Action::Torque {
-                torque: a as i32,
-                max_speed: b as i16,
-            },
-        })
+        Ok(Action::from_set_values(opcode, values))
     }
 
     /// The command an RX image describes (the inverse of `set_values`).

@@ -5,41 +5,27 @@ use std::fmt;
 
 use super::Error;
 
-/// The 13 PDI commands of spec section 2.2.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Opcode {
-    Nop = 0,
-    SwitchOff = 1,
-    ClearError = 2,
-    Quickstop = 3,
-    OdRead = 14,
-    OdWrite = 15,
-    AutoSetup = 16,
-    HomeHere = 17,
-    Homing = 18,
-    MoveAbsolute = 20,
-    MoveRelative = 21,
-    Velocity = 23,
-    Torque = 25,
+enum_with_all! {
+    /// The 13 PDI commands of spec section 2.2.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum Opcode {
+        Nop = 0,
+        SwitchOff = 1,
+        ClearError = 2,
+        Quickstop = 3,
+        OdRead = 14,
+        OdWrite = 15,
+        AutoSetup = 16,
+        HomeHere = 17,
+        Homing = 18,
+        MoveAbsolute = 20,
+        MoveRelative = 21,
+        Velocity = 23,
+        Torque = 25,
+    }
 }
 
 impl Opcode {
-    pub const ALL: [Opcode; 13] = [
-        Opcode::Nop,
-        Opcode::SwitchOff,
-        Opcode::ClearError,
-        Opcode::Quickstop,
-        Opcode::OdRead,
-        Opcode::OdWrite,
-        Opcode::AutoSetup,
-        Opcode::HomeHere,
-        Opcode::Homing,
-        Opcode::MoveAbsolute,
-        Opcode::MoveRelative,
-        Opcode::Velocity,
-        Opcode::Torque,
-    ];
-
     pub fn value(self) -> u8 {
         self as u8
     }

@@ -20,7 +20,7 @@
 use std::fmt;
 use std::time::{Duration, Instant};
 
-use super::{Action, Command, Error, Opcode, RxImage, SetValues, StatusBit, TxImage};
+use super::{Action, Command, Error, Opcode, RxImage, SetValues, Status, StatusBit, TxImage};
 use crate::cia::{AbortCode, ErrorCode};
 
 /// Timeouts of the master. Defaults suit every bus: a drive answers a PDI command within a
@@ -201,6 +201,71 @@ struct Pending {
     resent: bool,
 }
 
+impl Pending {
+    /// A command just sent, judged against the `status` before it.
+    fn sent(tag: u64, kind: Kind, goal: Waiting, status: Status, now: Instant) -> Pending {
+        Pending {
+            tag,
+            kind,
+            goal,
+            sent_at: now,
+            acked_at: None,
+            baseline_toggle: status.is_set(StatusBit::ToggleCmd),
+            baseline_halt: status.is_set(StatusBit::QsHaltBit),
+            goal_seen_clear: false,
+            goal_set_since: None,
+            enabled_seen: false,
+            resent: false,
+        }
+    }
+
+    /// The drive refused the command after all: PdiStatusError, the code in ReturnValue.
+    fn refused(&self, tx: TxImage) -> Progress {
+        Progress::Failed {
+            tag: self.tag,
+            failure: Failure::Refused {
+                code: tx.return_value as u32,
+            },
+        }
+    }
+
+    /// For a command waiting for a bit or standstill: whether this image shows the goal.
+    fn goal_reached(&self, status: Status) -> bool {
+        match self.goal {
+            Waiting::Bit(bit) => status.is_set(bit),
+            _ => status.is_set(StatusBit::QsHaltBit) && status.is_set(StatusBit::TargetReached),
+        }
+    }
+
+    /// For a command waiting for a bit or standstill: the failure this image shows, if any.
+    /// `foreground` is false for a move watched under a later command.
+    fn motion_failed(&self, tx: TxImage, foreground: bool) -> Option<Progress> {
+        let status = tx.status;
+        let travel_like = matches!(self.kind, Kind::Resume)
+            || matches!(self.kind, Kind::Command(a) if a.opcode().energises());
+        if foreground && status.is_set(StatusBit::Error) {
+            // The drive gave up on the command after accepting it (e.g. a homing
+            // run that found no switch).
+            return Some(self.refused(tx));
+        }
+        if status.is_set(StatusBit::Fault) && self.goal != Waiting::Stopped {
+            return Some(Progress::Failed {
+                tag: self.tag,
+                failure: Failure::DriveFault {
+                    error_code: tx.error_code,
+                },
+            });
+        }
+        if travel_like && self.enabled_seen && !status.is_set(StatusBit::OperationEnabled) {
+            return Some(Progress::Failed {
+                tag: self.tag,
+                failure: Failure::PowerLost,
+            });
+        }
+        None
+    }
+}
+
 /// The travel command the halt bit belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Travel {
@@ -347,19 +412,8 @@ impl PdiMaster {
             // These end the travel command: a later halt has nothing to act on.
             self.travel = None;
         }
-        self.pending = Some(Pending {
-            tag,
-            kind: Kind::Command(action),
-            goal: goal_of(opcode),
-            sent_at: now,
-            acked_at: None,
-            baseline_toggle: status.is_set(StatusBit::ToggleCmd),
-            baseline_halt: status.is_set(StatusBit::QsHaltBit),
-            goal_seen_clear: false,
-            goal_set_since: None,
-            enabled_seen: false,
-            resent: false,
-        });
+        let kind = Kind::Command(action);
+        self.pending = Some(Pending::sent(tag, kind, goal_of(opcode), status, now));
         self.last_sent = Some(image);
         Ok(image)
     }
@@ -367,79 +421,46 @@ impl PdiMaster {
     /// Set the halt bit on the travel command: the drive brakes to speed 0 and stays
     /// energised (spec 2.2.14).
     pub fn halt(&mut self, tag: u64, now: Instant) -> Result<RxImage, Error> {
-        let status = self.last_tx.ok_or(Error::NoStatusYet)?.status;
-        let travel = self.travel.ok_or(Error::NoTravel)?;
-        let toggle = self
-            .last_sent
-            .is_some_and(|last| last.cmd & Command::TOGGLE_BIT != 0);
-        let image = RxImage::new(
-            travel.action.set_values(),
-            Command {
-                opcode: travel.action.opcode(),
-                halt: true,
-                toggle,
-            },
-        );
-        self.make_way(None);
-        self.travel = Some(Travel {
-            halted: true,
-            ..travel
-        });
-        self.pending = Some(Pending {
-            tag,
-            kind: Kind::Halt,
-            goal: Waiting::Stopped,
-            sent_at: now,
-            acked_at: None,
-            baseline_toggle: status.is_set(StatusBit::ToggleCmd),
-            baseline_halt: status.is_set(StatusBit::QsHaltBit),
-            goal_seen_clear: false,
-            goal_set_since: None,
-            enabled_seen: false,
-            resent: false,
-        });
-        self.last_sent = Some(image);
-        Ok(image)
+        self.set_halt(tag, now, true)
     }
 
     /// Reset the halt bit: the drive continues to the old target with the old set values
     /// (spec 2.2.14). To take new values instead, `start` a new travel command; the master
     /// then resets halt and flips ToggleCmd together.
     pub fn resume(&mut self, tag: u64, now: Instant) -> Result<RxImage, Error> {
+        self.set_halt(tag, now, false)
+    }
+
+    /// The travel command again, with the halt bit set or reset and ToggleCmd as it was.
+    fn set_halt(&mut self, tag: u64, now: Instant, halt: bool) -> Result<RxImage, Error> {
         let status = self.last_tx.ok_or(Error::NoStatusYet)?.status;
         let travel = self.travel.ok_or(Error::NoTravel)?;
-        if !travel.halted {
+        if !halt && !travel.halted {
             return Err(Error::NotHalted);
         }
         let toggle = self
             .last_sent
             .is_some_and(|last| last.cmd & Command::TOGGLE_BIT != 0);
+        let opcode = travel.action.opcode();
         let image = RxImage::new(
             travel.action.set_values(),
             Command {
-                opcode: travel.action.opcode(),
-                halt: false,
+                opcode,
+                halt,
                 toggle,
             },
         );
         self.make_way(None);
         self.travel = Some(Travel {
-            halted: false,
+            halted: halt,
             ..travel
         });
-        self.pending = Some(Pending {
-            tag,
-            kind: Kind::Resume,
-            goal: goal_of(travel.action.opcode()),
-            sent_at: now,
-            acked_at: None,
-            baseline_toggle: status.is_set(StatusBit::ToggleCmd),
-            baseline_halt: status.is_set(StatusBit::QsHaltBit),
-            goal_seen_clear: false,
-            goal_set_since: None,
-            enabled_seen: false,
-            resent: false,
-        });
+        let (kind, goal) = if halt {
+            (Kind::Halt, Waiting::Stopped)
+        } else {
+            (Kind::Resume, goal_of(opcode))
+        };
+        self.pending = Some(Pending::sent(tag, kind, goal, status, now));
         self.last_sent = Some(image);
         Ok(image)
     }
@@ -481,12 +502,7 @@ impl PdiMaster {
                 return;
             }
             if toggled && status.is_set(StatusBit::Error) {
-                self.progress.push(Progress::Failed {
-                    tag: p.tag,
-                    failure: Failure::Refused {
-                        code: tx.return_value as u32,
-                    },
-                });
+                self.progress.push(p.refused(tx));
                 return;
             }
             p.acked_at = Some(now);
@@ -603,43 +619,13 @@ impl PdiMaster {
                 }
             }
             Waiting::Bit(_) | Waiting::Stopped => {
-                let reached = match p.goal {
-                    Waiting::Bit(bit) => status.is_set(bit),
-                    _ => {
-                        status.is_set(StatusBit::QsHaltBit)
-                            && status.is_set(StatusBit::TargetReached)
-                    }
-                };
-                let travel_like = matches!(p.kind, Kind::Resume)
-                    || matches!(p.kind, Kind::Command(a) if a.opcode().energises());
-                if foreground && status.is_set(StatusBit::Error) {
-                    // The drive gave up on the command after accepting it (e.g. a homing
-                    // run that found no switch).
-                    return Some(Progress::Failed {
-                        tag: p.tag,
-                        failure: Failure::Refused {
-                            code: tx.return_value as u32,
-                        },
-                    });
-                }
-                if status.is_set(StatusBit::Fault) && p.goal != Waiting::Stopped {
-                    return Some(Progress::Failed {
-                        tag: p.tag,
-                        failure: Failure::DriveFault {
-                            error_code: tx.error_code,
-                        },
-                    });
-                }
-                if travel_like && p.enabled_seen && !status.is_set(StatusBit::OperationEnabled) {
-                    return Some(Progress::Failed {
-                        tag: p.tag,
-                        failure: Failure::PowerLost,
-                    });
+                if let Some(failed) = p.motion_failed(tx, foreground) {
+                    return Some(failed);
                 }
                 if status.is_set(StatusBit::OperationEnabled) {
                     p.enabled_seen = true;
                 }
-                if !reached {
+                if !p.goal_reached(status) {
                     p.goal_seen_clear = true;
                     p.goal_set_since = None;
                     return None;

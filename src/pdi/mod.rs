@@ -5,6 +5,26 @@
 //! Spec: Nanotec's *Function description Plug & Drive interface* (the PDI spec, see
 //! `docs/protocol-notes.md` §0.1), sections 2.1 to 3.
 
+/// A fieldless enum with explicit values, and `ALL`: its variants in declaration order.
+/// One list, so that `ALL` cannot miss a variant.
+macro_rules! enum_with_all {
+    (
+        $(#[$meta:meta])*
+        pub enum $name:ident {
+            $($variant:ident = $value:literal,)+
+        }
+    ) => {
+        $(#[$meta])*
+        pub enum $name {
+            $($variant = $value,)+
+        }
+
+        impl $name {
+            pub const ALL: [$name; [$($value),+].len()] = [$($name::$variant),+];
+        }
+    };
+}
+
 mod action;
 mod command;
 mod error;

@@ -46,11 +46,33 @@ impl Bench {
         self.master.drain_progress()
     }
 
+    /// Start `action` as command `tag`, now: the image the master writes.
+    fn start(&mut self, tag: u64, action: Action) -> RxImage {
+        self.master.start(tag, action, self.now).unwrap()
+    }
+
     /// The drive detects a new command: its status toggle flips.
     fn detect(&mut self, bits: &[StatusBit], return_value: i32) -> Vec<Progress> {
         self.toggle = !self.toggle;
         self.answer(bits, return_value)
     }
+}
+
+/// Command `tag` done, with this ReturnValue.
+fn done(tag: u64, return_value: i32) -> Progress {
+    Progress::Done { tag, return_value }
+}
+
+fn move_to(target: i32, speed: i16) -> Action {
+    Action::MoveAbsolute { target, speed }
+}
+
+fn move_by(distance: i32, speed: i16) -> Action {
+    Action::MoveRelative { distance, speed }
+}
+
+fn od_read(index: u16, sub: u8) -> Action {
+    Action::OdRead { index, sub }
 }
 
 fn bytes(image: RxImage) -> [u8; 8] {
@@ -61,17 +83,7 @@ fn bytes(image: RxImage) -> [u8; 8] {
 fn od_read_of_3320h_01h_then_a_second_read_toggles() {
     // Spec 2.2.5: SetValue2 = 13088 (3320h), SetValue3 = 1, Cmd = 14.
     let mut b = Bench::new();
-    let image = b
-        .master
-        .start(
-            1,
-            Action::OdRead {
-                index: 0x3320,
-                sub: 1,
-            },
-            b.now,
-        )
-        .unwrap();
+    let image = b.start(1, od_read(0x3320, 1));
     assert_eq!(image.values.value2, 13088);
     assert_eq!(image.values.value3, 1);
     assert_eq!(image.cmd, 14);
@@ -79,28 +91,9 @@ fn od_read_of_3320h_01h_then_a_second_read_toggles() {
     b.tick(10);
     assert_eq!(b.answer(&[], 0), vec![]); // not detected yet
     let progress = b.detect(&[], 1234);
-    assert_eq!(
-        progress,
-        vec![
-            Progress::Accepted { tag: 1 },
-            Progress::Done {
-                tag: 1,
-                return_value: 1234
-            }
-        ]
-    );
+    assert_eq!(progress, vec![Progress::Accepted { tag: 1 }, done(1, 1234)]);
     // "To read out a second value, you must toggle the ToggleCmd bit."
-    let again = b
-        .master
-        .start(
-            2,
-            Action::OdRead {
-                index: 0x3320,
-                sub: 1,
-            },
-            b.now,
-        )
-        .unwrap();
+    let again = b.start(2, od_read(0x3320, 1));
     assert_eq!(again.cmd, 0x8E);
 }
 
@@ -109,22 +102,16 @@ fn od_write_of_1000_to_203bh_01h() {
     // Spec 2.2.6: SetValue2 = 8251 (203Bh), SetValue3 = 1, SetValue1 = 1000, Cmd = 15.
     let mut b = Bench::new();
     let action = Action::from_inputs(Opcode::OdWrite, &[0x203B, 1, 1000]).unwrap();
-    let image = b.master.start(7, action, b.now).unwrap();
+    let image = b.start(7, action);
     assert_eq!(image.values.value2, 8251);
     assert_eq!(image.values.value3, 1);
     assert_eq!(image.values.value1, 1000);
     assert_eq!(image.cmd, 15);
     assert_eq!(bytes(image), [0xE8, 0x03, 0, 0, 0x3B, 0x20, 1, 15]);
     let progress = b.detect(&[], 1000);
-    assert_eq!(
-        progress.last(),
-        Some(&Progress::Done {
-            tag: 7,
-            return_value: 1000
-        })
-    );
+    assert_eq!(progress.last(), Some(&done(7, 1000)));
     // "To write a second value, you must toggle the ToggleCmd bit."
-    let second = b.master.start(8, action, b.now).unwrap();
+    let second = b.start(8, action);
     assert_eq!(second.cmd, 15 | 0x80);
 }
 
@@ -132,17 +119,7 @@ fn od_write_of_1000_to_203bh_01h() {
 fn absolute_move_to_2000_at_200_waits_for_target_reached() {
     // Spec 2.2.10.
     let mut b = Bench::new();
-    let image = b
-        .master
-        .start(
-            1,
-            Action::MoveAbsolute {
-                target: 2000,
-                speed: 200,
-            },
-            b.now,
-        )
-        .unwrap();
+    let image = b.start(1, move_to(2000, 200));
     assert_eq!(image.values.value1, 2000);
     assert_eq!(image.values.value2, 200);
     assert_eq!(image.cmd, 20);
@@ -158,50 +135,26 @@ fn absolute_move_to_2000_at_200_waits_for_target_reached() {
         &[StatusBit::OperationEnabled, StatusBit::TargetReached],
         2000,
     );
-    assert_eq!(
-        progress,
-        vec![Progress::Done {
-            tag: 1,
-            return_value: 2000
-        }]
-    );
+    assert_eq!(progress, vec![done(1, 2000)]);
 }
 
 #[test]
 fn a_move_to_where_the_motor_already_is_finishes_after_the_settle_time() {
     let mut b = Bench::new();
-    b.master
-        .start(
-            1,
-            Action::MoveAbsolute {
-                target: 0,
-                speed: 100,
-            },
-            b.now,
-        )
-        .unwrap();
+    b.start(1, move_to(0, 100));
     let on = [StatusBit::OperationEnabled, StatusBit::TargetReached];
     assert_eq!(b.detect(&on, 0), vec![Progress::Accepted { tag: 1 }]);
     b.tick(100);
     assert_eq!(b.answer(&on, 0), vec![]);
     b.tick(60);
-    assert_eq!(
-        b.answer(&on, 0),
-        vec![Progress::Done {
-            tag: 1,
-            return_value: 0
-        }]
-    );
+    assert_eq!(b.answer(&on, 0), vec![done(1, 0)]);
 }
 
 #[test]
 fn velocity_300() {
     // Spec 2.2.12: SetValue1 = 300, Cmd = 23.
     let mut b = Bench::new();
-    let image = b
-        .master
-        .start(1, Action::Velocity { speed: 300 }, b.now)
-        .unwrap();
+    let image = b.start(1, Action::Velocity { speed: 300 });
     assert_eq!(bytes(image), [0x2C, 0x01, 0, 0, 0, 0, 0, 23]);
 }
 
@@ -209,17 +162,13 @@ fn velocity_300() {
 fn torque_500_with_max_speed_100() {
     // Spec 2.2.13: SetValue2 = 100, SetValue1 = 500, Cmd = 25.
     let mut b = Bench::new();
-    let image = b
-        .master
-        .start(
-            1,
-            Action::Torque {
-                torque: 500,
-                max_speed: 100,
-            },
-            b.now,
-        )
-        .unwrap();
+    let image = b.start(
+        1,
+        Action::Torque {
+            torque: 500,
+            max_speed: 100,
+        },
+    );
     assert_eq!(bytes(image), [0xF4, 0x01, 0, 0, 100, 0, 0, 25]);
 }
 
@@ -227,17 +176,7 @@ fn torque_500_with_max_speed_100() {
 fn halt_84_then_20_resumes_the_old_target() {
     // Spec 2.2.14, first example.
     let mut b = Bench::new();
-    let first = b
-        .master
-        .start(
-            1,
-            Action::MoveAbsolute {
-                target: 2000,
-                speed: 200,
-            },
-            b.now,
-        )
-        .unwrap();
+    let first = b.start(1, move_to(2000, 200));
     assert_eq!(first.cmd, 20);
     b.detect(&[StatusBit::OperationEnabled], 0);
     let halt = b.master.halt(2, b.now).unwrap();
@@ -262,13 +201,7 @@ fn halt_84_then_20_resumes_the_old_target() {
     ];
     b.tick(200);
     let progress = b.answer(&stopped, 900);
-    assert_eq!(
-        progress,
-        vec![Progress::Done {
-            tag: 2,
-            return_value: 900
-        }]
-    );
+    assert_eq!(progress, vec![done(2, 900)]);
     let resume = b.master.resume(3, b.now).unwrap();
     assert_eq!(resume.cmd, 20);
     assert_eq!(resume.values, first.values);
@@ -278,43 +211,18 @@ fn halt_84_then_20_resumes_the_old_target() {
         &[StatusBit::OperationEnabled, StatusBit::TargetReached],
         2000,
     );
-    assert_eq!(
-        progress,
-        vec![Progress::Done {
-            tag: 3,
-            return_value: 2000
-        }]
-    );
+    assert_eq!(progress, vec![done(3, 2000)]);
 }
 
 #[test]
 fn halt_84_then_new_target_and_148() {
     // Spec 2.2.14, second example.
     let mut b = Bench::new();
-    b.master
-        .start(
-            1,
-            Action::MoveAbsolute {
-                target: 2000,
-                speed: 200,
-            },
-            b.now,
-        )
-        .unwrap();
+    b.start(1, move_to(2000, 200));
     b.detect(&[StatusBit::OperationEnabled], 0);
     assert_eq!(b.master.halt(2, b.now).unwrap().cmd, 84);
     b.answer(&[StatusBit::OperationEnabled, StatusBit::QsHaltBit], 500);
-    let image = b
-        .master
-        .start(
-            3,
-            Action::MoveAbsolute {
-                target: 5000,
-                speed: 200,
-            },
-            b.now,
-        )
-        .unwrap();
+    let image = b.start(3, move_to(5000, 200));
     assert_eq!(image.cmd, 148);
     assert_eq!(image.values.value1, 5000);
     assert!(!b.master.is_halted());
@@ -326,17 +234,7 @@ fn three_relative_moves_21_149_21() {
     let mut b = Bench::new();
     let mut sent = vec![];
     for tag in 0..3 {
-        let image = b
-            .master
-            .start(
-                tag,
-                Action::MoveRelative {
-                    distance: 2000,
-                    speed: 200,
-                },
-                b.now,
-            )
-            .unwrap();
+        let image = b.start(tag, move_by(2000, 200));
         sent.push(image.cmd);
         b.detect(&[StatusBit::OperationEnabled], 0);
     }
@@ -346,16 +244,7 @@ fn three_relative_moves_21_149_21() {
 #[test]
 fn a_refused_command_reports_the_abort_code_and_its_text() {
     let mut b = Bench::new();
-    b.master
-        .start(
-            1,
-            Action::OdRead {
-                index: 0x2FFF,
-                sub: 0,
-            },
-            b.now,
-        )
-        .unwrap();
+    b.start(1, od_read(0x2FFF, 0));
     let progress = b.detect(&[StatusBit::Error], 0x0602_0000);
     let failure = Failure::Refused { code: 0x0602_0000 };
     assert_eq!(progress, vec![Progress::Failed { tag: 1, failure }]);
@@ -375,7 +264,7 @@ fn a_refused_command_reports_the_abort_code_and_its_text() {
 fn no_acknowledgement_times_out() {
     let mut b = Bench::new();
     b.master.adopt(RxImage::default());
-    b.master.start(1, Action::SwitchOff, b.now).unwrap();
+    b.start(1, Action::SwitchOff);
     b.tick(999);
     b.master.poll(b.now);
     assert_eq!(b.master.drain_progress(), vec![]);
@@ -396,10 +285,7 @@ fn unknown_device_byte_is_resent_with_the_toggle_flipped() {
     // Without adopting the drive's image the master cannot know whether the drive already
     // holds our byte; it flips ToggleCmd once if no acknowledgement comes.
     let mut b = Bench::new();
-    let image = b
-        .master
-        .start(1, Action::Velocity { speed: 10 }, b.now)
-        .unwrap();
+    let image = b.start(1, Action::Velocity { speed: 10 });
     assert_eq!(image.cmd, 23);
     b.tick(500);
     b.master.poll(b.now);
@@ -411,7 +297,7 @@ fn unknown_device_byte_is_resent_with_the_toggle_flipped() {
 #[test]
 fn clear_error_with_the_cause_still_present_fails() {
     let mut b = Bench::new();
-    b.master.start(1, Action::ClearError, b.now).unwrap();
+    b.start(1, Action::ClearError);
     assert_eq!(
         b.detect(&[StatusBit::Fault], 0),
         vec![Progress::Accepted { tag: 1 }]
@@ -430,16 +316,7 @@ fn clear_error_with_the_cause_still_present_fails() {
 #[test]
 fn a_fault_during_a_move_fails_it() {
     let mut b = Bench::new();
-    b.master
-        .start(
-            1,
-            Action::MoveRelative {
-                distance: 100,
-                speed: 10,
-            },
-            b.now,
-        )
-        .unwrap();
+    b.start(1, move_by(100, 10));
     b.detect(&[StatusBit::OperationEnabled], 0);
     let mut status = Status(0)
         .with(StatusBit::Fault, true)
@@ -466,9 +343,7 @@ fn a_fault_during_a_move_fails_it() {
 fn halt_without_a_travel_command_is_an_error() {
     let mut b = Bench::new();
     assert_eq!(b.master.halt(1, b.now), Err(Error::NoTravel));
-    b.master
-        .start(1, Action::Velocity { speed: 5 }, b.now)
-        .unwrap();
+    b.start(1, Action::Velocity { speed: 5 });
     assert_eq!(b.master.resume(2, b.now), Err(Error::NotHalted));
 }
 
@@ -484,27 +359,9 @@ fn commands_need_a_status_first() {
 #[test]
 fn a_move_stays_watched_while_an_od_read_runs_under_it() {
     let mut b = Bench::new();
-    b.master
-        .start(
-            1,
-            Action::MoveAbsolute {
-                target: 900,
-                speed: 100,
-            },
-            b.now,
-        )
-        .unwrap();
+    b.start(1, move_to(900, 100));
     b.detect(&[StatusBit::OperationEnabled], 0);
-    b.master
-        .start(
-            2,
-            Action::OdRead {
-                index: 0x6064,
-                sub: 0,
-            },
-            b.now,
-        )
-        .unwrap();
+    b.start(2, od_read(0x6064, 0));
     assert_eq!(b.master.drain_progress(), vec![]);
     assert_eq!(b.master.background_tag(), Some(1));
     // The read fails; the move is not affected by that PdiStatusError.
@@ -520,36 +377,12 @@ fn a_move_stays_watched_while_an_od_read_runs_under_it() {
         }]
     );
     let progress = b.answer(&[StatusBit::OperationEnabled, StatusBit::TargetReached], 0);
-    assert_eq!(
-        progress,
-        vec![Progress::Done {
-            tag: 1,
-            return_value: 0
-        }]
-    );
+    assert_eq!(progress, vec![done(1, 0)]);
     // A new move, by contrast, supersedes the watched one.
-    b.master
-        .start(
-            3,
-            Action::MoveAbsolute {
-                target: 0,
-                speed: 100,
-            },
-            b.now,
-        )
-        .unwrap();
+    b.start(3, move_to(0, 100));
     b.detect(&[StatusBit::OperationEnabled], 0);
-    b.master
-        .start(
-            4,
-            Action::OdRead {
-                index: 0x6064,
-                sub: 0,
-            },
-            b.now,
-        )
-        .unwrap();
-    b.master.start(5, Action::Quickstop, b.now).unwrap();
+    b.start(4, od_read(0x6064, 0));
+    b.start(5, Action::Quickstop);
     let progress = b.master.drain_progress();
     assert!(
         progress.contains(&Progress::Superseded {

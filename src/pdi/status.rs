@@ -3,37 +3,25 @@
 
 use std::fmt;
 
-/// The 11 named bits of PDI-Status.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum StatusBit {
-    OperationEnabled = 0,
-    Warning = 1,
-    Fault = 2,
-    TargetReached = 3,
-    FollowingError = 4,
-    LimitReached = 5,
-    QsHaltBit = 7,
-    HomingDone = 11,
-    AutosetupDone = 12,
-    ToggleCmd = 14,
-    Error = 15,
+enum_with_all! {
+    /// The 11 named bits of PDI-Status.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum StatusBit {
+        OperationEnabled = 0,
+        Warning = 1,
+        Fault = 2,
+        TargetReached = 3,
+        FollowingError = 4,
+        LimitReached = 5,
+        QsHaltBit = 7,
+        HomingDone = 11,
+        AutosetupDone = 12,
+        ToggleCmd = 14,
+        Error = 15,
+    }
 }
 
 impl StatusBit {
-    pub const ALL: [StatusBit; 11] = [
-        StatusBit::OperationEnabled,
-        StatusBit::Warning,
-        StatusBit::Fault,
-        StatusBit::TargetReached,
-        StatusBit::FollowingError,
-        StatusBit::LimitReached,
-        StatusBit::QsHaltBit,
-        StatusBit::HomingDone,
-        StatusBit::AutosetupDone,
-        StatusBit::ToggleCmd,
-        StatusBit::Error,
-    ];
-
     pub fn bit(self) -> u8 {
         self as u8
     }

@@ -143,28 +143,11 @@ impl HomingRun {
                 fast: leg.fast,
             };
         }
-        let before = world.sensors(from);
         let after = world.sensors(to);
-        let edge = if !at_leg_speed {
-            None
+        let edge = if at_leg_speed {
+            edge_between(leg.until, world, from, to)
         } else {
-            match leg.until {
-                Until::Index => world.index_between(from, to),
-                Until::Home(want) => (before.home != want && after.home == want).then_some({
-                    // The cam edge crossed, exactly.
-                    if (to > from) == want {
-                        world.home_start
-                    } else {
-                        world.home_end
-                    }
-                }),
-                Until::NegativeLimit(want) => (before.negative_limit != want
-                    && after.negative_limit == want)
-                    .then_some(world.negative_limit),
-                Until::PositiveLimit(want) => (before.positive_limit != want
-                    && after.positive_limit == want)
-                    .then_some(world.positive_limit),
-            }
+            None
         };
         if let Some(at) = edge {
             self.current += 1;
@@ -205,6 +188,29 @@ impl HomingRun {
 
     pub fn leg_is_fast(&self) -> bool {
         self.legs.get(self.current).is_some_and(|l| l.fast)
+    }
+}
+
+/// Where the axis moving from `from` to `to` passes the edge a leg looks for, if it does.
+fn edge_between(until: Until, world: &World, from: f64, to: f64) -> Option<f64> {
+    let before = world.sensors(from);
+    let after = world.sensors(to);
+    match until {
+        Until::Index => world.index_between(from, to),
+        Until::Home(want) => (before.home != want && after.home == want).then_some({
+            // The cam edge crossed, exactly.
+            if (to > from) == want {
+                world.home_start
+            } else {
+                world.home_end
+            }
+        }),
+        Until::NegativeLimit(want) => (before.negative_limit != want
+            && after.negative_limit == want)
+            .then_some(world.negative_limit),
+        Until::PositiveLimit(want) => (before.positive_limit != want
+            && after.positive_limit == want)
+            .then_some(world.positive_limit),
     }
 }
 

@@ -6,7 +6,9 @@ use std::time::{Duration, Instant};
 use super::*;
 use crate::cia::{AbortCode, ErrorCode, HistoryEntry, PowerState};
 use crate::od::{Address, Value};
-use crate::pdi::{Action, Failure, PdiMaster, Progress, StatusBit, Timing};
+use crate::pdi::{
+    Action, Error as PdiError, Failure, PdiMaster, Progress, RxImage, StatusBit, Timing,
+};
 
 /// A drive and a master, exchanging images every millisecond of simulated time.
 struct Rig {
@@ -51,25 +53,25 @@ impl Rig {
     }
 
     fn send(&mut self, action: Action) -> u64 {
-        let tag = self.next_tag;
-        self.next_tag += 1;
-        self.master.start(tag, action, self.now).unwrap();
-        self.progress.extend(self.master.drain_progress());
-        tag
+        self.issue(|master, tag, now| master.start(tag, action, now))
     }
 
     fn halt(&mut self) -> u64 {
-        let tag = self.next_tag;
-        self.next_tag += 1;
-        self.master.halt(tag, self.now).unwrap();
-        self.progress.extend(self.master.drain_progress());
-        tag
+        self.issue(PdiMaster::halt)
     }
 
     fn resume(&mut self) -> u64 {
+        self.issue(PdiMaster::resume)
+    }
+
+    /// Hand the master a new command, `command(master, tag, now)`; its tag.
+    fn issue(
+        &mut self,
+        command: impl FnOnce(&mut PdiMaster, u64, Instant) -> Result<RxImage, PdiError>,
+    ) -> u64 {
         let tag = self.next_tag;
         self.next_tag += 1;
-        self.master.resume(tag, self.now).unwrap();
+        command(&mut self.master, tag, self.now).unwrap();
         self.progress.extend(self.master.drain_progress());
         tag
     }
@@ -124,6 +126,14 @@ impl Rig {
     fn write(&mut self, index: u16, sub: u8, value: Value) {
         self.drive.write(Address::new(index, sub), value).unwrap();
     }
+}
+
+fn od_read(index: u16, sub: u8) -> Action {
+    Action::OdRead { index, sub }
+}
+
+fn od_write(index: u16, sub: u8, value: i32) -> Action {
+    Action::OdWrite { index, sub, value }
 }
 
 fn move_abs(target: i32, speed: i16) -> Action {
@@ -510,67 +520,17 @@ fn following_error_window_warns_or_faults_per_3700h() {
 #[test]
 fn od_read_and_write_through_the_pdi() {
     let mut rig = Rig::new();
-    assert_eq!(
-        rig.done(
-            Action::OdRead {
-                index: 0x1018,
-                sub: 1
-            },
-            100
-        ),
-        0x26C
-    );
-    rig.done(
-        Action::OdWrite {
-            index: 0x203B,
-            sub: 1,
-            value: 1000,
-        },
-        100,
-    );
-    assert_eq!(
-        rig.done(
-            Action::OdRead {
-                index: 0x203B,
-                sub: 1
-            },
-            100
-        ),
-        1000
-    );
+    assert_eq!(rig.done(od_read(0x1018, 1), 100), 0x26C);
+    rig.done(od_write(0x203B, 1, 1000), 100);
+    assert_eq!(rig.done(od_read(0x203B, 1), 100), 1000);
     assert_eq!(rig.od_int(0x203B, 1), 1000);
     // Unsigned 32-bit values travel as two's complement.
-    rig.done(
-        Action::OdWrite {
-            index: 0x60FE,
-            sub: 1,
-            value: -1,
-        },
-        100,
-    );
+    rig.done(od_write(0x60FE, 1, -1), 100);
     assert_eq!(rig.od_int(0x60FE, 1), 0xFFFF_FFFF);
-    assert_eq!(
-        rig.done(
-            Action::OdRead {
-                index: 0x60FE,
-                sub: 1
-            },
-            100
-        ),
-        -1
-    );
+    assert_eq!(rig.done(od_read(0x60FE, 1), 100), -1);
     // Signed 8-bit objects come back sign-extended.
     rig.write(0x6098, 0, Value::Int(-3));
-    assert_eq!(
-        rig.done(
-            Action::OdRead {
-                index: 0x6098,
-                sub: 0
-            },
-            100
-        ),
-        -3
-    );
+    assert_eq!(rig.done(od_read(0x6098, 0), 100), -3);
 }
 
 #[test]
@@ -578,69 +538,36 @@ fn od_access_errors_come_back_as_abort_codes() {
     let mut rig = Rig::new();
     let refused = |code: AbortCode| Failure::Refused { code: code.0 };
     assert_eq!(
-        rig.failure(Action::OdRead {
-            index: 0x2FFF,
-            sub: 0
-        }),
+        rig.failure(od_read(0x2FFF, 0)),
         refused(AbortCode::NO_OBJECT)
     );
     // An index above 7FFFh travels as a negative SetValue2.
     assert_eq!(
-        rig.failure(Action::OdRead {
-            index: 0xA000,
-            sub: 0x80
-        }),
+        rig.failure(od_read(0xA000, 0x80)),
         refused(AbortCode::NO_OBJECT)
     );
     assert_eq!(
-        rig.failure(Action::OdRead {
-            index: 0x1018,
-            sub: 9
-        }),
+        rig.failure(od_read(0x1018, 9)),
         refused(AbortCode::NO_SUBINDEX)
     );
     assert_eq!(
-        rig.failure(Action::OdWrite {
-            index: 0x1018,
-            sub: 1,
-            value: 5
-        }),
+        rig.failure(od_write(0x1018, 1, 5)),
         refused(AbortCode::READ_ONLY)
     );
     assert_eq!(
-        rig.failure(Action::OdWrite {
-            index: 0x2290,
-            sub: 0,
-            value: 300
-        }),
+        rig.failure(od_write(0x2290, 0, 300)),
         refused(AbortCode::VALUE_RANGE)
     );
     assert_eq!(
-        rig.failure(Action::OdWrite {
-            index: 0x605A,
-            sub: 0,
-            value: 7
-        }),
+        rig.failure(od_write(0x605A, 0, 7)),
         refused(AbortCode::VALUE_TOO_HIGH)
     );
     assert_eq!(
-        rig.failure(Action::OdRead {
-            index: 0x1008,
-            sub: 0
-        }),
+        rig.failure(od_read(0x1008, 0)),
         refused(AbortCode::TYPE_LENGTH_TOO_HIGH)
     );
     // After an error the next command works again and PdiStatusError clears.
-    assert_eq!(
-        rig.done(
-            Action::OdRead {
-                index: 0x1018,
-                sub: 1
-            },
-            100
-        ),
-        0x26C
-    );
+    assert_eq!(rig.done(od_read(0x1018, 1), 100), 0x26C);
     assert!(!rig.status().is_set(StatusBit::Error));
 }
 
@@ -688,13 +615,7 @@ fn auto_setup_takes_a_visible_while() {
     assert!(ms + 1000 >= AUTO_SETUP_TIME.as_millis() as u64);
     assert!(rig.status().is_set(StatusBit::AutosetupDone));
     // The bit stays set through later commands.
-    rig.done(
-        Action::OdRead {
-            index: 0x1018,
-            sub: 1,
-        },
-        100,
-    );
+    rig.done(od_read(0x1018, 1), 100);
     assert!(rig.status().is_set(StatusBit::AutosetupDone));
 }
 

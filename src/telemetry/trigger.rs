@@ -232,13 +232,30 @@ mod tests {
 
     fn threshold(level: f64, edge: Edge) -> Trigger {
         Trigger {
-            condition: Condition::Threshold {
-                channel: 1,
-                level,
-                edge,
-            },
+            condition: crossing(1, level, edge),
             pre_s: 0.5,
             post_s: 2.0,
+        }
+    }
+
+    fn crossing(channel: usize, level: f64, edge: Edge) -> Condition {
+        Condition::Threshold {
+            channel,
+            level,
+            edge,
+        }
+    }
+
+    fn bit_edge(channel: usize, bit: u8, edge: Edge) -> Condition {
+        Condition::Bit { channel, bit, edge }
+    }
+
+    /// A trigger on bit `bit` of channel 1, with 1 s after it.
+    fn bit_trigger(bit: u8, edge: Edge) -> Trigger {
+        Trigger {
+            condition: bit_edge(1, bit, edge),
+            pre_s: 0.0,
+            post_s: 1.0,
         }
     }
 
@@ -278,15 +295,7 @@ mod tests {
 
     #[test]
     fn bits_fire_on_the_first_sample_with_the_new_state() {
-        let bit = |edge| Trigger {
-            condition: Condition::Bit {
-                channel: 1,
-                bit: 10,
-                edge,
-            },
-            pre_s: 0.0,
-            post_s: 1.0,
-        };
+        let bit = |edge| bit_trigger(10, edge);
         let on = f64::from(1u32 << 10);
         // Other bits changing do not count.
         let values = [0.0, 1.0, on + 1.0, on, on + 7.0, 7.0, 0.0, on];
@@ -294,26 +303,10 @@ mod tests {
         assert_eq!(fires(bit(Edge::Falling), &values), [5.0]);
         assert_eq!(fires(bit(Edge::Either), &values), [2.0, 5.0, 7.0]);
         // A 32-bit digital-input word, top bit.
-        let top = Trigger {
-            condition: Condition::Bit {
-                channel: 1,
-                bit: 31,
-                edge: Edge::Rising,
-            },
-            pre_s: 0.0,
-            post_s: 1.0,
-        };
+        let top = bit_trigger(31, Edge::Rising);
         assert_eq!(fires(top, &[0.0, f64::from(u32::MAX)]), [1.0]);
         // Bits past 31 never change.
-        let past = Trigger {
-            condition: Condition::Bit {
-                channel: 1,
-                bit: 40,
-                edge: Edge::Either,
-            },
-            pre_s: 0.0,
-            post_s: 1.0,
-        };
+        let past = bit_trigger(40, Edge::Either);
         assert!(fires(past, &[0.0, 1e12, f64::from(u32::MAX)]).is_empty());
     }
 
@@ -419,57 +412,29 @@ mod tests {
     #[test]
     fn descriptions() {
         let names = ["position", "pdi_status"];
-        let c = Condition::Threshold {
-            channel: 0,
-            level: 1000.0,
-            edge: Edge::Rising,
-        };
-        assert_eq!(c.describe(&names), "position rises through 1000");
-        let c = Condition::Threshold {
-            channel: 0,
-            level: -2.5,
-            edge: Edge::Falling,
-        };
-        assert_eq!(c.describe(&names), "position falls through -2.5");
-        let c = Condition::Threshold {
-            channel: 5,
-            level: 0.0,
-            edge: Edge::Either,
-        };
-        assert_eq!(c.describe(&names), "channel 5 crosses 0");
-        let c = Condition::Bit {
-            channel: 1,
-            bit: 10,
-            edge: Edge::Rising,
-        };
-        assert_eq!(c.describe(&names), "bit 10 of pdi_status rises");
-        let c = Condition::Bit {
-            channel: 1,
-            bit: 3,
-            edge: Edge::Falling,
-        };
-        assert_eq!(c.describe(&names), "bit 3 of pdi_status falls");
-        let c = Condition::Bit {
-            channel: 1,
-            bit: 0,
-            edge: Edge::Either,
-        };
-        assert_eq!(c.describe(&names), "bit 0 of pdi_status changes");
+        for (condition, described) in [
+            (
+                crossing(0, 1000.0, Edge::Rising),
+                "position rises through 1000",
+            ),
+            (
+                crossing(0, -2.5, Edge::Falling),
+                "position falls through -2.5",
+            ),
+            (crossing(5, 0.0, Edge::Either), "channel 5 crosses 0"),
+            (bit_edge(1, 10, Edge::Rising), "bit 10 of pdi_status rises"),
+            (bit_edge(1, 3, Edge::Falling), "bit 3 of pdi_status falls"),
+            (bit_edge(1, 0, Edge::Either), "bit 0 of pdi_status changes"),
+        ] {
+            assert_eq!(condition.describe(&names), described);
+        }
     }
 
     #[test]
     fn triggers_round_trip_through_json() {
         for condition in [
-            Condition::Bit {
-                channel: 3,
-                bit: 10,
-                edge: Edge::Either,
-            },
-            Condition::Threshold {
-                channel: 0,
-                level: 1000.5,
-                edge: Edge::Falling,
-            },
+            bit_edge(3, 10, Edge::Either),
+            crossing(0, 1000.5, Edge::Falling),
         ] {
             let trigger = Trigger {
                 condition,
@@ -486,11 +451,7 @@ mod tests {
     fn capture_into_recording(pre_s: f64, capacity: usize) -> (Recording, [f64; 3], Ring) {
         let mut ring = Ring::new(capacity, 2);
         let mut capture = Capture::new(Trigger {
-            condition: Condition::Threshold {
-                channel: 0,
-                level: 1500.0,
-                edge: Edge::Rising,
-            },
+            condition: crossing(0, 1500.0, Edge::Rising),
             pre_s,
             post_s: 0.2,
         });

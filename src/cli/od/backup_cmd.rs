@@ -4,22 +4,19 @@
 //! with the window. A file is loaded and checked before the link is opened: a broken,
 //! ambiguous or empty file never reaches the drive.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
 use super::super::failure::{Failure, failed, usage};
-use super::super::progress;
-use super::super::session::Session;
+use super::super::report::{print_json, print_lines};
+use super::super::session::{Reads, Session};
+use super::super::{JudgeArgs, OdDumpArgs, OdFileArgs, OdRestoreArgs};
 use super::load_eds;
 use crate::link::LinkSpec;
 use crate::od::backup::{self, Backup, Comparison, DeviceIdentity, Step, Why};
 use crate::od::{self, Address, Catalog, DataType, Value};
-use crate::worker::ObjectError;
-
-type Reads = BTreeMap<Address, Result<Value, ObjectError>>;
 
 /// A value as the browser shows it: with its unit where the catalog knows one; COB-IDs
 /// and mapping entries (32-bit communication objects) in hex.
@@ -44,19 +41,19 @@ fn seconds_since_epoch() -> u64 {
         .map_or(0, |d| d.as_secs())
 }
 
-fn print_lines(notes: &[String], warnings: &[String]) {
-    for note in notes {
-        eprintln!("note: {note}");
-    }
-    for warning in warnings {
-        eprintln!("warning: {warning}");
-    }
-}
-
-fn print_json(report: &impl Serialize) {
-    match serde_json::to_string_pretty(report) {
-        Ok(text) => outln!("{text}"),
-        Err(e) => eprintln!("drivedeck: cannot format the report as JSON: {e}"),
+/// The notes and warnings, then the report: as JSON, or as `text` for people.
+fn print_report<R: Serialize>(
+    report: &R,
+    notes: &[String],
+    warnings: &[String],
+    json: bool,
+    text: fn(&R),
+) {
+    print_lines(notes, warnings);
+    if json {
+        print_json(report, "report");
+    } else {
+        text(report);
     }
 }
 
@@ -68,10 +65,8 @@ fn read_all(
     timeout: Duration,
     notes: &mut Vec<String>,
 ) -> Result<Reads, Failure> {
-    let started = Instant::now();
     let asked = objects.len();
-    let (reads, failure) = session.read_many(objects, timeout, progress::bar(what));
-    progress::done(asked, reads.len(), started.elapsed(), notes);
+    let (reads, failure) = session.read_many_shown(objects, timeout, what, notes);
     match failure {
         Some(f) => Err(failed(format!(
             "{}; {} of {asked} objects were read before it, nothing was saved or written",
@@ -122,7 +117,7 @@ struct DumpReport {
 /// `od dump --out FILE`: true when every object could be read.
 pub fn dump(
     link: &LinkSpec,
-    args: &super::super::OdDumpArgs,
+    args: &OdDumpArgs,
     json: bool,
     timeout: Duration,
     trace: bool,
@@ -152,21 +147,20 @@ pub fn dump(
         seconds,
         notes: notes.clone(),
     };
-    print_lines(&notes, &warnings);
-    if json {
-        print_json(&report);
-    } else {
-        outln!(
-            "saved {} settings of {} to {}",
-            report.objects,
-            file.identity.summary(),
-            report.file
-        );
-        for (address, reason) in &report.unreadable {
-            outln!("not saved: {address}: {reason}");
-        }
-    }
+    print_report(&report, &notes, &warnings, json, print_dump);
     Ok(report.unreadable.is_empty())
+}
+
+fn print_dump(report: &DumpReport) {
+    outln!(
+        "saved {} settings of {} to {}",
+        report.objects,
+        report.identity.summary(),
+        report.file
+    );
+    for (address, reason) in &report.unreadable {
+        outln!("not saved: {address}: {reason}");
+    }
 }
 
 /// One object of a comparison, as reported.
@@ -330,24 +324,32 @@ struct Opened {
     file: Backup,
     catalog: Catalog,
     session: Session,
-    reads: BTreeMap<Address, Result<Value, ObjectError>>,
+    reads: Reads,
     warnings: Vec<String>,
     notes: Vec<String>,
+}
+
+impl Opened {
+    /// The notes so far, the session's included.
+    fn take_notes(&mut self) -> Vec<String> {
+        let mut notes = std::mem::take(&mut self.notes);
+        notes.extend(self.session.take_notes());
+        notes
+    }
 }
 
 /// Load the file and the dictionary (both checked before connecting), connect, and read
 /// what the file names.
 fn open_and_read(
     link: &LinkSpec,
-    path: &std::path::Path,
-    eds: Option<&std::path::Path>,
-    node: Option<u8>,
+    path: &Path,
+    judge: &JudgeArgs,
     timeout: Duration,
     trace: bool,
 ) -> Result<Opened, Failure> {
     let file = load_backup(path)?;
     let mut warnings = vec![];
-    let catalog = dictionary(eds, node, &mut warnings)?;
+    let catalog = dictionary(judge.eds.as_deref(), judge.node, &mut warnings)?;
     let mut notes = vec![];
     let mut session = Session::open(link, timeout, trace)?;
     let reads = read_all(
@@ -370,36 +372,17 @@ fn open_and_read(
 /// `od diff FILE`: true when the drive matches the file.
 pub fn diff(
     link: &LinkSpec,
-    args: &super::super::OdFileArgs,
+    args: &OdFileArgs,
     json: bool,
     timeout: Duration,
     trace: bool,
 ) -> Result<bool, Failure> {
-    let Opened {
-        file,
-        catalog,
-        mut session,
-        reads,
-        warnings,
-        mut notes,
-    } = open_and_read(
-        link,
-        &args.file,
-        args.eds.as_deref(),
-        args.node,
-        timeout,
-        trace,
-    )?;
-    notes.extend(session.take_notes());
-    let mut report = diff_report(&args.file, &file, &catalog, &reads, args.all);
-    report.notes = notes;
-    report.warnings.splice(0..0, warnings);
-    print_lines(&report.notes, &report.warnings);
-    if json {
-        print_json(&report);
-    } else {
-        print_diff(&report);
-    }
+    let mut opened = open_and_read(link, &args.file, &args.judge, timeout, trace)?;
+    let (file, catalog, reads) = (&opened.file, &opened.catalog, &opened.reads);
+    let mut report = diff_report(&args.file, file, catalog, reads, args.all);
+    report.notes = opened.take_notes();
+    report.warnings.splice(0..0, opened.warnings);
+    print_report(&report, &report.notes, &report.warnings, json, print_diff);
     Ok(report.differs == 0 && report.unreadable == 0)
 }
 
@@ -443,6 +426,14 @@ struct RestoreReport {
     still_differs: Option<usize>,
     notes: Vec<String>,
     warnings: Vec<String>,
+}
+
+impl RestoreReport {
+    /// Take the notes so far into the report and print it.
+    fn print(&mut self, opened: &mut Opened, json: bool) {
+        self.notes = opened.take_notes();
+        print_report(self, &self.notes, &self.warnings, json, print_restore);
+    }
 }
 
 fn step_row(step: &Step) -> StepRow {
@@ -526,27 +517,47 @@ fn print_restore(report: &RestoreReport) {
 /// drive matches the file afterwards.
 pub fn restore(
     link: &LinkSpec,
-    args: &super::super::OdRestoreArgs,
+    args: &OdRestoreArgs,
     json: bool,
     timeout: Duration,
     trace: bool,
 ) -> Result<bool, Failure> {
+    let mut opened = open_and_read(link, &args.file, &args.judge, timeout, trace)?;
+    let (plan, mut report) = plan_restore(args, &mut opened)?;
+    if !args.dry_run {
+        if let Err(reason) = write_plan(&mut opened.session, &plan, &mut report, timeout) {
+            report.print(&mut opened, json);
+            return Err(failed(format!(
+                "the restore stopped after {} writes: {reason}",
+                report.written + report.refused
+            )));
+        }
+        if args.store {
+            report.stored = Some(store_all(&mut opened.session, report.refused, timeout)?);
+        }
+        report.still_differs = Some(compare_again(&mut opened, timeout)?);
+    }
+    report.print(&mut opened, json);
+    Ok(report.refused == 0
+        && report.still_differs.unwrap_or(0) == 0
+        && !matches!(report.stored, Some(Err(_))))
+}
+
+/// The writes of a restore and the report that will tell of them. A file of another kind
+/// of device is refused unless forced (or only a dry run).
+fn plan_restore(
+    args: &OdRestoreArgs,
+    opened: &mut Opened,
+) -> Result<(Vec<Step>, RestoreReport), Failure> {
     let Opened {
         file,
         catalog,
-        mut session,
         reads,
-        mut warnings,
-        mut notes,
-    } = open_and_read(
-        link,
-        &args.file,
-        args.eds.as_deref(),
-        args.node,
-        timeout,
-        trace,
-    )?;
-    let device = DeviceIdentity::from_reads(&reads);
+        warnings,
+        ..
+    } = opened;
+    let device = DeviceIdentity::from_reads(reads);
+    let mut warnings = std::mem::take(warnings);
     warnings.extend(identity_warnings(&file.identity, &device));
     if !file.identity.same_product(&device) && !args.force && !args.dry_run {
         return Err(usage(format!(
@@ -556,12 +567,37 @@ pub fn restore(
             device.summary()
         )));
     }
-    let comparison = backup::compare(&file, &catalog, &reads);
+    let (skipped, unreadable) = left_alone(file, catalog, reads);
+    if unreadable > 0 {
+        warnings.push(format!(
+            "{unreadable} saved settings cannot be read from the drive and are left out (od diff lists them)"
+        ));
+    }
+    let plan = backup::restore_plan(file, catalog, reads);
+    let report = RestoreReport {
+        file: args.file.display().to_string(),
+        dry_run: args.dry_run,
+        steps: plan.iter().map(step_row).collect(),
+        skipped,
+        written: 0,
+        refused: 0,
+        stored: None,
+        still_differs: None,
+        notes: vec![],
+        warnings,
+    };
+    Ok((plan, report))
+}
+
+/// The entries of the file a restore skips (not settings of the dictionary), and how
+/// many of its settings cannot be read from the drive.
+fn left_alone(file: &Backup, catalog: &Catalog, reads: &Reads) -> (Vec<SkippedRow>, usize) {
+    let comparison = backup::compare(file, catalog, reads);
     let unreadable = comparison
         .iter()
         .filter(|d| matches!(d.device, Comparison::Unreadable(_)))
         .count();
-    let skipped: Vec<SkippedRow> = comparison
+    let skipped = comparison
         .into_iter()
         .filter_map(|d| match d.device {
             Comparison::Skipped(reason) => Some(SkippedRow {
@@ -575,105 +611,77 @@ pub fn restore(
             _ => None,
         })
         .collect();
-    if unreadable > 0 {
-        warnings.push(format!(
-            "{unreadable} saved settings cannot be read from the drive and are left out (od diff lists them)"
-        ));
-    }
-    let plan = backup::restore_plan(&file, &catalog, &reads);
-    let mut report = RestoreReport {
-        file: args.file.display().to_string(),
-        dry_run: args.dry_run,
-        steps: plan.iter().map(step_row).collect(),
-        skipped,
-        written: 0,
-        refused: 0,
-        stored: None,
-        still_differs: None,
-        notes: vec![],
-        warnings,
-    };
-    if !args.dry_run && !plan.is_empty() {
-        let mut lost: Option<String> = None;
-        for (step, row) in plan.iter().zip(report.steps.iter_mut()) {
-            if let Some(reason) = &lost {
+    (skipped, unreadable)
+}
+
+/// Write the plan in order, each outcome in its row. A broken link ends the writing: the
+/// rows after it say so, and `Err` gives the reason.
+fn write_plan(
+    session: &mut Session,
+    plan: &[Step],
+    report: &mut RestoreReport,
+    timeout: Duration,
+) -> Result<(), String> {
+    let mut lost: Option<String> = None;
+    for (step, row) in plan.iter().zip(report.steps.iter_mut()) {
+        if let Some(reason) = &lost {
+            row.result = "not written";
+            row.error = Some(reason.clone());
+            continue;
+        }
+        match session.try_write(step.address, step.dtype, step.value.clone(), timeout) {
+            Ok(Ok(())) => {
+                row.result = "written";
+                report.written += 1;
+            }
+            Ok(Err(refusal)) => {
+                row.result = "refused";
+                row.error = Some(refusal.to_string());
+                report.refused += 1;
+            }
+            Err(f) => {
                 row.result = "not written";
-                row.error = Some(reason.clone());
-                continue;
+                row.error = Some(f.message.clone());
+                lost = Some(f.message);
             }
-            match session.try_write(step.address, step.dtype, step.value.clone(), timeout) {
-                Ok(Ok(())) => {
-                    row.result = "written";
-                    report.written += 1;
-                }
-                Ok(Err(refusal)) => {
-                    row.result = "refused";
-                    row.error = Some(refusal.to_string());
-                    report.refused += 1;
-                }
-                Err(f) => {
-                    row.result = "not written";
-                    row.error = Some(f.message.clone());
-                    lost = Some(f.message);
-                }
-            }
-        }
-        if let Some(reason) = lost {
-            notes.extend(session.take_notes());
-            report.notes = notes;
-            print_lines(&report.notes, &report.warnings);
-            if json {
-                print_json(&report);
-            } else {
-                print_restore(&report);
-            }
-            return Err(failed(format!(
-                "the restore stopped after {} writes: {reason}",
-                report.written + report.refused
-            )));
         }
     }
-    if !args.dry_run {
-        if args.store {
-            report.stored = Some(if report.refused == 0 {
-                let (address, value) = backup::STORE_ALL;
-                session
-                    .try_write(
-                        address,
-                        DataType::Unsigned32,
-                        Value::Uint(value.into()),
-                        timeout,
-                    )?
-                    .map_err(|e| format!("1010h:01 refused: {e}"))
-            } else {
-                Err("not stored, since some writes were refused".to_owned())
-            });
-        }
-        let again = read_all(
-            &mut session,
-            file.objects_to_read(&catalog),
-            "comparing",
+    lost.map_or(Ok(()), Err)
+}
+
+/// `--store`: 1010h:01 = "save", unless some writes were refused.
+fn store_all(
+    session: &mut Session,
+    refused: usize,
+    timeout: Duration,
+) -> Result<Result<(), String>, Failure> {
+    if refused > 0 {
+        return Ok(Err("not stored, since some writes were refused".to_owned()));
+    }
+    let (address, value) = backup::STORE_ALL;
+    Ok(session
+        .try_write(
+            address,
+            DataType::Unsigned32,
+            Value::Uint(value.into()),
             timeout,
-            &mut notes,
-        )?;
-        report.still_differs = Some(
-            backup::compare(&file, &catalog, &again)
-                .iter()
-                .filter(|d| matches!(d.device, Comparison::Differs(_)))
-                .count(),
-        );
-    }
-    notes.extend(session.take_notes());
-    report.notes = notes;
-    print_lines(&report.notes, &report.warnings);
-    if json {
-        print_json(&report);
-    } else {
-        print_restore(&report);
-    }
-    Ok(report.refused == 0
-        && report.still_differs.unwrap_or(0) == 0
-        && !matches!(report.stored, Some(Err(_))))
+        )?
+        .map_err(|e| format!("1010h:01 refused: {e}")))
+}
+
+/// Read the file's objects again after a restore: how many settings still differ.
+fn compare_again(opened: &mut Opened, timeout: Duration) -> Result<usize, Failure> {
+    let again = read_all(
+        &mut opened.session,
+        opened.file.objects_to_read(&opened.catalog),
+        "comparing",
+        timeout,
+        &mut opened.notes,
+    )?;
+    Ok(backup::compare(&opened.file, &opened.catalog, &again)
+        .iter()
+        .filter(|d| matches!(d.device, Comparison::Differs(_)))
+        .count())
 }
 
 #[cfg(test)]

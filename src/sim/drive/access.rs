@@ -13,6 +13,14 @@ impl Drive {
         self.od.entry(address)
     }
 
+    /// Read an object with the type its bytes are coded in: its catalog entry's, or
+    /// Integer32 where the drive knows no entry.
+    pub fn read_typed(&self, address: Address) -> Result<(Value, DataType), AbortCode> {
+        let value = self.read(address)?;
+        let dtype = self.entry(address).map_or(DataType::Integer32, |e| e.dtype);
+        Ok((value, dtype))
+    }
+
     /// Every address the drive holds.
     pub fn addresses(&self) -> impl Iterator<Item = Address> + '_ {
         self.od.addresses()

@@ -47,107 +47,126 @@ impl Drive {
         let values = self.set_values();
         match command.opcode {
             Opcode::Nop => {}
-            Opcode::SwitchOff => {
-                if self.state != PowerState::Fault {
-                    self.state = PowerState::SwitchOnDisabled;
-                }
-                self.activity = Activity::Idle;
-                self.halted = false;
-                self.quick_stop = None;
-                self.return_mode = ReturnMode::Position;
-            }
+            Opcode::SwitchOff => self.switch_off(),
             Opcode::ClearError => self.clear_error(),
             Opcode::Quickstop => self.quickstop(),
             Opcode::OdRead => self.pdi_od_read(values),
             Opcode::OdWrite => self.pdi_od_write(values),
-            Opcode::AutoSetup => {
-                if self.energise() {
-                    self.autosetup_done = false;
-                    self.set_mode(-2);
-                    self.activity = Activity::AutoSetup {
-                        elapsed: Duration::ZERO,
-                        centre: self.demand.position,
-                    };
-                    self.return_mode = ReturnMode::Position;
-                }
-            }
-            Opcode::HomeHere => {
-                self.offset = self.x - f64::from(values.value1);
-                self.demand.position = self.x;
-                self.homing_done = true;
-                self.return_mode = ReturnMode::Position;
-                if matches!(self.activity, Activity::Position { .. }) {
-                    self.activity = Activity::Idle;
-                }
-            }
-            Opcode::Homing => {
-                let method = values.value3;
-                let Some(run) = HomingRun::new(method, self.world.sensors(self.x)) else {
-                    self.refuse(AbortCode::VALUE_RANGE);
-                    return;
-                };
-                if !self.energise() {
-                    return;
-                }
-                self.od.set_int(0x6098, 0, i64::from(method));
-                self.set_mode(6);
-                self.homing_done = false;
-                self.return_mode = ReturnMode::Position;
-                if run.is_immediate() {
-                    self.home_at(self.x);
-                    self.homing_done = true;
-                    self.activity = Activity::Idle;
-                } else {
-                    self.activity = Activity::Homing { run, found: None };
-                }
-            }
-            Opcode::MoveAbsolute | Opcode::MoveRelative => {
-                if !self.energise() {
-                    return;
-                }
-                let base = match (&self.activity, command.opcode) {
-                    (_, Opcode::MoveAbsolute) => 0,
-                    (Activity::Position { target, .. }, _) => *target,
-                    _ => self.position().round() as i64,
-                };
-                let target = base + i64::from(values.value1);
-                self.od.set_int(0x607A, 0, target);
-                self.od
-                    .set_int(0x6081, 0, i64::from(values.value2.unsigned_abs()));
-                self.set_mode(1);
-                self.activity = Activity::Position {
-                    target,
-                    speed_rpm: f64::from(values.value2.unsigned_abs()),
-                };
-                self.start_travel(command.halt, ReturnMode::Position);
-            }
-            Opcode::Velocity => {
-                if !self.energise() {
-                    return;
-                }
-                self.od.set_int(0x60FF, 0, i64::from(values.value1));
-                self.set_mode(3);
-                self.activity = Activity::Velocity {
-                    speed_rpm: f64::from(values.value1),
-                };
-                self.start_travel(command.halt, ReturnMode::Velocity);
-            }
-            Opcode::Torque => {
-                if !self.energise() {
-                    return;
-                }
-                let max = self.od.int(0x6072, 0) as f64;
-                let torque = f64::from(values.value1).clamp(-max, max);
-                self.od.set_int(0x6071, 0, torque as i64);
-                self.set_mode(4);
-                self.torque_demand = self.torque;
-                self.activity = Activity::Torque {
-                    torque,
-                    max_speed_rpm: f64::from(values.value2.unsigned_abs()),
-                };
-                self.start_travel(command.halt, ReturnMode::Torque);
-            }
+            Opcode::AutoSetup => self.start_auto_setup(),
+            Opcode::HomeHere => self.home_here(values),
+            Opcode::Homing => self.start_homing(values),
+            Opcode::MoveAbsolute | Opcode::MoveRelative => self.start_move(command, values),
+            Opcode::Velocity => self.start_velocity(command.halt, values),
+            Opcode::Torque => self.start_torque(command.halt, values),
         }
+    }
+
+    fn switch_off(&mut self) {
+        if self.state != PowerState::Fault {
+            self.state = PowerState::SwitchOnDisabled;
+        }
+        self.activity = Activity::Idle;
+        self.halted = false;
+        self.quick_stop = None;
+        self.return_mode = ReturnMode::Position;
+    }
+
+    fn start_auto_setup(&mut self) {
+        if self.energise() {
+            self.autosetup_done = false;
+            self.set_mode(-2);
+            self.activity = Activity::AutoSetup {
+                elapsed: Duration::ZERO,
+                centre: self.demand.position,
+            };
+            self.return_mode = ReturnMode::Position;
+        }
+    }
+
+    /// The load's position becomes SetValue1.
+    fn home_here(&mut self, values: SetValues) {
+        self.offset = self.x - f64::from(values.value1);
+        self.demand.position = self.x;
+        self.homing_done = true;
+        self.return_mode = ReturnMode::Position;
+        if matches!(self.activity, Activity::Position { .. }) {
+            self.activity = Activity::Idle;
+        }
+    }
+
+    /// Homing with the method in SetValue3.
+    fn start_homing(&mut self, values: SetValues) {
+        let method = values.value3;
+        let Some(run) = HomingRun::new(method, self.world.sensors(self.x)) else {
+            self.refuse(AbortCode::VALUE_RANGE);
+            return;
+        };
+        if !self.energise() {
+            return;
+        }
+        self.od.set_int(0x6098, 0, i64::from(method));
+        self.set_mode(6);
+        self.homing_done = false;
+        self.return_mode = ReturnMode::Position;
+        if run.is_immediate() {
+            self.home_at(self.x);
+            self.homing_done = true;
+            self.activity = Activity::Idle;
+        } else {
+            self.activity = Activity::Homing { run, found: None };
+        }
+    }
+
+    /// Move absolute or relative: SetValue1 the position, SetValue2 the speed.
+    fn start_move(&mut self, command: Command, values: SetValues) {
+        if !self.energise() {
+            return;
+        }
+        let base = match (&self.activity, command.opcode) {
+            (_, Opcode::MoveAbsolute) => 0,
+            (Activity::Position { target, .. }, _) => *target,
+            _ => self.position().round() as i64,
+        };
+        let target = base + i64::from(values.value1);
+        self.od.set_int(0x607A, 0, target);
+        self.od
+            .set_int(0x6081, 0, i64::from(values.value2.unsigned_abs()));
+        self.set_mode(1);
+        self.activity = Activity::Position {
+            target,
+            speed_rpm: f64::from(values.value2.unsigned_abs()),
+        };
+        self.start_travel(command.halt, ReturnMode::Position);
+    }
+
+    /// Velocity mode: SetValue1 the speed.
+    fn start_velocity(&mut self, halt: bool, values: SetValues) {
+        if !self.energise() {
+            return;
+        }
+        self.od.set_int(0x60FF, 0, i64::from(values.value1));
+        self.set_mode(3);
+        self.activity = Activity::Velocity {
+            speed_rpm: f64::from(values.value1),
+        };
+        self.start_travel(halt, ReturnMode::Velocity);
+    }
+
+    /// Profile Torque: SetValue1 the torque (limited by 6072h), SetValue2 the top speed.
+    fn start_torque(&mut self, halt: bool, values: SetValues) {
+        if !self.energise() {
+            return;
+        }
+        let max = self.od.int(0x6072, 0) as f64;
+        let torque = f64::from(values.value1).clamp(-max, max);
+        self.od.set_int(0x6071, 0, torque as i64);
+        self.set_mode(4);
+        self.torque_demand = self.torque;
+        self.activity = Activity::Torque {
+            torque,
+            max_speed_rpm: f64::from(values.value2.unsigned_abs()),
+        };
+        self.start_travel(halt, ReturnMode::Torque);
     }
 
     fn start_travel(&mut self, halt: bool, mode: ReturnMode) {
@@ -231,11 +250,7 @@ impl Drive {
             set_value3_to_subindex(values.value3),
         );
         self.publish();
-        let result = self.od.read(address).and_then(|value| {
-            let dtype = self
-                .od
-                .entry(address)
-                .map_or(DataType::Integer32, |e| e.dtype);
+        let result = self.read_typed(address).and_then(|(value, dtype)| {
             value
                 .to_pdi(dtype)
                 .map_err(|_| AbortCode::TYPE_LENGTH_TOO_HIGH)

@@ -1,5 +1,6 @@
 //! Time: the motor, its load and the target conditions, stepped in 1 ms.
 
+use super::super::world::Sensors;
 use super::*;
 
 impl Drive {
@@ -16,125 +17,126 @@ impl Drive {
     }
 
     fn step(&mut self, dt: f64) {
-        let acc = rpm_to_units(self.od.int(0x6083, 0) as f64);
-        let dec = rpm_to_units(self.od.int(0x6084, 0) as f64);
         let x_before = self.x;
-        let demand_velocity_before = self.demand.velocity;
-        let demand_position_before = self.demand.position;
-        let quick = rpm_to_units(self.od.int(0x6085, 0) as f64);
-        let mut torque_controlled = false;
-        match self.state {
-            PowerState::OperationEnabled => {
-                let mut activity = std::mem::replace(&mut self.activity, Activity::Idle);
-                match &mut activity {
-                    Activity::Idle => step_velocity(&mut self.demand, 0.0, acc, dec, dt),
-                    _ if self.limit_stop => {
-                        step_velocity(&mut self.demand, 0.0, quick, quick, dt);
-                    }
-                    Activity::Position { target, speed_rpm } => {
-                        if self.halted {
-                            step_velocity(&mut self.demand, 0.0, acc, dec, dt);
-                        } else {
-                            let world_target = *target as f64 + self.offset;
-                            step_position(
-                                &mut self.demand,
-                                world_target,
-                                rpm_to_units(*speed_rpm),
-                                acc,
-                                dec,
-                                dt,
-                            );
-                        }
-                    }
-                    Activity::Velocity { speed_rpm } => {
-                        let wanted = if self.halted {
-                            0.0
-                        } else {
-                            rpm_to_units(*speed_rpm)
-                        };
-                        step_velocity(&mut self.demand, wanted, acc, dec, dt);
-                    }
-                    Activity::Torque {
-                        torque,
-                        max_speed_rpm,
-                    } => {
-                        if self.halted {
-                            step_velocity(&mut self.demand, 0.0, acc, dec, dt);
-                        } else {
-                            torque_controlled = true;
-                            let slope = self.od.int(0x6087, 0) as f64;
-                            let step = slope * dt;
-                            self.torque_demand = if (*torque - self.torque_demand).abs() <= step {
-                                *torque
-                            } else {
-                                self.torque_demand + step.copysign(*torque - self.torque_demand)
-                            };
-                            self.torque_physics(rpm_to_units(*max_speed_rpm), dt);
-                        }
-                    }
-                    Activity::Homing { run, found } => {
-                        let homing_acc = rpm_to_units(self.od.int(0x609A, 0) as f64);
-                        let fast = rpm_to_units(self.od.int(0x6099, 1) as f64);
-                        let slow = rpm_to_units(self.od.int(0x6099, 2) as f64);
-                        let wanted = match found {
-                            Some(_) => 0.0,
-                            None => {
-                                let speed = if run.leg_is_fast() { fast } else { slow };
-                                f64::from(run.direction()) * speed
-                            }
-                        };
-                        step_velocity(&mut self.demand, wanted, homing_acc, homing_acc, dt);
-                    }
-                    Activity::AutoSetup { elapsed, centre } => {
-                        *elapsed += Duration::from_secs_f64(dt);
-                        // A visible wiggle: the motor turns ±30° while it identifies itself,
-                        // and stands still again at the end.
-                        let t = elapsed.as_secs_f64().min(AUTO_SETUP_TIME.as_secs_f64());
-                        let next = *centre
-                            + 300.0
-                                * (std::f64::consts::TAU * t / AUTO_SETUP_TIME.as_secs_f64() * 4.0)
-                                    .sin();
-                        self.demand.velocity = (next - self.demand.position) / dt;
-                        self.demand.position = next;
-                    }
-                }
-                self.activity = activity;
-            }
+        let demand_before = self.demand;
+        let torque_controlled = match self.state {
+            PowerState::OperationEnabled => self.step_activity(dt),
             PowerState::QuickStopActive => {
-                let (decel, switch_off) = self.quick_stop.unwrap_or((dec, false));
-                step_velocity(&mut self.demand, 0.0, decel, decel, dt);
-                if self.demand.velocity == 0.0 && self.v.abs() < STANDSTILL && switch_off {
-                    self.state = PowerState::SwitchOnDisabled;
-                    self.quick_stop = None;
-                }
+                self.step_quick_stop(dt);
+                false
             }
-            _ => {}
-        }
-
-        // The load.
+            _ => false,
+        };
         let energised = matches!(
             self.state,
             PowerState::OperationEnabled | PowerState::QuickStopActive
         );
-        let blocked = self.injected.contains(&Injection::FollowingError);
-        if blocked {
+        self.move_load(torque_controlled, energised, demand_before.position, dt);
+        if !torque_controlled {
+            self.torque = if energised {
+                self.demand_torque(demand_before.velocity, dt)
+            } else {
+                0.0
+            };
+        }
+        self.after_step(x_before, dt);
+    }
+
+    /// The running activity's demand, one step on; true when torque moves the load.
+    fn step_activity(&mut self, dt: f64) -> bool {
+        let acc = rpm_to_units(self.od.int(0x6083, 0) as f64);
+        let dec = rpm_to_units(self.od.int(0x6084, 0) as f64);
+        let quick = rpm_to_units(self.od.int(0x6085, 0) as f64);
+        let mut torque_controlled = false;
+        let mut activity = std::mem::replace(&mut self.activity, Activity::Idle);
+        match &mut activity {
+            Activity::Idle => step_velocity(&mut self.demand, 0.0, acc, dec, dt),
+            _ if self.limit_stop => {
+                step_velocity(&mut self.demand, 0.0, quick, quick, dt);
+            }
+            Activity::Position { .. } | Activity::Velocity { .. } | Activity::Torque { .. }
+                if self.halted =>
+            {
+                step_velocity(&mut self.demand, 0.0, acc, dec, dt);
+            }
+            Activity::Position { target, speed_rpm } => {
+                let world_target = *target as f64 + self.offset;
+                let speed = rpm_to_units(*speed_rpm);
+                step_position(&mut self.demand, world_target, speed, acc, dec, dt);
+            }
+            Activity::Velocity { speed_rpm } => {
+                step_velocity(&mut self.demand, rpm_to_units(*speed_rpm), acc, dec, dt);
+            }
+            Activity::Torque {
+                torque,
+                max_speed_rpm,
+            } => {
+                torque_controlled = true;
+                self.ramp_torque(*torque, dt);
+                self.torque_physics(rpm_to_units(*max_speed_rpm), dt);
+            }
+            Activity::Homing { run, found } => {
+                let homing_acc = rpm_to_units(self.od.int(0x609A, 0) as f64);
+                let wanted = match found {
+                    Some(_) => 0.0,
+                    None => f64::from(run.direction()) * leg_speed(&self.od, run),
+                };
+                step_velocity(&mut self.demand, wanted, homing_acc, homing_acc, dt);
+            }
+            Activity::AutoSetup { elapsed, centre } => self.wiggle(elapsed, *centre, dt),
+        }
+        self.activity = activity;
+        torque_controlled
+    }
+
+    /// Quick stop: brake to standstill, then switch off when the option code says so.
+    fn step_quick_stop(&mut self, dt: f64) {
+        let dec = rpm_to_units(self.od.int(0x6084, 0) as f64);
+        let (decel, switch_off) = self.quick_stop.unwrap_or((dec, false));
+        step_velocity(&mut self.demand, 0.0, decel, decel, dt);
+        if self.demand.velocity == 0.0 && self.v.abs() < STANDSTILL && switch_off {
+            self.state = PowerState::SwitchOnDisabled;
+            self.quick_stop = None;
+        }
+    }
+
+    /// Profile Torque: the torque demand ramps towards `torque` at the slope 6087h.
+    fn ramp_torque(&mut self, torque: f64, dt: f64) {
+        let slope = self.od.int(0x6087, 0) as f64;
+        let step = slope * dt;
+        self.torque_demand = if (torque - self.torque_demand).abs() <= step {
+            torque
+        } else {
+            self.torque_demand + step.copysign(torque - self.torque_demand)
+        };
+    }
+
+    /// Auto setup: a visible wiggle, the motor turns ±30° while it identifies itself and
+    /// stands still again at the end.
+    fn wiggle(&mut self, elapsed: &mut Duration, centre: f64, dt: f64) {
+        *elapsed += Duration::from_secs_f64(dt);
+        let t = elapsed.as_secs_f64().min(AUTO_SETUP_TIME.as_secs_f64());
+        let next = centre
+            + 300.0 * (std::f64::consts::TAU * t / AUTO_SETUP_TIME.as_secs_f64() * 4.0).sin();
+        self.demand.velocity = (next - self.demand.position) / dt;
+        self.demand.position = next;
+    }
+
+    /// The load, one step on: held by an injected following error, moved by the torque
+    /// already (`torque_controlled`), following the demand, or coasting unpowered.
+    fn move_load(
+        &mut self,
+        torque_controlled: bool,
+        energised: bool,
+        demand_position_before: f64,
+        dt: f64,
+    ) {
+        if self.injected.contains(&Injection::FollowingError) {
             self.v = 0.0;
         } else if torque_controlled {
             // torque_physics moved x and v already.
         } else if energised {
-            // The load follows the demand with a first-order lag, solved exactly over the
-            // step (so the result does not depend on how time is cut into steps):
-            // e = demand − x obeys de/dt = v_demand − e/τ, and the load's speed is e/τ.
-            let v_demand = (self.demand.position - demand_position_before) / dt;
-            let e0 = demand_position_before - self.x;
-            let decay = (-dt / LOAD_LAG).exp();
-            let mut e = v_demand * LOAD_LAG + (e0 - v_demand * LOAD_LAG) * decay;
-            if self.demand.velocity == 0.0 && e.abs() < 0.01 {
-                // Settled: the load stands on the demand.
-                e = 0.0;
-            }
-            self.x = self.demand.position - e;
-            self.v = e / LOAD_LAG;
+            self.follow_demand(demand_position_before, dt);
         } else {
             // Coasting with the power stage off.
             self.v *= (-dt / 0.15).exp();
@@ -147,18 +149,28 @@ impl Drive {
                 velocity: self.v,
             };
         }
-        if !torque_controlled {
-            self.torque = if energised {
-                // The torque it takes to drive the demand's acceleration against friction.
-                let accel = (self.demand.velocity - demand_velocity_before) / dt;
-                ((accel + DAMPING * self.v) / TORQUE_GAIN + COULOMB * sign(self.v))
-                    .clamp(-3000.0, 3000.0)
-            } else {
-                0.0
-            };
-        }
+    }
 
-        self.after_step(x_before, dt);
+    /// The load follows the demand with a first-order lag, solved exactly over the step
+    /// (so the result does not depend on how time is cut into steps): e = demand − x obeys
+    /// de/dt = v_demand − e/τ, and the load's speed is e/τ.
+    fn follow_demand(&mut self, demand_position_before: f64, dt: f64) {
+        let v_demand = (self.demand.position - demand_position_before) / dt;
+        let e0 = demand_position_before - self.x;
+        let decay = (-dt / LOAD_LAG).exp();
+        let mut e = v_demand * LOAD_LAG + (e0 - v_demand * LOAD_LAG) * decay;
+        if self.demand.velocity == 0.0 && e.abs() < 0.01 {
+            // Settled: the load stands on the demand.
+            e = 0.0;
+        }
+        self.x = self.demand.position - e;
+        self.v = e / LOAD_LAG;
+    }
+
+    /// The torque it takes to drive the demand's acceleration against friction.
+    fn demand_torque(&self, demand_velocity_before: f64, dt: f64) -> f64 {
+        let accel = (self.demand.velocity - demand_velocity_before) / dt;
+        ((accel + DAMPING * self.v) / TORQUE_GAIN + COULOMB * sign(self.v)).clamp(-3000.0, 3000.0)
     }
 
     fn torque_physics(&mut self, max_speed: f64, dt: f64) {
@@ -185,13 +197,29 @@ impl Drive {
     fn after_step(&mut self, x_before: f64, dt: f64) {
         let sensors = self.world.sensors(self.x);
         let step = Duration::from_secs_f64(dt);
+        if matches!(self.activity, Activity::Homing { .. }) {
+            self.step_homing(x_before);
+        } else if let Activity::AutoSetup { elapsed, .. } = self.activity
+            && elapsed >= AUTO_SETUP_TIME
+        {
+            self.autosetup_done = true;
+            self.activity = Activity::Idle;
+            self.set_mode(0);
+        }
+        self.stop_at_limits(sensors);
+        self.watch_following_error(step);
+        // Target window timing.
+        if self.target_condition() {
+            self.in_window_for += step;
+        } else {
+            self.in_window_for = Duration::ZERO;
+        }
+    }
 
-        // Homing legs and the home point.
-        let fast = rpm_to_units(self.od.int(0x6099, 1) as f64);
-        let slow = rpm_to_units(self.od.int(0x6099, 2) as f64);
+    /// Homing legs and the home point.
+    fn step_homing(&mut self, x_before: f64) {
         if let Activity::Homing { run, found } = &mut self.activity {
-            let leg_speed = if run.leg_is_fast() { fast } else { slow };
-            let at_leg_speed = self.v.abs() <= leg_speed * 1.1 + STANDSTILL;
+            let at_leg_speed = self.v.abs() <= leg_speed(&self.od, run) * 1.1 + STANDSTILL;
             if found.is_none() {
                 match run.step(&self.world, x_before, self.x, at_leg_speed) {
                     HomingStep::Moving { .. } => {}
@@ -206,42 +234,41 @@ impl Drive {
                     }
                 }
             }
-            if let Activity::Homing {
-                found: Some(world), ..
-            } = self.activity
-                && self.demand.velocity == 0.0
-            {
-                self.home_at(world);
-                self.homing_done = true;
-                self.activity = Activity::Idle;
-                self.demand.position = self.x;
-            }
-        } else if let Activity::AutoSetup { elapsed, .. } = self.activity
-            && elapsed >= AUTO_SETUP_TIME
+        }
+        if let Activity::Homing {
+            found: Some(world), ..
+        } = self.activity
+            && self.demand.velocity == 0.0
         {
-            self.autosetup_done = true;
+            self.home_at(world);
+            self.homing_done = true;
             self.activity = Activity::Idle;
-            self.set_mode(0);
+            self.demand.position = self.x;
         }
+    }
 
-        // Limit switches stop travel into them (homing handles them itself).
-        if self.state == PowerState::OperationEnabled
-            && !matches!(self.activity, Activity::Homing { .. })
+    /// Limit switches stop travel into them (homing handles them itself).
+    fn stop_at_limits(&mut self, sensors: Sensors) {
+        if self.state != PowerState::OperationEnabled
+            || matches!(self.activity, Activity::Homing { .. })
         {
-            let into_negative = sensors.negative_limit && self.demand.velocity < 0.0;
-            let into_positive = sensors.positive_limit && self.demand.velocity > 0.0;
-            if into_negative || into_positive {
-                self.limit_stop = true;
-                // Auto setup cannot finish against a limit switch: the drive gives it up
-                // with PdiStatusError instead of standing there until the master times out.
-                if matches!(self.activity, Activity::AutoSetup { .. }) {
-                    self.activity = Activity::Idle;
-                    self.refuse(AbortCode::DEVICE_STATE);
-                }
+            return;
+        }
+        let into_negative = sensors.negative_limit && self.demand.velocity < 0.0;
+        let into_positive = sensors.positive_limit && self.demand.velocity > 0.0;
+        if into_negative || into_positive {
+            self.limit_stop = true;
+            // Auto setup cannot finish against a limit switch: the drive gives it up
+            // with PdiStatusError instead of standing there until the master times out.
+            if matches!(self.activity, Activity::AutoSetup { .. }) {
+                self.activity = Activity::Idle;
+                self.refuse(AbortCode::DEVICE_STATE);
             }
         }
+    }
 
-        // Following error: the demand against the load.
+    /// Following error: the demand against the load, beyond 6065h for longer than 6066h.
+    fn watch_following_error(&mut self, step: Duration) {
         let position_control = self.state == PowerState::OperationEnabled
             && !matches!(self.activity, Activity::Torque { .. });
         let deviation = if position_control {
@@ -271,13 +298,6 @@ impl Drive {
                     self.warning = None;
                 }
             }
-        }
-
-        // Target window timing.
-        if self.target_condition() {
-            self.in_window_for += step;
-        } else {
-            self.in_window_for = Duration::ZERO;
         }
     }
 
@@ -318,4 +338,11 @@ impl Drive {
         self.target_condition()
             && self.in_window_for >= Duration::from_millis(window_time.max(0) as u64)
     }
+}
+
+/// The speed of the homing run's current leg: 6099h:01 (fast) or 6099h:02 (slow).
+fn leg_speed(od: &Dictionary, run: &HomingRun) -> f64 {
+    let fast = rpm_to_units(od.int(0x6099, 1) as f64);
+    let slow = rpm_to_units(od.int(0x6099, 2) as f64);
+    if run.leg_is_fast() { fast } else { slow }
 }

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use super::SharedDrive;
 use crate::cia::AbortCode;
 use crate::link::canopen::CanBus;
-use crate::od::{Address, DataType, Value};
+use crate::od::{Address, Value};
 use crate::proto::canopen::CanFrame;
 use crate::proto::canopen::emcy::Emcy;
 use crate::proto::canopen::nmt::{self, NmtCommand, NmtState};
@@ -51,12 +51,7 @@ struct DriveAccess<'a> {
 
 impl ObjectAccess for DriveAccess<'_> {
     fn read(&mut self, index: u16, sub: u8) -> Result<Vec<u8>, AbortCode> {
-        let address = Address::new(index, sub);
-        let value = self.drive.read(address)?;
-        let dtype = self
-            .drive
-            .entry(address)
-            .map_or(DataType::Integer32, |e| e.dtype);
+        let (value, dtype) = self.drive.read_typed(Address::new(index, sub))?;
         value
             .to_le_bytes(dtype)
             .map_err(|_| AbortCode::GENERAL_ERROR)

@@ -108,35 +108,18 @@ impl ServerThread {
         let listener = std::net::TcpListener::bind(addr)?;
         listener.set_nonblocking(true)?;
         let addr = listener.local_addr()?;
-        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
-        let served = drive.clone();
-        let thread = std::thread::Builder::new()
-            .name(format!("sim-modbus-{addr}"))
-            .spawn(move || {
-                let Ok(runtime) = tokio::runtime::Builder::new_current_thread()
-                    .enable_all()
-                    .build()
-                else {
+        Self::spawn(
+            format!("sim-modbus-{addr}"),
+            addr,
+            None,
+            drive,
+            move |served| async move {
+                let Ok(listener) = tokio::net::TcpListener::from_std(listener) else {
                     return;
                 };
-                runtime.block_on(async move {
-                    let Ok(listener) = tokio::net::TcpListener::from_std(listener) else {
-                        return;
-                    };
-                    tokio::select! {
-                        _ = stop_rx => {}
-                        _ = served.clone().run_clock() => {}
-                        _ = modbus::serve_tcp(listener, served, options) => {}
-                    }
-                });
-            })?;
-        Ok(ServerThread {
-            addr,
-            io: None,
-            drive,
-            stop: Some(stop_tx),
-            thread: Some(thread),
-        })
+                let _ = modbus::serve_tcp(listener, served, options).await;
+            },
+        )
     }
 
     /// Serve EtherNet/IP on `addr` (port 0 picks a free one, for TCP and the ListIdentity
@@ -157,32 +140,52 @@ impl ServerThread {
         let sockets = enip::Sockets::bind(addr, options.io_port)?;
         let addr = sockets.tcp_addr()?;
         let io = sockets.io_addr()?;
+        Self::spawn(
+            format!("sim-enip-{addr}"),
+            addr,
+            Some(io),
+            drive,
+            move |served| async move {
+                if let Err(e) = enip::serve(sockets, served, options).await {
+                    tracing::warn!("EtherNet/IP adapter stopped: {e}");
+                }
+            },
+        )
+    }
+
+    /// Run `serve` (given the drive) on a thread and runtime of its own, beside the drive's
+    /// clock, until it ends or the returned server is dropped.
+    fn spawn<F, Fut>(
+        name: String,
+        addr: std::net::SocketAddr,
+        io: Option<std::net::SocketAddr>,
+        drive: SharedDrive,
+        serve: F,
+    ) -> std::io::Result<ServerThread>
+    where
+        F: FnOnce(SharedDrive) -> Fut + Send + 'static,
+        Fut: std::future::Future<Output = ()>,
+    {
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel();
         let served = drive.clone();
-        let thread = std::thread::Builder::new()
-            .name(format!("sim-enip-{addr}"))
-            .spawn(move || {
-                let Ok(runtime) = tokio::runtime::Builder::new_current_thread()
-                    .enable_all()
-                    .build()
-                else {
-                    return;
-                };
-                runtime.block_on(async move {
-                    tokio::select! {
-                        _ = stop_rx => {}
-                        _ = served.clone().run_clock() => {}
-                        r = enip::serve(sockets, served, options) => {
-                            if let Err(e) = r {
-                                tracing::warn!("EtherNet/IP adapter stopped: {e}");
-                            }
-                        }
-                    }
-                });
-            })?;
+        let thread = std::thread::Builder::new().name(name).spawn(move || {
+            let Ok(runtime) = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+            else {
+                return;
+            };
+            runtime.block_on(async move {
+                tokio::select! {
+                    _ = stop_rx => {}
+                    _ = served.clone().run_clock() => {}
+                    _ = serve(served) => {}
+                }
+            });
+        })?;
         Ok(ServerThread {
             addr,
-            io: Some(io),
+            io,
             drive,
             stop: Some(stop_tx),
             thread: Some(thread),

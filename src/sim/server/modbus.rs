@@ -275,13 +275,10 @@ fn dictionary(drive: &Drive, session: &mut Session, restart: bool) -> Result<Res
     // FC, sub-function and length byte come first.
     let mut room = MAX_PDU - 3;
     while let Some(address) = addresses.get(session.dictionary_cursor) {
-        let Ok(value) = drive.read(*address) else {
+        let Ok((value, dtype)) = drive.read_typed(*address) else {
             session.dictionary_cursor += 1;
             continue;
         };
-        let dtype = drive
-            .entry(*address)
-            .map_or(DataType::Integer32, |e| e.dtype);
         let mut data = value.to_le_bytes(dtype).unwrap_or_default();
         data.truncate(usize::from(u8::MAX).min(MAX_PDU - 7));
         let need = 4 + data.len();

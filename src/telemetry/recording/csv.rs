@@ -85,55 +85,11 @@ impl Recording {
                 }
                 Item::Record => match header {
                     None => {
-                        let first = cells.first().map_or("", |c| c.trim());
-                        if first.parse::<f64>().is_ok() {
-                            return Err(csv_error(line, "expected the header row, found numbers"));
-                        }
-                        let declared = !channels.is_empty();
-                        if declared && cells.len() != channels.len() + 1 {
-                            return Err(csv_error(
-                                line,
-                                format!(
-                                    "the header has {} channel columns but {} channels are declared",
-                                    cells.len() - 1,
-                                    channels.len()
-                                ),
-                            ));
-                        }
-                        if !declared {
-                            channels = cells
-                                .iter()
-                                .skip(1)
-                                .map(|c| channel_from_header(c))
-                                .collect();
-                        }
+                        check_header(&cells, line, &mut channels)?;
                         columns = vec![Vec::new(); channels.len()];
                         header = Some(cells.len());
                     }
-                    Some(width) => {
-                        if cells.len() != width {
-                            return Err(csv_error(
-                                line,
-                                format!("{} cells, expected {width}", cells.len()),
-                            ));
-                        }
-                        let t = parse_number(&cells[0], line)?;
-                        if !t.is_finite() {
-                            return Err(csv_error(line, "the time is missing or not finite"));
-                        }
-                        if let Some(&last) = times.last()
-                            && t < last
-                        {
-                            return Err(csv_error(
-                                line,
-                                format!("time {t} is before the previous row's ({last})"),
-                            ));
-                        }
-                        times.push(t);
-                        for (column, cell) in columns.iter_mut().zip(&cells[1..]) {
-                            column.push(parse_number(cell, line)?);
-                        }
-                    }
+                    Some(width) => push_row(&cells, line, width, &mut times, &mut columns)?,
                 },
             }
         }
@@ -148,6 +104,72 @@ impl Recording {
             markers,
         })
     }
+}
+
+/// The header row: it must match the channels the comments declared, or else declares
+/// them itself.
+fn check_header(
+    cells: &[Cow<'_, str>],
+    line: usize,
+    channels: &mut Vec<ChannelInfo>,
+) -> Result<(), RecordingError> {
+    let first = cells.first().map_or("", |c| c.trim());
+    if first.parse::<f64>().is_ok() {
+        return Err(csv_error(line, "expected the header row, found numbers"));
+    }
+    let declared = !channels.is_empty();
+    if declared && cells.len() != channels.len() + 1 {
+        return Err(csv_error(
+            line,
+            format!(
+                "the header has {} channel columns but {} channels are declared",
+                cells.len() - 1,
+                channels.len()
+            ),
+        ));
+    }
+    if !declared {
+        *channels = cells
+            .iter()
+            .skip(1)
+            .map(|c| channel_from_header(c))
+            .collect();
+    }
+    Ok(())
+}
+
+/// One row of `width` cells: its time (finite, not before the last row's) and a value
+/// for each column.
+fn push_row(
+    cells: &[Cow<'_, str>],
+    line: usize,
+    width: usize,
+    times: &mut Vec<f64>,
+    columns: &mut [Vec<f64>],
+) -> Result<(), RecordingError> {
+    if cells.len() != width {
+        return Err(csv_error(
+            line,
+            format!("{} cells, expected {width}", cells.len()),
+        ));
+    }
+    let t = parse_number(&cells[0], line)?;
+    if !t.is_finite() {
+        return Err(csv_error(line, "the time is missing or not finite"));
+    }
+    if let Some(&last) = times.last()
+        && t < last
+    {
+        return Err(csv_error(
+            line,
+            format!("time {t} is before the previous row's ({last})"),
+        ));
+    }
+    times.push(t);
+    for (column, cell) in columns.iter_mut().zip(&cells[1..]) {
+        column.push(parse_number(cell, line)?);
+    }
+    Ok(())
 }
 
 /// Append formatted text (writing into a `String` cannot fail).

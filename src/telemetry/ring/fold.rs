@@ -50,6 +50,36 @@ pub(super) struct MinMax {
     pub(super) imax: usize,
 }
 
+impl MinMax {
+    /// Fold in a span: the row of its first sample, its min and its max, each with the
+    /// closure that finds its row. A closure runs only when its row is needed.
+    #[inline]
+    fn extend(
+        &mut self,
+        first: impl FnOnce() -> usize,
+        (lo, imin): (f64, impl FnOnce() -> usize),
+        (hi, imax): (f64, impl FnOnce() -> usize),
+    ) {
+        if !self.seen {
+            self.seen = true;
+            self.first = first();
+            self.min = lo;
+            self.imin = imin();
+            self.max = hi;
+            self.imax = imax();
+        } else {
+            if lo < self.min {
+                self.min = lo;
+                self.imin = imin();
+            }
+            if hi > self.max {
+                self.max = hi;
+                self.imax = imax();
+            }
+        }
+    }
+}
+
 impl Fold for MinMax {
     fn seen(&self) -> bool {
         self.seen
@@ -63,23 +93,11 @@ impl Fold for MinMax {
         }
         // Positions of the earliest min and max; the scans stop early.
         let at = |x: f64| base + values.iter().position(|&v| v == x).unwrap_or(0);
-        if !self.seen {
-            self.seen = true;
-            self.first = base + values.iter().position(|v| !v.is_nan()).unwrap_or(0);
-            self.min = lo;
-            self.imin = at(lo);
-            self.max = hi;
-            self.imax = at(hi);
-        } else {
-            if lo < self.min {
-                self.min = lo;
-                self.imin = at(lo);
-            }
-            if hi > self.max {
-                self.max = hi;
-                self.imax = at(hi);
-            }
-        }
+        self.extend(
+            || base + values.iter().position(|v| !v.is_nan()).unwrap_or(0),
+            (lo, || at(lo)),
+            (hi, || at(hi)),
+        );
         self.last = base + values.iter().rposition(|v| !v.is_nan()).unwrap_or(0);
     }
 
@@ -88,23 +106,11 @@ impl Fold for MinMax {
         if s.is_empty() {
             return;
         }
-        if !self.seen {
-            self.seen = true;
-            self.first = base + usize::from(s.first_off);
-            self.min = s.min;
-            self.imin = base + usize::from(s.min_off);
-            self.max = s.max;
-            self.imax = base + usize::from(s.max_off);
-        } else {
-            if s.min < self.min {
-                self.min = s.min;
-                self.imin = base + usize::from(s.min_off);
-            }
-            if s.max > self.max {
-                self.max = s.max;
-                self.imax = base + usize::from(s.max_off);
-            }
-        }
+        self.extend(
+            || base + usize::from(s.first_off),
+            (s.min, || base + usize::from(s.min_off)),
+            (s.max, || base + usize::from(s.max_off)),
+        );
         self.last = base + usize::from(s.last_off);
     }
 }

@@ -177,17 +177,31 @@ impl Adapter {
                 if session.is_none() || session != Some(packet.session) {
                     return Action::reply(answer(packet, Status::INVALID_SESSION, vec![]));
                 }
-                let Ok(rr) = RrData::decode(&packet.data) else {
-                    return Action::reply(answer(packet, Status::INCORRECT_DATA, vec![]));
+                let context = Context {
+                    stream: id,
+                    now,
+                    sockaddr_to: None,
+                    depth: 0,
                 };
-                let reply = if packet.command == Command::SEND_RR_DATA {
-                    self.rr_data(id, packet, &rr, drive, now)
-                } else {
-                    self.unit_data(id, packet, &rr, drive, now)
-                };
-                Action::reply(reply)
+                Action::reply(self.send_data(packet, context, drive))
             }
             _ => Action::reply(answer(packet, Status::INVALID_COMMAND, vec![])),
+        }
+    }
+
+    /// SendRRData (unconnected) or SendUnitData (class 3), in a session of the stream.
+    fn send_data(&mut self, packet: &Packet, context: Context, drive: &mut Drive) -> Packet {
+        let Ok(rr) = RrData::decode(&packet.data) else {
+            return answer(packet, Status::INCORRECT_DATA, vec![]);
+        };
+        let body = if packet.command == Command::SEND_RR_DATA {
+            self.rr_data(&rr, context, drive)
+        } else {
+            self.unit_data(&rr, context, drive)
+        };
+        match body {
+            Some(body) => answer(packet, Status::SUCCESS, body),
+            None => answer(packet, Status::INCORRECT_DATA, vec![]),
         }
     }
 
@@ -255,40 +269,25 @@ impl Adapter {
         }
     }
 
-    fn rr_data(
-        &mut self,
-        id: StreamId,
-        packet: &Packet,
-        rr: &RrData,
-        drive: &mut Drive,
-        now: Instant,
-    ) -> Packet {
-        let Some(request) = rr.unconnected() else {
-            return answer(packet, Status::INCORRECT_DATA, vec![]);
-        };
+    /// The body of a SendRRData reply; `None` when the request is malformed.
+    fn rr_data(&mut self, rr: &RrData, context: Context, drive: &mut Drive) -> Option<Vec<u8>> {
+        let request = rr.unconnected()?;
         let context = Context {
-            stream: id,
-            now,
             sockaddr_to: rr.items.iter().find_map(|i| match i {
                 Item::SockaddrTo(s) => Some(*s),
                 _ => None,
             }),
-            depth: 0,
+            ..context
         };
         let (reply, extra) = self.message(request, context, drive);
         let mut items = vec![Item::Null, Item::UnconnectedData(reply.encode())];
         items.extend(extra);
-        answer(packet, Status::SUCCESS, RrData::new(0, items).encode())
+        Some(RrData::new(0, items).encode())
     }
 
-    fn unit_data(
-        &mut self,
-        id: StreamId,
-        packet: &Packet,
-        rr: &RrData,
-        drive: &mut Drive,
-        now: Instant,
-    ) -> Packet {
+    /// The body of a SendUnitData reply (class 3); `None` when the request is malformed or
+    /// names no connection of its stream.
+    fn unit_data(&mut self, rr: &RrData, context: Context, drive: &mut Drive) -> Option<Vec<u8>> {
         let address = rr.items.iter().find_map(|i| match i {
             Item::ConnectedAddress(a) => Some(*a),
             _ => None,
@@ -298,16 +297,12 @@ impl Adapter {
             _ => None,
         });
         let (Some(address), Some(data)) = (address, data) else {
-            return answer(packet, Status::INCORRECT_DATA, vec![]);
+            return None;
         };
-        let Some(stream) = self.streams.get(&id) else {
-            return answer(packet, Status::INCORRECT_DATA, vec![]);
-        };
-        let Some(connection) = stream.class3.iter().find(|c| c.ot == address) else {
-            return answer(packet, Status::INCORRECT_DATA, vec![]);
-        };
+        let stream = self.streams.get(&context.stream)?;
+        let connection = stream.class3.iter().find(|c| c.ot == address)?;
         if data.len() < 2 {
-            return answer(packet, Status::INCORRECT_DATA, vec![]);
+            return None;
         }
         let sequence = u16::from_le_bytes([data[0], data[1]]);
         let to = connection.to;
@@ -315,18 +310,12 @@ impl Adapter {
             // A repeated sequence count: the originator missed the reply, not a new request.
             Some((last, payload)) if *last == sequence => payload.clone(),
             _ => {
-                let context = Context {
-                    stream: id,
-                    now,
-                    sockaddr_to: None,
-                    depth: 0,
-                };
                 let (reply, _) = self.message(&data[2..], context, drive);
                 let mut payload = sequence.to_le_bytes().to_vec();
                 payload.extend_from_slice(&reply.encode());
                 if let Some(c) = self
                     .streams
-                    .get_mut(&id)
+                    .get_mut(&context.stream)
                     .and_then(|s| s.class3.iter_mut().find(|c| c.ot == address))
                 {
                     c.last = Some((sequence, payload.clone()));
@@ -335,11 +324,7 @@ impl Adapter {
             }
         };
         let items = [Item::ConnectedAddress(to), Item::ConnectedData(payload)];
-        answer(
-            packet,
-            Status::SUCCESS,
-            RrData::new(0, items.to_vec()).encode(),
-        )
+        Some(RrData::new(0, items.to_vec()).encode())
     }
 
     /// Answer one Message Router request; the items to append to a SendRRData reply.
@@ -379,39 +364,45 @@ impl Adapter {
                 self.assembly_service(service, instance, path.attribute_id(), drive),
                 vec![],
             ),
-            class::CONNECTION_MANAGER => {
-                if instance != Some(1) {
-                    return (
-                        error(service, GeneralStatus::PATH_DESTINATION_UNKNOWN),
-                        vec![],
-                    );
-                }
-                match service {
-                    service::FORWARD_OPEN | service::LARGE_FORWARD_OPEN => {
-                        self.forward_open(service, data, context)
-                    }
-                    service::FORWARD_CLOSE => (self.forward_close(data, context), vec![]),
-                    service::UNCONNECTED_SEND if context.depth == 0 => {
-                        match UnconnectedSend::decode(data) {
-                            // The route is ignored: every route ends at this drive.
-                            Ok(wrapped) => self.message(
-                                &wrapped.request,
-                                Context {
-                                    depth: context.depth + 1,
-                                    ..context
-                                },
-                                drive,
-                            ),
-                            Err(e) => (error(service, malformed(&e)), vec![]),
-                        }
-                    }
-                    _ => (error(service, GeneralStatus::SERVICE_NOT_SUPPORTED), vec![]),
-                }
+            class::CONNECTION_MANAGER if instance == Some(1) => {
+                self.connection_manager(service, data, context, drive)
             }
             _ => (
                 error(service, GeneralStatus::PATH_DESTINATION_UNKNOWN),
                 vec![],
             ),
+        }
+    }
+
+    /// The Connection Manager (instance 1): Forward_Open, Forward_Close and one level of
+    /// Unconnected_Send.
+    fn connection_manager(
+        &mut self,
+        service: u8,
+        data: &[u8],
+        context: Context,
+        drive: &mut Drive,
+    ) -> (Reply, Vec<Item>) {
+        match service {
+            service::FORWARD_OPEN | service::LARGE_FORWARD_OPEN => {
+                self.forward_open(service, data, context)
+            }
+            service::FORWARD_CLOSE => (self.forward_close(data, context), vec![]),
+            service::UNCONNECTED_SEND if context.depth == 0 => {
+                match UnconnectedSend::decode(data) {
+                    // The route is ignored: every route ends at this drive.
+                    Ok(wrapped) => self.message(
+                        &wrapped.request,
+                        Context {
+                            depth: context.depth + 1,
+                            ..context
+                        },
+                        drive,
+                    ),
+                    Err(e) => (error(service, malformed(&e)), vec![]),
+                }
+            }
+            _ => (error(service, GeneralStatus::SERVICE_NOT_SUPPORTED), vec![]),
         }
     }
 

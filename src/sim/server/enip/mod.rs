@@ -322,6 +322,7 @@ struct Context {
     depth: u8,
 }
 
+/// The answer to `request`: its command, session and context.
 fn answer(request: &Packet, status: Status, data: Vec<u8>) -> Packet {
     Packet::reply_to(&request.header(), status, data)
 }

@@ -12,80 +12,86 @@ pub(super) fn od_service(
         return error(service, GeneralStatus::PATH_DESTINATION_UNKNOWN);
     }
     match service {
-        service::GET_OD | service::GET_OD_ROCKWELL => {
-            if data.len() < 3 {
-                return error(service, GeneralStatus::NOT_ENOUGH_DATA);
-            }
-            if data.len() > 3 {
-                return error(service, GeneralStatus::TOO_MUCH_DATA);
-            }
-            let Ok((address, _)) = nanotec::decode_request_data(data) else {
-                return error(service, GeneralStatus::NOT_ENOUGH_DATA);
-            };
-            let read = drive.read(address).and_then(|value| {
-                let dtype = drive
-                    .entry(address)
-                    .map(|e| e.dtype)
-                    .ok_or(AbortCode::NO_OBJECT)?;
-                let bytes = value
-                    .to_le_bytes(dtype)
-                    .map_err(|_| AbortCode::GENERAL_ERROR)?;
-                Ok((dtype, bytes))
-            });
-            match read {
-                Err(abort) => abort_reply(service, abort),
-                Ok((_, bytes)) if bytes.len() > MAX_REPLY_DATA => {
-                    error(service, GeneralStatus::REPLY_TOO_LARGE)
-                }
-                Ok((_, bytes)) if service == service::GET_OD => Reply::success(service, bytes),
-                Ok((dtype, bytes)) => Reply::success(
-                    service,
-                    Typed {
-                        dtype_code: dtype.code(),
-                        data: bytes,
-                    }
-                    .encode(),
-                ),
-            }
-        }
-        service::SET_OD => {
-            if data.len() < 4 {
-                return error(service, GeneralStatus::NOT_ENOUGH_DATA);
-            }
-            let Ok((address, value)) = nanotec::decode_request_data(data) else {
-                return error(service, GeneralStatus::NOT_ENOUGH_DATA);
-            };
-            if value.len() > 4 {
-                return error(service, GeneralStatus::TOO_MUCH_DATA);
-            }
-            let Some(entry) = drive.entry(address) else {
-                return abort_reply(
-                    service,
-                    drive.read(address).err().unwrap_or(AbortCode::NO_OBJECT),
-                );
-            };
-            if !entry.access.writable() {
-                return abort_reply(service, AbortCode::READ_ONLY);
-            }
-            let dtype = entry.dtype;
-            match dtype.size() {
-                Some(size) if value.len() < size => {
-                    return error(service, GeneralStatus::NOT_ENOUGH_DATA);
-                }
-                Some(size) if value.len() > size => {
-                    return error(service, GeneralStatus::TOO_MUCH_DATA);
-                }
-                _ => {}
-            }
-            let Ok(value) = Value::from_le_bytes(dtype, value) else {
-                return abort_reply(service, AbortCode::TYPE_LENGTH_MISMATCH);
-            };
-            match drive.write(address, value) {
-                Ok(()) => Reply::success(service, vec![]),
-                Err(abort) => abort_reply(service, abort),
-            }
-        }
+        service::GET_OD | service::GET_OD_ROCKWELL => get_od(service, data, drive),
+        service::SET_OD => set_od(service, data, drive),
         _ => error(service, GeneralStatus::SERVICE_NOT_SUPPORTED),
+    }
+}
+
+/// GetOD (the bytes) and the Rockwell variant (the bytes with their type).
+fn get_od(service: u8, data: &[u8], drive: &Drive) -> Reply {
+    if data.len() < 3 {
+        return error(service, GeneralStatus::NOT_ENOUGH_DATA);
+    }
+    if data.len() > 3 {
+        return error(service, GeneralStatus::TOO_MUCH_DATA);
+    }
+    let Ok((address, _)) = nanotec::decode_request_data(data) else {
+        return error(service, GeneralStatus::NOT_ENOUGH_DATA);
+    };
+    let read = drive.read(address).and_then(|value| {
+        let dtype = drive
+            .entry(address)
+            .map(|e| e.dtype)
+            .ok_or(AbortCode::NO_OBJECT)?;
+        let bytes = value
+            .to_le_bytes(dtype)
+            .map_err(|_| AbortCode::GENERAL_ERROR)?;
+        Ok((dtype, bytes))
+    });
+    match read {
+        Err(abort) => abort_reply(service, abort),
+        Ok((_, bytes)) if bytes.len() > MAX_REPLY_DATA => {
+            error(service, GeneralStatus::REPLY_TOO_LARGE)
+        }
+        Ok((_, bytes)) if service == service::GET_OD => Reply::success(service, bytes),
+        Ok((dtype, bytes)) => Reply::success(
+            service,
+            Typed {
+                dtype_code: dtype.code(),
+                data: bytes,
+            }
+            .encode(),
+        ),
+    }
+}
+
+/// SetOD: a writable object, as many bytes as its type holds.
+fn set_od(service: u8, data: &[u8], drive: &mut Drive) -> Reply {
+    if data.len() < 4 {
+        return error(service, GeneralStatus::NOT_ENOUGH_DATA);
+    }
+    let Ok((address, value)) = nanotec::decode_request_data(data) else {
+        return error(service, GeneralStatus::NOT_ENOUGH_DATA);
+    };
+    if value.len() > 4 {
+        return error(service, GeneralStatus::TOO_MUCH_DATA);
+    }
+    let Some(entry) = drive.entry(address) else {
+        return abort_reply(
+            service,
+            drive.read(address).err().unwrap_or(AbortCode::NO_OBJECT),
+        );
+    };
+    if !entry.access.writable() {
+        return abort_reply(service, AbortCode::READ_ONLY);
+    }
+    let dtype = entry.dtype;
+    match dtype.size() {
+        Some(size) if value.len() < size => {
+            return error(service, GeneralStatus::NOT_ENOUGH_DATA);
+        }
+        Some(size) if value.len() > size => {
+            return error(service, GeneralStatus::TOO_MUCH_DATA);
+        }
+        _ => {}
+    }
+    let Ok(value) = Value::from_le_bytes(dtype, value) else {
+        return abort_reply(service, AbortCode::TYPE_LENGTH_MISMATCH);
+    };
+    match drive.write(address, value) {
+        Ok(()) => Reply::success(service, vec![]),
+        Err(abort) => abort_reply(service, abort),
     }
 }
 
