@@ -5,7 +5,9 @@
 use eframe::egui::{self, Color32, RichText, TextEdit, Ui};
 
 use super::state::{AppState, TORQUE_SLOPE, TorqueWarning};
-use super::widgets::{AMBER, RED, clipped_label, name_widget, named_text_edit};
+use super::widgets::{
+    AMBER, RED, clipped_label, labelled_text_edit_ui, name_widget, named_text_edit,
+};
 use crate::od::{self, Address, DataType, Value};
 use crate::pdi::{Action, FieldSpec, Opcode};
 use crate::worker::{ObjectPath, Request};
@@ -360,13 +362,8 @@ fn torque_warning_ui(ui: &mut Ui, state: &mut AppState) {
         ui.label(slope_text);
         ui.add_space(6.0);
         ui.horizontal(|ui| {
-            ui.label("Set 6087h to");
-            named_text_edit(
-                ui,
-                &mut state.settings.torque_slope,
-                70.0,
-                "Torque slope 6087h",
-            );
+            let slope = &mut state.settings.torque_slope;
+            labelled_text_edit_ui(ui, "Set 6087h to", slope, 70.0, "Torque slope 6087h");
             ui.label("‰/s");
         });
         let slope = Value::parse(DataType::Unsigned32, &state.settings.torque_slope)

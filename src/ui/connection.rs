@@ -3,24 +3,23 @@
 
 use eframe::egui::{self, Color32, RichText, Ui};
 
-use super::state::{AppState, Bus, Connection};
-use super::widgets::{AMBER, GREEN, RED, name_widget, named_text_edit};
-use crate::link::{EnipIo, Parity};
+use super::scan::{discover_ui, scan_button_ui};
+use super::state::{AppState, Bus, Connection, ConnectionForm, FormError, Settings};
+use super::widgets::{
+    AMBER, GREEN, RED, choice_ui, labelled_text_edit_ui, name_widget, named_text_edit,
+};
+use crate::link::{EnipIo, LinkSpec, Parity};
 use crate::pdi::Action;
-use crate::worker::Request;
+use crate::worker::{Health, LinkLossAction, MAX_LOST_AFTER, Request};
 
-fn field(ui: &mut Ui, label: &str, text: &mut String, width: f32) {
-    ui.label(label);
-    named_text_edit(ui, text, width, &format!("Connection: {label}"));
-}
-
-fn combo_name(response: &egui::Response, name: &str) {
-    name_widget(response, egui::accesskit::Role::ComboBox, name);
+/// A labelled box of the bar, named "Connection: <label>".
+fn field_ui(ui: &mut Ui, label: &str, text: &mut String, width: f32) {
+    labelled_text_edit_ui(ui, label, text, width, &format!("Connection: {label}"));
 }
 
 /// A serial port: typed, or picked from the ports this machine has (the worker lists
 /// them). `true` when the list should be asked for (again).
-fn port_field(ui: &mut Ui, path: &mut String, ports: &Option<Vec<String>>) -> bool {
+fn port_field_ui(ui: &mut Ui, path: &mut String, ports: &Option<Vec<String>>) -> bool {
     ui.label("Port");
     named_text_edit(ui, path, 110.0, "Connection: Port");
     let mut ask = ports.is_none();
@@ -37,7 +36,11 @@ fn port_field(ui: &mut Ui, path: &mut String, ports: &Option<Vec<String>>) -> bo
                 ui.selectable_value(path, port.clone(), port);
             }
         });
-    combo_name(&picked.response, "Serial ports");
+    name_widget(
+        &picked.response,
+        egui::accesskit::Role::ComboBox,
+        "Serial ports",
+    );
     if ui
         .small_button("Scan")
         .on_hover_text("Look for serial ports again (USB adapters plugged in since)")
@@ -52,199 +55,236 @@ pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
     let mut want_ports = false;
     ui.horizontal_wrapped(|ui| {
         let form = &mut state.settings.connection;
-        let bus = egui::ComboBox::from_id_salt("bus")
-            .selected_text(form.bus.name())
-            .show_ui(ui, |ui| {
-                for bus in Bus::ALL {
-                    ui.selectable_value(&mut form.bus, bus, bus.name());
-                }
-            });
-        combo_name(&bus.response, "Bus");
-        match form.bus {
-            Bus::Sim => {
-                ui.weak("built in: no hardware needed");
-            }
-            Bus::ModbusTcp => {
-                field(ui, "Host", &mut form.tcp_host, 110.0);
-                field(ui, "Port", &mut form.tcp_port, 52.0);
-                field(ui, "Unit", &mut form.unit, 28.0);
-            }
-            Bus::ModbusRtu => {
-                want_ports |= port_field(ui, &mut form.rtu_path, &state.serial_ports);
-                field(ui, "Baud", &mut form.baud, 56.0);
-                let parity = egui::ComboBox::from_id_salt("parity")
-                    .selected_text(form.parity.name())
-                    .width(60.0)
-                    .show_ui(ui, |ui| {
-                        for parity in [Parity::Even, Parity::None, Parity::Odd] {
-                            ui.selectable_value(&mut form.parity, parity, parity.name());
-                        }
-                    });
-                combo_name(&parity.response, "Parity");
-                field(ui, "Stop", &mut form.stop_bits, 20.0);
-                field(ui, "Slave", &mut form.slave, 32.0);
-            }
-            Bus::CanopenSocketcan => {
-                field(ui, "Interface", &mut form.can_iface, 70.0);
-                field(ui, "Node", &mut form.node, 32.0);
-                field(ui, "PDO", &mut form.pdo, 20.0);
-            }
-            Bus::CanopenSim => {
-                field(ui, "Node", &mut form.node, 32.0);
-                field(ui, "PDO", &mut form.pdo, 20.0);
-                ui.weak("simulated drive on an in-memory CAN bus");
-            }
-            Bus::CanopenSlcan => {
-                want_ports |= port_field(ui, &mut form.slcan_path, &state.serial_ports);
-                field(ui, "Bit rate", &mut form.bitrate, 70.0);
-                field(ui, "Node", &mut form.node, 32.0);
-                field(ui, "PDO", &mut form.pdo, 20.0);
-            }
-            Bus::Enip => {
-                field(ui, "Host", &mut form.enip_host, 110.0);
-                field(ui, "Port", &mut form.enip_port, 52.0);
-                let io = egui::ComboBox::from_id_salt("enip_io")
-                    .selected_text(form.enip_io.name())
-                    .width(70.0)
-                    .show_ui(ui, |ui| {
-                        for io in [EnipIo::Pdi, EnipIo::Common, EnipIo::Explicit] {
-                            ui.selectable_value(&mut form.enip_io, io, io.name());
-                        }
-                    });
-                combo_name(&io.response, "I/O set");
-                field(ui, "RPI ms", &mut form.rpi, 32.0);
-            }
-        }
+        choice_ui(ui, "bus", "Bus", &mut form.bus, &Bus::ALL, Bus::name, None);
+        want_ports = bus_fields_ui(ui, form, &state.serial_ports);
         if form.bus == Bus::Enip {
             discover_ui(ui, state);
         }
-        let form = &mut state.settings.connection;
 
-        let spec = form.spec();
-        let is_can = matches!(
-            form.bus,
-            Bus::CanopenSim | Bus::CanopenSlcan | Bus::CanopenSocketcan
-        );
-        if is_can
-            && ui
-                .add_enabled(spec.is_ok(), egui::Button::new("Scan bus"))
-                .on_hover_text("Find the CANopen nodes on this bus: heartbeats, and 1018h read from every node id")
-                .clicked()
-            && let Ok(spec) = spec.clone()
-        {
-            state.request(Request::Scan(spec));
-        }
-        let busy = matches!(state.connection, Connection::Connecting(_));
-        match &state.connection {
-            Connection::Connected(_)
-            | Connection::Failed {
-                retry_in: Some(_), ..
-            } => {
-                if ui.button("Disconnect").clicked() {
-                    state.ask_to_leave(false);
-                }
-            }
-            _ => {
-                let response = ui
-                    .add_enabled(spec.is_ok() && !busy, egui::Button::new("Connect"))
-                    .on_disabled_hover_text(
-                        spec.as_ref().err().map(|e| e.to_string()).unwrap_or_default(),
-                    );
-                if response.clicked()
-                    && let Ok(spec) = spec.clone()
-                {
-                    state.request(Request::Connect(spec));
-                }
-            }
-        }
+        let spec = state.settings.connection.spec();
+        scan_button_ui(ui, state, &spec);
+        connect_button_ui(ui, state, &spec);
         if let Err(reason) = &spec {
             ui.colored_label(RED, reason.to_string());
         }
 
         ui.separator();
-        ui.label("Poll");
-        let poll = ui.add(
-            egui::DragValue::new(&mut state.settings.poll_rate)
-                .range(1.0..=1000.0)
-                .speed(1.0)
-                .max_decimals(0)
-                .suffix(" Hz"),
-        );
-        name_widget(&poll, egui::accesskit::Role::SpinButton, "Poll rate");
-        poll.on_hover_text("Process-image exchanges per second (the plots sample at this rate)");
-        let loss = egui::ComboBox::from_id_salt("on_link_loss")
-            .selected_text(format!("link lost: {}", state.settings.on_link_loss.name()))
-            .show_ui(ui, |ui| {
-                for action in crate::worker::LinkLossAction::ALL {
-                    ui.selectable_value(&mut state.settings.on_link_loss, action, action.name());
-                }
-            });
-        name_widget(&loss.response, egui::accesskit::Role::ComboBox, "When the link drops");
-        loss.response.on_hover_text(
-            "What the worker does when the link fails while the motor may be moving: one last try to halt (default) or switch off, or nothing; the log says whether it reached the drive",
-        );
-        let after = ui.add(
-            egui::DragValue::new(&mut state.settings.lost_after)
-                .range(1..=crate::worker::MAX_LOST_AFTER)
-                .speed(0.1)
-                .prefix("after ")
-                .suffix(" failures"),
-        );
-        name_widget(
-            &after,
-            egui::accesskit::Role::SpinButton,
-            "Failed exchanges before the link counts as lost",
-        );
-        after.on_hover_text(
-            "How many exchanges must fail in a row before the link counts as lost. A lost, late or corrupted reply is first sent again (three tries within the timeout); fewer failures than this are retried and named in the log",
-        );
-        match &state.connection {
-            Connection::Disconnected => {
-                ui.weak("disconnected");
-            }
-            Connection::Connecting(spec) => {
-                ui.spinner();
-                ui.label(format!("connecting to {spec}"));
-            }
-            Connection::Connected(info) => {
-                ui.colored_label(GREEN, "connected:");
-                ui.label(&info.description);
-                if let Some(health) = state.health {
-                    let recovered = if health.recovered > 0 {
-                        format!(", {} replies sent again", health.recovered)
-                    } else {
-                        String::new()
-                    };
-                    ui.weak(format!(
-                        "{:.0} cycles/s, RTT {:.2} ms (max {:.2}), {} errors{recovered}",
-                        health.cycles_per_second,
-                        health.rtt_mean.as_secs_f64() * 1e3,
-                        health.rtt_max.as_secs_f64() * 1e3,
-                        health.errors
-                    ))
-                    .on_hover_text(if health.dropped_samples + health.dropped_frames > 0 {
-                        format!(
-                            "{} samples and {} traced frames dropped because the window was busy",
-                            health.dropped_samples, health.dropped_frames
-                        )
-                    } else {
-                        "Process-image exchanges per second and their round-trip time".to_owned()
-                    });
-                }
-            }
-            Connection::Failed {
-                error, retry_in, ..
-            } => {
-                let retry = retry_in
-                    .map(|d| format!(" (retrying in {:.1} s)", d.as_secs_f64()))
-                    .unwrap_or_default();
-                ui.colored_label(RED, format!("{error}{retry}"));
-            }
-        }
+        poll_rate_ui(ui, &mut state.settings);
+        link_loss_ui(ui, &mut state.settings);
+        link_state_ui(ui, state);
     });
     if want_ports {
         state.ask_serial_ports();
     }
+}
+
+/// The boxes of the bus picked. `true` when the serial ports should be listed (again).
+fn bus_fields_ui(ui: &mut Ui, form: &mut ConnectionForm, ports: &Option<Vec<String>>) -> bool {
+    match form.bus {
+        Bus::Sim => {
+            ui.weak("built in: no hardware needed");
+        }
+        Bus::ModbusTcp => {
+            field_ui(ui, "Host", &mut form.tcp_host, 110.0);
+            field_ui(ui, "Port", &mut form.tcp_port, 52.0);
+            field_ui(ui, "Unit", &mut form.unit, 28.0);
+        }
+        Bus::ModbusRtu => return modbus_rtu_fields_ui(ui, form, ports),
+        Bus::CanopenSocketcan => {
+            field_ui(ui, "Interface", &mut form.can_iface, 70.0);
+            node_fields_ui(ui, form);
+        }
+        Bus::CanopenSim => {
+            node_fields_ui(ui, form);
+            ui.weak("simulated drive on an in-memory CAN bus");
+        }
+        Bus::CanopenSlcan => {
+            let want_ports = port_field_ui(ui, &mut form.slcan_path, ports);
+            field_ui(ui, "Bit rate", &mut form.bitrate, 70.0);
+            node_fields_ui(ui, form);
+            return want_ports;
+        }
+        Bus::Enip => enip_fields_ui(ui, form),
+    }
+    false
+}
+
+/// The serial line and the slave. `true` when the serial ports should be listed (again).
+fn modbus_rtu_fields_ui(
+    ui: &mut Ui,
+    form: &mut ConnectionForm,
+    ports: &Option<Vec<String>>,
+) -> bool {
+    let want_ports = port_field_ui(ui, &mut form.rtu_path, ports);
+    field_ui(ui, "Baud", &mut form.baud, 56.0);
+    let parities = [Parity::Even, Parity::None, Parity::Odd];
+    let parity = &mut form.parity;
+    choice_ui(
+        ui,
+        "parity",
+        "Parity",
+        parity,
+        &parities,
+        Parity::name,
+        Some(60.0),
+    );
+    field_ui(ui, "Stop", &mut form.stop_bits, 20.0);
+    field_ui(ui, "Slave", &mut form.slave, 32.0);
+    want_ports
+}
+
+/// The CANopen node and the PDO set, on every CAN bus.
+fn node_fields_ui(ui: &mut Ui, form: &mut ConnectionForm) {
+    field_ui(ui, "Node", &mut form.node, 32.0);
+    field_ui(ui, "PDO", &mut form.pdo, 20.0);
+}
+
+/// The adapter's address, the I/O set and the interval of its cyclic data.
+fn enip_fields_ui(ui: &mut Ui, form: &mut ConnectionForm) {
+    field_ui(ui, "Host", &mut form.enip_host, 110.0);
+    field_ui(ui, "Port", &mut form.enip_port, 52.0);
+    let sets = [EnipIo::Pdi, EnipIo::Common, EnipIo::Explicit];
+    choice_ui(
+        ui,
+        "enip_io",
+        "I/O set",
+        &mut form.enip_io,
+        &sets,
+        EnipIo::name,
+        Some(70.0),
+    );
+    field_ui(ui, "RPI ms", &mut form.rpi, 32.0);
+}
+
+/// Connect to what the bar describes; Disconnect while connected or retrying.
+fn connect_button_ui(ui: &mut Ui, state: &mut AppState, spec: &Result<LinkSpec, FormError>) {
+    let busy = matches!(state.connection, Connection::Connecting(_));
+    match &state.connection {
+        Connection::Connected(_)
+        | Connection::Failed {
+            retry_in: Some(_), ..
+        } => {
+            if ui.button("Disconnect").clicked() {
+                state.ask_to_leave(false);
+            }
+        }
+        _ => {
+            let response = ui
+                .add_enabled(spec.is_ok() && !busy, egui::Button::new("Connect"))
+                .on_disabled_hover_text(
+                    spec.as_ref()
+                        .err()
+                        .map(|e| e.to_string())
+                        .unwrap_or_default(),
+                );
+            if response.clicked()
+                && let Ok(spec) = spec.clone()
+            {
+                state.request(Request::Connect(spec));
+            }
+        }
+    }
+}
+
+/// How many process-image exchanges the worker makes a second.
+fn poll_rate_ui(ui: &mut Ui, settings: &mut Settings) {
+    ui.label("Poll");
+    let poll = ui.add(
+        egui::DragValue::new(&mut settings.poll_rate)
+            .range(1.0..=1000.0)
+            .speed(1.0)
+            .max_decimals(0)
+            .suffix(" Hz"),
+    );
+    name_widget(&poll, egui::accesskit::Role::SpinButton, "Poll rate");
+    poll.on_hover_text("Process-image exchanges per second (the plots sample at this rate)");
+}
+
+/// What the worker does when the link drops, and after how many failed exchanges it
+/// counts as dropped.
+fn link_loss_ui(ui: &mut Ui, settings: &mut Settings) {
+    let loss = egui::ComboBox::from_id_salt("on_link_loss")
+        .selected_text(format!("link lost: {}", settings.on_link_loss.name()))
+        .show_ui(ui, |ui| {
+            for action in LinkLossAction::ALL {
+                ui.selectable_value(&mut settings.on_link_loss, action, action.name());
+            }
+        });
+    name_widget(
+        &loss.response,
+        egui::accesskit::Role::ComboBox,
+        "When the link drops",
+    );
+    loss.response.on_hover_text(
+        "What the worker does when the link fails while the motor may be moving: one last try to halt (default) or switch off, or nothing; the log says whether it reached the drive",
+    );
+    let after = ui.add(
+        egui::DragValue::new(&mut settings.lost_after)
+            .range(1..=MAX_LOST_AFTER)
+            .speed(0.1)
+            .prefix("after ")
+            .suffix(" failures"),
+    );
+    name_widget(
+        &after,
+        egui::accesskit::Role::SpinButton,
+        "Failed exchanges before the link counts as lost",
+    );
+    after.on_hover_text(
+        "How many exchanges must fail in a row before the link counts as lost. A lost, late or corrupted reply is first sent again (three tries within the timeout); fewer failures than this are retried and named in the log",
+    );
+}
+
+/// Where the link stands: connecting, connected (and how well), failed.
+fn link_state_ui(ui: &mut Ui, state: &AppState) {
+    match &state.connection {
+        Connection::Disconnected => {
+            ui.weak("disconnected");
+        }
+        Connection::Connecting(spec) => {
+            ui.spinner();
+            ui.label(format!("connecting to {spec}"));
+        }
+        Connection::Connected(info) => {
+            ui.colored_label(GREEN, "connected:");
+            ui.label(&info.description);
+            if let Some(health) = state.health {
+                health_ui(ui, &health);
+            }
+        }
+        Connection::Failed {
+            error, retry_in, ..
+        } => {
+            let retry = retry_in
+                .map(|d| format!(" (retrying in {:.1} s)", d.as_secs_f64()))
+                .unwrap_or_default();
+            ui.colored_label(RED, format!("{error}{retry}"));
+        }
+    }
+}
+
+/// The exchanges a second, their round-trip time, the errors; what was dropped on hover.
+fn health_ui(ui: &mut Ui, health: &Health) {
+    let recovered = if health.recovered > 0 {
+        format!(", {} replies sent again", health.recovered)
+    } else {
+        String::new()
+    };
+    ui.weak(format!(
+        "{:.0} cycles/s, RTT {:.2} ms (max {:.2}), {} errors{recovered}",
+        health.cycles_per_second,
+        health.rtt_mean.as_secs_f64() * 1e3,
+        health.rtt_max.as_secs_f64() * 1e3,
+        health.errors
+    ))
+    .on_hover_text(if health.dropped_samples + health.dropped_frames > 0 {
+        format!(
+            "{} samples and {} traced frames dropped because the window was busy",
+            health.dropped_samples, health.dropped_frames
+        )
+    } else {
+        "Process-image exchanges per second and their round-trip time".to_owned()
+    });
 }
 
 /// Quickstop and Switch Off, always visible; Esc and Shift+Esc reach them from anywhere.
@@ -301,135 +341,4 @@ pub fn stop_keys(ctx: &egui::Context, state: &mut AppState) {
     } else if quickstop {
         state.request(Request::Command(Action::Quickstop));
     }
-}
-
-/// EtherNet/IP discovery: the interface to broadcast on, and the button.
-fn discover_ui(ui: &mut Ui, state: &mut AppState) {
-    if state.interfaces.is_none() {
-        state.ask_interfaces();
-    }
-    let interfaces = state.interfaces.clone().unwrap_or_default();
-    let form = &mut state.settings.connection;
-    let shown = if form.discover_interface.is_empty() {
-        "all interfaces".to_owned()
-    } else {
-        form.discover_interface.clone()
-    };
-    let picked = egui::ComboBox::from_id_salt("discover_interface")
-        .selected_text(shown)
-        .width(150.0)
-        .show_ui(ui, |ui| {
-            ui.selectable_value(
-                &mut form.discover_interface,
-                String::new(),
-                "all interfaces",
-            );
-            for interface in &interfaces {
-                ui.selectable_value(
-                    &mut form.discover_interface,
-                    interface.name.clone(),
-                    interface.label(),
-                );
-            }
-        });
-    combo_name(&picked.response, "Discover on");
-    let port = form.enip_port.trim().parse::<u16>().unwrap_or(44818);
-    let host = Some(form.enip_host.trim().to_owned()).filter(|h| !h.is_empty());
-    let interface = Some(form.discover_interface.clone()).filter(|i| !i.is_empty());
-    if ui
-        .button("Discover")
-        .on_hover_text(
-            "Find the EtherNet/IP adapters: ListIdentity broadcast on the chosen interface, and asked of the host directly",
-        )
-        .clicked()
-    {
-        state.request(Request::Discover {
-            interface,
-            host,
-            port,
-        });
-    }
-}
-
-/// The last bus scan: the nodes found, each with a button to connect to it.
-pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
-    let Some(result) = state.scan.clone() else {
-        return;
-    };
-    let title = if state.settings.connection.bus == Bus::Enip {
-        "EtherNet/IP discovery"
-    } else {
-        "Bus scan"
-    };
-    ui.horizontal(|ui| {
-        ui.label(RichText::new(title).strong());
-        if ui.small_button("Close").clicked() {
-            state.scan = None;
-        }
-    });
-    let found = match result {
-        Ok(found) => found,
-        Err(e) => {
-            ui.colored_label(RED, e.to_string());
-            return;
-        }
-    };
-    let enip = state.settings.connection.bus == Bus::Enip;
-    if found.is_empty() {
-        ui.label(if enip {
-            "No adapter answered: check the cable, that this computer is in the drive's IP subnet, and that no firewall blocks UDP 44818."
-        } else {
-            "No node answered: check the bit rate, the wiring and the termination (120 Ω at both ends)."
-        });
-        return;
-    }
-    egui::Grid::new("scan_results")
-        .num_columns(8)
-        .striped(true)
-        .show(ui, |ui| {
-            for title in [
-                "Node", "Vendor", "Product", "Revision", "Serial", "Name", "State", "",
-            ] {
-                ui.label(RichText::new(title).strong());
-            }
-            ui.end_row();
-            for device in &found {
-                let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
-                ui.label(&device.address);
-                ui.label(device.vendor_name());
-                ui.monospace(hex(device.product));
-                match (device.node, device.revision) {
-                    // EtherNet/IP: major.minor.
-                    (None, Some(r)) => ui.monospace(format!("{}.{}", r >> 16, r & 0xFFFF)),
-                    _ => ui.monospace(hex(device.revision)),
-                };
-                ui.monospace(hex(device.serial));
-                ui.label(device.name.clone().unwrap_or_default());
-                ui.label(device.state.clone().unwrap_or_default());
-                if let Some(node) = device.node {
-                    let use_it = ui.button(format!("Use node {node}"));
-                    if use_it.clicked() {
-                        state.settings.connection.node = node.to_string();
-                        if let Ok(spec) = state.settings.connection.spec() {
-                            state.request(Request::Connect(spec));
-                        }
-                        state.scan = None;
-                    }
-                } else if let Ok(address) = device.address.parse::<std::net::SocketAddr>() {
-                    if ui.button(format!("Use {}", address.ip())).clicked() {
-                        let form = &mut state.settings.connection;
-                        form.bus = Bus::Enip;
-                        form.enip_host = address.ip().to_string();
-                        form.enip_port = address.port().to_string();
-                        if let Ok(spec) = form.spec() {
-                            state.request(Request::Connect(spec));
-                        }
-                        state.scan = None;
-                    }
-                } else {
-                    ui.label("");
-                }
-                ui.end_row();
-            }
-        });
 }

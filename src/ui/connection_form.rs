@@ -12,7 +12,7 @@ use std::ops::RangeInclusive;
 
 use serde::{Deserialize, Serialize};
 
-use crate::link::spec::{self, BadNumber, CAN_BITRATES, EnipOptions, WordOrder};
+use crate::link::spec::{self, BadNumber, CAN_BITRATES, EnipOptions, SerialLine, WordOrder};
 use crate::link::{CanopenOptions, EnipIo, LinkSpec, Parity};
 
 /// The bus picked in the connection bar.
@@ -213,19 +213,10 @@ impl ConnectionForm {
                 form.tcp_port = port.to_string();
                 form.unit = unit.to_string();
             }
-            LinkSpec::ModbusRtu {
-                path,
-                baud,
-                parity,
-                stop_bits,
-                slave,
-                ..
-            } => {
-                form.rtu_path = path.clone();
-                form.baud = baud.to_string();
-                form.parity = *parity;
-                form.stop_bits = stop_bits.to_string();
-                form.slave = slave.to_string();
+            LinkSpec::ModbusRtu { .. } => {
+                if let Some(line) = spec.serial_line() {
+                    form.fill_serial(line);
+                }
             }
             LinkSpec::CanopenSocketcan { iface, can } => {
                 form.can_iface = iface.clone();
@@ -253,6 +244,14 @@ impl ConnectionForm {
             }
         }
         form
+    }
+
+    fn fill_serial(&mut self, line: SerialLine) {
+        self.rtu_path = line.path;
+        self.baud = line.baud.to_string();
+        self.parity = line.parity;
+        self.stop_bits = line.stop_bits.to_string();
+        self.slave = line.slave.to_string();
     }
 
     fn fill_can(&mut self, can: &CanopenOptions) {
@@ -407,6 +406,21 @@ mod tests {
         }
     }
 
+    /// The form describes no connection, and the reason says `part`.
+    #[track_caller]
+    fn assert_problem_says(form: &ConnectionForm, part: &str) {
+        let problem = problem(form);
+        assert!(problem.contains(part), "{problem}");
+    }
+
+    /// The connection string the form describes (the test fails where it describes none).
+    fn string_of(form: &ConnectionForm) -> String {
+        match form.spec() {
+            Ok(spec) => spec.to_string(),
+            Err(e) => panic!("{form:?}: {e}"),
+        }
+    }
+
     fn problem(form: &ConnectionForm) -> String {
         match form.spec() {
             Ok(spec) => panic!("{form:?} gave {spec}"),
@@ -510,10 +524,7 @@ mod tests {
             Ok("modbus-tcp://[::1]:1502?unit=3".parse().expect("valid"))
         );
         form.tcp_host = "::1".into();
-        assert_eq!(
-            form.spec().map(|s| s.to_string()).as_deref(),
-            Ok("modbus-tcp://[::1]:1502?unit=3")
-        );
+        assert_eq!(string_of(&form), "modbus-tcp://[::1]:1502?unit=3");
     }
 
     #[test]
@@ -522,8 +533,8 @@ mod tests {
         // As earlier versions saved them, with the leading '&'.
         enip.enip_more = "&udp=0&cmd_at=8".into();
         assert_eq!(
-            enip.spec().map(|s| s.to_string()).as_deref(),
-            Ok("enip://192.168.2.100:44818?io=pdi&rpi=10&cmd_at=8&udp=0")
+            string_of(&enip),
+            "enip://192.168.2.100:44818?io=pdi&rpi=10&cmd_at=8&udp=0"
         );
         enip.enip_more = "cmd_at=9".into();
         assert_eq!(
@@ -531,24 +542,16 @@ mod tests {
             "options 'cmd_at=9': cmd_at=9 is out of range 7..=8"
         );
         enip.enip_more = "udp".into();
-        assert!(
-            problem(&enip).contains("has no value"),
-            "{}",
-            problem(&enip)
-        );
+        assert_problem_says(&enip, "has no value");
         enip.enip_more = "node=3".into();
-        assert!(
-            problem(&enip).contains("unknown parameter 'node' (this bus takes io, rpi,"),
-            "{}",
-            problem(&enip)
-        );
+        assert_problem_says(&enip, "unknown parameter 'node' (this bus takes io, rpi,");
 
         let mut modbus = form_on(Bus::ModbusRtu);
         modbus.rtu_path = "COM3".into();
         modbus.modbus_more = "words=low".into();
         assert_eq!(
-            modbus.spec().map(|s| s.to_string()).as_deref(),
-            Ok("modbus-rtu://COM3?baud=19200&parity=even&stop=1&slave=5&words=low")
+            string_of(&modbus),
+            "modbus-rtu://COM3?baud=19200&parity=even&stop=1&slave=5&words=low"
         );
     }
 
@@ -562,21 +565,14 @@ mod tests {
         );
         // The same value as the box's is no conflict.
         can.node = "3".into();
-        assert_eq!(
-            can.spec().map(|s| s.to_string()).as_deref(),
-            Ok("canopen+sim://?node=3&keep_pdo=1")
-        );
+        assert_eq!(string_of(&can), "canopen+sim://?node=3&keep_pdo=1");
     }
 
     #[test]
     fn what_a_string_cannot_carry_is_refused_as_a_whole() {
         let mut can = form_on(Bus::CanopenSocketcan);
         can.can_iface = "vcan/0".into();
-        assert!(
-            problem(&can).contains("the CAN interface name is missing"),
-            "{}",
-            problem(&can)
-        );
+        assert_problem_says(&can, "the CAN interface name is missing");
     }
 
     #[test]
@@ -612,25 +608,22 @@ mod tests {
         }"#;
         let mut form: ConnectionForm = serde_json::from_str(saved).expect("loads");
         assert_eq!(
-            form.spec().map(|s| s.to_string()).as_deref(),
-            Ok("enip://10.0.0.7:44818?io=common&rpi=4&cmd_at=8&config=0&udp=0")
+            string_of(&form),
+            "enip://10.0.0.7:44818?io=common&rpi=4&cmd_at=8&config=0&udp=0"
         );
         form.bus = Bus::CanopenSocketcan;
         assert_eq!(
-            form.spec().map(|s| s.to_string()).as_deref(),
-            Ok("canopen+socketcan://can0?node=4&pdo=2&keep_pdo=1")
+            string_of(&form),
+            "canopen+socketcan://can0?node=4&pdo=2&keep_pdo=1"
         );
         form.bus = Bus::ModbusTcp;
         assert_eq!(
-            form.spec().map(|s| s.to_string()).as_deref(),
-            Ok("modbus-tcp://192.168.2.100:502?unit=0&words=low")
+            string_of(&form),
+            "modbus-tcp://192.168.2.100:502?unit=0&words=low"
         );
         // A form saved with fewer fields takes the defaults for the rest.
         let form: ConnectionForm =
             serde_json::from_str(r#"{"bus": "Enip", "enip_host": "10.0.0.8"}"#).expect("loads");
-        assert_eq!(
-            form.spec().map(|s| s.to_string()).as_deref(),
-            Ok("enip://10.0.0.8:44818?io=pdi&rpi=10")
-        );
+        assert_eq!(string_of(&form), "enip://10.0.0.8:44818?io=pdi&rpi=10");
     }
 }

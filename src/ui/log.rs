@@ -2,34 +2,13 @@
 
 use eframe::egui::{self, RichText, Ui};
 
-use super::state::{AppState, Bottom, Outcome};
-use super::widgets::{AMBER, GREEN, RED};
+use super::state::{AppState, Bottom, LogEntry, Outcome};
+use super::widgets::{AMBER, GREEN, RED, log_grid_ui};
 
 pub fn log_ui(ui: &mut Ui, state: &mut AppState) {
     ui.horizontal(|ui| {
         ui.heading("Log");
-        ui.selectable_value(&mut state.bottom, Bottom::Commands, "Commands");
-        ui.selectable_value(&mut state.bottom, Bottom::Frames, "Bus frames");
-        let faults = state.timeline.len();
-        ui.selectable_value(
-            &mut state.bottom,
-            Bottom::Faults,
-            if faults == 0 {
-                "Faults".to_owned()
-            } else {
-                format!("Faults ({faults})")
-            },
-        );
-        let changes = state.changes.len();
-        ui.selectable_value(
-            &mut state.bottom,
-            Bottom::Changes,
-            if changes == 0 {
-                "Changes".to_owned()
-            } else {
-                format!("Changes ({changes})")
-            },
-        );
+        tabs_ui(ui, state);
         if ui.small_button("Clear").clicked() {
             match state.bottom {
                 Bottom::Frames => state.frames.clear(),
@@ -40,58 +19,65 @@ pub fn log_ui(ui: &mut Ui, state: &mut AppState) {
         }
     });
     match state.bottom {
-        Bottom::Frames => {
-            frames_ui(ui, state);
-            return;
-        }
-        Bottom::Faults => {
-            super::faults::faults_ui(ui, state);
-            return;
-        }
-        Bottom::Changes => {
-            super::changes::changes_ui(ui, state);
-            return;
-        }
-        Bottom::Commands => {}
+        Bottom::Commands => log_grid_ui(ui, "log_grid", 4, |ui| {
+            for entry in &state.log {
+                log_entry_ui(ui, entry);
+                ui.end_row();
+            }
+        }),
+        Bottom::Frames => frames_ui(ui, state),
+        Bottom::Faults => super::faults::faults_ui(ui, state),
+        Bottom::Changes => super::changes::changes_ui(ui, state),
     }
-    egui::ScrollArea::vertical()
-        .stick_to_bottom(true)
-        .auto_shrink([false, false])
-        .show(ui, |ui| {
-            egui::Grid::new("log_grid")
-                .num_columns(4)
-                .striped(true)
-                .spacing([10.0, 2.0])
-                .show(ui, |ui| {
-                    for entry in &state.log {
-                        ui.monospace(format!("{:8.3}", entry.at));
-                        ui.label(&entry.what);
-                        match entry.image {
-                            Some(image) => {
-                                let bytes: Vec<String> =
-                                    image.to_bytes().iter().map(|b| format!("{b:02X}")).collect();
-                                ui.monospace(format!("cmd {:3} [{}]", image.cmd, bytes.join(" ")))
-                                    .on_hover_text("The RX image as written: SetValue1 (4 bytes LE), SetValue2 (2), SetValue3 (1), PDI-Cmd (1)");
-                            }
-                            None => {
-                                ui.label("");
-                            }
-                        }
-                        match &entry.outcome {
-                            Outcome::Queued => ui.weak("queued"),
-                            Outcome::Sent => ui.label("sent"),
-                            Outcome::Accepted => ui.colored_label(AMBER, "accepted, running"),
-                            Outcome::Succeeded(text) => ui.colored_label(GREEN, text),
-                            Outcome::Failed(text) => ui.colored_label(RED, RichText::new(text).strong()),
-                            Outcome::Superseded(text) => ui.weak(text).on_hover_text(
-                                "A newer command took its place; not a fault",
-                            ),
-                            Outcome::Info => ui.weak("·"),
-                        };
-                        ui.end_row();
-                    }
-                });
-        });
+}
+
+/// The log's tabs: the commands, the bus frames, the faults and the changes (the last
+/// two with how many entries they hold).
+fn tabs_ui(ui: &mut Ui, state: &mut AppState) {
+    let counted = |name: &str, count: usize| {
+        if count == 0 {
+            name.to_owned()
+        } else {
+            format!("{name} ({count})")
+        }
+    };
+    let faults = counted("Faults", state.timeline.len());
+    let changes = counted("Changes", state.changes.len());
+    ui.selectable_value(&mut state.bottom, Bottom::Commands, "Commands");
+    ui.selectable_value(&mut state.bottom, Bottom::Frames, "Bus frames");
+    ui.selectable_value(&mut state.bottom, Bottom::Faults, faults);
+    ui.selectable_value(&mut state.bottom, Bottom::Changes, changes);
+}
+
+/// One request: when, what, the image it wrote, and how the drive answered.
+fn log_entry_ui(ui: &mut Ui, entry: &LogEntry) {
+    ui.monospace(format!("{:8.3}", entry.at));
+    ui.label(&entry.what);
+    match entry.image {
+        Some(image) => {
+            let bytes: Vec<String> = image
+                .to_bytes()
+                .iter()
+                .map(|b| format!("{b:02X}"))
+                .collect();
+            ui.monospace(format!("cmd {:3} [{}]", image.cmd, bytes.join(" ")))
+                .on_hover_text("The RX image as written: SetValue1 (4 bytes LE), SetValue2 (2), SetValue3 (1), PDI-Cmd (1)");
+        }
+        None => {
+            ui.label("");
+        }
+    }
+    match &entry.outcome {
+        Outcome::Queued => ui.weak("queued"),
+        Outcome::Sent => ui.label("sent"),
+        Outcome::Accepted => ui.colored_label(AMBER, "accepted, running"),
+        Outcome::Succeeded(text) => ui.colored_label(GREEN, text),
+        Outcome::Failed(text) => ui.colored_label(RED, RichText::new(text).strong()),
+        Outcome::Superseded(text) => ui
+            .weak(text)
+            .on_hover_text("A newer command took its place; not a fault"),
+        Outcome::Info => ui.weak("·"),
+    };
 }
 
 /// The bus frames, decoded, with the export to a candump-style log.

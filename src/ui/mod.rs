@@ -12,6 +12,7 @@ pub mod leave;
 pub mod log;
 pub mod plots;
 pub mod power_state;
+pub mod scan;
 pub mod state;
 pub mod status;
 pub mod widgets;
@@ -163,7 +164,7 @@ impl App {
             });
             if state.scan.is_some() {
                 ui.separator();
-                connection::scan_results_ui(ui, state);
+                scan::scan_results_ui(ui, state);
             }
             ui.add_space(4.0);
         });

@@ -54,80 +54,115 @@ fn color(state: PowerState) -> Color32 {
     }
 }
 
+/// Where the boxes go in the area allocated: two columns of five rows.
+struct Layout {
+    area: Rect,
+    box_h: f32,
+    gap: f32,
+    col_w: [f32; 2],
+    col_x: [f32; 2],
+}
+
+impl Layout {
+    fn rect_of(&self, state: PowerState) -> Rect {
+        let (c, r) = place(state);
+        Rect::from_min_size(
+            Pos2::new(
+                self.col_x[c],
+                self.area.top() + r as f32 * (self.box_h + self.gap),
+            ),
+            Vec2::new(self.col_w[c], self.box_h),
+        )
+    }
+}
+
 pub fn power_state_ui(ui: &mut Ui, current: Option<PowerState>) {
     let width = ui.available_width().clamp(180.0, 320.0);
     let box_h = 18.0;
     let gap = 7.0;
     let height = 5.0 * box_h + 4.0 * gap;
     let (area, _) = ui.allocate_exact_size(Vec2::new(width, height), Sense::hover());
-    let col_w = [width * 0.56, width * 0.40];
-    let col_x = [area.left(), area.left() + width * 0.60];
-    let rect_of = |state: PowerState| {
-        let (c, r) = place(state);
-        Rect::from_min_size(
-            Pos2::new(col_x[c], area.top() + r as f32 * (box_h + gap)),
-            Vec2::new(col_w[c], box_h),
-        )
+    let layout = Layout {
+        area,
+        box_h,
+        gap,
+        col_w: [width * 0.56, width * 0.40],
+        col_x: [area.left(), area.left() + width * 0.60],
     };
     let painter = ui.painter_at(area.expand(2.0));
     let line = ui.visuals().weak_text_color();
     for (from, to) in ARROWS {
-        let (a, b) = (rect_of(from), rect_of(to));
-        let (start, end) = if place(from).0 == place(to).0 {
-            if b.top() > a.bottom() {
-                (a.center_bottom(), b.center_top())
-            } else {
-                (a.center_top(), b.center_bottom())
-            }
-        } else if b.left() > a.right() {
-            (
-                a.right_center() + Vec2::new(0.0, -3.0),
-                b.left_center() + Vec2::new(0.0, -3.0),
-            )
-        } else {
-            (
-                a.left_center() + Vec2::new(0.0, 3.0),
-                b.right_center() + Vec2::new(0.0, 3.0),
-            )
-        };
+        let (start, end) = arrow_ends(&layout, from, to);
         painter.arrow(start, end - start, Stroke::new(1.0, line));
     }
     for state in PowerState::ALL {
-        let rect = rect_of(state);
-        let on = current == Some(state);
-        let fill = if on {
-            color(state)
-        } else {
-            ui.visuals().extreme_bg_color
-        };
-        painter.rect_filled(rect, 3.0, fill);
-        painter.rect_stroke(
-            rect,
-            3.0,
-            Stroke::new(1.0, color(state).gamma_multiply(if on { 1.0 } else { 0.5 })),
-            egui::StrokeKind::Inside,
+        state_box_ui(
+            ui,
+            &painter,
+            layout.rect_of(state),
+            state,
+            current == Some(state),
         );
-        painter.text(
-            rect.center(),
-            egui::Align2::CENTER_CENTER,
-            state.name(),
-            FontId::proportional(10.5),
-            if on {
-                Color32::BLACK
-            } else {
-                ui.visuals().weak_text_color()
-            },
-        );
-        // Screen readers (and tests) see each state, the current one selected.
-        let response = ui
-            .interact(
-                rect,
-                ui.scope_id().with(("power_state", state.name())),
-                Sense::hover(),
-            )
-            .on_hover_text(format!("{}\n{}", state.meaning(), consequence(state)));
-        response.widget_info(|| {
-            WidgetInfo::selected(egui::accesskit::Role::RadioButton, true, on, state.name())
-        });
     }
+}
+
+/// Where the arrow of a transition starts and ends: from box edge to box edge, the two
+/// ways between the columns kept apart.
+fn arrow_ends(layout: &Layout, from: PowerState, to: PowerState) -> (Pos2, Pos2) {
+    let (a, b) = (layout.rect_of(from), layout.rect_of(to));
+    if place(from).0 == place(to).0 {
+        if b.top() > a.bottom() {
+            (a.center_bottom(), b.center_top())
+        } else {
+            (a.center_top(), b.center_bottom())
+        }
+    } else if b.left() > a.right() {
+        (
+            a.right_center() + Vec2::new(0.0, -3.0),
+            b.left_center() + Vec2::new(0.0, -3.0),
+        )
+    } else {
+        (
+            a.left_center() + Vec2::new(0.0, 3.0),
+            b.right_center() + Vec2::new(0.0, 3.0),
+        )
+    }
+}
+
+/// One state's box, filled when it is the drive's; hover tells its meaning.
+fn state_box_ui(ui: &mut Ui, painter: &egui::Painter, rect: Rect, state: PowerState, on: bool) {
+    let fill = if on {
+        color(state)
+    } else {
+        ui.visuals().extreme_bg_color
+    };
+    painter.rect_filled(rect, 3.0, fill);
+    painter.rect_stroke(
+        rect,
+        3.0,
+        Stroke::new(1.0, color(state).gamma_multiply(if on { 1.0 } else { 0.5 })),
+        egui::StrokeKind::Inside,
+    );
+    painter.text(
+        rect.center(),
+        egui::Align2::CENTER_CENTER,
+        state.name(),
+        FontId::proportional(10.5),
+        if on {
+            Color32::BLACK
+        } else {
+            ui.visuals().weak_text_color()
+        },
+    );
+    // Screen readers (and tests) see each state, the current one selected.
+    let response = ui
+        .interact(
+            rect,
+            ui.scope_id().with(("power_state", state.name())),
+            Sense::hover(),
+        )
+        .on_hover_text(format!("{}\n{}", state.meaning(), consequence(state)));
+    response.widget_info(|| {
+        WidgetInfo::selected(egui::accesskit::Role::RadioButton, true, on, state.name())
+    });
 }

@@ -9,7 +9,7 @@ use super::state::AppState;
 use super::widgets::{AMBER, BLUE, GREEN, RED, clipped_label, lamp, value_with_unit};
 use crate::cia::{ErrorCode, PowerState};
 use crate::injection::Injection;
-use crate::pdi::StatusBit;
+use crate::pdi::{Status, StatusBit};
 use crate::signal::Signal;
 use crate::worker::{Request, Sample};
 
@@ -108,38 +108,64 @@ fn stale_banner(ui: &mut Ui, line: &str, reason: Option<&str>) {
 
 /// The sample's status: power state, lamps, 603Fh, ReturnValue, actual values.
 fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
-    let status = sample.tx.status;
-
     // The CiA 402 power state first: it says why a command is refused.
     ui.add_space(4.0);
-    match sample.statusword().and_then(PowerState::from_statusword) {
-        Some(power) => {
-            let color = match power {
-                PowerState::OperationEnabled => GREEN,
-                PowerState::Fault | PowerState::FaultReactionActive => RED,
-                PowerState::QuickStopActive => AMBER,
-                _ => ui.visuals().text_color(),
-            };
-            let name = if stale {
-                format!("{} (last known)", power.name())
-            } else {
-                power.name().to_owned()
-            };
-            ui.label(RichText::new(name).size(18.0).color(color).strong())
-                .on_hover_text(power.meaning());
-            ui.small(power.meaning());
-            ui.add_space(4.0);
-            super::power_state::power_state_ui(ui, Some(power));
-        }
-        None => {
-            ui.label(match sample.statusword() {
-                Some(word) => format!("Statusword {word:04X}h matches no CiA 402 state"),
-                None => "CiA 402 state unknown (6041h not read on this link)".to_owned(),
-            });
-        }
-    }
-
+    power_ui(ui, sample, stale);
     ui.add_space(6.0);
+    lamps_ui(ui, sample.tx.status);
+    ui.add_space(6.0);
+    egui::Grid::new("pdi_values")
+        .num_columns(2)
+        .spacing([8.0, 3.0])
+        .show(ui, |ui| {
+            error_code_rows_ui(ui, sample);
+            return_value_rows_ui(ui, sample);
+            if let Some(mode) = sample.mode() {
+                ui.label("Mode 6061h");
+                ui.label(format!("{mode} {}", mode_name(mode)));
+                ui.end_row();
+            }
+            if let Some(word) = sample.statusword() {
+                ui.label("Statusword 6041h");
+                ui.monospace(format!("{word:04X}h"));
+                ui.end_row();
+            }
+        });
+    if sample.position().is_some() {
+        ui.add_space(6.0);
+        actual_values_ui(ui, sample);
+    }
+}
+
+/// The CiA 402 power state from 6041h, with its meaning and the state machine.
+fn power_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
+    let Some(power) = sample.statusword().and_then(PowerState::from_statusword) else {
+        ui.label(match sample.statusword() {
+            Some(word) => format!("Statusword {word:04X}h matches no CiA 402 state"),
+            None => "CiA 402 state unknown (6041h not read on this link)".to_owned(),
+        });
+        return;
+    };
+    let color = match power {
+        PowerState::OperationEnabled => GREEN,
+        PowerState::Fault | PowerState::FaultReactionActive => RED,
+        PowerState::QuickStopActive => AMBER,
+        _ => ui.visuals().text_color(),
+    };
+    let name = if stale {
+        format!("{} (last known)", power.name())
+    } else {
+        power.name().to_owned()
+    };
+    ui.label(RichText::new(name).size(18.0).color(color).strong())
+        .on_hover_text(power.meaning());
+    ui.small(power.meaning());
+    ui.add_space(4.0);
+    super::power_state::power_state_ui(ui, Some(power));
+}
+
+/// Every PDI-Status bit as a lamp, two a row, and the word as the drive sent it.
+fn lamps_ui(ui: &mut Ui, status: Status) {
     ui.label(RichText::new("PDI-Status (2292h:01h)").strong());
     egui::Grid::new("pdi_lamps")
         .num_columns(2)
@@ -168,88 +194,77 @@ fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
                 .on_hover_text("Bits 6, 8, 9, 10 and 13 are not defined by the PDI spec; shown as the drive sent them.");
         }
     });
+}
 
-    ui.add_space(6.0);
-    egui::Grid::new("pdi_values")
+/// 603Fh in a grid row (red while the fault bit is set), its meaning in the next one.
+fn error_code_rows_ui(ui: &mut Ui, sample: &Sample) {
+    ui.label("Error code 603Fh");
+    let code = ErrorCode(sample.tx.error_code);
+    if code.0 == 0 {
+        ui.monospace("0000h (none)");
+    } else {
+        let color = if sample.tx.status.is_set(StatusBit::Fault) {
+            RED
+        } else {
+            AMBER
+        };
+        ui.colored_label(color, format!("{:04X}h", code.0))
+            .on_hover_text(code.meaning());
+    }
+    ui.end_row();
+    if code.0 != 0 {
+        ui.label("");
+        ui.label(code.meaning());
+        ui.end_row();
+    }
+}
+
+/// ReturnValue in the unit of the mode, or, after a refused object access, the abort code
+/// and its meaning.
+fn return_value_rows_ui(ui: &mut Ui, sample: &Sample) {
+    ui.label("ReturnValue");
+    let rv = sample.tx.return_value;
+    if sample.tx.status.is_set(StatusBit::Error) {
+        let abort = crate::cia::AbortCode(rv as u32);
+        ui.colored_label(RED, format!("{:08X}h", rv as u32))
+            .on_hover_text(abort.to_string());
+        ui.end_row();
+        ui.label("");
+        ui.label(abort.text().unwrap_or("not a CiA 301 abort code"));
+    } else {
+        value_with_unit(ui, rv.to_string(), return_value_unit(sample.mode()));
+    }
+    ui.end_row();
+}
+
+/// Position, velocity, torque, following error, the analog and digital inputs, where the
+/// link carries them.
+fn actual_values_ui(ui: &mut Ui, sample: &Sample) {
+    ui.label(RichText::new("Actual values").strong());
+    egui::Grid::new("actual_values")
         .num_columns(2)
         .spacing([8.0, 3.0])
         .show(ui, |ui| {
-            ui.label("Error code 603Fh");
-            let code = ErrorCode(sample.tx.error_code);
-            if code.0 == 0 {
-                ui.monospace("0000h (none)");
-            } else {
-                let color = if status.is_set(StatusBit::Fault) {
-                    RED
-                } else {
-                    AMBER
-                };
-                ui.colored_label(color, format!("{:04X}h", code.0))
-                    .on_hover_text(code.meaning());
+            for signal in [
+                Signal::Position,
+                Signal::Velocity,
+                Signal::Torque,
+                Signal::FollowingError,
+                Signal::AnalogInput,
+            ] {
+                if let Some(v) = sample.get(signal) {
+                    ui.label(signal.name());
+                    value_with_unit(ui, format!("{v:.0}"), signal.unit());
+                    ui.end_row();
+                }
             }
-            ui.end_row();
-            if code.0 != 0 {
-                ui.label("");
-                ui.label(code.meaning());
-                ui.end_row();
-            }
-            ui.label("ReturnValue");
-            let rv = sample.tx.return_value;
-            if status.is_set(StatusBit::Error) {
-                let abort = crate::cia::AbortCode(rv as u32);
-                ui.colored_label(RED, format!("{:08X}h", rv as u32))
-                    .on_hover_text(abort.to_string());
-                ui.end_row();
-                ui.label("");
-                ui.label(abort.text().unwrap_or("not a CiA 301 abort code"));
-            } else {
-                value_with_unit(ui, rv.to_string(), return_value_unit(sample.mode()));
-            }
-            ui.end_row();
-            if let Some(mode) = sample.mode() {
-                ui.label("Mode 6061h");
-                ui.label(format!("{mode} {}", mode_name(mode)));
-                ui.end_row();
-            }
-            if let Some(word) = sample.statusword() {
-                ui.label("Statusword 6041h");
-                ui.monospace(format!("{word:04X}h"));
+            if let Some(inputs) = sample.digital_inputs() {
+                ui.label(Signal::DigitalInputs.name());
+                ui.monospace(format!("{inputs:08X}h"))
+                    .on_hover_text("bit 0 negative limit, bit 1 positive limit, bit 2 home switch");
                 ui.end_row();
             }
         });
-
-    if sample.position().is_some() {
-        ui.add_space(6.0);
-        ui.label(RichText::new("Actual values").strong());
-        egui::Grid::new("actual_values")
-            .num_columns(2)
-            .spacing([8.0, 3.0])
-            .show(ui, |ui| {
-                let row = |ui: &mut Ui, name: &str, value: Option<f64>, unit: &str| {
-                    if let Some(v) = value {
-                        ui.label(name);
-                        value_with_unit(ui, format!("{v:.0}"), unit);
-                        ui.end_row();
-                    }
-                };
-                for signal in [
-                    Signal::Position,
-                    Signal::Velocity,
-                    Signal::Torque,
-                    Signal::FollowingError,
-                    Signal::AnalogInput,
-                ] {
-                    row(ui, signal.name(), sample.get(signal), signal.unit());
-                }
-                if let Some(inputs) = sample.digital_inputs() {
-                    ui.label(Signal::DigitalInputs.name());
-                    ui.monospace(format!("{inputs:08X}h")).on_hover_text(
-                        "bit 0 negative limit, bit 1 positive limit, bit 2 home switch",
-                    );
-                    ui.end_row();
-                }
-            });
-    }
 }
 
 /// The simulator's fault injection, while connected to it.

@@ -72,3 +72,79 @@ pub fn clipped_label(ui: &mut Ui, text: RichText, max_rows: usize) -> Response {
     job.wrap.max_rows = max_rows;
     ui.add(egui::Label::new(job).wrap())
 }
+
+/// A label and, beside it, a single-line text box with an accessible name.
+pub fn labelled_text_edit_ui(
+    ui: &mut Ui,
+    label: &str,
+    text: &mut String,
+    width: f32,
+    name: &str,
+) -> Response {
+    ui.label(label);
+    named_text_edit(ui, text, width, name)
+}
+
+/// A drop-down of `choices`, each shown as `label` gives it, with an accessible name;
+/// `width` as egui's default when `None`.
+pub fn choice_ui<T: Copy + PartialEq>(
+    ui: &mut Ui,
+    id_salt: &str,
+    name: &str,
+    value: &mut T,
+    choices: &[T],
+    label: fn(T) -> &'static str,
+    width: Option<f32>,
+) -> Response {
+    let mut combo = egui::ComboBox::from_id_salt(id_salt).selected_text(label(*value));
+    if let Some(width) = width {
+        combo = combo.width(width);
+    }
+    let picked = combo.show_ui(ui, |ui| {
+        for &choice in choices {
+            ui.selectable_value(value, choice, label(choice));
+        }
+    });
+    name_widget(&picked.response, egui::accesskit::Role::ComboBox, name);
+    picked.response
+}
+
+/// The outcome of the last action of a panel: green when it went well, red when not.
+pub fn message_ui(ui: &mut Ui, message: Option<&Result<String, String>>) {
+    match message {
+        Some(Ok(text)) => {
+            ui.colored_label(GREEN, text);
+        }
+        Some(Err(text)) => {
+            ui.colored_label(RED, text);
+        }
+        None => {}
+    }
+}
+
+/// A striped grid of `columns` in a scroll area that fills the panel and keeps the newest
+/// row, at the bottom, in view (the log's tables).
+pub fn log_grid_ui(ui: &mut Ui, id_salt: &str, columns: usize, rows_ui: impl FnOnce(&mut Ui)) {
+    egui::ScrollArea::vertical()
+        .stick_to_bottom(true)
+        .auto_shrink([false, false])
+        .show(ui, |ui| {
+            egui::Grid::new(id_salt)
+                .num_columns(columns)
+                .striped(true)
+                .spacing([10.0, 2.0])
+                .show(ui, rows_ui);
+        });
+}
+
+/// A section's title, a note beside it, and its Close button: `true` when that is clicked.
+pub fn title_with_close_ui(ui: &mut Ui, title: &str, note: Option<&str>) -> bool {
+    ui.horizontal(|ui| {
+        ui.label(RichText::new(title).strong());
+        if let Some(note) = note {
+            ui.weak(note);
+        }
+        ui.small_button("Close").clicked()
+    })
+    .inner
+}

@@ -22,7 +22,7 @@ pub const FORMS: &str = "sim | modbus-tcp://HOST:PORT?unit=0[&words=low] | modbu
 mod options;
 mod text;
 
-pub use options::{CanopenOptions, EnipIo, EnipOptions, Parity};
+pub use options::{CanopenOptions, EnipIo, EnipOptions, Parity, SerialLine};
 pub use text::{
     BAUDS, BadNumber, CAN_BITRATES, NODES, PDOS, PORTS, RPI_MS, SLAVES, STOP_BITS, UNITS, number,
     parse_host,
@@ -105,6 +105,27 @@ impl LinkSpec {
             LinkSpec::CanopenSlcan { .. } => ("canopen+slcan", "CANopen (slcan)"),
             LinkSpec::CanopenSim { .. } => ("canopen+sim", "CANopen (simulated bus)"),
             LinkSpec::Enip { .. } => ("enip", "EtherNet/IP"),
+        }
+    }
+
+    /// The serial line of a Modbus RTU spec; `None` on the other buses.
+    pub fn serial_line(&self) -> Option<SerialLine> {
+        match self.clone() {
+            LinkSpec::ModbusRtu {
+                path,
+                baud,
+                parity,
+                stop_bits,
+                slave,
+                ..
+            } => Some(SerialLine {
+                path,
+                baud,
+                parity,
+                stop_bits,
+                slave,
+            }),
+            _ => None,
         }
     }
 

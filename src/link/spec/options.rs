@@ -24,6 +24,16 @@ impl Parity {
     }
 }
 
+/// A Modbus RTU spec's serial line: the port, its framing, and the slave on it.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct SerialLine {
+    pub path: String,
+    pub baud: u32,
+    pub parity: Parity,
+    pub stop_bits: u8,
+    pub slave: u8,
+}
+
 /// Which EtherNet/IP I/O connection carries the PDI.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

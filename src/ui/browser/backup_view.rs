@@ -1,6 +1,7 @@
 //! Backups in the browser: dump, compare with the drive, and the restore preview and run.
 
 use super::*;
+use crate::ui::widgets::title_with_close_ui;
 
 pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
     ui.horizontal_wrapped(|ui| {
@@ -18,25 +19,8 @@ pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>,
             b.restore = None;
             b.read_many(outbox, objects, Purpose::Backup { path });
         }
-        if ui
-            .add_enabled(idle, egui::Button::new("Compare with file"))
-            .on_hover_text("Read the device and list where it differs from the file")
-            .clicked()
-            && let Some(file) = b.load()
-        {
-            b.restore = None;
-            let objects = file.objects_to_read(b.catalog());
-            b.read_many(outbox, objects, Purpose::Compare(file));
-        }
-        if ui
-            .add_enabled(idle, egui::Button::new("Restore from file"))
-            .on_hover_text("Read the device, then preview exactly what a restore would write, in order")
-            .clicked()
-            && let Some(file) = b.load()
-        {
-            b.comparison = None;
-            let objects = file.objects_to_read(b.catalog());
-            b.read_many(outbox, objects, Purpose::Restore(file));
+        for read in &FILE_READS {
+            file_read_button_ui(ui, b, outbox, idle, read);
         }
         if ui
             .add_enabled(idle, egui::Button::new("Store to device"))
@@ -47,32 +31,83 @@ pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>,
         }
     });
     if b.confirm_store {
-        let modal = egui::Modal::new(egui::Id::unique("confirm_store")).show(ui.ctx(), |ui| {
-            ui.heading("Store to device?");
-            ui.label("Writes 65766173h (\"save\") to 1010h:01. The drive keeps every current value after a restart; this cannot be undone from here.");
-            ui.horizontal(|ui| {
-                if ui.button("Store").clicked() {
-                    b.confirm_store = false;
-                    let (address, value) = backup::STORE_ALL;
-                    b.send(
-                        outbox,
-                        Request::WriteObject {
-                            address,
-                            dtype: DataType::Unsigned32,
-                            value: Value::Uint(u64::from(value)),
-                            path: ObjectPath::Auto,
-                        },
-                        Pending::Store,
-                    );
-                }
-                if ui.button("Cancel").clicked() {
-                    b.confirm_store = false;
-                }
-            });
+        confirm_store_ui(ui, b, outbox);
+    }
+}
+
+/// "Store to device?": Store writes the save command, Cancel leaves the drive as it is.
+fn confirm_store_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
+    let modal = egui::Modal::new(egui::Id::unique("confirm_store")).show(ui.ctx(), |ui| {
+        ui.heading("Store to device?");
+        ui.label("Writes 65766173h (\"save\") to 1010h:01. The drive keeps every current value after a restart; this cannot be undone from here.");
+        ui.horizontal(|ui| {
+            if ui.button("Store").clicked() {
+                b.confirm_store = false;
+                let (address, value) = backup::STORE_ALL;
+                b.send(
+                    outbox,
+                    Request::WriteObject {
+                        address,
+                        dtype: DataType::Unsigned32,
+                        value: Value::Uint(u64::from(value)),
+                        path: ObjectPath::Auto,
+                    },
+                    Pending::Store,
+                );
+            }
+            if ui.button("Cancel").clicked() {
+                b.confirm_store = false;
+            }
         });
-        if modal.should_close() {
-            b.confirm_store = false;
+    });
+    if modal.should_close() {
+        b.confirm_store = false;
+    }
+}
+
+/// A button that loads the backup file and reads the device's values of what it holds.
+struct FileRead {
+    text: &'static str,
+    hover: &'static str,
+    /// What the read is for: a comparison or a restore, which closes the other's view.
+    purpose: fn(Box<Backup>) -> Purpose,
+}
+
+const FILE_READS: [FileRead; 2] = [
+    FileRead {
+        text: "Compare with file",
+        hover: "Read the device and list where it differs from the file",
+        purpose: Purpose::Compare,
+    },
+    FileRead {
+        text: "Restore from file",
+        hover: "Read the device, then preview exactly what a restore would write, in order",
+        purpose: Purpose::Restore,
+    },
+];
+
+/// The button of `read`: a click loads the file and starts the read.
+fn file_read_button_ui(
+    ui: &mut Ui,
+    b: &mut Browser,
+    outbox: &mut Vec<Request>,
+    enabled: bool,
+    read: &FileRead,
+) {
+    if ui
+        .add_enabled(enabled, egui::Button::new(read.text))
+        .on_hover_text(read.hover)
+        .clicked()
+        && let Some(file) = b.load()
+    {
+        let objects = file.objects_to_read(b.catalog());
+        let purpose = (read.purpose)(file);
+        match purpose {
+            Purpose::Compare(_) => b.restore = None,
+            Purpose::Restore(_) => b.comparison = None,
+            Purpose::Browse | Purpose::Backup { .. } => {}
         }
+        b.read_many(outbox, objects, purpose);
     }
 }
 
@@ -82,13 +117,8 @@ pub(super) fn comparison_ui(ui: &mut Ui, b: &mut Browser) {
     };
     let mut close = false;
     ui.group(|ui| {
-        ui.horizontal(|ui| {
-            ui.label(RichText::new("Device against the file").strong());
-            ui.weak(file.identity.summary());
-            if ui.small_button("Close").clicked() {
-                close = true;
-            }
-        });
+        let summary = file.identity.summary();
+        close = title_with_close_ui(ui, "Device against the file", Some(&summary));
         let same = differences
             .iter()
             .filter(|d| d.device == Comparison::Same)
@@ -132,62 +162,13 @@ pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>
     let mut close = false;
     let mut start = false;
     ui.group(|ui| {
-        ui.horizontal(|ui| {
-            ui.label(RichText::new("Restore preview").strong());
-            ui.weak(format!("from {}", restore.backup.identity.summary()));
-            if ui.small_button("Close").clicked() {
-                close = true;
-            }
-        });
+        let from = format!("from {}", restore.backup.identity.summary());
+        close = title_with_close_ui(ui, "Restore preview", Some(&from));
         if restore.steps.is_empty() {
             ui.label("The device already matches the file: nothing to write.");
         }
-        egui::Grid::new("restore_steps")
-            .striped(true)
-            .show(ui, |ui| {
-                for title in ["#", "Object", "Name", "Now", "Writes", "Why", "Result"] {
-                    ui.label(RichText::new(title).strong());
-                }
-                ui.end_row();
-                for (n, (step, result)) in restore.steps.iter().zip(&restore.results).enumerate() {
-                    ui.label((n + 1).to_string());
-                    ui.monospace(step.address.to_string());
-                    ui.label(&step.name);
-                    ui.label(
-                        step.before
-                            .as_ref()
-                            .map(Value::to_string)
-                            .unwrap_or_default(),
-                    );
-                    ui.label(step.value.to_string());
-                    match (&step.why, &step.warning) {
-                        (_, Some(warning)) => ui.colored_label(AMBER, warning),
-                        (Why::Procedure(text), None) => ui.weak(*text),
-                        (Why::Restore, None) => ui.weak("as in the file"),
-                    };
-                    match result {
-                        None => ui.label(""),
-                        Some(Ok(())) => ui.colored_label(GREEN, "written"),
-                        Some(Err(e)) => ui.colored_label(RED, e),
-                    };
-                    ui.end_row();
-                }
-            });
-        for (address, reason) in &restore.skipped {
-            let name = b
-                .catalog()
-                .get(*address)
-                .map(Entry::full_name)
-                .or_else(|| {
-                    restore
-                        .backup
-                        .entries()
-                        .find(|(a, _)| a == address)
-                        .map(|(_, o)| o.name.clone())
-                })
-                .unwrap_or_default();
-            ui.colored_label(AMBER, format!("{address} {name} skipped: {reason}"));
-        }
+        restore_steps_ui(ui, restore);
+        skipped_ui(ui, b.catalog(), restore);
         let can = connected
             && !restore.running
             && !restore.steps.is_empty()
@@ -209,48 +190,111 @@ pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>
     if start && let Some(restore) = b.restore.as_mut() {
         restore.confirm = true;
     }
-    let confirm = b.restore.as_ref().is_some_and(|r| r.confirm);
-    if confirm {
-        let count = b.restore.as_ref().map_or(0, |r| r.steps.len());
-        let modal = egui::Modal::new(egui::Id::unique("confirm_restore")).show(ui.ctx(), |ui| {
-            ui.heading("Restore from the file?");
-            ui.label(format!(
-                "{count} writes, in the order listed. Settings that change how the drive is reached come last."
-            ));
-            let mut go = false;
-            let mut cancel = false;
-            ui.horizontal(|ui| {
-                go = ui.button("Write them").clicked();
-                cancel = ui.button("Cancel").clicked();
-            });
-            (go, cancel)
-        });
-        let (go, cancel) = modal.inner;
-        if cancel || modal.should_close() {
-            if let Some(r) = b.restore.as_mut() {
-                r.confirm = false;
+    if b.restore.as_ref().is_some_and(|r| r.confirm) {
+        confirm_restore_ui(ui, b, outbox);
+    }
+}
+
+/// The writes a restore makes, in order: the value now and the one written, why, and how
+/// each went.
+fn restore_steps_ui(ui: &mut Ui, restore: &Restore) {
+    egui::Grid::new("restore_steps")
+        .striped(true)
+        .show(ui, |ui| {
+            for title in ["#", "Object", "Name", "Now", "Writes", "Why", "Result"] {
+                ui.label(RichText::new(title).strong());
             }
-        } else if go {
-            let steps: Vec<Step> = match b.restore.as_mut() {
-                Some(r) => {
-                    r.confirm = false;
-                    r.running = true;
-                    r.steps.clone()
-                }
-                None => vec![],
-            };
-            for (n, step) in steps.into_iter().enumerate() {
-                b.send(
-                    outbox,
-                    Request::WriteObject {
-                        address: step.address,
-                        dtype: step.dtype,
-                        value: step.value,
-                        path: ObjectPath::Auto,
-                    },
-                    Pending::RestoreStep(n),
+            ui.end_row();
+            for (n, (step, result)) in restore.steps.iter().zip(&restore.results).enumerate() {
+                ui.label((n + 1).to_string());
+                ui.monospace(step.address.to_string());
+                ui.label(&step.name);
+                ui.label(
+                    step.before
+                        .as_ref()
+                        .map(Value::to_string)
+                        .unwrap_or_default(),
                 );
+                ui.label(step.value.to_string());
+                match (&step.why, &step.warning) {
+                    (_, Some(warning)) => ui.colored_label(AMBER, warning),
+                    (Why::Procedure(text), None) => ui.weak(*text),
+                    (Why::Restore, None) => ui.weak("as in the file"),
+                };
+                match result {
+                    None => ui.label(""),
+                    Some(Ok(())) => ui.colored_label(GREEN, "written"),
+                    Some(Err(e)) => ui.colored_label(RED, e),
+                };
+                ui.end_row();
             }
+        });
+}
+
+/// The saved objects a restore leaves alone, each with its name and the reason.
+fn skipped_ui(ui: &mut Ui, catalog: &Catalog, restore: &Restore) {
+    for (address, reason) in &restore.skipped {
+        let name = catalog
+            .get(*address)
+            .map(Entry::full_name)
+            .or_else(|| {
+                restore
+                    .backup
+                    .entries()
+                    .find(|(a, _)| a == address)
+                    .map(|(_, o)| o.name.clone())
+            })
+            .unwrap_or_default();
+        ui.colored_label(AMBER, format!("{address} {name} skipped: {reason}"));
+    }
+}
+
+/// "Restore from the file?": Write them starts the restore, Cancel goes back to the preview.
+fn confirm_restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
+    let count = b.restore.as_ref().map_or(0, |r| r.steps.len());
+    let modal = egui::Modal::new(egui::Id::unique("confirm_restore")).show(ui.ctx(), |ui| {
+        ui.heading("Restore from the file?");
+        ui.label(format!(
+            "{count} writes, in the order listed. Settings that change how the drive is reached come last."
+        ));
+        let mut go = false;
+        let mut cancel = false;
+        ui.horizontal(|ui| {
+            go = ui.button("Write them").clicked();
+            cancel = ui.button("Cancel").clicked();
+        });
+        (go, cancel)
+    });
+    let (go, cancel) = modal.inner;
+    if cancel || modal.should_close() {
+        if let Some(r) = b.restore.as_mut() {
+            r.confirm = false;
         }
+    } else if go {
+        start_restore(b, outbox);
+    }
+}
+
+/// Send every step's write, in order; the results come back one by one.
+fn start_restore(b: &mut Browser, outbox: &mut Vec<Request>) {
+    let steps: Vec<Step> = match b.restore.as_mut() {
+        Some(r) => {
+            r.confirm = false;
+            r.running = true;
+            r.steps.clone()
+        }
+        None => vec![],
+    };
+    for (n, step) in steps.into_iter().enumerate() {
+        b.send(
+            outbox,
+            Request::WriteObject {
+                address: step.address,
+                dtype: step.dtype,
+                value: step.value,
+                path: ObjectPath::Auto,
+            },
+            Pending::RestoreStep(n),
+        );
     }
 }

@@ -396,64 +396,80 @@ impl Browser {
             return;
         }
         match bulk.purpose {
-            Purpose::Browse => {
-                self.message = Some(Ok(format!(
-                    "read {} objects{}",
-                    bulk.total,
-                    if bulk.failed > 0 {
-                        format!(", {} refused (see the rows)", bulk.failed)
-                    } else {
-                        String::new()
-                    }
-                )));
-            }
+            Purpose::Browse => self.finish_browse(&bulk),
             Purpose::Backup { path } => self.finish_backup(&path, &bulk.reads),
-            Purpose::Compare(file) => {
-                let differences = backup::compare(&file, self.catalog(), &bulk.reads);
-                let count = |f: fn(&Comparison) -> bool| {
-                    differences.iter().filter(|d| f(&d.device)).count()
-                };
-                let differing =
-                    count(|c| matches!(c, Comparison::Differs(_) | Comparison::Unreadable(_)));
-                let skipped = count(|c| matches!(c, Comparison::Skipped(_)));
-                self.message = Some(Ok(format!(
-                    "compared {} objects with the file: {differing} differ or could not be read{}",
-                    differences.len() - skipped,
-                    if skipped > 0 {
-                        format!("; {skipped} entries skipped (not settings, never restored)")
-                    } else {
-                        String::new()
-                    }
-                )));
-                self.comparison = Some((file, differences));
-            }
-            Purpose::Restore(file) => {
-                let steps = backup::restore_plan(&file, self.catalog(), &bulk.reads);
-                let skipped = backup::compare(&file, self.catalog(), &bulk.reads)
-                    .into_iter()
-                    .filter_map(|d| match d.device {
-                        Comparison::Skipped(reason) => Some((d.address, reason)),
-                        Comparison::Unreadable(reason) => Some((
-                            d.address,
-                            format!("cannot be read from the device: {reason}"),
-                        )),
-                        _ => None,
-                    })
-                    .collect();
-                self.message = Some(Ok(format!(
-                    "{} writes would make the device match the file",
-                    steps.len()
-                )));
-                self.restore = Some(Restore {
-                    results: vec![None; steps.len()],
-                    backup: file,
-                    steps,
-                    running: false,
-                    confirm: false,
-                    skipped,
-                });
-            }
+            Purpose::Compare(file) => self.finish_compare(file, &bulk.reads),
+            Purpose::Restore(file) => self.finish_restore(file, &bulk.reads),
         }
+    }
+
+    /// The table filled: how many objects were read, how many refused.
+    fn finish_browse(&mut self, bulk: &Bulk) {
+        self.message = Some(Ok(format!(
+            "read {} objects{}",
+            bulk.total,
+            if bulk.failed > 0 {
+                format!(", {} refused (see the rows)", bulk.failed)
+            } else {
+                String::new()
+            }
+        )));
+    }
+
+    /// The device against the file: where they differ, and what of the file is no setting.
+    fn finish_compare(
+        &mut self,
+        file: Box<Backup>,
+        reads: &BTreeMap<Address, Result<Value, String>>,
+    ) {
+        let differences = backup::compare(&file, self.catalog(), reads);
+        let count =
+            |f: fn(&Comparison) -> bool| differences.iter().filter(|d| f(&d.device)).count();
+        let differing = count(|c| matches!(c, Comparison::Differs(_) | Comparison::Unreadable(_)));
+        let skipped = count(|c| matches!(c, Comparison::Skipped(_)));
+        self.message = Some(Ok(format!(
+            "compared {} objects with the file: {differing} differ or could not be read{}",
+            differences.len() - skipped,
+            if skipped > 0 {
+                format!("; {skipped} entries skipped (not settings, never restored)")
+            } else {
+                String::new()
+            }
+        )));
+        self.comparison = Some((file, differences));
+    }
+
+    /// The restore's preview: the writes that make the device match the file, and what
+    /// of the file it leaves alone, with the reason.
+    fn finish_restore(
+        &mut self,
+        file: Box<Backup>,
+        reads: &BTreeMap<Address, Result<Value, String>>,
+    ) {
+        let steps = backup::restore_plan(&file, self.catalog(), reads);
+        let skipped = backup::compare(&file, self.catalog(), reads)
+            .into_iter()
+            .filter_map(|d| match d.device {
+                Comparison::Skipped(reason) => Some((d.address, reason)),
+                Comparison::Unreadable(reason) => Some((
+                    d.address,
+                    format!("cannot be read from the device: {reason}"),
+                )),
+                _ => None,
+            })
+            .collect();
+        self.message = Some(Ok(format!(
+            "{} writes would make the device match the file",
+            steps.len()
+        )));
+        self.restore = Some(Restore {
+            results: vec![None; steps.len()],
+            backup: file,
+            steps,
+            running: false,
+            confirm: false,
+            skipped,
+        });
     }
 
     fn finish_backup(&mut self, path: &str, reads: &BTreeMap<Address, Result<Value, String>>) {

@@ -1,6 +1,7 @@
 //! The browser panel: its toolbar, EDS loading, the bulk reads, and how values and limits read.
 
 use super::*;
+use crate::ui::widgets::{labelled_text_edit_ui, message_ui};
 
 pub(super) fn value_text(value: &Value, entry: &Entry) -> String {
     backup::shown(value, entry)
@@ -46,51 +47,12 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
 
     ui.horizontal_wrapped(|ui| {
         ui.heading("Object dictionary");
-        ui.label("Filter");
-        crate::ui::widgets::named_text_edit(ui, &mut b.filter, 160.0, "Object filter");
-        let rows = b.rows();
-        let count = rows.len();
-        let readable = Browser::readable(&rows);
-        ui.weak(format!("{count} of {} objects", b.catalog().len()));
-        let busy = b.bulk.is_some();
-        if ui
-            .add_enabled(connected && !busy, egui::Button::new("Read visible"))
-            .on_hover_text("Read the rows on screen")
-            .clicked()
-        {
-            let visible: Vec<(Address, DataType)> = b
-                .visible
-                .iter()
-                .filter_map(|a| b.catalog().get(*a))
-                .filter(|e| e.access.readable())
-                .map(|e| (e.address, e.dtype))
-                .collect();
-            b.read_many(outbox, visible, Purpose::Browse);
-        }
-        if ui
-            .add_enabled(connected && !busy, egui::Button::new("Read all"))
-            .on_hover_text(
-                "Read every object that passes the filter, with progress; the motor keeps running",
-            )
-            .clicked()
-        {
-            b.read_many(outbox, readable, Purpose::Browse);
-        }
-        match &b.eds {
-            Some((path, _)) => {
-                ui.weak(format!("dictionary: {path}"));
-                if ui.small_button("Built-in").clicked() {
-                    b.eds = None;
-                }
-            }
-            None => {
-                ui.weak("dictionary: built-in Nanotec catalog");
-            }
-        }
+        labelled_text_edit_ui(ui, "Filter", &mut b.filter, 160.0, "Object filter");
+        read_buttons_ui(ui, b, outbox, connected);
+        dictionary_ui(ui, b);
     });
     ui.horizontal(|ui| {
-        ui.label("EDS");
-        crate::ui::widgets::named_text_edit(ui, &mut b.eds_path, 220.0, "EDS path");
+        labelled_text_edit_ui(ui, "EDS", &mut b.eds_path, 220.0, "EDS path");
         if ui
             .button("Load EDS")
             .on_hover_text("Use a device's EDS file (CiA 306) instead of the built-in catalog")
@@ -102,12 +64,7 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
 
     bulk_ui(ui, b, outbox);
     backup_ui(ui, b, outbox, connected);
-    if let Some(message) = &b.message {
-        match message {
-            Ok(text) => ui.colored_label(GREEN, text),
-            Err(text) => ui.colored_label(RED, text),
-        };
-    }
+    message_ui(ui, b.message.as_ref());
     comparison_ui(ui, b);
     restore_ui(ui, b, outbox, connected);
     confirm_ui(ui, b, outbox);
@@ -119,6 +76,53 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
             .message
             .clone()
             .map(|m| m.map(|text| format!("{text}: see the Plots tab")));
+    }
+}
+
+/// How many objects pass the filter; Read visible and Read all.
+fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
+    let rows = b.rows();
+    let count = rows.len();
+    let readable = Browser::readable(&rows);
+    ui.weak(format!("{count} of {} objects", b.catalog().len()));
+    let busy = b.bulk.is_some();
+    if ui
+        .add_enabled(connected && !busy, egui::Button::new("Read visible"))
+        .on_hover_text("Read the rows on screen")
+        .clicked()
+    {
+        let visible: Vec<(Address, DataType)> = b
+            .visible
+            .iter()
+            .filter_map(|a| b.catalog().get(*a))
+            .filter(|e| e.access.readable())
+            .map(|e| (e.address, e.dtype))
+            .collect();
+        b.read_many(outbox, visible, Purpose::Browse);
+    }
+    if ui
+        .add_enabled(connected && !busy, egui::Button::new("Read all"))
+        .on_hover_text(
+            "Read every object that passes the filter, with progress; the motor keeps running",
+        )
+        .clicked()
+    {
+        b.read_many(outbox, readable, Purpose::Browse);
+    }
+}
+
+/// The dictionary shown: an EDS's (with the way back to the built-in one), or the built-in.
+fn dictionary_ui(ui: &mut Ui, b: &mut Browser) {
+    match &b.eds {
+        Some((path, _)) => {
+            ui.weak(format!("dictionary: {path}"));
+            if ui.small_button("Built-in").clicked() {
+                b.eds = None;
+            }
+        }
+        None => {
+            ui.weak("dictionary: built-in Nanotec catalog");
+        }
     }
 }
 

@@ -8,7 +8,7 @@ use eframe::egui::{self, Ui};
 use serde::{Deserialize, Serialize};
 
 use super::super::state::AppState;
-use super::super::widgets::{GREEN, RED};
+use super::super::widgets::{choice_ui, message_ui};
 use crate::telemetry::{
     Builtin, CaptureState, Condition, Edge, Kind, Recording, Trigger, bit_name,
 };
@@ -100,49 +100,79 @@ impl TriggerForm {
 
 pub fn capture_ui(ui: &mut Ui, state: &mut AppState) {
     ui.horizontal_wrapped(|ui| {
-        trigger_row(ui, state);
+        trigger_ui(ui, state);
     });
     ui.horizontal_wrapped(|ui| {
-        export_row(ui, state);
+        export_ui(ui, state);
     });
-    if let Some(message) = &state.plot.message {
-        match message {
-            Ok(text) => ui.colored_label(GREEN, text),
-            Err(text) => ui.colored_label(RED, text),
-        };
-    }
+    message_ui(ui, state.plot.message.as_ref());
 }
 
-fn trigger_row(ui: &mut Ui, state: &mut AppState) {
+/// A signal the trigger may watch: its id, its name, and which built-in it is.
+type Candidate = (String, String, Option<Builtin>);
+
+/// The trigger row: the condition, the time around it, Arm or Disarm, and where it stands.
+fn trigger_ui(ui: &mut Ui, state: &mut AppState) {
     ui.label("Trigger");
     let form = &mut state.settings.plot.trigger;
-    let combo = egui::ComboBox::from_id_salt("trigger_kind")
-        .selected_text(if form.threshold {
-            "threshold"
-        } else {
-            "status bit"
-        })
-        .show_ui(ui, |ui| {
-            ui.selectable_value(&mut form.threshold, false, "status bit");
-            ui.selectable_value(&mut form.threshold, true, "threshold");
-        });
-    crate::ui::widgets::name_widget(
-        &combo.response,
-        egui::accesskit::Role::ComboBox,
+    choice_ui(
+        ui,
+        "trigger_kind",
         "Trigger kind",
+        &mut form.threshold,
+        &[false, true],
+        |threshold| if threshold { "threshold" } else { "status bit" },
+        None,
     );
     let wanted = if form.threshold {
         Kind::Analog
     } else {
         Kind::Bits
     };
-    let candidates: Vec<(String, String, Option<Builtin>)> = state
+    let candidates: Vec<Candidate> = state
         .scope
         .signals()
         .iter()
         .filter(|s| s.kind == wanted)
         .map(|s| (s.info.id.clone(), s.info.name.clone(), s.builtin()))
         .collect();
+    let builtin = trigger_signal_ui(ui, form, &candidates);
+    if form.threshold {
+        ui.add(
+            egui::TextEdit::singleline(&mut form.level)
+                .desired_width(60.0)
+                .hint_text("level"),
+        )
+        .on_hover_text("The level the signal crosses, in its unit");
+    } else {
+        trigger_bit_ui(ui, form, builtin);
+    }
+    let edges = [Edge::Rising, Edge::Falling, Edge::Either];
+    choice_ui(
+        ui,
+        "trigger_edge",
+        "Trigger edge",
+        &mut form.edge,
+        &edges,
+        edge_text,
+        None,
+    );
+    ui.label("pre [s]");
+    ui.add(egui::TextEdit::singleline(&mut form.pre_s).desired_width(36.0))
+        .on_hover_text("History kept from before the trigger");
+    ui.label("post [s]");
+    ui.add(egui::TextEdit::singleline(&mut form.post_s).desired_width(36.0))
+        .on_hover_text("Recorded after the trigger");
+    arm_ui(ui, state);
+}
+
+/// The signal to watch, among `candidates` (the first when the one picked is not among
+/// them); which built-in signal it is.
+fn trigger_signal_ui(
+    ui: &mut Ui,
+    form: &mut TriggerForm,
+    candidates: &[Candidate],
+) -> Option<Builtin> {
     if !candidates.iter().any(|(id, _, _)| *id == form.signal)
         && let Some((id, _, _)) = candidates.first()
     {
@@ -155,7 +185,7 @@ fn trigger_row(ui: &mut Ui, state: &mut AppState) {
     let combo = egui::ComboBox::from_id_salt("trigger_signal")
         .selected_text(selected)
         .show_ui(ui, |ui| {
-            for (id, name, _) in &candidates {
+            for (id, name, _) in candidates {
                 ui.selectable_value(&mut form.signal, id.clone(), name);
             }
         });
@@ -164,57 +194,37 @@ fn trigger_row(ui: &mut Ui, state: &mut AppState) {
         egui::accesskit::Role::ComboBox,
         "Trigger signal",
     );
-    let builtin = candidates
+    candidates
         .iter()
         .find(|(id, _, _)| *id == form.signal)
-        .and_then(|(_, _, b)| *b);
-    if form.threshold {
-        ui.add(
-            egui::TextEdit::singleline(&mut form.level)
-                .desired_width(60.0)
-                .hint_text("level"),
-        )
-        .on_hover_text("The level the signal crosses, in its unit");
-    } else {
-        let bits: Vec<u8> = match builtin {
-            Some(Builtin::PdiStatus) => crate::pdi::StatusBit::ALL
-                .into_iter()
-                .map(|b| b.bit())
-                .collect(),
-            _ => (0..32).collect(),
-        };
-        let combo = egui::ComboBox::from_id_salt("trigger_bit")
-            .selected_text(bit_name(builtin, form.bit))
-            .show_ui(ui, |ui| {
-                for bit in bits {
-                    ui.selectable_value(&mut form.bit, bit, bit_name(builtin, bit));
-                }
-            });
-        crate::ui::widgets::name_widget(
-            &combo.response,
-            egui::accesskit::Role::ComboBox,
-            "Trigger bit",
-        );
-    }
-    let combo = egui::ComboBox::from_id_salt("trigger_edge")
-        .selected_text(edge_text(form.edge))
+        .and_then(|(_, _, b)| *b)
+}
+
+/// The bit to watch: PDI-Status's named bits, or any of 32.
+fn trigger_bit_ui(ui: &mut Ui, form: &mut TriggerForm, builtin: Option<Builtin>) {
+    let bits: Vec<u8> = match builtin {
+        Some(Builtin::PdiStatus) => crate::pdi::StatusBit::ALL
+            .into_iter()
+            .map(|b| b.bit())
+            .collect(),
+        _ => (0..32).collect(),
+    };
+    let combo = egui::ComboBox::from_id_salt("trigger_bit")
+        .selected_text(bit_name(builtin, form.bit))
         .show_ui(ui, |ui| {
-            for edge in [Edge::Rising, Edge::Falling, Edge::Either] {
-                ui.selectable_value(&mut form.edge, edge, edge_text(edge));
+            for bit in bits {
+                ui.selectable_value(&mut form.bit, bit, bit_name(builtin, bit));
             }
         });
     crate::ui::widgets::name_widget(
         &combo.response,
         egui::accesskit::Role::ComboBox,
-        "Trigger edge",
+        "Trigger bit",
     );
-    ui.label("pre [s]");
-    ui.add(egui::TextEdit::singleline(&mut form.pre_s).desired_width(36.0))
-        .on_hover_text("History kept from before the trigger");
-    ui.label("post [s]");
-    ui.add(egui::TextEdit::singleline(&mut form.post_s).desired_width(36.0))
-        .on_hover_text("Recorded after the trigger");
+}
 
+/// Arm the trigger as typed, or disarm it; what the capture is doing.
+fn arm_ui(ui: &mut Ui, state: &mut AppState) {
     let capture = state.scope.capture_state();
     let armed = matches!(capture, CaptureState::Armed | CaptureState::Fired { .. });
     if armed {
@@ -246,7 +256,8 @@ fn trigger_row(ui: &mut Ui, state: &mut AppState) {
     };
 }
 
-fn export_row(ui: &mut Ui, state: &mut AppState) {
+/// Where exports go, and the buttons that write them.
+fn export_ui(ui: &mut Ui, state: &mut AppState) {
     ui.label("Export to");
     let path_box = ui
         .add(

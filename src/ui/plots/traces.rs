@@ -8,7 +8,9 @@ use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Text, VLine};
 use super::super::state::AppState;
 use super::super::widgets::{AMBER, BLUE, GREEN, RED};
 use super::time_range;
-use crate::telemetry::{BitSpan, Builtin, CaptureState, Condition, Kind, SignalDef, bit_name};
+use crate::telemetry::{
+    BitSpan, Builtin, CaptureState, Condition, Kind, Ring, SignalDef, bit_name,
+};
 
 /// Height of one digital lane, in points: at most, and at least (the lanes take up to
 /// 40 % of the panel between the two).
@@ -53,13 +55,60 @@ struct Interaction {
     follow_again: bool,
 }
 
+/// What every plot of one frame shares: the time span, whether it follows the newest
+/// sample, the linked axis, and the marks drawn across all plots.
+struct View<'a> {
+    ring: &'a Ring,
+    from: f64,
+    to: f64,
+    follow: bool,
+    group: egui::Id,
+    markers: Vec<(f64, &'a str)>,
+    highlight: Option<f64>,
+    trigger_at: Option<f64>,
+    /// The threshold trigger's signal column and level.
+    threshold: Option<(usize, f64)>,
+}
+
+impl<'a> View<'a> {
+    fn new(state: &'a AppState, from: f64, to: f64) -> Self {
+        let markers = state
+            .scope
+            .markers()
+            .filter(|m| m.t >= from && m.t <= to)
+            .map(|m| (m.t, m.text.as_str()))
+            .collect();
+        let trigger_at = match state.scope.capture_state() {
+            CaptureState::Fired { at } | CaptureState::Complete { at, .. } => Some(at),
+            _ => None,
+        };
+        let threshold = state.scope.trigger().and_then(|t| match t.condition {
+            Condition::Threshold { channel, level, .. } => Some((channel, level)),
+            Condition::Bit { .. } => None,
+        });
+        View {
+            ring: state.scope.ring(),
+            from,
+            to,
+            follow: state.plot.follow,
+            group: egui::Id::unique("plots_time_axis"),
+            markers,
+            highlight: state.plot.highlight,
+            trigger_at,
+            threshold,
+        }
+    }
+}
+
+/// Where the pointer is on the time axis, and the span the plot showed.
+type Seen = (Option<f64>, (f64, f64));
+
 pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
     let Some((from, to)) = time_range(state) else {
         ui.add_space(8.0);
         ui.weak("Waiting for samples: connect to a drive (or the simulated one).");
         return;
     };
-    let ring = state.scope.ring();
     let analog: Vec<(usize, &SignalDef)> = state
         .scope
         .signals()
@@ -68,154 +117,184 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
         .filter(|(_, s)| state.scope.is_drawn(s) && s.kind == Kind::Analog)
         .collect();
     let lanes = lanes(state, from, to);
-    let available = ui.available_height();
-    let lanes_height = if lanes.is_empty() {
-        0.0
-    } else {
-        let share = if analog.is_empty() { 1.0 } else { 0.35 };
-        let lane =
-            ((available * share - 40.0) / lanes.len() as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
-        lanes.len() as f32 * lane + 40.0
-    };
-    let plot_height = if analog.is_empty() {
-        0.0
-    } else {
-        ((available - lanes_height - 8.0) / analog.len() as f32).max(PLOT_HEIGHT_MIN)
-    };
-    let group = egui::Id::unique("plots_time_axis");
-    let follow = state.plot.follow;
-    let markers: Vec<(f64, &str)> = state
-        .scope
-        .markers()
-        .filter(|m| m.t >= from && m.t <= to)
-        .map(|m| (m.t, m.text.as_str()))
-        .collect();
-    let highlight = state.plot.highlight;
-    let trigger_at = match state.scope.capture_state() {
-        CaptureState::Fired { at } | CaptureState::Complete { at, .. } => Some(at),
-        _ => None,
-    };
-    let threshold = state.scope.trigger().and_then(|t| match t.condition {
-        Condition::Threshold { channel, level, .. } => Some((channel, level)),
-        Condition::Bit { .. } => None,
-    });
+    let (plot_height, lanes_height) = heights(ui.available_height(), analog.len(), lanes.len());
+    let view = View::new(state, from, to);
     let mut interaction = Interaction::default();
     let top = ui.cursor().min;
 
     for (n, (index, signal)) in analog.iter().enumerate() {
-        let label = if signal.info.unit.is_empty() {
-            signal.info.name.clone()
-        } else {
-            format!("{} [{}]", signal.info.name, signal.info.unit)
-        };
-        let color = color_of(signal, *index);
-        let column = signal.column;
-        let level = threshold.filter(|(c, _)| *c == column).map(|(_, l)| l);
-        let markers = &markers;
-        let response = Plot::new(("plot", signal.info.id.as_str()))
-            .height(plot_height)
-            .link_axis(group, [true, false])
-            .link_cursor(group, [true, false])
-            // Top left: the newest samples come in on the right.
-            .legend(Legend::default().position(egui_plot::Corner::LeftTop))
-            .allow_double_click_reset(false)
-            // Three or four labelled values on a low plot (egui_plot's decades give one).
-            .custom_y_axes(vec![
-                egui_plot::AxisHints::new_y().label_spacing(10.0..=16.0),
-            ])
-            .y_grid_spacer(nice_steps)
-            .y_axis_min_width(Y_AXIS_WIDTH)
-            .custom_x_axes(time_axis())
-            // The time labels once, under the lowest plot.
-            .show_axes([n + 1 == analog.len() && lanes.is_empty(), true])
-            .show(ui, |plot_ui| {
-                let (from, to) = visible(plot_ui, follow, from, to);
-                let columns = plot_ui.transform().frame().width().max(1.0) as usize;
-                let points = ring.decimate(column, from, to, columns);
-                if follow {
-                    plot_ui.set_plot_bounds(follow_bounds(&points, from, to, level));
-                }
-                draw_markers(plot_ui, markers, n == 0);
-                if let Some(at) = trigger_at {
-                    plot_ui.add(VLine::new("trigger", at).color(RED).width(1.5));
-                }
-                if let Some(at) = highlight {
-                    plot_ui.add(
-                        VLine::new("", at)
-                            .color(AMBER)
-                            .width(2.0)
-                            .allow_hover(false),
-                    );
-                }
-                if let Some(level) = level {
-                    plot_ui.add(
-                        egui_plot::HLine::new("trigger level", level)
-                            .color(RED)
-                            .style(LineStyle::dashed_loose()),
-                    );
-                }
-                plot_ui.line(Line::new(label, points).color(color));
-                (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
-            });
+        // The time labels once, under the lowest plot.
+        let time_labels = n + 1 == analog.len() && lanes.is_empty();
+        let response = analog_plot_ui(ui, &view, *index, signal, plot_height, n == 0, time_labels);
         interaction.absorb(ui, &response.response, response.inner);
     }
-
     if !lanes.is_empty() {
-        let lanes = &lanes;
-        let markers = &markers;
-        let response =
-            Plot::new("plot_lanes")
-                .height(lanes_height - 8.0)
-                .link_axis(group, [true, false])
-                .link_cursor(group, [true, false])
-                .allow_double_click_reset(false)
-                .allow_zoom([true, false])
-                .allow_drag([true, false])
-                .show_grid([true, false])
-                .y_axis_min_width(Y_AXIS_WIDTH)
-                .y_axis_formatter(|_, _| String::new())
-                .y_grid_spacer(|_| Vec::new())
-                .custom_x_axes(time_axis())
-                .show(ui, |plot_ui| {
-                    let (from, to) = visible(plot_ui, follow, from, to);
-                    let columns = plot_ui.transform().frame().width().max(1.0) as usize;
-                    if follow {
-                        plot_ui.set_plot_bounds(PlotBounds::from_min_max(
-                            [from, -0.5],
-                            [to, lanes.len() as f64 * 1.5],
-                        ));
-                    }
-                    draw_markers(plot_ui, markers, false);
-                    let mut last_column = None;
-                    let mut spans: Vec<BitSpan> = Vec::new();
-                    for (k, lane) in lanes.iter().enumerate() {
-                        if last_column != Some(lane.column) {
-                            spans = ring.decimate_bits(lane.column, from, to, columns);
-                            last_column = Some(lane.column);
-                        }
-                        let base = k as f64 * 1.5;
-                        plot_ui.line(
-                            Line::new("", lane_points(&spans, lane.bit, base))
-                                .color(if k % 2 == 0 { GREEN } else { BLUE }),
-                        );
-                        // The lane's name at the left edge, over the trace.
-                        plot_ui.text(
-                            Text::new("", egui_plot::PlotPoint::new(from, base + 0.5), &lane.name)
-                                .anchor(egui::Align2::LEFT_CENTER)
-                                .color(Color32::from_gray(210))
-                                .allow_hover(false),
-                        );
-                    }
-                    (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
-                });
+        let response = lanes_plot_ui(ui, &view, &lanes, lanes_height);
         interaction.absorb(ui, &response.response, response.inner);
     }
 
     let bottom = ui.cursor().min;
-    state.plot.plots_rect = Some(egui::Rect::from_min_max(
-        top,
-        egui::pos2(top.x + ui.available_width(), bottom.y),
-    ));
+    let plots = egui::Rect::from_min_max(top, egui::pos2(top.x + ui.available_width(), bottom.y));
+    remember_view(state, &interaction, plots, (from, to));
+}
+
+/// The height of each analog plot and of the lanes' plot: the lanes take what they need
+/// (up to 35 % while analog plots share the panel), the analog plots share the rest.
+fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
+    let lanes_height = if lanes == 0 {
+        0.0
+    } else {
+        let share = if analog == 0 { 1.0 } else { 0.35 };
+        let lane = ((available * share - 40.0) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
+        lanes as f32 * lane + 40.0
+    };
+    let plot_height = if analog == 0 {
+        0.0
+    } else {
+        ((available - lanes_height - 8.0) / analog as f32).max(PLOT_HEIGHT_MIN)
+    };
+    (plot_height, lanes_height)
+}
+
+/// One analog signal's plot, on the shared time axis; the first labels the markers, the
+/// lowest the time axis.
+fn analog_plot_ui(
+    ui: &mut Ui,
+    view: &View<'_>,
+    index: usize,
+    signal: &SignalDef,
+    height: f32,
+    first: bool,
+    time_labels: bool,
+) -> egui_plot::PlotResponse<Seen> {
+    let label = if signal.info.unit.is_empty() {
+        signal.info.name.clone()
+    } else {
+        format!("{} [{}]", signal.info.name, signal.info.unit)
+    };
+    let color = color_of(signal, index);
+    let column = signal.column;
+    let level = view.threshold.filter(|(c, _)| *c == column).map(|(_, l)| l);
+    Plot::new(("plot", signal.info.id.as_str()))
+        .height(height)
+        .link_axis(view.group, [true, false])
+        .link_cursor(view.group, [true, false])
+        // Top left: the newest samples come in on the right.
+        .legend(Legend::default().position(egui_plot::Corner::LeftTop))
+        .allow_double_click_reset(false)
+        // Three or four labelled values on a low plot (egui_plot's decades give one).
+        .custom_y_axes(vec![
+            egui_plot::AxisHints::new_y().label_spacing(10.0..=16.0),
+        ])
+        .y_grid_spacer(nice_steps)
+        .y_axis_min_width(Y_AXIS_WIDTH)
+        .custom_x_axes(time_axis())
+        .show_axes([time_labels, true])
+        .show(ui, |plot_ui| {
+            let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
+            let columns = plot_ui.transform().frame().width().max(1.0) as usize;
+            let points = view.ring.decimate(column, from, to, columns);
+            if view.follow {
+                plot_ui.set_plot_bounds(follow_bounds(&points, from, to, level));
+            }
+            draw_markers(plot_ui, &view.markers, first);
+            draw_moments(plot_ui, view, level);
+            plot_ui.line(Line::new(label, points).color(color));
+            (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
+        })
+}
+
+/// The trigger's moment and level, and the moment marked from the timeline.
+fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<f64>) {
+    if let Some(at) = view.trigger_at {
+        plot_ui.add(VLine::new("trigger", at).color(RED).width(1.5));
+    }
+    if let Some(at) = view.highlight {
+        plot_ui.add(
+            VLine::new("", at)
+                .color(AMBER)
+                .width(2.0)
+                .allow_hover(false),
+        );
+    }
+    if let Some(level) = level {
+        plot_ui.add(
+            egui_plot::HLine::new("trigger level", level)
+                .color(RED)
+                .style(LineStyle::dashed_loose()),
+        );
+    }
+}
+
+/// The digital lanes, one plot under the analog ones, on the same time axis.
+fn lanes_plot_ui(
+    ui: &mut Ui,
+    view: &View<'_>,
+    lanes: &[Lane],
+    height: f32,
+) -> egui_plot::PlotResponse<Seen> {
+    Plot::new("plot_lanes")
+        .height(height - 8.0)
+        .link_axis(view.group, [true, false])
+        .link_cursor(view.group, [true, false])
+        .allow_double_click_reset(false)
+        .allow_zoom([true, false])
+        .allow_drag([true, false])
+        .show_grid([true, false])
+        .y_axis_min_width(Y_AXIS_WIDTH)
+        .y_axis_formatter(|_, _| String::new())
+        .y_grid_spacer(|_| Vec::new())
+        .custom_x_axes(time_axis())
+        .show(ui, |plot_ui| {
+            let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
+            if view.follow {
+                plot_ui.set_plot_bounds(PlotBounds::from_min_max(
+                    [from, -0.5],
+                    [to, lanes.len() as f64 * 1.5],
+                ));
+            }
+            draw_markers(plot_ui, &view.markers, false);
+            draw_lanes(plot_ui, view.ring, lanes, from, to);
+            (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
+        })
+}
+
+/// Each lane's line, 1.5 apart, its name at the left edge over the trace.
+fn draw_lanes(plot_ui: &mut PlotUi, ring: &Ring, lanes: &[Lane], from: f64, to: f64) {
+    let columns = plot_ui.transform().frame().width().max(1.0) as usize;
+    let mut last_column = None;
+    let mut spans: Vec<BitSpan> = Vec::new();
+    for (k, lane) in lanes.iter().enumerate() {
+        if last_column != Some(lane.column) {
+            spans = ring.decimate_bits(lane.column, from, to, columns);
+            last_column = Some(lane.column);
+        }
+        let base = k as f64 * 1.5;
+        plot_ui.line(
+            Line::new("", lane_points(&spans, lane.bit, base)).color(if k % 2 == 0 {
+                GREEN
+            } else {
+                BLUE
+            }),
+        );
+        plot_ui.text(
+            Text::new("", egui_plot::PlotPoint::new(from, base + 0.5), &lane.name)
+                .anchor(egui::Align2::LEFT_CENTER)
+                .color(Color32::from_gray(210))
+                .allow_hover(false),
+        );
+    }
+}
+
+/// What the next frame needs of this one: where the plots were, the cursor, whether to
+/// follow, and the span shown.
+fn remember_view(
+    state: &mut AppState,
+    interaction: &Interaction,
+    plots: egui::Rect,
+    (from, to): (f64, f64),
+) {
+    state.plot.plots_rect = Some(plots);
     state.plot.cursor = interaction.cursor;
     if interaction.follow_again {
         state.plot.follow = true;
@@ -269,12 +348,7 @@ fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
 }
 
 impl Interaction {
-    fn absorb(
-        &mut self,
-        ui: &Ui,
-        response: &egui::Response,
-        (cursor, range): (Option<f64>, (f64, f64)),
-    ) {
+    fn absorb(&mut self, ui: &Ui, response: &egui::Response, (cursor, range): Seen) {
         if cursor.is_some() && response.hovered() {
             self.cursor = cursor;
         }
