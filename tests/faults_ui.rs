@@ -2,6 +2,7 @@
 //! simulated drive appears with its code and meaning, from PDI-Status, 603Fh, 1001h and
 //! the 1003h history; "Show" puts the plots at that moment; the export writes CSV.
 
+mod common;
 mod window;
 
 use std::time::Duration;
@@ -88,7 +89,8 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
     assert!(state.plot.paused_at.is_some(), "held still to look at it");
 
     // Exported as CSV.
-    let path = std::env::temp_dir().join(format!("drivedeck-faults-{}.csv", std::process::id()));
+    let dir = common::temp_dir("faults");
+    let path = dir.path().join("timeline.csv");
     harness.state_mut().state.settings.timeline_path = path.to_string_lossy().into_owned();
     harness.get_by_label("Export timeline").click();
     harness.step();
@@ -98,7 +100,6 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
         "{csv}"
     );
     assert!(csv.contains(",fault,603Fh,8611h"), "{csv}");
-    let _ = std::fs::remove_file(path);
 }
 
 #[test]
