@@ -14,7 +14,7 @@ use drivedeck::ui::state::Central;
 use drivedeck::worker::Request;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use window::{app_harness, step_until};
+use window::{app_harness, connected, step_until};
 
 fn has(harness: &Harness<'_, App>, origin: Origin, text: &str) -> bool {
     harness
@@ -28,9 +28,7 @@ fn has(harness: &Harness<'_, App>, origin: Origin, text: &str) -> bool {
 #[test]
 fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     harness.step();
     assert!(
         harness.state().state.timeline.is_empty(),
@@ -104,22 +102,11 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
 
 #[test]
 fn the_changes_tab_lists_what_was_written_and_restores_it() {
-    use drivedeck::od::{Address, DataType, Value};
-    use drivedeck::worker::ObjectPath;
+    use drivedeck::od::{Address, Value};
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     let velocity = Address::new(0x6081, 0);
-    harness.state_mut().state.request(Request::WriteObject {
-        address: velocity,
-        dtype: DataType::Unsigned32,
-        value: Value::Uint(1234),
-        path: ObjectPath::Auto,
-    });
-    step_until(&mut harness, "the change", Duration::from_secs(3), |h| {
-        h.state().state.changes.len() == 1
-    });
+    window::change(&mut harness, velocity, 1234);
     let before = harness.state().state.changes[0]
         .before
         .clone()
@@ -148,9 +135,7 @@ fn the_changes_tab_lists_what_was_written_and_restores_it() {
 fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
     use drivedeck::ui::state::Outcome;
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     // A long relative move (ten turns at 200 rpm), replaced by the next one while it runs.
     harness
         .get_by_label("Move relative: Distance")
@@ -162,13 +147,7 @@ fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
         &mut harness,
         "the move to run",
         Duration::from_secs(3),
-        |h| {
-            h.state()
-                .state
-                .latest
-                .and_then(|s| s.velocity())
-                .is_some_and(|v| v > 50.0)
-        },
+        |h| window::velocity(h) > 50.0,
     );
     harness.get_by_label("Move relative").click();
     harness.step();
