@@ -202,6 +202,12 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
         "{message:?}"
     );
     harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Plots;
+    // A long move (the default one lasts a fifth of a second, which a window starved on a
+    // busy machine may step over): the velocity stays up long enough to be seen.
+    harness
+        .get_by_label("Move absolute: Target position")
+        .set_text_value_accesskit("30000");
+    harness.step();
     harness.get_by_label("Move absolute").click();
     harness.step();
     step_until(&mut harness, "6044h to move", Duration::from_secs(5), |h| {
