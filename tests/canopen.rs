@@ -331,16 +331,7 @@ fn the_scan_finds_every_node_with_its_identity() {
 #[test]
 fn the_worker_moves_the_motor_over_canopen_and_reads_strings() {
     let mut probe = Probe::connected(spec(1));
-    assert_eq!(
-        probe.command(
-            Action::MoveAbsolute {
-                target: 2000,
-                speed: 200,
-            },
-            Duration::from_secs(10)
-        ),
-        CommandProgress::Done { return_value: 2000 }
-    );
+    probe.move_absolute(2000, 200);
     assert_eq!(
         probe.device_name(ObjectPath::Auto),
         Ok(Value::Text("drivedeck simulated drive".into()))

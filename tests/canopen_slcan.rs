@@ -13,8 +13,8 @@ use common::{PtyPair, Sim, slcan_spec};
 use drivedeck::cia::AbortCode;
 use drivedeck::link::Refusal;
 use drivedeck::od::{Address, DataType, Value};
-use drivedeck::pdi::{Action, StatusBit};
-use drivedeck::worker::{CommandProgress, ObjectError, ObjectPath, Request};
+use drivedeck::pdi::StatusBit;
+use drivedeck::worker::{ObjectError, ObjectPath, Request};
 use egui_kittest::kittest::Queryable;
 use probe::Probe;
 use window::{lamp, step_until, step_until_shown};
@@ -34,16 +34,7 @@ fn the_worker_moves_the_motor_over_slcan_pdos_and_reads_a_string() {
         "{}",
         info.description
     );
-    assert_eq!(
-        probe.command(
-            Action::MoveAbsolute {
-                target: 2000,
-                speed: 200,
-            },
-            Duration::from_secs(15)
-        ),
-        CommandProgress::Done { return_value: 2000 }
-    );
+    probe.move_absolute(2000, 200);
     let at = probe.sample_where("target reached", Duration::from_secs(5), |s| {
         s.tx.status.is_set(StatusBit::TargetReached) && s.tx.return_value == 2000
     });

@@ -42,16 +42,7 @@ fn a_move_over_class_1_pdi_io_reaches_its_target() {
         info.description
     );
     assert!(info.pdi && info.native_objects);
-    assert_eq!(
-        probe.command(
-            Action::MoveAbsolute {
-                target: 2000,
-                speed: 200,
-            },
-            Duration::from_secs(15)
-        ),
-        CommandProgress::Done { return_value: 2000 }
-    );
+    probe.move_absolute(2000, 200);
     let at = probe.sample_where("target reached", Duration::from_secs(5), |s| {
         s.tx.status.is_set(StatusBit::TargetReached) && s.tx.return_value == 2000
     });
@@ -111,18 +102,7 @@ fn explicit_messages_carry_the_pdi_when_asked() {
             .description
             .contains("PDI over explicit messages (2291h/2292h)")
     );
-    assert_eq!(
-        probe.command(
-            Action::MoveAbsolute {
-                target: -1500,
-                speed: 300,
-            },
-            Duration::from_secs(15)
-        ),
-        CommandProgress::Done {
-            return_value: -1500
-        }
-    );
+    probe.move_absolute(-1500, 300);
     assert!((server.drive().lock().position() + 1500.0).abs() < 0.5);
 }
 
@@ -130,16 +110,7 @@ fn explicit_messages_carry_the_pdi_when_asked() {
 fn the_nine_byte_pdi_assembly_of_the_spec_table_works_too() {
     let server = common::enip_adapter();
     let mut probe = Probe::connected(spec(server.addr, "io=pdi&cmd_at=8"));
-    assert_eq!(
-        probe.command(
-            Action::MoveAbsolute {
-                target: 900,
-                speed: 200,
-            },
-            Duration::from_secs(15)
-        ),
-        CommandProgress::Done { return_value: 900 }
-    );
+    probe.move_absolute(900, 200);
 }
 
 #[test]

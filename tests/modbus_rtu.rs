@@ -17,8 +17,8 @@ use serde_json::json;
 use common::{PtyPair, Sim};
 use drivedeck::link::{ErrorKind, LinkSpec};
 use drivedeck::od::Value;
-use drivedeck::pdi::{Action, StatusBit};
-use drivedeck::worker::{CommandProgress, Event, ObjectPath};
+use drivedeck::pdi::StatusBit;
+use drivedeck::worker::{Event, ObjectPath};
 use probe::Probe;
 
 fn rtu_spec(path: &Path, slave: u8) -> LinkSpec {
@@ -61,16 +61,7 @@ fn a_move_and_objects_over_modbus_rtu_with_the_factory_settings() {
         Duration::from_secs(5),
         |e| matches!(e, Event::Samples(s) if !s.is_empty()),
     );
-    assert_eq!(
-        probe.command(
-            Action::MoveAbsolute {
-                target: 2000,
-                speed: 200,
-            },
-            Duration::from_secs(10)
-        ),
-        CommandProgress::Done { return_value: 2000 }
-    );
+    probe.move_absolute(2000, 200);
     let sample = probe.sample_where("a sample at the target", Duration::from_secs(2), |s| {
         s.tx.status.is_set(StatusBit::TargetReached)
     });

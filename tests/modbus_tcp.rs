@@ -26,16 +26,7 @@ fn spec(addr: SocketAddr) -> LinkSpec {
 fn a_move_over_modbus_tcp_reaches_its_target() {
     let server = common::modbus_server(ServerOptions::default());
     let mut probe = Probe::connected(spec(server.addr));
-    assert_eq!(
-        probe.command(
-            Action::MoveAbsolute {
-                target: 2000,
-                speed: 200,
-            },
-            Duration::from_secs(10)
-        ),
-        CommandProgress::Done { return_value: 2000 }
-    );
+    probe.move_absolute(2000, 200);
     // Statusword, mode and position come along in the process image at 5000.
     let sample = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
         s.position() == Some(2000.0)

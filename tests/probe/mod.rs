@@ -107,6 +107,22 @@ impl Probe {
         );
     }
 
+    /// An absolute move to `target` at `speed`: done, its return value the target.
+    pub fn move_absolute(&mut self, target: i32, speed: i16) {
+        let done = self.command(
+            Action::MoveAbsolute { target, speed },
+            Duration::from_secs(15),
+        );
+        assert_eq!(
+            done,
+            CommandProgress::Done {
+                return_value: target
+            },
+            "the move to {target} at {speed}; notices: {:#?}",
+            self.notices()
+        );
+    }
+
     /// Send `action` and wait for its final outcome.
     pub fn command(&mut self, action: Action, timeout: Duration) -> CommandProgress {
         let id = self.send(Request::Command(action));
