@@ -47,6 +47,19 @@ fn disconnected(harness: &Harness<'_, App>) -> bool {
     matches!(harness.state().state.connection, Connection::Disconnected)
 }
 
+/// Click `label` (Disconnect, or an answer to the question it asks) and wait until the
+/// window is disconnected.
+fn click_and_disconnect(harness: &mut Harness<'_, App>, label: &str) {
+    harness.get_by_label(label).click();
+    harness.step();
+    step_until(
+        harness,
+        "the disconnect",
+        Duration::from_secs(5),
+        disconnected,
+    );
+}
+
 #[test]
 fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
     let server = server();
@@ -55,14 +68,7 @@ fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
     step_until_shown(&mut harness, "Halt, then disconnect");
     assert!(harness.state().state.leaving.is_some(), "it asks first");
     assert!(!disconnected(&harness), "nothing happens before the answer");
-    harness.get_by_label("Halt, then disconnect").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(3),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Halt, then disconnect");
     // The halt bit reached the drive before the link closed: it brakes to a stop and
     // stays energised.
     let drive = server.drive();
@@ -85,14 +91,7 @@ fn switch_off_with_restore_undoes_the_changes_then_switches_off() {
     step_until_shown(&mut harness, "Switch off, then disconnect");
     // Restoring is offered, and on by default.
     assert!(harness.state().state.leaving.is_some_and(|l| l.restore));
-    harness.get_by_label("Switch off, then disconnect").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(5),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Switch off, then disconnect");
     let drive = server.drive();
     assert_eq!(drive.lock().read(velocity), Ok(before), "restored");
     wait_until("the power stage off", Duration::from_secs(5), || {
@@ -106,16 +105,7 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
     let mut harness = turning(&server);
     harness.get_by_label("Disconnect").click();
     step_until_shown(&mut harness, "Leave it as it is, disconnect");
-    harness
-        .get_by_label("Leave it as it is, disconnect")
-        .click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(3),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Leave it as it is, disconnect");
     std::thread::sleep(Duration::from_millis(300));
     assert!(
         server.drive().lock().velocity_rpm() > 250.0,
@@ -125,14 +115,7 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
     // A drive switched off and unchanged: no question.
     let idle = self::server();
     let mut harness = window_on(&idle);
-    harness.get_by_label("Disconnect").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(3),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Disconnect");
 }
 
 #[test]
@@ -149,13 +132,6 @@ fn closing_the_window_while_turning_asks_too() {
     step_until_shown(&mut harness, "Halt, then disconnect");
     let leaving = harness.state().state.leaving.expect("asked");
     assert!(leaving.close_window);
-    harness.get_by_label("Halt, then disconnect").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(3),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Halt, then disconnect");
     assert!(server.drive().lock().rx_image().cmd & 0x40 != 0, "halted");
 }
