@@ -308,8 +308,8 @@ async fn what_the_host_says_about_odd_devices() {
 
 #[tokio::test(flavor = "current_thread")]
 async fn opening_a_missing_port_says_so() {
-    let dir = common::TempDir::new("slcan-missing");
-    let path = dir.path.join("ttyNONE");
+    let dir = common::temp_dir("slcan-missing");
+    let path = dir.path().join("ttyNONE");
     let e = SlcanBus::open(path.to_str().unwrap(), 1_000_000)
         .await
         .expect_err("no such port");

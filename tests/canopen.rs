@@ -1,13 +1,14 @@
 //! CANopen end to end over the in-memory bus: our master against the simulated node, the
 //! PDI on PDOs (and over SDO where the mapping is refused), SDO object access, the scan,
 //! EMCY, the mapping put back on disconnect.
+mod common;
 mod probe;
 
 use std::time::{Duration, Instant};
 
 use drivedeck::cia::AbortCode;
 use drivedeck::link::canopen::client::CanopenLink;
-use drivedeck::link::canopen::{CanBus, MemoryBus};
+use drivedeck::link::canopen::{CanBus, MemoryBus, MemoryPort};
 use drivedeck::link::{CanopenOptions, Link, LinkSpec, Notice, NoticeKind, Refusal};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, RxImage, StatusBit};
@@ -18,13 +19,6 @@ use drivedeck::sim::server::SharedDrive;
 use drivedeck::sim::server::canopen::{Node, run_node};
 use drivedeck::worker::{CommandProgress, Event, ObjectError, ObjectPath, Request};
 use probe::Probe;
-
-fn runtime() -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("runtime")
-}
 
 fn spec(node: u8) -> LinkSpec {
     format!("canopen+sim://?node={node}").parse().expect("spec")
@@ -65,21 +59,26 @@ async fn raw_upload(bus: &MemoryBus, node: u8, index: u16, sub: u8) -> Result<Ve
     }
 }
 
+/// Our master on `bus`, connected to node `node` with the default options.
+async fn connect(bus: &MemoryBus, node: u8) -> CanopenLink<MemoryPort> {
+    let options = CanopenOptions {
+        node,
+        ..CanopenOptions::default()
+    };
+    CanopenLink::connect(spec(node), bus.port(), options)
+        .await
+        .expect("connect")
+}
+
 fn u32_le(data: &[u8]) -> u32 {
     u32::from_le_bytes(data.try_into().expect("4 bytes"))
 }
 
 #[test]
 fn the_pdi_runs_on_the_pdos_spec_section_3_maps() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (bus, drive) = bus_with_node(3, false);
-        let options = CanopenOptions {
-            node: 3,
-            ..CanopenOptions::default()
-        };
-        let mut link = CanopenLink::connect(spec(3), bus.port(), options)
-            .await
-            .expect("connect");
+        let mut link = connect(&bus, 3).await;
         let notices = link.take_notices();
         assert!(
             notices
@@ -136,7 +135,7 @@ fn the_pdi_runs_on_the_pdos_spec_section_3_maps() {
 
 #[test]
 fn disconnecting_puts_the_previous_mapping_back() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (bus, _drive) = bus_with_node(1, false);
         let before = raw_upload(&bus, 1, 0x1400, 1).await.expect("read");
         assert_eq!(u32_le(&before), 0x8000_0201, "invalid before");
@@ -172,7 +171,7 @@ fn disconnecting_puts_the_previous_mapping_back() {
 
 #[test]
 fn self_start_sets_1f80h_lists_it_and_puts_it_back() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (bus, _drive) = bus_with_node(1, false);
         let before = raw_upload(&bus, 1, 0x1F80, 0).await.expect("read");
         assert_eq!(u32_le(&before) & 0x08, 0, "not self-starting before");
@@ -212,15 +211,9 @@ fn self_start_sets_1f80h_lists_it_and_puts_it_back() {
 
 #[test]
 fn a_refused_mapping_runs_the_pdi_over_sdo() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (bus, drive) = bus_with_node(2, true);
-        let options = CanopenOptions {
-            node: 2,
-            ..CanopenOptions::default()
-        };
-        let mut link = CanopenLink::connect(spec(2), bus.port(), options)
-            .await
-            .expect("connect");
+        let mut link = connect(&bus, 2).await;
         let notices = link.take_notices();
         assert!(
             notices
@@ -248,7 +241,7 @@ fn a_refused_mapping_runs_the_pdi_over_sdo() {
 
 #[test]
 fn a_node_without_the_pdi_still_gives_its_objects() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         // A bare SDO server with a tiny dictionary: an independent CANopen device.
         struct Tiny;
         impl drivedeck::proto::canopen::sdo::ObjectAccess for Tiny {
@@ -273,13 +266,7 @@ fn a_node_without_the_pdi_still_gives_its_objects() {
                 }
             }
         });
-        let options = CanopenOptions {
-            node: 9,
-            ..CanopenOptions::default()
-        };
-        let mut link = CanopenLink::connect(spec(9), bus.port(), options)
-            .await
-            .expect("connect");
+        let mut link = connect(&bus, 9).await;
         assert!(!link.info().pdi);
         assert_eq!(
             link.read_object(Address::new(0x1008, 0), DataType::VisibleString)
@@ -298,7 +285,7 @@ fn a_node_without_the_pdi_still_gives_its_objects() {
 
 #[test]
 fn nobody_on_the_bus_is_a_clear_error() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let bus = MemoryBus::new();
         let options = CanopenOptions {
             node: 42,
@@ -317,7 +304,7 @@ fn nobody_on_the_bus_is_a_clear_error() {
 
 #[test]
 fn the_scan_finds_every_node_with_its_identity() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (bus, _a) = bus_with_node(4, false);
         let drive = SharedDrive::new(Drive::new());
         let port = bus.port();
@@ -344,30 +331,12 @@ fn the_scan_finds_every_node_with_its_identity() {
 #[test]
 fn the_worker_moves_the_motor_over_canopen_and_reads_strings() {
     let mut probe = Probe::connected(spec(1));
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
-        target: 2000,
-        speed: 200,
-    }));
+    probe.move_absolute(2000, 200);
     assert_eq!(
-        probe.outcome(id, Duration::from_secs(10)),
-        CommandProgress::Done { return_value: 2000 }
-    );
-    assert_eq!(
-        probe.read(
-            Address::new(0x1008, 0),
-            DataType::VisibleString,
-            ObjectPath::Auto
-        ),
+        probe.device_name(ObjectPath::Auto),
         Ok(Value::Text("drivedeck simulated drive".into()))
     );
-    assert_eq!(
-        probe.read(
-            Address::new(0x1018, 1),
-            DataType::Unsigned32,
-            ObjectPath::Pdi
-        ),
-        Ok(Value::Uint(0x26C))
-    );
+    assert_eq!(probe.vendor_id(ObjectPath::Pdi), Ok(Value::Uint(0x26C)));
     let missing = probe.read(
         Address::new(0x1018, 9),
         DataType::Unsigned32,
@@ -397,12 +366,7 @@ fn the_worker_moves_the_motor_over_canopen_and_reads_strings() {
 #[test]
 fn a_fault_on_the_node_arrives_as_emcy_and_fails_the_move() {
     let mut probe = Probe::connected(spec(5));
-    let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
-    probe.wait(
-        "accepted",
-        Duration::from_secs(3),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    let id = probe.start(Action::Velocity { speed: 100 });
     probe.send(Request::Inject {
         injection: Injection::OverCurrent,
         active: true,

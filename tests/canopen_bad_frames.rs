@@ -15,7 +15,6 @@ mod common;
 mod probe;
 mod proxy;
 
-use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -31,16 +30,9 @@ use drivedeck::proto::canopen::CanFrame;
 use drivedeck::sim::Drive;
 use drivedeck::sim::server::SharedDrive;
 use drivedeck::sim::server::canopen::{Node, run_node};
-use drivedeck::worker::{CommandProgress, Event, Request};
+use drivedeck::worker::{CommandProgress, Request};
 use probe::Probe;
 use proxy::{Noise, SerialProxy};
-
-fn runtime() -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("runtime")
-}
 
 // ---------------------------------------------------------------------------------------
 // A node's bus that does wrong on purpose.
@@ -222,7 +214,7 @@ async fn master_and_node() -> (CanopenLink<drivedeck::link::canopen::MemoryPort>
 
 #[test]
 fn an_sdo_answer_lost_once_is_asked_for_again_and_the_log_says_so() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (mut link, faults) = master_and_node().await;
         faults.lose_answers(1, 1);
         let started = Instant::now();
@@ -252,7 +244,7 @@ fn an_sdo_answer_lost_once_is_asked_for_again_and_the_log_says_so() {
 
 #[test]
 fn a_write_whose_answer_is_lost_once_is_sent_again() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (mut link, faults) = master_and_node().await;
         faults.lose_answers(1, 1);
         let written = link
@@ -282,7 +274,7 @@ fn a_write_whose_answer_is_lost_once_is_sent_again() {
 
 #[test]
 fn a_wrong_toggle_aborts_the_transfer_and_starts_it_again() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (mut link, faults) = master_and_node().await;
         faults.plan().wrong_toggles = 1;
         let name = link
@@ -309,7 +301,7 @@ fn a_wrong_toggle_aborts_the_transfer_and_starts_it_again() {
 
 #[test]
 fn a_late_answer_to_an_earlier_request_is_skipped_not_sent_again() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (mut link, faults) = master_and_node().await;
         faults.plan().stale_before = 1;
         let read = link
@@ -332,7 +324,7 @@ fn a_late_answer_to_an_earlier_request_is_skipped_not_sent_again() {
 
 #[test]
 fn an_abort_is_the_drives_answer_and_never_asked_again() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (mut link, faults) = master_and_node().await;
         let missing = link
             .read_object(Address::new(0x1018, 9), DataType::Unsigned32)
@@ -346,7 +338,7 @@ fn an_abort_is_the_drives_answer_and_never_asked_again() {
 
 #[test]
 fn when_every_try_goes_wrong_the_error_names_each() {
-    runtime().block_on(async {
+    common::runtime().block_on(async {
         let (mut link, faults) = master_and_node().await;
         // Nothing at all: a timeout after the whole budget, the tries counted.
         faults.lose_answers(1, 3);
@@ -393,15 +385,6 @@ fn when_every_try_goes_wrong_the_error_names_each() {
 // ---------------------------------------------------------------------------------------
 // Through the worker, over slcan on a pseudo-terminal pair.
 
-fn slcan_spec(path: &Path, node: u8) -> LinkSpec {
-    format!(
-        "canopen+slcan://{}?bitrate=1000000&node={node}",
-        path.display()
-    )
-    .parse()
-    .expect("spec")
-}
-
 /// A faulty simulated node served behind an emulated slcan adapter on one end of a pty
 /// pair, in a thread of its own; the master connects to `pair.b`.
 struct PtyNode {
@@ -418,7 +401,7 @@ impl PtyNode {
         let served = faults.clone();
         let (ready, opened) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
-            runtime().block_on(async move {
+            common::runtime().block_on(async move {
                 let device = SlcanDevice::open(&path).expect("the adapter end");
                 let _ = ready.send(());
                 serve(device, node, fixed_mapping, served).await;
@@ -431,50 +414,8 @@ impl PtyNode {
     }
 
     fn spec(&self, node: u8) -> LinkSpec {
-        slcan_spec(&self.pair.b, node)
+        common::slcan_spec(&self.pair.b, node)
     }
-}
-
-/// A notice that says `words` (all of them).
-fn named(probe: &Probe, words: &[&str]) -> Option<String> {
-    probe
-        .notices()
-        .into_iter()
-        .find(|n| words.iter().all(|w| n.contains(w)))
-}
-
-/// A notice with all of `words`, seen already or coming within a few seconds.
-fn expect_notice(probe: &mut Probe, words: &[&str]) -> String {
-    if let Some(n) = named(probe, words) {
-        return n;
-    }
-    match probe.wait(
-        &format!("a notice with {words:?}"),
-        Duration::from_secs(4),
-        |e| matches!(e, Event::Notice(n) if words.iter().all(|w| n.text.contains(w))),
-    ) {
-        Event::Notice(n) => n.text,
-        _ => unreachable!(),
-    }
-}
-
-fn never_lost(probe: &Probe) {
-    let lost = probe
-        .seen
-        .iter()
-        .find(|e| matches!(e, Event::Disconnected { .. } | Event::ConnectFailed { .. }));
-    assert!(lost.is_none(), "the link was dropped: {lost:?}");
-}
-
-/// Start `action` and wait until the drive accepted it.
-fn start(probe: &mut Probe, action: Action) -> u64 {
-    let id = probe.send(Request::Command(action));
-    probe.wait(
-        "the command accepted",
-        Duration::from_secs(5),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
-    id
 }
 
 /// One turn at 120 rpm: about half a second of motion.
@@ -492,8 +433,8 @@ fn slcan_a_garbled_line_during_a_move_is_skipped_and_named() {
     };
     let _sim = common::Sim::slcan(&device.a, 1, &[]);
     let proxy = SerialProxy::start(&host.b, &device.b, true);
-    let mut probe = Probe::connected(slcan_spec(&host.a, 1));
-    let id = start(&mut probe, A_MOVE);
+    let mut probe = Probe::connected(common::slcan_spec(&host.a, 1));
+    let id = probe.start(A_MOVE);
     // The first SDO answer from here on (a sampled object's), and a TPDO after it.
     proxy.noise_on(1, Noise::Flip, b"t581");
     proxy.noise_on(1, Noise::Flip, b"t181");
@@ -506,15 +447,15 @@ fn slcan_a_garbled_line_during_a_move_is_skipped_and_named() {
     assert_eq!(proxy.applied(), [Noise::Flip, Noise::Flip]);
     let spoiled = proxy.spoiled();
     // The garbled lines reach the log, counted, with what was wrong with them…
-    let skipped = expect_notice(&mut probe, &["slcan", "garbled line", "skipped"]);
+    let skipped = probe.expect_notice(&["slcan", "garbled line", "skipped"]);
     assert!(skipped.contains("malformed slcan frame"), "{skipped}");
     // …and the SDO answer lost with one is asked for again, and said so.
-    let sdo = expect_notice(&mut probe, &["SDO ", "answered on try 2"]);
+    let sdo = probe.expect_notice(&["SDO ", "answered on try 2"]);
     assert!(
         sdo.contains("no answer within"),
         "{sdo}; spoiled: {spoiled:?}"
     );
-    never_lost(&probe);
+    probe.never_dropped();
 }
 
 // (c) lost after the configured count of missed TPDO periods
@@ -536,43 +477,29 @@ fn failed_and_silence(reason: &str) -> (u32, u64) {
     (count, silence)
 }
 
-/// Wait for the link loss; its reason.
-fn lost(probe: &mut Probe) -> String {
-    match probe.wait("the link loss", Duration::from_secs(10), |e| {
-        matches!(e, Event::Disconnected { reason: Some(_) })
-    }) {
-        Event::Disconnected {
-            reason: Some(reason),
-        } => reason,
-        _ => unreachable!(),
-    }
-}
-
 #[test]
 fn a_node_whose_tpdos_stop_is_lost_after_the_configured_number_of_missed_periods() {
     let Some(node) = PtyNode::start(4, false) else {
         return;
     };
-    let mut probe = Probe::connected(node.spec(4));
-    probe.send(Request::SetLostAfter(5));
-    start(&mut probe, Action::Velocity { speed: 60 });
+    let (mut probe, _) = Probe::turning(node.spec(4), 5);
 
     // A gap shorter than the allowance: failed exchanges, then the link recovers.
     node.faults.plan().mute_tpdos = true;
-    let failed = expect_notice(&mut probe, &["an exchange with the drive failed", "TPDO1"]);
+    let failed = probe.expect_notice(&["an exchange with the drive failed", "TPDO1"]);
     assert!(
         failed.contains("no answer within 500 ms") && failed.contains("lost after 5"),
         "{failed}"
     );
     node.faults.plan().mute_tpdos = false;
-    expect_notice(&mut probe, &["the link recovered after"]);
-    never_lost(&probe);
+    probe.expect_notice(&["the link recovered after"]);
+    probe.never_dropped();
 
     // For good this time (SDO still answers: the node is as if pre-operational). One
     // failed exchange at 500 ms without a TPDO, one more per 100 ms event-timer period.
     let cut = Instant::now();
     node.faults.plan().mute_tpdos = true;
-    let reason = lost(&mut probe);
+    let reason = probe.lost(Duration::from_secs(10));
     let took = cut.elapsed();
     assert!(reason.contains("TPDO1 from node 4"), "{reason}");
     assert_eq!(failed_and_silence(&reason), (5, 500 + 4 * 100), "{reason}");
@@ -584,16 +511,14 @@ fn a_node_that_stops_altogether_is_lost_after_the_configured_count() {
     let Some(node) = PtyNode::start(6, false) else {
         return;
     };
-    let mut probe = Probe::connected(node.spec(6));
-    probe.send(Request::SetLostAfter(4));
-    start(&mut probe, Action::Velocity { speed: 60 });
+    let (mut probe, _) = Probe::turning(node.spec(6), 4);
     let cut = Instant::now();
     node.faults.plan().mute_all = true;
-    let reason = lost(&mut probe);
+    let reason = probe.lost(Duration::from_secs(10));
     let took = cut.elapsed();
     // The cycle's SDO read fails first (all its tries, 500 ms), then the TPDO checks:
     // at 500 ms of silence, then one per 100 ms period.
-    let failed = expect_notice(&mut probe, &["an exchange with the drive failed"]);
+    let failed = probe.expect_notice(&["an exchange with the drive failed"]);
     assert!(failed.contains("lost after 4"), "{failed}");
     let (count, silence) = failed_and_silence(&reason);
     assert_eq!(count, 4, "{reason}");
@@ -613,16 +538,8 @@ fn an_sdo_abort_during_a_move_is_a_refusal_and_a_lost_link_only_when_it_repeats(
         return;
     };
     let mut probe = Probe::connected(node.spec(2));
-    let connected = probe.seen.iter().find_map(|e| match e {
-        Event::Connected(info) => Some(info.description.clone()),
-        _ => None,
-    });
-    assert!(
-        connected
-            .as_deref()
-            .is_some_and(|d| d.contains("PDI over SDO")),
-        "{connected:?}"
-    );
+    let connected = probe.link_info().description;
+    assert!(connected.contains("PDI over SDO"), "{connected}");
     probe.send(Request::SetLostAfter(3));
 
     // Once: the exchange that writes the move's values is refused, the next one goes
@@ -635,21 +552,18 @@ fn an_sdo_abort_during_a_move_is_a_refusal_and_a_lost_link_only_when_it_repeats(
         "{outcome:?}; {:#?}",
         probe.notices()
     );
-    let refused = expect_notice(
-        &mut probe,
-        &["an exchange with the drive failed", "refused"],
-    );
+    let refused = probe.expect_notice(&["an exchange with the drive failed", "refused"]);
     assert!(
         refused.contains("08000022h") && refused.contains("present device state"),
         "{refused}"
     );
-    expect_notice(&mut probe, &["the link recovered after 1 failed exchange"]);
+    probe.expect_notice(&["the link recovered after 1 failed exchange"]);
     // The refusal was the drive's answer: nothing was given up on, no abort sent to it.
     assert!(
         node.faults.plan().requests.iter().all(|r| r[0] != 0x80),
         "the master aborted a transfer"
     );
-    never_lost(&probe);
+    probe.never_dropped();
 
     // Every time: three failed exchanges in a row, each the same refusal, lose the link.
     node.faults.plan().refuse = Some((0x2291, AbortCode::DEVICE_STATE, u64::MAX));
@@ -657,7 +571,7 @@ fn an_sdo_abort_during_a_move_is_a_refusal_and_a_lost_link_only_when_it_repeats(
         distance: -3600,
         speed: 120,
     }));
-    let reason = lost(&mut probe);
+    let reason = probe.lost(Duration::from_secs(10));
     assert!(
         reason.contains("3 exchanges failed in a row")
             && reason.contains("08000022h")

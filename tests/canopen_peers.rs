@@ -25,7 +25,7 @@ use serde_json::{Value as Json, json};
 
 use common::{Process, PtyPair, Python, Sim};
 use drivedeck::cia::AbortCode;
-use drivedeck::link::{LinkSpec, Refusal};
+use drivedeck::link::Refusal;
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::Action;
 use drivedeck::worker::{Event, ObjectError, ObjectPath, Rejection, Request};
@@ -208,41 +208,9 @@ impl LocalNode {
     }
 }
 
-fn slcan_spec(path: &Path, node: u8) -> LinkSpec {
-    format!(
-        "canopen+slcan://{}?bitrate=1000000&node={node}",
-        path.display()
-    )
-    .parse()
-    .expect("spec")
-}
-
 /// Read one object through the worker, the link's own access (SDO) first.
 fn read(probe: &mut Probe, address: Address, dtype: DataType) -> Result<Value, ObjectError> {
     probe.read(address, dtype, ObjectPath::Auto)
-}
-
-/// Write one object through the worker.
-fn write(
-    probe: &mut Probe,
-    address: Address,
-    dtype: DataType,
-    value: Value,
-) -> Result<(), ObjectError> {
-    let id = probe.send(Request::WriteObject {
-        address,
-        dtype,
-        value,
-        path: ObjectPath::Auto,
-    });
-    match probe.wait(
-        &format!("the write to {address}"),
-        PATIENCE,
-        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
-    ) {
-        Event::ObjectWritten { result, .. } => result,
-        _ => unreachable!(),
-    }
 }
 
 #[test]
@@ -255,15 +223,8 @@ fn our_master_reads_and_writes_a_python_canopen_local_node() {
     };
     let started = Instant::now();
     let mut node = LocalNode::start(&python, &pty.a, 7);
-    let mut probe = Probe::connected(slcan_spec(&pty.b, 7));
-    let info = probe
-        .seen
-        .iter()
-        .find_map(|e| match e {
-            Event::Connected(info) => Some(info.clone()),
-            _ => None,
-        })
-        .expect("connected");
+    let mut probe = Probe::connected(common::slcan_spec(&pty.b, 7));
+    let info = probe.link_info();
 
     // Not a Nanotec drive: no 2291h/2292h, so object access only, and said so.
     assert!(!info.pdi, "{info:?}");
@@ -332,36 +293,39 @@ fn our_master_reads_and_writes_a_python_canopen_local_node() {
     );
 
     // Writes: the LocalNode reports what it stored, byte for byte, and it reads back.
-    write(
-        &mut probe,
-        u32_at(0x2000),
-        DataType::Unsigned32,
-        Value::Uint(0xDEAD_BEEF),
-    )
-    .expect("write 2000h");
+    probe
+        .write(
+            u32_at(0x2000),
+            DataType::Unsigned32,
+            Value::Uint(0xDEAD_BEEF),
+            ObjectPath::Auto,
+        )
+        .expect("write 2000h");
     assert_eq!(
         node.next_write(),
         json!({"written": "2000:00", "hex": "efbeadde", "value": 0xDEAD_BEEFu32})
     );
-    write(
-        &mut probe,
-        u32_at(0x2001),
-        DataType::Integer16,
-        Value::Int(-42),
-    )
-    .expect("write 2001h");
+    probe
+        .write(
+            u32_at(0x2001),
+            DataType::Integer16,
+            Value::Int(-42),
+            ObjectPath::Auto,
+        )
+        .expect("write 2001h");
     assert_eq!(
         node.next_write(),
         json!({"written": "2001:00", "hex": "d6ff", "value": -42})
     );
     // 20 characters: a segmented download.
-    write(
-        &mut probe,
-        u32_at(0x2003),
-        DataType::VisibleString,
-        Value::Text("written by drivedeck".into()),
-    )
-    .expect("write 2003h");
+    probe
+        .write(
+            u32_at(0x2003),
+            DataType::VisibleString,
+            Value::Text("written by drivedeck".into()),
+            ObjectPath::Auto,
+        )
+        .expect("write 2003h");
     assert_eq!(
         node.next_write(),
         json!({
@@ -384,24 +348,26 @@ fn our_master_reads_and_writes_a_python_canopen_local_node() {
     );
 
     // Refusals come back as the decoded abort, and the node stored nothing.
-    let read_only = write(
-        &mut probe,
-        u32_at(0x2002),
-        DataType::Unsigned32,
-        Value::Uint(5),
-    )
-    .expect_err("2002h is read-only");
+    let read_only = probe
+        .write(
+            u32_at(0x2002),
+            DataType::Unsigned32,
+            Value::Uint(5),
+            ObjectPath::Auto,
+        )
+        .expect_err("2002h is read-only");
     assert_eq!(
         read_only,
         ObjectError::Refused(Refusal::Abort(AbortCode::READ_ONLY))
     );
-    let missing = write(
-        &mut probe,
-        u32_at(0x2FFF),
-        DataType::Unsigned32,
-        Value::Uint(5),
-    )
-    .expect_err("no 2FFFh");
+    let missing = probe
+        .write(
+            u32_at(0x2FFF),
+            DataType::Unsigned32,
+            Value::Uint(5),
+            ObjectPath::Auto,
+        )
+        .expect_err("no 2FFFh");
     assert_eq!(
         missing,
         ObjectError::Refused(Refusal::Abort(AbortCode::NO_OBJECT))
@@ -418,13 +384,14 @@ fn our_master_reads_and_writes_a_python_canopen_local_node() {
         ObjectError::Refused(Refusal::Abort(AbortCode::NO_SUBINDEX))
     );
     // Two bytes for a 32-bit object: python-canopen checks the length.
-    let short = write(
-        &mut probe,
-        u32_at(0x2000),
-        DataType::Unsigned16,
-        Value::Uint(7),
-    )
-    .expect_err("too short");
+    let short = probe
+        .write(
+            u32_at(0x2000),
+            DataType::Unsigned16,
+            Value::Uint(7),
+            ObjectPath::Auto,
+        )
+        .expect_err("too short");
     assert_eq!(
         short,
         ObjectError::Refused(Refusal::Abort(AbortCode::TYPE_LENGTH_MISMATCH))
@@ -446,16 +413,9 @@ fn our_master_reads_and_writes_a_python_canopen_local_node() {
     assert!(refused(&rejected), "{rejected:?}");
 
     // A scan on the open link finds the node with its identity, name and NMT state.
-    let id = probe.send(Request::Scan(slcan_spec(&pty.b, 7)));
-    let scanned = probe.wait(
-        "the scan",
-        PATIENCE,
-        |e| matches!(e, Event::Scanned { id: i, .. } if *i == id),
-    );
-    let Event::Scanned { result, .. } = scanned else {
-        unreachable!()
-    };
-    let found = result.expect("scan");
+    let found = probe
+        .scan(Request::Scan(common::slcan_spec(&pty.b, 7)), PATIENCE)
+        .expect("scan");
     assert_eq!(found.len(), 1, "{found:?}");
     let device = &found[0];
     assert_eq!(
@@ -507,15 +467,9 @@ fn the_one_shot_commands_and_scan_work_against_a_python_canopen_local_node() {
         pty.b.display()
     );
     let drivedeck = |args: &[&str]| {
-        let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-            .args(["--json", "--timeout", "10", "--link", &link])
-            .args(args)
-            .env("HOME", std::env::temp_dir())
-            .output()
-            .expect("the binary runs");
-        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-        (out.status.code(), stdout, stderr)
+        let mut all = vec!["--json", "--timeout", "10", "--link", &link];
+        all.extend_from_slice(args);
+        common::cli::run(&all)
     };
     let parsed = |what: &str, stdout: &str, stderr: &str| -> Json {
         serde_json::from_str(stdout).unwrap_or_else(|e| panic!("{what}: {e}: {stdout}{stderr}"))
@@ -527,7 +481,7 @@ fn the_one_shot_commands_and_scan_work_against_a_python_canopen_local_node() {
     let nodes = (0..3)
         .find_map(|_| {
             let (code, stdout, stderr) = drivedeck(&["scan"]);
-            assert_eq!(code, Some(0), "scan: {stdout}{stderr}");
+            assert_eq!(code, 0, "scan: {stdout}{stderr}");
             let nodes = parsed("scan", &stdout, &stderr)["nodes"].clone();
             scans.push(nodes.clone());
             let complete = nodes
@@ -552,7 +506,7 @@ fn the_one_shot_commands_and_scan_work_against_a_python_canopen_local_node() {
 
     // `read`: the catalog's type for 1008h, --type for the node's own objects.
     let (code, stdout, stderr) = drivedeck(&["read", "1008"]);
-    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    assert_eq!(code, 0, "{stdout}{stderr}");
     let read = parsed("read 1008", &stdout, &stderr);
     assert_eq!(
         read["value"],
@@ -565,7 +519,7 @@ fn the_one_shot_commands_and_scan_work_against_a_python_canopen_local_node() {
         "{read}"
     );
     let (code, stdout, stderr) = drivedeck(&["read", "2001:00", "--type", "i16"]);
-    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    assert_eq!(code, 0, "{stdout}{stderr}");
     assert_eq!(
         parsed("read 2001", &stdout, &stderr)["value"]["value"],
         -1234
@@ -573,7 +527,7 @@ fn the_one_shot_commands_and_scan_work_against_a_python_canopen_local_node() {
 
     // `write`: the node stores it.
     let (code, stdout, stderr) = drivedeck(&["write", "2000:00", "0x01020304", "--type", "u32"]);
-    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    assert_eq!(code, 0, "{stdout}{stderr}");
     assert_eq!(parsed("write 2000", &stdout, &stderr)["written"], true);
     assert_eq!(
         node.next_write(),
@@ -582,14 +536,14 @@ fn the_one_shot_commands_and_scan_work_against_a_python_canopen_local_node() {
 
     // Refusals: exit code 1 and the decoded abort.
     let (code, stdout, stderr) = drivedeck(&["write", "2002:00", "1", "--type", "u32"]);
-    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert_eq!(code, 1, "{stdout}{stderr}");
     let error = parsed("write 2002", &stdout, &stderr)["error"].clone();
     assert_eq!(
         error,
         "write 1 to 2002h:00h: abort 06010002h (Attempt to write a read-only object)"
     );
     let (code, stdout, stderr) = drivedeck(&["read", "2FFF:00", "--type", "u32"]);
-    assert_eq!(code, Some(1), "{stdout}{stderr}");
+    assert_eq!(code, 1, "{stdout}{stderr}");
     let error = parsed("read 2FFF", &stdout, &stderr)["error"].clone();
     assert_eq!(
         error,

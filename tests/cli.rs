@@ -1,42 +1,12 @@
 //! Every one-shot command of the binary against `--link sim`: exit codes, text and JSON.
 
-use std::process::{Command, Output};
+mod common;
 
-fn drivedeck(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args(args)
-        .env("HOME", std::env::temp_dir())
-        .output()
-        .expect("the binary runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = drivedeck(args);
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success(),
-        "{args:?} failed with {:?}: {stdout}{stderr}",
-        out.status.code()
-    );
-    stdout
-}
-
-fn fails(args: &[&str], code: i32) -> String {
-    let out = drivedeck(args);
-    assert_eq!(out.status.code(), Some(code), "{args:?}: {out:?}");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn json(args: &[&str]) -> serde_json::Value {
-    let mut all = vec!["--json"];
-    all.extend_from_slice(args);
-    serde_json::from_str(&ok(&all)).expect("valid JSON")
-}
+use common::cli::{fails, json, ok};
 
 #[test]
 fn status_in_text_and_json() {
-    let text = ok(&["--link", "sim", "status"]);
+    let (text, _) = ok(&["--link", "sim", "status"]);
     assert!(text.contains("Switch on disabled"), "{text}");
     assert!(text.contains("603Fh       0000h no error"), "{text}");
     let v = json(&["--link", "sim", "status"]);
@@ -47,7 +17,7 @@ fn status_in_text_and_json() {
 
 #[test]
 fn absolute_and_relative_moves_wait_for_the_target() {
-    let text = ok(&[
+    let (text, _) = ok(&[
         "--link", "sim", "move-abs", "2000", "--speed", "200", "--wait",
     ]);
     assert!(
@@ -70,9 +40,7 @@ fn velocity_torque_and_homing() {
     let v = json(&["--link", "sim", "velocity", "-100"]);
     assert_eq!(v["outcome"], "accepted");
 
-    let out = drivedeck(&["--link", "sim", "torque", "500", "--max-speed", "100"]);
-    assert!(out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let (_, stderr) = ok(&["--link", "sim", "torque", "500", "--max-speed", "100"]);
     assert!(stderr.contains("torque slope 6087h is 0"), "{stderr}");
     let v = json(&[
         "--link",
@@ -116,7 +84,7 @@ fn stops_and_clear_error() {
 
 #[test]
 fn objects_read_and_write() {
-    let text = ok(&["--link", "sim", "read", "1018:01"]);
+    let (text, _) = ok(&["--link", "sim", "read", "1018:01"]);
     assert_eq!(
         text.trim(),
         "1018h:01h Identity Object / Vendor-ID = 620 (0000026Ch)"

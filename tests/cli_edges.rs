@@ -8,27 +8,13 @@ mod common;
 
 use std::io::Write;
 use std::net::SocketAddr;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use common::{Process, Sim, TempDir};
+use common::cli::{self, ok, run, start};
+use common::{Process, Sim, eventually, temp_dir};
 use drivedeck::telemetry::Recording;
-
-fn bin() -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_drivedeck"));
-    command.env("HOME", std::env::temp_dir());
-    command
-}
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out: Output = bin().args(args).output().expect("the binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn link(addr: SocketAddr) -> String {
     format!("modbus-tcp://{addr}")
@@ -36,8 +22,7 @@ fn link(addr: SocketAddr) -> String {
 
 /// The drive's status as the command line reports it (JSON).
 fn status(addr: SocketAddr) -> serde_json::Value {
-    let (code, stdout, stderr) = run(&["--link", &link(addr), "--json", "status"]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
+    let (stdout, _) = ok(&["--link", &link(addr), "--json", "status"]);
     serde_json::from_str(&stdout).expect("JSON status")
 }
 
@@ -61,23 +46,6 @@ fn position(status: &serde_json::Value) -> f64 {
     status["position"].as_f64().unwrap_or(f64::NAN)
 }
 
-/// Send `signal` (INT, TERM, HUP) to the process.
-fn signal(process: &Process, signal: &str) {
-    let status = Command::new("kill")
-        .arg(format!("-{signal}"))
-        .arg(process.pid().to_string())
-        .status()
-        .expect("kill runs");
-    assert!(status.success(), "kill -{signal} failed");
-}
-
-/// `drivedeck ARGS…` started, with its output collected.
-fn start(args: &[&str]) -> Process {
-    let mut command = bin();
-    command.args(args);
-    Process::spawn("drivedeck", &mut command)
-}
-
 /// The exit code of a process that should end by itself within `timeout`.
 fn exit_code(process: &mut Process, timeout: Duration) -> i32 {
     match process.wait(timeout) {
@@ -90,26 +58,39 @@ fn exit_code(process: &mut Process, timeout: Duration) -> i32 {
 /// one turn a second.
 const LONG_MOVE: [&str; 5] = ["move-rel", "30000", "--speed", "60", "--wait"];
 
-/// Start the long move and let it run for a while (the served drive allows one client at a
-/// time, so the test cannot watch it meanwhile).
-fn moving(addr: SocketAddr, extra: &[&str]) -> Process {
+/// `ARGS` started against the drive at `addr`, `signal` sent after `after`: the exit code
+/// (130 expected) and what the command said.
+fn interrupt(addr: SocketAddr, args: &[&str], signal_name: &str, after: Duration) -> String {
     let link = link(addr);
-    let mut args = vec!["--link", link.as_str()];
-    args.extend_from_slice(extra);
+    let mut all = vec!["--link", link.as_str()];
+    all.extend_from_slice(args);
+    let mut process = start(&all);
+    thread::sleep(after);
+    assert!(
+        process.running(),
+        "ended before the signal: {}",
+        process.report()
+    );
+    process.signal(signal_name);
+    let code = exit_code(&mut process, Duration::from_secs(15));
+    let report = process.report();
+    assert_eq!(code, 130, "{args:?}: {report}");
+    report
+}
+
+/// The long move with `options` before it, interrupted by `signal_name` once it has run
+/// for a while (the served drive allows one client at a time, so the test cannot watch
+/// it meanwhile): what the command said.
+fn interrupt_the_long_move(addr: SocketAddr, options: &[&str], signal_name: &str) -> String {
+    let mut args = options.to_vec();
     args.extend_from_slice(&LONG_MOVE);
-    let process = start(&args);
-    thread::sleep(Duration::from_millis(1200));
-    process
+    interrupt(addr, &args, signal_name, Duration::from_millis(1200))
 }
 
 #[test]
 fn ctrl_c_during_a_move_halts_the_drive_says_so_and_exits_130() {
     let (_sim, addr) = Sim::tcp(&[]);
-    let mut mover = moving(addr, &[]);
-    signal(&mover, "INT");
-    let code = exit_code(&mut mover, Duration::from_secs(15));
-    let report = mover.report();
-    assert_eq!(code, 130, "{report}");
+    let report = interrupt_the_long_move(addr, &[], "INT");
     assert!(report.contains("interrupted by SIGINT"), "{report}");
     assert!(
         report.contains("halt sent; the drive confirmed it: it stands still"),
@@ -131,11 +112,7 @@ fn ctrl_c_during_a_move_halts_the_drive_says_so_and_exits_130() {
 #[test]
 fn sigterm_with_on_exit_switch_off_leaves_the_power_stage_off() {
     let (_sim, addr) = Sim::tcp(&[]);
-    let mut mover = moving(addr, &["--on-exit", "switch-off"]);
-    signal(&mover, "TERM");
-    let code = exit_code(&mut mover, Duration::from_secs(15));
-    let report = mover.report();
-    assert_eq!(code, 130, "{report}");
+    let report = interrupt_the_long_move(addr, &["--on-exit", "switch-off"], "TERM");
     assert!(report.contains("interrupted by SIGTERM"), "{report}");
     assert!(report.contains("switch-off sent"), "{report}");
     let after = status(addr);
@@ -150,11 +127,7 @@ fn sigterm_with_on_exit_switch_off_leaves_the_power_stage_off() {
 #[test]
 fn sighup_with_on_exit_leave_leaves_the_drive_moving_and_says_so() {
     let (_sim, addr) = Sim::tcp(&[]);
-    let mut mover = moving(addr, &["--on-exit", "leave"]);
-    signal(&mover, "HUP");
-    let code = exit_code(&mut mover, Duration::from_secs(15));
-    let report = mover.report();
-    assert_eq!(code, 130, "{report}");
+    let report = interrupt_the_long_move(addr, &["--on-exit", "leave"], "HUP");
     assert!(report.contains("interrupted by SIGHUP"), "{report}");
     assert!(
         report.contains("left as it is (--on-exit leave): it still turns at 60 rpm"),
@@ -162,36 +135,14 @@ fn sighup_with_on_exit_leave_leaves_the_drive_moving_and_says_so() {
     );
     let after = status(addr);
     assert!(velocity(&after) > 30.0, "it was left moving: {after}");
-    let (code, _, stderr) = run(&["--link", &link(addr), "halt"]);
-    assert_eq!(code, 0, "{stderr}");
-}
-
-/// `ARGS` started against the drive at `addr`, `signal` sent after `after`: the exit code
-/// (130 expected) and what the command said.
-fn interrupt(addr: SocketAddr, args: &[&str], signal_name: &str, after: Duration) -> String {
-    let link = link(addr);
-    let mut all = vec!["--link", link.as_str()];
-    all.extend_from_slice(args);
-    let mut process = start(&all);
-    thread::sleep(after);
-    assert!(
-        process.running(),
-        "ended before the signal: {}",
-        process.report()
-    );
-    signal(&process, signal_name);
-    let code = exit_code(&mut process, Duration::from_secs(15));
-    let report = process.report();
-    assert_eq!(code, 130, "{args:?}: {report}");
-    report
+    ok(&["--link", &link(addr), "halt"]);
 }
 
 #[test]
 fn ctrl_c_during_a_velocity_ramp_halts_it() {
     let (_sim, addr) = Sim::tcp(&[]);
     // A slow ramp (10 rpm/s): the velocity command takes half a minute to arrive.
-    let (code, _, stderr) = run(&["--link", &link(addr), "write", "6083", "10"]);
-    assert_eq!(code, 0, "{stderr}");
+    ok(&["--link", &link(addr), "write", "6083", "10"]);
     let report = interrupt(
         addr,
         &["velocity", "300", "--wait"],
@@ -329,8 +280,7 @@ fn a_move_that_cannot_move_is_refused_before_anything_is_sent() {
     let (_sim, addr) = Sim::tcp(&[]);
     let link = link(addr);
     for (object, name) in [("6083", "acceleration"), ("6084", "deceleration")] {
-        let (code, _, stderr) = run(&["--link", &link, "write", object, "0"]);
-        assert_eq!(code, 0, "{stderr}");
+        ok(&["--link", &link, "write", object, "0"]);
         for command in [
             vec!["move-rel", "900", "--speed", "100"],
             vec!["move-abs", "900", "--speed", "100"],
@@ -348,8 +298,7 @@ fn a_move_that_cannot_move_is_refused_before_anything_is_sent() {
         }
         let after = status(addr);
         assert_eq!(after["state"], "Switch on disabled", "nothing ran: {after}");
-        let (code, _, stderr) = run(&["--link", &link, "write", object, "1000"]);
-        assert_eq!(code, 0, "{stderr}");
+        ok(&["--link", &link, "write", object, "1000"]);
     }
 }
 
@@ -382,12 +331,12 @@ fn read_back(path: &str) -> Recording {
 
 #[test]
 fn a_recording_cut_short_by_ctrl_c_keeps_every_sample_and_says_why() {
-    let dir = TempDir::new("record-int");
-    let out = dir.path.join("run.csv");
-    let out = out.to_str().expect("utf-8");
+    let dir = temp_dir("record-int");
+    let out = dir.path().join("run.csv");
+    let out = out.to_str().expect("utf-8 path");
     let mut recorder = start(&record_args("sim", out, "30s"));
     thread::sleep(Duration::from_millis(1500));
-    signal(&recorder, "INT");
+    recorder.signal("INT");
     let code = exit_code(&mut recorder, Duration::from_secs(10));
     assert_eq!(code, 130, "{}", recorder.report());
     let report: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
@@ -408,9 +357,9 @@ fn a_recording_cut_short_by_ctrl_c_keeps_every_sample_and_says_why() {
 
 #[test]
 fn a_recording_cut_short_by_a_lost_link_keeps_every_sample_and_exits_1() {
-    let dir = TempDir::new("record-lost");
-    let out = dir.path.join("run.json");
-    let out = out.to_str().expect("utf-8");
+    let dir = temp_dir("record-lost");
+    let out = dir.path().join("run.json");
+    let out = out.to_str().expect("utf-8 path");
     let (sim, addr) = Sim::tcp(&[]);
     let link = link(addr);
     let mut args = vec!["--lost-after", "1"];
@@ -434,8 +383,8 @@ fn a_recording_cut_short_by_a_lost_link_keeps_every_sample_and_exits_1() {
 
 #[test]
 fn a_recording_whose_place_goes_away_is_saved_elsewhere_and_says_where() {
-    let dir = TempDir::new("record-gone");
-    let sub = dir.path.join("gone");
+    let dir = temp_dir("record-gone");
+    let sub = dir.path().join("gone");
     std::fs::create_dir_all(&sub).expect("dir");
     let out = sub.join("run.csv");
     let out = out.to_str().expect("utf-8");
@@ -457,16 +406,16 @@ fn a_recording_whose_place_goes_away_is_saved_elsewhere_and_says_where() {
 
 #[test]
 fn a_recording_no_place_takes_is_said_lost_and_exits_1() {
-    let dir = TempDir::new("record-nowhere");
-    let sub = dir.path.join("gone");
+    let dir = temp_dir("record-nowhere");
+    let sub = dir.path().join("gone");
     std::fs::create_dir_all(&sub).expect("dir");
     let out = sub.join("run.csv");
     let out = out.to_str().expect("utf-8");
-    let mut command = bin();
+    let mut command = cli::command();
     // The temporary directory, the place of last resort, does not exist either.
     command
         .args(record_args("sim", out, "1s"))
-        .env("TMPDIR", dir.path.join("no-tmp"));
+        .env("TMPDIR", dir.path().join("no-tmp"));
     let mut recorder = Process::spawn("drivedeck record", &mut command);
     thread::sleep(Duration::from_millis(400));
     std::fs::remove_dir_all(&sub).expect("remove the directory mid-recording");
@@ -493,15 +442,15 @@ fn start_a_long_move(addr: SocketAddr) {
 
 #[test]
 fn ctrl_c_during_a_recording_of_a_moving_drive_halts_it_and_the_file_says_so() {
-    let dir = TempDir::new("record-moving");
-    let out = dir.path.join("run.csv");
-    let out = out.to_str().expect("utf-8");
+    let dir = temp_dir("record-moving");
+    let out = dir.path().join("run.csv");
+    let out = out.to_str().expect("utf-8 path");
     let (_sim, addr) = Sim::tcp(&[]);
     start_a_long_move(addr);
     let link = link(addr);
     let mut recorder = start(&record_args(&link, out, "30s"));
     thread::sleep(Duration::from_millis(1500));
-    signal(&recorder, "INT");
+    recorder.signal("INT");
     let code = exit_code(&mut recorder, Duration::from_secs(15));
     assert_eq!(code, 130, "{}", recorder.report());
     let report: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
@@ -523,26 +472,21 @@ fn ctrl_c_during_a_recording_of_a_moving_drive_halts_it_and_the_file_says_so() {
 
 #[test]
 fn a_second_ctrl_c_while_the_drive_is_being_stopped_keeps_the_recording() {
-    let dir = TempDir::new("record-twice");
-    let out = dir.path.join("run.csv");
-    let out = out.to_str().expect("utf-8");
+    let dir = temp_dir("record-twice");
+    let out = dir.path().join("run.csv");
+    let out = out.to_str().expect("utf-8 path");
     let (sim, addr) = Sim::tcp(&[]);
     start_a_long_move(addr);
     let link = link(addr);
     let mut recorder = start(&record_args(&link, out, "30s"));
     thread::sleep(Duration::from_millis(1500));
     // A frozen drive: the stop cannot finish, and the user presses Ctrl-C again.
-    let pid = sim.process.pid().to_string();
-    let frozen = Command::new("kill")
-        .args(["-STOP", &pid])
-        .status()
-        .expect("kill");
-    assert!(frozen.success());
-    signal(&recorder, "INT");
+    sim.process.signal("STOP");
+    recorder.signal("INT");
     thread::sleep(Duration::from_millis(600));
-    signal(&recorder, "INT");
+    recorder.signal("INT");
     let code = exit_code(&mut recorder, Duration::from_secs(10));
-    let _ = Command::new("kill").args(["-CONT", &pid]).status();
+    sim.process.signal("CONT");
     assert_eq!(code, 130, "{}", recorder.report());
     assert!(
         recorder.report().contains("again: exiting now"),
@@ -580,10 +524,10 @@ fn a_bad_out_path_fails_before_connecting() {
 
 #[test]
 fn a_slow_rate_samples_from_t_0() {
-    let dir = TempDir::new("record-slow");
-    let out = dir.path.join("slow.csv");
-    let out = out.to_str().expect("utf-8");
-    let (code, stdout, stderr) = run(&[
+    let dir = temp_dir("record-slow");
+    let out = dir.path().join("slow.csv");
+    let out = out.to_str().expect("utf-8 path");
+    ok(&[
         "--link",
         "sim",
         "record",
@@ -594,7 +538,6 @@ fn a_slow_rate_samples_from_t_0() {
         "--out",
         out,
     ]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
     let recording = read_back(out);
     assert_eq!(recording.len(), 3, "t = 0, 1, 2: {:?}", recording.times);
     assert!(recording.times[0] < 0.2, "{:?}", recording.times);
@@ -603,12 +546,12 @@ fn a_slow_rate_samples_from_t_0() {
 
 #[test]
 fn the_file_says_the_rate_an_enip_io_connection_achieved() {
-    let dir = TempDir::new("record-enip");
-    let out = dir.path.join("io.csv");
-    let out = out.to_str().expect("utf-8");
+    let dir = temp_dir("record-enip");
+    let out = dir.path().join("io.csv");
+    let out = out.to_str().expect("utf-8 path");
     let (_sim, addr) = Sim::enip(&[]);
     let link = format!("enip://{addr}?udp=0&rpi=10");
-    let (code, stdout, stderr) = run(&[
+    let (stdout, _) = ok(&[
         "--link",
         &link,
         "--json",
@@ -622,7 +565,6 @@ fn the_file_says_the_rate_an_enip_io_connection_achieved() {
         "--out",
         out,
     ]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
     let recording = read_back(out);
     let rate = recording.meta.rate_hz.expect("rate");
     assert!((70.0..=115.0).contains(&rate), "{rate} Hz at RPI 10 ms");
@@ -649,34 +591,26 @@ fn trace_shows_the_frames_of_a_failed_connection_before_the_error() {
 /// What a served simulator logs (at `DRIVEDECK_LOG=info`) when a second client is turned
 /// away, with `env` set.
 fn refusal_log(env: &[(&str, &str)]) -> String {
-    let mut command = bin();
-    command
-        .args(["sim", "--modbus-tcp", "127.0.0.1:0"])
-        .env("DRIVEDECK_LOG", "info")
-        .env_remove("NO_COLOR");
-    for (key, value) in env {
-        command.env(key, value);
-    }
-    let mut sim = Process::spawn("drivedeck sim", &mut command);
-    let banner = sim.expect_line("the banner", Duration::from_secs(10));
-    let addr: SocketAddr = banner
-        .split("Modbus TCP ")
-        .nth(1)
-        .and_then(|rest| rest.split_whitespace().next())
-        .and_then(|a| a.parse().ok())
-        .unwrap_or_else(|| panic!("no address in {banner}"));
+    let (mut sim, addr) = Sim::tcp_with(&[], |command| {
+        command
+            .env("DRIVEDECK_LOG", "info")
+            .env_remove("NO_COLOR")
+            .envs(env.iter().copied());
+    });
     let _first = std::net::TcpStream::connect(addr).expect("first client");
     thread::sleep(Duration::from_millis(100));
     let _second = std::net::TcpStream::connect(addr).expect("second client");
-    let deadline = Instant::now() + Duration::from_secs(5);
-    loop {
-        let report = sim.report();
-        if report.contains("refused Modbus TCP client") {
-            return report;
-        }
-        assert!(Instant::now() < deadline, "no log line: {report}");
-        thread::sleep(Duration::from_millis(20));
-    }
+    let process = &mut sim.process;
+    eventually(
+        "the log line of the refusal",
+        Duration::from_secs(5),
+        || {
+            let report = process.report();
+            report
+                .contains("refused Modbus TCP client")
+                .then_some(report)
+        },
+    )
 }
 
 #[test]
@@ -761,7 +695,7 @@ fn trace_shows_a_refused_read_before_the_refusal_and_the_frames_of_closing() {
 
 #[test]
 fn stdout_to_a_closed_pipe_is_no_panic() {
-    let mut child = bin()
+    let mut child = cli::command()
         .args(["od", "list"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -793,15 +727,9 @@ fn trace_shows_the_frames_of_a_failed_exchange_before_the_error() {
     ]);
     thread::sleep(Duration::from_millis(800));
     // A frozen drive: the socket stays open, nothing answers.
-    let frozen = Command::new("kill")
-        .args(["-STOP", &sim.process.pid().to_string()])
-        .status()
-        .expect("kill");
-    assert!(frozen.success());
+    sim.process.signal("STOP");
     let code = exit_code(&mut mover, Duration::from_secs(15));
-    let _ = Command::new("kill")
-        .args(["-CONT", &sim.process.pid().to_string()])
-        .status();
+    sim.process.signal("CONT");
     let report = mover.report();
     assert_eq!(code, 1, "{report}");
     let lines: Vec<&str> = report.lines().collect();

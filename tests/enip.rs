@@ -5,43 +5,23 @@
 
 mod common;
 mod probe;
+mod window;
 
 use std::net::SocketAddr;
-use std::process::Command;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use common::Process;
+use common::Sim;
+use common::cli::{fails, json, ok};
 use drivedeck::link::enip::client::EnipLink;
 use drivedeck::link::{Link, LinkSpec, Refusal};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Command as PdiCommand, Opcode, RxImage, StatusBit};
 use drivedeck::sim::Drive;
-use drivedeck::sim::server::enip::AdapterOptions;
 use drivedeck::sim::server::{ServerThread, SharedDrive};
-use drivedeck::ui::{App, Settings};
 use drivedeck::worker::{CommandProgress, Event, ObjectError, ObjectPath, Request};
-use eframe::egui;
-use egui::accesskit::Toggled;
-use egui_kittest::Harness;
-use egui_kittest::kittest::{NodeT, Queryable};
+use egui_kittest::kittest::Queryable;
 use probe::Probe;
-
-fn local() -> SocketAddr {
-    "127.0.0.1:0".parse().expect("address")
-}
-
-/// The adapter on loopback with its I/O on a free UDP port (the tests run in parallel).
-fn adapter() -> ServerThread {
-    ServerThread::enip(
-        local(),
-        AdapterOptions {
-            io_port: 0,
-            ..AdapterOptions::default()
-        },
-    )
-    .expect("adapter")
-}
+use window::{lamp, step_until};
 
 /// `udp=0`: receive I/O on any free port and tell the adapter (tests run in parallel).
 fn spec(addr: SocketAddr, query: &str) -> LinkSpec {
@@ -50,23 +30,11 @@ fn spec(addr: SocketAddr, query: &str) -> LinkSpec {
         .expect("spec")
 }
 
-fn connected_info(probe: &Probe) -> drivedeck::link::LinkInfo {
-    probe
-        .seen
-        .iter()
-        .rev()
-        .find_map(|e| match e {
-            Event::Connected(info) => Some(info.clone()),
-            _ => None,
-        })
-        .expect("connected")
-}
-
 #[test]
 fn a_move_over_class_1_pdi_io_reaches_its_target() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let mut probe = Probe::connected(spec(server.addr, "io=pdi&rpi=10"));
-    let info = connected_info(&probe);
+    let info = probe.link_info();
     assert!(
         info.description
             .contains("PDI set (assemblies 105/104), class 1 I/O at 10 ms"),
@@ -74,14 +42,7 @@ fn a_move_over_class_1_pdi_io_reaches_its_target() {
         info.description
     );
     assert!(info.pdi && info.native_objects);
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
-        target: 2000,
-        speed: 200,
-    }));
-    assert_eq!(
-        probe.outcome(id, Duration::from_secs(15)),
-        CommandProgress::Done { return_value: 2000 }
-    );
+    probe.move_absolute(2000, 200);
     let at = probe.sample_where("target reached", Duration::from_secs(5), |s| {
         s.tx.status.is_set(StatusBit::TargetReached) && s.tx.return_value == 2000
     });
@@ -95,10 +56,11 @@ fn a_move_over_class_1_pdi_io_reaches_its_target() {
 
 #[test]
 fn the_common_set_brings_position_inputs_analog_input_and_following_error_with_every_cycle() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let mut probe = Probe::connected(spec(server.addr, "io=common&rpi=5"));
     assert!(
-        connected_info(&probe)
+        probe
+            .link_info()
             .description
             .contains("Common set (assemblies 101/100)")
     );
@@ -132,75 +94,43 @@ fn the_common_set_brings_position_inputs_analog_input_and_following_error_with_e
 
 #[test]
 fn explicit_messages_carry_the_pdi_when_asked() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let mut probe = Probe::connected(spec(server.addr, "io=explicit"));
     assert!(
-        connected_info(&probe)
+        probe
+            .link_info()
             .description
             .contains("PDI over explicit messages (2291h/2292h)")
     );
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
-        target: -1500,
-        speed: 300,
-    }));
-    assert_eq!(
-        probe.outcome(id, Duration::from_secs(15)),
-        CommandProgress::Done {
-            return_value: -1500
-        }
-    );
+    probe.move_absolute(-1500, 300);
     assert!((server.drive().lock().position() + 1500.0).abs() < 0.5);
 }
 
 #[test]
 fn the_nine_byte_pdi_assembly_of_the_spec_table_works_too() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let mut probe = Probe::connected(spec(server.addr, "io=pdi&cmd_at=8"));
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
-        target: 900,
-        speed: 200,
-    }));
-    assert_eq!(
-        probe.outcome(id, Duration::from_secs(15)),
-        CommandProgress::Done { return_value: 900 }
-    );
+    probe.move_absolute(900, 200);
 }
 
 #[test]
 fn objects_go_over_getod_and_setod_and_errors_name_the_object_and_the_cip_status() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let mut probe = Probe::connected(spec(server.addr, "io=pdi"));
     assert_eq!(
-        probe.read(
-            Address::new(0x1008, 0),
-            DataType::VisibleString,
-            ObjectPath::Native
-        ),
+        probe.device_name(ObjectPath::Native),
         Ok(Value::Text("drivedeck simulated drive".into()))
     );
-    assert_eq!(
-        probe.read(
-            Address::new(0x1018, 1),
-            DataType::Unsigned32,
-            ObjectPath::Auto
-        ),
-        Ok(Value::Uint(0x26C))
-    );
+    assert_eq!(probe.vendor_id(ObjectPath::Auto), Ok(Value::Uint(0x26C)));
     // The vendor's SetOD example: 2031h:00 = 304h.
-    let id = probe.send(Request::WriteObject {
-        address: Address::new(0x2031, 0),
-        dtype: DataType::Unsigned32,
-        value: Value::Uint(0x304),
-        path: ObjectPath::Native,
-    });
-    let written = probe.wait(
-        "the write",
-        Duration::from_secs(5),
-        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
-    );
-    assert!(
-        matches!(&written, Event::ObjectWritten { result: Ok(()), .. }),
-        "{written:?}"
+    assert_eq!(
+        probe.write(
+            Address::new(0x2031, 0),
+            DataType::Unsigned32,
+            Value::Uint(0x304),
+            ObjectPath::Native
+        ),
+        Ok(())
     );
     assert_eq!(
         probe.read(
@@ -247,43 +177,33 @@ fn objects_go_over_getod_and_setod_and_errors_name_the_object_and_the_cip_status
         sub.to_string(),
         "GetOD 1018h:09h: CIP status 14h (attribute not supported)"
     );
-    let id = probe.send(Request::WriteObject {
-        address: Address::new(0x1018, 1),
-        dtype: DataType::Unsigned32,
-        value: Value::Uint(1),
-        path: ObjectPath::Native,
-    });
-    let refused = probe.wait(
-        "the refusal",
-        Duration::from_secs(5),
-        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+    let refused = probe.write(
+        Address::new(0x1018, 1),
+        DataType::Unsigned32,
+        Value::Uint(1),
+        ObjectPath::Native,
     );
     assert!(
-        matches!(&refused, Event::ObjectWritten { result: Err(r @ ObjectError::Refused(Refusal::Cip { status: 0x0E, .. })), .. }
+        matches!(&refused, Err(r @ ObjectError::Refused(Refusal::Cip { status: 0x0E, .. }))
             if r.to_string() == "SetOD 1018h:01h: CIP status 0Eh (attribute not settable)"),
         "{refused:?}"
     );
     // A string cannot be written over EtherNet/IP: SetOD carries 1 to 4 bytes.
-    let id = probe.send(Request::WriteObject {
-        address: Address::new(0x1008, 0),
-        dtype: DataType::VisibleString,
-        value: Value::Text("new name".into()),
-        path: ObjectPath::Native,
-    });
-    let wide = probe.wait(
-        "the refusal",
-        Duration::from_secs(5),
-        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+    let wide = probe.write(
+        Address::new(0x1008, 0),
+        DataType::VisibleString,
+        Value::Text("new name".into()),
+        ObjectPath::Native,
     );
     assert!(
-        matches!(&wide, Event::ObjectWritten { result: Err(r @ ObjectError::Refused(_)), .. } if r.to_string().contains("SetOD carries 1 to 4")),
+        matches!(&wide, Err(r @ ObjectError::Refused(_)) if r.to_string().contains("SetOD carries 1 to 4")),
         "{wide:?}"
     );
 }
 
 #[test]
 fn the_frame_log_shows_explicit_and_class_1_traffic() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let mut probe = Probe::connected(spec(server.addr, "io=pdi"));
     probe.send(Request::SetTrace(true));
     probe
@@ -325,10 +245,10 @@ fn the_frame_log_shows_explicit_and_class_1_traffic() {
 
 #[test]
 fn a_second_scanner_is_refused_the_io_and_falls_back_to_explicit_messages() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let _first = Probe::connected(spec(server.addr, "io=pdi"));
     let second = Probe::connected(spec(server.addr, "io=common"));
-    let info = connected_info(&second);
+    let info = second.link_info();
     assert!(
         info.description.contains("PDI over explicit messages"),
         "{}",
@@ -347,7 +267,7 @@ fn a_second_scanner_is_refused_the_io_and_falls_back_to_explicit_messages() {
 
 #[test]
 fn disconnecting_closes_the_io_connection_so_the_next_scanner_gets_it() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let mut first = Probe::connected(spec(server.addr, "io=pdi"));
     first.send(Request::Disconnect);
     first.wait("the disconnection", Duration::from_secs(5), |e| {
@@ -356,35 +276,25 @@ fn disconnecting_closes_the_io_connection_so_the_next_scanner_gets_it() {
     // Without Forward_Close the adapter would hold the connection until its timeout and
     // refuse this one with 0106h.
     let second = Probe::connected(spec(server.addr, "io=pdi"));
-    let info = connected_info(&second);
+    let info = second.link_info();
     assert!(info.description.contains("PDI set"), "{}", info.description);
 }
 
 #[test]
 fn a_drive_that_vanishes_mid_move_shows_as_disconnected_and_is_reconnected() {
     let drive = SharedDrive::new(Drive::new());
-    let options = AdapterOptions {
-        io_port: 0,
-        ..AdapterOptions::default()
-    };
-    let server = ServerThread::enip_with(local(), options, drive.clone()).expect("adapter");
+    let server = ServerThread::enip_with(common::loopback(), common::enip_options(), drive.clone())
+        .expect("adapter");
     let addr = server.addr;
     let mut probe = Probe::connected(spec(addr, "io=pdi&rpi=10"));
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
+    probe.start(Action::MoveAbsolute {
         target: 30_000,
         speed: 100,
-    }));
-    probe.wait(
-        "the acceptance",
-        Duration::from_secs(5),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    });
     // The drive's network side goes away (the motor carries on).
     let gone = Instant::now();
     drop(server);
-    let lost = probe.wait("the disconnection", Duration::from_secs(5), |e| {
-        matches!(e, Event::Disconnected { reason: Some(_) })
-    });
+    let lost = probe.lost(Duration::from_secs(5));
     // Detected within the connection timeout (640 ms at RPI 10 ms) plus a cycle; generous
     // bounds only, timing is measured elsewhere.
     assert!(
@@ -392,53 +302,23 @@ fn a_drive_that_vanishes_mid_move_shows_as_disconnected_and_is_reconnected() {
         "{:?}",
         gone.elapsed()
     );
-    assert!(
-        matches!(&lost, Event::Disconnected { reason: Some(r) } if r.contains("127.0.0.1")),
-        "{lost:?}"
-    );
-    probe.wait("a retry", Duration::from_secs(5), |e| {
-        matches!(
-            e,
-            Event::ConnectFailed {
-                retry_in: Some(_),
-                ..
-            }
-        )
-    });
+    assert!(lost.contains("127.0.0.1"), "{lost}");
+    probe.retrying(Duration::from_secs(5));
     // Back on the same address: the worker reconnects by itself.
-    let _back = ServerThread::enip_with(
-        addr,
-        AdapterOptions {
-            io_port: 0,
-            ..AdapterOptions::default()
-        },
-        drive.clone(),
-    )
-    .expect("the same port again");
-    probe.wait("the reconnection", Duration::from_secs(10), |e| {
-        matches!(e, Event::Connected(_))
-    });
-    assert_eq!(
-        probe.read(
-            Address::new(0x1018, 1),
-            DataType::Unsigned32,
-            ObjectPath::Native
-        ),
-        Ok(Value::Uint(0x26C))
-    );
+    let _back = ServerThread::enip_with(addr, common::enip_options(), drive.clone())
+        .expect("the same port again");
+    probe.reconnected(Duration::from_secs(10));
+    assert_eq!(probe.vendor_id(ObjectPath::Native), Ok(Value::Uint(0x26C)));
 }
 
 #[test]
 fn a_scanner_that_stops_sending_leaves_the_drive_halted_with_fault_8000h() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let addr = server.addr;
     // A scanner that starts a long move and then freezes: its runtime (and I/O task) dies
     // without a Forward_Close.
     std::thread::spawn(move || {
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .expect("runtime");
+        let runtime = common::runtime();
         runtime.block_on(async {
             let mut link = EnipLink::connect(&spec(addr, "io=pdi&rpi=10"))
                 .await
@@ -505,21 +385,18 @@ fn link_moving(exchange: &drivedeck::link::Exchange) -> bool {
 
 #[test]
 fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
-    let server = adapter();
+    let server = common::enip_adapter();
     let mut probe = Probe::new();
-    let id = probe.send(Request::Discover {
-        interface: None,
-        host: Some("127.0.0.1".into()),
-        port: server.addr.port(),
-    });
-    let found = match probe.wait(
-        "the discovery",
-        Duration::from_secs(10),
-        |e| matches!(e, Event::Scanned { id: i, .. } if *i == id),
-    ) {
-        Event::Scanned { result, .. } => result.expect("no error"),
-        _ => unreachable!(),
-    };
+    let found = probe
+        .scan(
+            Request::Discover {
+                interface: None,
+                host: Some("127.0.0.1".into()),
+                port: server.addr.port(),
+            },
+            Duration::from_secs(10),
+        )
+        .expect("no error");
     let ours: Vec<_> = found
         .iter()
         .filter(|d| d.address == server.addr.to_string())
@@ -534,25 +411,19 @@ fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
     // An adapter on every interface answers a broadcast on the loopback interface.
     let everywhere = ServerThread::enip(
         "0.0.0.0:0".parse().expect("address"),
-        AdapterOptions {
-            io_port: 0,
-            ..AdapterOptions::default()
-        },
+        common::enip_options(),
     )
     .expect("adapter on 0.0.0.0");
-    let id = probe.send(Request::Discover {
-        interface: Some("lo".into()),
-        host: None,
-        port: everywhere.addr.port(),
-    });
-    match probe.wait(
-        "the broadcast discovery",
+    let broadcast = probe.scan(
+        Request::Discover {
+            interface: Some("lo".into()),
+            host: None,
+            port: everywhere.addr.port(),
+        },
         Duration::from_secs(10),
-        |e| matches!(e, Event::Scanned { id: i, .. } if *i == id),
-    ) {
-        Event::Scanned {
-            result: Ok(found), ..
-        } => {
+    );
+    match broadcast {
+        Ok(found) => {
             if found.is_empty() {
                 // Some sandboxes drop broadcasts on loopback: say so rather than fail.
                 common::skip("no broadcast reached the adapter on lo here");
@@ -565,96 +436,37 @@ fn discovery_finds_the_adapter_by_unicast_and_by_broadcast() {
                 );
             }
         }
-        Event::Scanned { result: Err(e), .. } => {
-            common::skip(&format!("no loopback interface to broadcast on ({e})"))
-        }
-        _ => unreachable!(),
+        Err(e) => common::skip(&format!("no loopback interface to broadcast on ({e})")),
     }
 }
 
 #[test]
 fn the_one_shot_commands_move_the_motor_over_real_class_1_io() {
     // The acceptance: `drivedeck sim --enip …` and `drivedeck --link enip://… move-abs`.
-    let mut command = Command::new(env!("CARGO_BIN_EXE_drivedeck"));
-    command.args(["sim", "--enip", "127.0.0.1:0", "--enip-io-port", "0"]);
-    let mut sim = Process::spawn("drivedeck sim --enip", &mut command);
-    let banner = sim.expect_line("the EtherNet/IP banner", Duration::from_secs(10));
-    let addr: SocketAddr = banner
-        .split("EtherNet/IP ")
-        .nth(1)
-        .and_then(|rest| rest.split_whitespace().next())
-        .and_then(|a| a.parse().ok())
-        .unwrap_or_else(|| panic!("no address in {banner:?}"));
+    let (_sim, addr) = Sim::enip(&[]);
     let link = format!("enip://{addr}?io=pdi");
-    let run = |args: &[&str]| {
-        let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-            .args(args)
-            .env("HOME", std::env::temp_dir())
-            .output()
-            .expect("the binary runs");
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).into_owned()
-    };
-    let moved = run(&[
+    let (moved, _) = ok(&[
         "--link", &link, "move-abs", "2000", "--speed", "200", "--wait",
     ]);
     assert!(moved.contains("done (ReturnValue 2000)"), "{moved}");
-    let read = run(&["--link", &link, "read", "1018:01"]);
+    let (read, _) = ok(&["--link", &link, "read", "1018:01"]);
     assert!(read.contains("26Ch") || read.contains("620"), "{read}");
-    let status = run(&["--link", &format!("enip://{addr}?io=common"), "status"]);
+    let (status, _) = ok(&["--link", &format!("enip://{addr}?io=common"), "status"]);
     assert!(status.contains("position 2000"), "{status}");
-}
-
-/// Whether a status lamp is lit (lamps are read-only checkboxes to accessibility).
-fn lamp(harness: &Harness<'_, App>, label: &str) -> bool {
-    harness
-        .get_by_role_and_label(egui::accesskit::Role::CheckBox, label)
-        .accesskit_node()
-        .toggled()
-        == Some(Toggled::True)
-}
-
-fn step_until(
-    harness: &mut Harness<'_, App>,
-    what: &str,
-    timeout: Duration,
-    done: impl Fn(&Harness<'_, App>) -> bool,
-) {
-    let deadline = Instant::now() + timeout;
-    while !done(harness) {
-        assert!(
-            Instant::now() < deadline,
-            "{what} did not happen within {timeout:?}; log: {:#?}",
-            harness.state().state.log
-        );
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
 }
 
 #[test]
 fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
-    let server = adapter();
-    let app = App::new(Settings::default(), Arc::new(|| {}), false);
-    let mut harness = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
-    harness.run();
-    harness.get_by_label("Bus").click();
-    harness.run();
-    harness.get_by_label("EtherNet/IP").click();
-    harness.run();
-    harness
-        .get_by_label("Connection: Host")
-        .set_text_value_accesskit("127.0.0.1");
-    harness
-        .get_by_label("Connection: Port")
-        .set_text_value_accesskit(&server.addr.port().to_string());
-    harness.run();
+    let server = common::enip_adapter();
+    let mut harness = window::disconnected_harness();
+    window::choose_bus(&mut harness, "EtherNet/IP");
+    window::fill(
+        &mut harness,
+        &[
+            ("Connection: Host", "127.0.0.1"),
+            ("Connection: Port", &server.addr.port().to_string()),
+        ],
+    );
     harness.get_by_label("I/O set").click();
     harness.run();
     harness.get_by_label("common").click();
@@ -690,10 +502,7 @@ fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
         &mut harness,
         "the target over class 1 I/O",
         Duration::from_secs(15),
-        |h| {
-            lamp(h, "Target reached")
-                && h.state().state.latest.and_then(|s| s.position()) == Some(2000.0)
-        },
+        |h| lamp(h, "Target reached") && window::position(h) == 2000.0,
     );
     // The Common set's extra values are on the status panel, and analog input and
     // following error get plots of their own (their legends).
@@ -714,22 +523,16 @@ fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
 
 #[test]
 fn discover_and_bench_from_the_command_line() {
-    let server = adapter();
-    let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args([
-            "--json",
-            "discover",
-            "--interface",
-            "lo",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            &server.addr.port().to_string(),
-        ])
-        .output()
-        .expect("the binary runs");
-    assert!(out.status.success(), "{out:?}");
-    let found: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let server = common::enip_adapter();
+    let found = json(&[
+        "discover",
+        "--interface",
+        "lo",
+        "--host",
+        "127.0.0.1",
+        "--port",
+        &server.addr.port().to_string(),
+    ]);
     assert_eq!(found["bus"], "EtherNet/IP on lo");
     let ours = found["nodes"]
         .as_array()
@@ -741,20 +544,14 @@ fn discover_and_bench_from_the_command_line() {
     assert_eq!(ours["name"], "drivedeck simulated drive");
     assert_eq!(ours["node"], serde_json::Value::Null);
 
-    let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args(["discover", "--interface", "no-such-interface"])
-        .output()
-        .expect("the binary runs");
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no IPv4 interface 'no-such-interface'"));
+    let stderr = fails(&["discover", "--interface", "no-such-interface"], 2);
+    assert!(
+        stderr.contains("no IPv4 interface 'no-such-interface'"),
+        "{stderr}"
+    );
 
     for bus in ["enip", "enip-explicit"] {
-        let out = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-            .args(["--json", "bench", "--serve-sim", bus, "--seconds", "0.3"])
-            .output()
-            .expect("the binary runs");
-        assert!(out.status.success(), "{out:?}");
-        let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+        let report = json(&["bench", "--serve-sim", bus, "--seconds", "0.3"]);
         let results = report["links"][0]["results"].as_array().expect("results");
         assert_eq!(
             results[0]["what"], "PDI exchange (write + read)",

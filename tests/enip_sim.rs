@@ -4,9 +4,10 @@
 //! class 1 I/O of both assembly sets, and what a misbehaving client may and may not do to
 //! the others.
 
-use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
+mod common;
+
+use std::io::{ErrorKind, Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpStream, UdpSocket};
-use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
 use drivedeck::od::{Access, Address, Entry, Group, Value};
@@ -1245,32 +1246,10 @@ fn a_silent_originator_loses_the_connection_and_the_drive_faults() {
 
 // --------------------------------------------------------------------------- the CLI
 
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 #[test]
 fn drivedeck_sim_serves_enip_and_says_where() {
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args(["sim", "--enip", "127.0.0.1:0", "--enip-io-port", "0"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("drivedeck sim");
-    let mut child = Killed(child);
-    let stdout = child.0.stdout.take().expect("stdout");
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        let _ = BufReader::new(stdout).read_line(&mut line);
-        let _ = tx.send(line);
-    });
-    let banner = rx.recv_timeout(WAIT).expect("a banner");
+    let (sim, _) = common::Sim::enip(&[]);
+    let banner = &sim.banner;
     // "serving the simulated drive on EtherNet/IP 127.0.0.1:P (class 1 I/O on UDP
     // 127.0.0.1:Q, vendor 558h)"
     let word_after = |marker: &str| -> SocketAddr {
@@ -1299,5 +1278,5 @@ fn drivedeck_sim_serves_enip_and_says_where() {
     let mut buffer = [0u8; 600];
     let (n, _) = udp.recv_from(&mut buffer).expect("ListIdentity reply");
     assert!(Packet::decode(&buffer[..n]).is_ok());
-    drop(child);
+    drop(sim);
 }

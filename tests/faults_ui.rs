@@ -2,6 +2,7 @@
 //! simulated drive appears with its code and meaning, from PDI-Status, 603Fh, 1001h and
 //! the 1003h history; "Show" puts the plots at that moment; the export writes CSV.
 
+mod common;
 mod window;
 
 use std::time::Duration;
@@ -13,7 +14,7 @@ use drivedeck::ui::state::Central;
 use drivedeck::worker::Request;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use window::{app_harness, step_until};
+use window::{app_harness, connected, step_until};
 
 fn has(harness: &Harness<'_, App>, origin: Origin, text: &str) -> bool {
     harness
@@ -27,9 +28,7 @@ fn has(harness: &Harness<'_, App>, origin: Origin, text: &str) -> bool {
 #[test]
 fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     harness.step();
     assert!(
         harness.state().state.timeline.is_empty(),
@@ -88,7 +87,8 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
     assert!(state.plot.paused_at.is_some(), "held still to look at it");
 
     // Exported as CSV.
-    let path = std::env::temp_dir().join(format!("drivedeck-faults-{}.csv", std::process::id()));
+    let dir = common::temp_dir("faults");
+    let path = dir.path().join("timeline.csv");
     harness.state_mut().state.settings.timeline_path = path.to_string_lossy().into_owned();
     harness.get_by_label("Export timeline").click();
     harness.step();
@@ -98,27 +98,15 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
         "{csv}"
     );
     assert!(csv.contains(",fault,603Fh,8611h"), "{csv}");
-    let _ = std::fs::remove_file(path);
 }
 
 #[test]
 fn the_changes_tab_lists_what_was_written_and_restores_it() {
-    use drivedeck::od::{Address, DataType, Value};
-    use drivedeck::worker::ObjectPath;
+    use drivedeck::od::{Address, Value};
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     let velocity = Address::new(0x6081, 0);
-    harness.state_mut().state.request(Request::WriteObject {
-        address: velocity,
-        dtype: DataType::Unsigned32,
-        value: Value::Uint(1234),
-        path: ObjectPath::Auto,
-    });
-    step_until(&mut harness, "the change", Duration::from_secs(3), |h| {
-        h.state().state.changes.len() == 1
-    });
+    window::change(&mut harness, velocity, 1234);
     let before = harness.state().state.changes[0]
         .before
         .clone()
@@ -147,9 +135,7 @@ fn the_changes_tab_lists_what_was_written_and_restores_it() {
 fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
     use drivedeck::ui::state::Outcome;
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     // A long relative move (ten turns at 200 rpm), replaced by the next one while it runs.
     harness
         .get_by_label("Move relative: Distance")
@@ -161,13 +147,7 @@ fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
         &mut harness,
         "the move to run",
         Duration::from_secs(3),
-        |h| {
-            h.state()
-                .state
-                .latest
-                .and_then(|s| s.velocity())
-                .is_some_and(|v| v > 50.0)
-        },
+        |h| window::velocity(h) > 50.0,
     );
     harness.get_by_label("Move relative").click();
     harness.step();

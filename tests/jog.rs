@@ -17,11 +17,7 @@ use probe::Probe;
 fn jogging(speed: i32) -> (Probe, u64) {
     let mut probe = Probe::connected(LinkSpec::Sim);
     let id = probe.send(Request::Jog { speed });
-    probe.wait(
-        "the jog accepted",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    probe.accepted(id);
     (probe, id)
 }
 
@@ -119,9 +115,7 @@ fn a_link_lost_mid_jog_gets_a_halt_attempt_and_an_honest_report() {
     );
     assert!(text.contains("may still be moving"), "{text}");
     // It really was still moving: after reconnecting, the jog's velocity is there.
-    probe.wait("the reconnection", Duration::from_secs(10), |e| {
-        matches!(e, Event::Connected(_))
-    });
+    probe.reconnected(Duration::from_secs(10));
     let after = probe.settle(Duration::from_millis(200));
     assert!(after.velocity().is_some_and(|v| v > 50.0), "{after:?}");
 }

@@ -9,22 +9,11 @@ use std::time::Duration;
 
 use drivedeck::od::{Address, DataType};
 use drivedeck::pdi::StatusBit;
-use drivedeck::ui::App;
 use drivedeck::ui::state::Outcome;
 use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
-use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use window::{app_harness, connected, step_for, step_until};
-
-fn velocity(harness: &Harness<'_, App>) -> f64 {
-    harness
-        .state()
-        .state
-        .latest
-        .and_then(|s| s.velocity())
-        .unwrap_or(f64::NAN)
-}
+use window::{app_harness, connected, start_turning, step_for, step_until, velocity};
 
 #[test]
 fn the_motor_moves_while_jog_is_held_and_halts_on_release() {
@@ -103,16 +92,10 @@ fn arrow_keys_jog_and_escape_stops_a_jog_for_good() {
 fn escape_sends_quickstop_ahead_of_everything_queued() {
     let mut harness = app_harness();
     connected(&mut harness);
-    harness.get_by_label("Velocity").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the motor to turn",
-        Duration::from_secs(3),
-        |h| velocity(h) > 50.0,
-    );
-    // Twenty-eight reads through the PDI queue up (the request channel holds 32): each waits for
-    // the one before, about three cycles each, so they take a while even on a busy machine.
+    start_turning(&mut harness, 50.0);
+    // Twenty-eight reads through the PDI queue up (the request channel holds 32): each
+    // waits for the one before, about three cycles each, so they take a while even on a
+    // busy machine.
     for sub in 1..=4 {
         for _ in 0..7 {
             harness.state_mut().state.request(Request::ReadObject {

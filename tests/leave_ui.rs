@@ -4,28 +4,25 @@
 //! drive before the link closes; changed objects are restored first when asked; closing
 //! the window asks the same; the link-loss setting is honoured.
 
+mod common;
 mod window;
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
+use common::wait_until;
 use drivedeck::cia::PowerState;
-use drivedeck::od::{Address, DataType, Value};
+use drivedeck::od::{Address, Value};
 use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::ServerOptions;
 use drivedeck::ui::state::{Bus, Connection};
 use drivedeck::ui::{App, Settings};
-use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use window::{connected, harness_with, step_until, step_until_shown};
+use window::{change, connected, harness_with, start_turning, step_until, step_until_shown};
 
 fn server() -> ServerThread {
-    ServerThread::modbus_tcp(
-        "127.0.0.1:0".parse().expect("addr"),
-        ServerOptions::default(),
-    )
-    .expect("server")
+    common::modbus_server(ServerOptions::default())
 }
 
 /// The window connected to `server` over Modbus TCP.
@@ -42,33 +39,25 @@ fn window_on(server: &ServerThread) -> Harness<'static, App> {
 /// The window connected to `server`, the motor turning at 300 rpm.
 fn turning(server: &ServerThread) -> Harness<'static, App> {
     let mut harness = window_on(server);
-    harness.get_by_label("Velocity").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the motor to turn",
-        Duration::from_secs(5),
-        |h| {
-            h.state()
-                .state
-                .latest
-                .and_then(|s| s.velocity())
-                .is_some_and(|v| v > 250.0)
-        },
-    );
+    start_turning(&mut harness, 250.0);
     harness
-}
-
-fn wait_for(what: &str, timeout: Duration, done: impl Fn() -> bool) {
-    let deadline = Instant::now() + timeout;
-    while !done() {
-        assert!(Instant::now() < deadline, "{what} within {timeout:?}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 fn disconnected(harness: &Harness<'_, App>) -> bool {
     matches!(harness.state().state.connection, Connection::Disconnected)
+}
+
+/// Click `label` (Disconnect, or an answer to the question it asks) and wait until the
+/// window is disconnected.
+fn click_and_disconnect(harness: &mut Harness<'_, App>, label: &str) {
+    harness.get_by_label(label).click();
+    harness.step();
+    step_until(
+        harness,
+        "the disconnect",
+        Duration::from_secs(5),
+        disconnected,
+    );
 }
 
 #[test]
@@ -79,19 +68,12 @@ fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
     step_until_shown(&mut harness, "Halt, then disconnect");
     assert!(harness.state().state.leaving.is_some(), "it asks first");
     assert!(!disconnected(&harness), "nothing happens before the answer");
-    harness.get_by_label("Halt, then disconnect").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(3),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Halt, then disconnect");
     // The halt bit reached the drive before the link closed: it brakes to a stop and
     // stays energised.
     let drive = server.drive();
     assert!(drive.lock().rx_image().cmd & 0x40 != 0, "halt bit written");
-    wait_for("the motor at rest", Duration::from_secs(5), || {
+    wait_until("the motor at rest", Duration::from_secs(5), || {
         drive.lock().velocity_rpm().abs() < 0.5
     });
     assert_eq!(drive.lock().power_state(), PowerState::OperationEnabled);
@@ -103,31 +85,16 @@ fn switch_off_with_restore_undoes_the_changes_then_switches_off() {
     let mut harness = turning(&server);
     let velocity = Address::new(0x6081, 0);
     let before = server.drive().lock().read(velocity).expect("readable");
-    harness.state_mut().state.request(Request::WriteObject {
-        address: velocity,
-        dtype: DataType::Unsigned32,
-        value: Value::Uint(777),
-        path: ObjectPath::Auto,
-    });
-    step_until(&mut harness, "the change", Duration::from_secs(3), |h| {
-        h.state().state.changes.len() == 1
-    });
+    change(&mut harness, velocity, 777);
     assert_eq!(server.drive().lock().read(velocity), Ok(Value::Uint(777)));
     harness.get_by_label("Disconnect").click();
     step_until_shown(&mut harness, "Switch off, then disconnect");
     // Restoring is offered, and on by default.
     assert!(harness.state().state.leaving.is_some_and(|l| l.restore));
-    harness.get_by_label("Switch off, then disconnect").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(5),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Switch off, then disconnect");
     let drive = server.drive();
     assert_eq!(drive.lock().read(velocity), Ok(before), "restored");
-    wait_for("the power stage off", Duration::from_secs(5), || {
+    wait_until("the power stage off", Duration::from_secs(5), || {
         !drive.lock().power_state().is_energised()
     });
 }
@@ -138,16 +105,7 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
     let mut harness = turning(&server);
     harness.get_by_label("Disconnect").click();
     step_until_shown(&mut harness, "Leave it as it is, disconnect");
-    harness
-        .get_by_label("Leave it as it is, disconnect")
-        .click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(3),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Leave it as it is, disconnect");
     std::thread::sleep(Duration::from_millis(300));
     assert!(
         server.drive().lock().velocity_rpm() > 250.0,
@@ -157,14 +115,7 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
     // A drive switched off and unchanged: no question.
     let idle = self::server();
     let mut harness = window_on(&idle);
-    harness.get_by_label("Disconnect").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(3),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Disconnect");
 }
 
 #[test]
@@ -181,13 +132,6 @@ fn closing_the_window_while_turning_asks_too() {
     step_until_shown(&mut harness, "Halt, then disconnect");
     let leaving = harness.state().state.leaving.expect("asked");
     assert!(leaving.close_window);
-    harness.get_by_label("Halt, then disconnect").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the disconnect",
-        Duration::from_secs(3),
-        disconnected,
-    );
+    click_and_disconnect(&mut harness, "Halt, then disconnect");
     assert!(server.drive().lock().rx_image().cmd & 0x40 != 0, "halted");
 }

@@ -352,21 +352,15 @@ fn bench_runs_pymodbus_side_by_side_on_the_same_server() {
     let Some(python) = common::python(&[]) else {
         return;
     };
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args([
-            "--json",
-            "bench",
-            "--serve-sim",
-            "modbus",
-            "--seconds",
-            "0.3",
-        ])
-        .arg("--python")
-        .arg(&python.path)
-        .output()
-        .expect("the binary runs");
-    assert!(out.status.success(), "{out:?}");
-    let report: Json = serde_json::from_slice(&out.stdout).expect("JSON");
+    let report = common::cli::json(&[
+        "bench",
+        "--serve-sim",
+        "modbus",
+        "--seconds",
+        "0.3",
+        "--python",
+        python.path.to_str().expect("utf-8 path"),
+    ]);
     let ours = &report["links"][0]["results"][0];
     assert_eq!(ours["what"], "PDI exchange (write + read)", "{report:#}");
     let peer = &report["peer"];
@@ -390,20 +384,15 @@ fn bench_runs_pymodbus_side_by_side_on_the_same_server() {
     }
 
     // Without pymodbus the comparison is skipped with the reason, and the rest stands.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args([
-            "--json",
-            "bench",
-            "--serve-sim",
-            "modbus",
-            "--seconds",
-            "0.2",
-        ])
-        .args(["--python", "/nonexistent/python"])
-        .output()
-        .expect("the binary runs");
-    assert!(out.status.success(), "{out:?}");
-    let report: Json = serde_json::from_slice(&out.stdout).expect("JSON");
+    let report = common::cli::json(&[
+        "bench",
+        "--serve-sim",
+        "modbus",
+        "--seconds",
+        "0.2",
+        "--python",
+        "/nonexistent/python",
+    ]);
     assert!(report["peer"].is_null());
     assert!(
         report["peer_skipped"]

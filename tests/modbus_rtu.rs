@@ -16,9 +16,9 @@ use serde_json::json;
 
 use common::{PtyPair, Sim};
 use drivedeck::link::{ErrorKind, LinkSpec};
-use drivedeck::od::{Address, DataType, Value};
-use drivedeck::pdi::{Action, StatusBit};
-use drivedeck::worker::{CommandProgress, Event, ObjectPath, Request};
+use drivedeck::od::Value;
+use drivedeck::pdi::StatusBit;
+use drivedeck::worker::{Event, ObjectPath};
 use probe::Probe;
 
 fn rtu_spec(path: &Path, slave: u8) -> LinkSpec {
@@ -43,10 +43,7 @@ fn a_move_and_objects_over_modbus_rtu_with_the_factory_settings() {
         sim.banner
     );
     let mut probe = Probe::new();
-    probe.send(Request::Connect(rtu_spec(&pair.b, 5)));
-    let connected = probe.wait("connected", Duration::from_secs(5), |e| {
-        matches!(e, Event::Connected(_) | Event::ConnectFailed { .. })
-    });
+    let connected = probe.connect(rtu_spec(&pair.b, 5));
     let Event::Connected(info) = connected else {
         panic!("{connected:?}");
     };
@@ -64,14 +61,7 @@ fn a_move_and_objects_over_modbus_rtu_with_the_factory_settings() {
         Duration::from_secs(5),
         |e| matches!(e, Event::Samples(s) if !s.is_empty()),
     );
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
-        target: 2000,
-        speed: 200,
-    }));
-    assert_eq!(
-        probe.outcome(id, Duration::from_secs(10)),
-        CommandProgress::Done { return_value: 2000 }
-    );
+    probe.move_absolute(2000, 200);
     let sample = probe.sample_where("a sample at the target", Duration::from_secs(2), |s| {
         s.tx.status.is_set(StatusBit::TargetReached)
     });
@@ -80,32 +70,14 @@ fn a_move_and_objects_over_modbus_rtu_with_the_factory_settings() {
     assert_eq!(sample.statusword().map(|w| w & 0x6F), Some(0x27));
     assert_eq!(sample.mode(), Some(1));
     // FC 43 (CANopen objects, data little-endian inside a big-endian frame).
-    assert_eq!(
-        probe.read(
-            Address::new(0x1018, 1),
-            DataType::Unsigned32,
-            ObjectPath::Native
-        ),
-        Ok(Value::Uint(0x26C))
-    );
+    assert_eq!(probe.vendor_id(ObjectPath::Native), Ok(Value::Uint(0x26C)));
     // A string only FC 43 can carry.
     assert_eq!(
-        probe.read(
-            Address::new(0x1008, 0),
-            DataType::VisibleString,
-            ObjectPath::Auto
-        ),
+        probe.device_name(ObjectPath::Auto),
         Ok(Value::Text("drivedeck simulated drive".into()))
     );
     // The same object through the PDI agrees.
-    assert_eq!(
-        probe.read(
-            Address::new(0x1018, 1),
-            DataType::Unsigned32,
-            ObjectPath::Pdi
-        ),
-        Ok(Value::Uint(0x26C))
-    );
+    assert_eq!(probe.vendor_id(ObjectPath::Pdi), Ok(Value::Uint(0x26C)));
 }
 
 #[test]
@@ -116,10 +88,7 @@ fn a_wrong_slave_address_times_out_and_says_to_check_it() {
     let _sim = Sim::rtu(&pair.a, &[]);
     let mut probe = Probe::new();
     let asked = Instant::now();
-    probe.send(Request::Connect(rtu_spec(&pair.b, 6)));
-    let failed = probe.wait("the failure", Duration::from_secs(5), |e| {
-        matches!(e, Event::Connected(_) | Event::ConnectFailed { .. })
-    });
+    let failed = probe.connect(rtu_spec(&pair.b, 6));
     let took = asked.elapsed();
     let Event::ConnectFailed {
         error, retry_in, ..
@@ -184,40 +153,14 @@ fn a_drive_that_goes_silent_on_rtu_and_comes_back_is_reconnected() {
         return;
     };
     let first = Sim::rtu(&pair.a, &[]);
-    let mut probe = Probe::new();
-    probe.send(Request::Connect(rtu_spec(&pair.b, 5)));
-    probe.wait("connected", Duration::from_secs(5), |e| {
-        matches!(e, Event::Connected(_))
-    });
+    let mut probe = Probe::connected(rtu_spec(&pair.b, 5));
     // The drive is switched off: no answer, the worker says so and keeps trying.
     drop(first);
-    let lost = probe.wait("the disconnection", Duration::from_secs(3), |e| {
-        matches!(e, Event::Disconnected { reason: Some(_) })
-    });
-    assert!(
-        matches!(&lost, Event::Disconnected { reason: Some(r) } if r.contains("no answer")),
-        "{lost:?}"
-    );
-    probe.wait("a retry", Duration::from_secs(3), |e| {
-        matches!(
-            e,
-            Event::ConnectFailed {
-                retry_in: Some(_),
-                ..
-            }
-        )
-    });
+    let lost = probe.lost(Duration::from_secs(3));
+    assert!(lost.contains("no answer"), "{lost}");
+    probe.retrying(Duration::from_secs(3));
     // Switched on again on the same port: the worker is back within its backoff.
     let _second = Sim::rtu(&pair.a, &[]);
-    probe.wait("the reconnection", Duration::from_secs(10), |e| {
-        matches!(e, Event::Connected(_))
-    });
-    assert_eq!(
-        probe.read(
-            Address::new(0x1018, 1),
-            DataType::Unsigned32,
-            ObjectPath::Native
-        ),
-        Ok(Value::Uint(0x26C))
-    );
+    probe.reconnected(Duration::from_secs(10));
+    assert_eq!(probe.vendor_id(ObjectPath::Native), Ok(Value::Uint(0x26C)));
 }

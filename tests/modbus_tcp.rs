@@ -1,6 +1,7 @@
 //! Our Modbus client against the simulated drive served on real loopback sockets, and the
 //! failures a technician meets: a gateway without FC 23, a device without FC 43, a second
 //! client, a drive that dies or goes silent mid-move, garbage on the wire.
+mod common;
 mod probe;
 
 use std::io::{Read, Write};
@@ -14,12 +15,8 @@ use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, StatusBit};
 use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::ServerOptions;
-use drivedeck::worker::{CommandProgress, Event, ObjectError, ObjectPath, Request, Sample};
+use drivedeck::worker::{CommandProgress, Event, ObjectError, ObjectPath, Sample};
 use probe::Probe;
-
-fn local() -> SocketAddr {
-    "127.0.0.1:0".parse().expect("address")
-}
 
 fn spec(addr: SocketAddr) -> LinkSpec {
     format!("modbus-tcp://{addr}").parse().expect("spec")
@@ -27,16 +24,9 @@ fn spec(addr: SocketAddr) -> LinkSpec {
 
 #[test]
 fn a_move_over_modbus_tcp_reaches_its_target() {
-    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
+    let server = common::modbus_server(ServerOptions::default());
     let mut probe = Probe::connected(spec(server.addr));
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
-        target: 2000,
-        speed: 200,
-    }));
-    assert_eq!(
-        probe.outcome(id, Duration::from_secs(10)),
-        CommandProgress::Done { return_value: 2000 }
-    );
+    probe.move_absolute(2000, 200);
     // Statusword, mode and position come along in the process image at 5000.
     let sample = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
         s.position() == Some(2000.0)
@@ -48,15 +38,7 @@ fn a_move_over_modbus_tcp_reaches_its_target() {
     assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
     // Velocity and torque are not in the factory image: they come over FC 43, in turn,
     // each sample holding only what was measured in its cycle.
-    let samples: Vec<Sample> = probe
-        .seen
-        .iter()
-        .filter_map(|e| match e {
-            Event::Samples(s) => Some(s.clone()),
-            _ => None,
-        })
-        .flatten()
-        .collect();
+    let samples = probe.samples();
     let with = |f: fn(&Sample) -> bool| samples.iter().filter(|s| f(s)).count();
     assert!(
         with(|s| s.velocity().is_some_and(|v| v > 10.0)) > 5,
@@ -68,7 +50,7 @@ fn a_move_over_modbus_tcp_reaches_its_target() {
 
 #[test]
 fn objects_over_fc_43_and_over_the_pdi() {
-    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
+    let server = common::modbus_server(ServerOptions::default());
     let mut probe = Probe::connected(spec(server.addr));
     let vendor = Address::new(0x1018, 1);
     assert_eq!(
@@ -81,28 +63,18 @@ fn objects_over_fc_43_and_over_the_pdi() {
     );
     // Strings only over FC 43.
     assert_eq!(
-        probe.read(
-            Address::new(0x1008, 0),
-            DataType::VisibleString,
-            ObjectPath::Auto
-        ),
+        probe.device_name(ObjectPath::Auto),
         Ok(Value::Text("drivedeck simulated drive".into()))
     );
     // Write, read back.
-    let id = probe.send(Request::WriteObject {
-        address: Address::new(0x6087, 0),
-        dtype: DataType::Unsigned32,
-        value: Value::Uint(1234),
-        path: ObjectPath::Native,
-    });
-    let written = probe.wait(
-        "the write",
-        Duration::from_secs(5),
-        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
-    );
-    assert!(
-        matches!(written, Event::ObjectWritten { result: Ok(()), .. }),
-        "{written:?}"
+    assert_eq!(
+        probe.write(
+            Address::new(0x6087, 0),
+            DataType::Unsigned32,
+            Value::Uint(1234),
+            ObjectPath::Native
+        ),
+        Ok(())
     );
     assert_eq!(
         probe.read(
@@ -136,24 +108,13 @@ fn objects_over_fc_43_and_over_the_pdi() {
             }
         )))
     );
-    let read_only = {
-        let id = probe.send(Request::WriteObject {
-            address: vendor,
-            dtype: DataType::Unsigned32,
-            value: Value::Uint(1),
-            path: ObjectPath::Native,
-        });
-        match probe.wait(
-            "the refusal",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
-        ) {
-            Event::ObjectWritten { result, .. } => result,
-            _ => unreachable!(),
-        }
-    };
     assert_eq!(
-        read_only,
+        probe.write(
+            vendor,
+            DataType::Unsigned32,
+            Value::Uint(1),
+            ObjectPath::Native
+        ),
         Err(ObjectError::Refused(Refusal::Abort(AbortCode::READ_ONLY)))
     );
 }
@@ -164,14 +125,16 @@ fn a_gateway_without_fc_23_gets_fc_16_and_fc_4() {
         fc23: false,
         ..ServerOptions::default()
     };
-    let server = ServerThread::modbus_tcp(local(), options).expect("server");
+    let server = common::modbus_server(options);
     let mut probe = Probe::connected(spec(server.addr));
-    let id = probe.send(Request::Command(Action::MoveRelative {
-        distance: 900,
-        speed: 300,
-    }));
     assert!(matches!(
-        probe.outcome(id, Duration::from_secs(10)),
+        probe.command(
+            Action::MoveRelative {
+                distance: 900,
+                speed: 300,
+            },
+            Duration::from_secs(10)
+        ),
         CommandProgress::Done { .. }
     ));
     assert!(
@@ -199,16 +162,9 @@ fn a_device_without_fc_43_reads_objects_through_the_pdi() {
         fc43: false,
         ..ServerOptions::default()
     };
-    let server = ServerThread::modbus_tcp(local(), options).expect("server");
+    let server = common::modbus_server(options);
     let mut probe = Probe::connected(spec(server.addr));
-    assert_eq!(
-        probe.read(
-            Address::new(0x1018, 1),
-            DataType::Unsigned32,
-            ObjectPath::Auto
-        ),
-        Ok(Value::Uint(0x26C))
-    );
+    assert_eq!(probe.vendor_id(ObjectPath::Auto), Ok(Value::Uint(0x26C)));
     assert!(
         probe
             .notices()
@@ -216,25 +172,17 @@ fn a_device_without_fc_43_reads_objects_through_the_pdi() {
             .any(|n| n.contains("does not support FC 43"))
     );
     // Asked for FC 43 explicitly, the refusal says so.
-    let native = probe.read(
-        Address::new(0x1018, 1),
-        DataType::Unsigned32,
-        ObjectPath::Native,
-    );
+    let native = probe.vendor_id(ObjectPath::Native);
     assert_eq!(native, Err(ObjectError::Refused(Refusal::NotSupported)));
 }
 
 #[test]
 fn a_second_client_is_told_the_one_connection_is_taken() {
-    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
+    let server = common::modbus_server(ServerOptions::default());
     let _first = Probe::connected(spec(server.addr));
-    let mut second = Probe::new();
-    second.send(Request::Connect(spec(server.addr)));
-    let failed = second.wait("the refusal", Duration::from_secs(5), |e| {
-        matches!(e, Event::ConnectFailed { .. })
-    });
+    let failed = Probe::new().connect(spec(server.addr));
     let Event::ConnectFailed { error, .. } = failed else {
-        unreachable!()
+        panic!("a second client got in: {failed:?}");
     };
     assert!(
         error.text.contains("allows one Modbus TCP connection"),
@@ -248,25 +196,20 @@ fn max_clients_lets_more_in() {
         max_clients: 2,
         ..ServerOptions::default()
     };
-    let server = ServerThread::modbus_tcp(local(), options).expect("server");
+    let server = common::modbus_server(options);
     let _first = Probe::connected(spec(server.addr));
     let _second = Probe::connected(spec(server.addr));
 }
 
 #[test]
 fn a_drive_that_dies_mid_move_shows_disconnected_within_a_second_and_comes_back() {
-    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
+    let server = common::modbus_server(ServerOptions::default());
     let addr = server.addr;
     let mut probe = Probe::connected(spec(addr));
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
+    let id = probe.start(Action::MoveAbsolute {
         target: 30_000,
         speed: 100,
-    }));
-    probe.wait(
-        "accepted",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    });
     let killed = Instant::now();
     drop(server);
     let outcome = probe.outcome(id, Duration::from_secs(2));
@@ -274,29 +217,17 @@ fn a_drive_that_dies_mid_move_shows_disconnected_within_a_second_and_comes_back(
         matches!(&outcome, CommandProgress::LinkLost { reason } if reason.contains("halt")),
         "{outcome:?}"
     );
-    probe.wait("the disconnection", Duration::from_secs(2), |e| {
-        matches!(e, Event::Disconnected { reason: Some(_) })
-    });
+    probe.lost(Duration::from_secs(2));
     assert!(
         killed.elapsed() < Duration::from_secs(1),
         "{:?}",
         killed.elapsed()
     );
     // The worker keeps trying and reconnects once the drive is back on the same port.
-    probe.wait("a retry", Duration::from_secs(2), |e| {
-        matches!(
-            e,
-            Event::ConnectFailed {
-                retry_in: Some(_),
-                ..
-            }
-        )
-    });
+    probe.retrying(Duration::from_secs(2));
     let _back =
         ServerThread::modbus_tcp(addr, ServerOptions::default()).expect("the same port again");
-    probe.wait("the reconnection", Duration::from_secs(10), |e| {
-        matches!(e, Event::Connected(_))
-    });
+    probe.reconnected(Duration::from_secs(10));
     // Nothing from before is replayed: the fresh drive stands still, switched off.
     let sample = probe.settle(Duration::from_millis(300));
     assert!(!sample.tx.status.is_set(StatusBit::OperationEnabled));
@@ -304,7 +235,7 @@ fn a_drive_that_dies_mid_move_shows_disconnected_within_a_second_and_comes_back(
 
 /// A TCP server that accepts and then answers with `reply` to everything (None = silence).
 fn fake_server(reply: Option<Vec<u8>>) -> SocketAddr {
-    let listener = TcpListener::bind(local()).expect("bind");
+    let listener = TcpListener::bind(common::loopback()).expect("bind");
     let addr = listener.local_addr().expect("addr");
     std::thread::spawn(move || {
         for stream in listener.incoming() {
@@ -329,10 +260,7 @@ fn fake_server(reply: Option<Vec<u8>>) -> SocketAddr {
 #[test]
 fn a_silent_device_times_out_naming_the_request() {
     let addr = fake_server(None);
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("rt");
+    let runtime = common::runtime();
     let error = runtime
         .block_on(ModbusLink::connect(&spec(addr), Duration::from_millis(200)))
         .expect_err("no answer");
@@ -347,10 +275,7 @@ fn garbage_replies_are_reported_not_panicked_on() {
     let addr = fake_server(Some(vec![
         0x00, 0x01, 0x12, 0x34, 0x00, 0x03, 0x00, 0x83, 0x02,
     ]));
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("rt");
+    let runtime = common::runtime();
     let error = runtime
         .block_on(ModbusLink::connect(&spec(addr), DEFAULT_TIMEOUT))
         .expect_err("garbage");
@@ -374,11 +299,8 @@ fn garbage_replies_are_reported_not_panicked_on() {
 
 #[test]
 fn fc_101_reads_the_whole_dictionary() {
-    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("rt");
+    let server = common::modbus_server(ServerOptions::default());
+    let runtime = common::runtime();
     let entries = runtime.block_on(async {
         let mut link = ModbusLink::connect(&spec(server.addr), DEFAULT_TIMEOUT)
             .await
@@ -402,14 +324,9 @@ fn fc_101_reads_the_whole_dictionary() {
 
 #[test]
 fn a_failed_move_over_modbus_reports_the_fault() {
-    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
+    let server = common::modbus_server(ServerOptions::default());
     let mut probe = Probe::connected(spec(server.addr));
-    let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
-    probe.wait(
-        "accepted",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    let id = probe.start(Action::Velocity { speed: 100 });
     server
         .drive()
         .lock()
@@ -428,11 +345,8 @@ fn a_failed_move_over_modbus_reports_the_fault() {
 
 #[test]
 fn one_link_directly_exchanges_and_reads_back_the_rx_image() {
-    let server = ServerThread::modbus_tcp(local(), ServerOptions::default()).expect("server");
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("rt");
+    let server = common::modbus_server(ServerOptions::default());
+    let runtime = common::runtime();
     runtime.block_on(async {
         let mut link = ModbusLink::connect(&spec(server.addr), DEFAULT_TIMEOUT)
             .await

@@ -6,36 +6,8 @@
 
 mod common;
 
-use std::process::{Command, Output};
-
-use common::{Sim, TempDir};
-
-fn drivedeck(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args(args)
-        .env("HOME", std::env::temp_dir())
-        .output()
-        .expect("the binary runs")
-}
-
-/// Exit code, stdout, stderr.
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = drivedeck(args);
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn json(args: &[&str]) -> (i32, serde_json::Value) {
-    let mut all = vec!["--json"];
-    all.extend_from_slice(args);
-    let (code, stdout, stderr) = run(&all);
-    let value =
-        serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{all:?}: {e}: {stdout}{stderr}"));
-    (code, value)
-}
+use common::cli::{json, json_run, ok, run};
+use common::{Sim, temp_dir};
 
 fn addresses(rows: &serde_json::Value) -> Vec<String> {
     rows.as_array()
@@ -47,15 +19,14 @@ fn addresses(rows: &serde_json::Value) -> Vec<String> {
 
 #[test]
 fn backup_change_diff_restore_round_trip_over_modbus_tcp() {
-    let dir = TempDir::new("od-backup");
-    let file = dir.path.join("drive.json");
+    let dir = temp_dir("od-backup");
+    let file = dir.path().join("drive.json");
     let file = file.to_str().expect("utf-8 path");
     let (_sim, addr) = Sim::tcp(&[]);
     let link = format!("modbus-tcp://{addr}");
     let link = link.as_str();
 
-    let (code, dump) = json(&["--link", link, "od", "dump", "--out", file]);
-    assert_eq!(code, 0, "{dump}");
+    let dump = json(&["--link", link, "od", "dump", "--out", file]);
     assert!(dump["objects"].as_u64().unwrap_or(0) > 200, "{dump}");
     assert_eq!(dump["identity"]["vendor"], 0x26C);
     assert_eq!(dump["unreadable"].as_array().map(Vec::len), Some(0));
@@ -71,16 +42,15 @@ fn backup_change_diff_restore_round_trip_over_modbus_tcp() {
     }
 
     // Nothing changed yet.
-    let (code, diff) = json(&["--link", link, "od", "diff", file]);
+    let (code, diff) = json_run(&["--link", link, "od", "diff", file]);
     assert_eq!((code, diff["differs"].as_u64()), (0, Some(0)), "{diff}");
 
     // Two changes: a drive setting and a PDO mapping entry.
     for (address, value) in [("6081:00", "777"), ("1A00:01", "0x60410010")] {
-        let (code, out, err) = run(&["--link", link, "write", address, value]);
-        assert_eq!(code, 0, "{out}{err}");
+        ok(&["--link", link, "write", address, value]);
     }
 
-    let (code, diff) = json(&["--link", link, "od", "diff", file]);
+    let (code, diff) = json_run(&["--link", link, "od", "diff", file]);
     assert_eq!(code, 1, "{diff}");
     assert_eq!(
         addresses(&diff["objects"]),
@@ -91,8 +61,7 @@ fn backup_change_diff_restore_round_trip_over_modbus_tcp() {
     assert_eq!(diff["objects"][1]["device"], "777 rpm");
 
     // The dry run plans the setting, then the mapping with its procedure; writes nothing.
-    let (code, plan) = json(&["--link", link, "od", "restore", file, "--dry-run"]);
-    assert_eq!(code, 0, "{plan}");
+    let plan = json(&["--link", link, "od", "restore", file, "--dry-run"]);
     assert_eq!(
         addresses(&plan["steps"]),
         vec!["6081h:00h", "1A00h:00h", "1A00h:01h", "1A00h:00h"],
@@ -105,17 +74,16 @@ fn backup_change_diff_restore_round_trip_over_modbus_tcp() {
             .iter()
             .all(|s| s["result"] == "planned")
     );
-    let (code, _) = json(&["--link", link, "od", "diff", file]);
+    let (code, _) = json_run(&["--link", link, "od", "diff", file]);
     assert_eq!(code, 1, "the dry run wrote something");
 
     // The restore writes them, stores, and compares again.
-    let (code, restored) = json(&["--link", link, "od", "restore", file, "--store"]);
-    assert_eq!(code, 0, "{restored}");
+    let restored = json(&["--link", link, "od", "restore", file, "--store"]);
     assert_eq!(restored["written"], 4);
     assert_eq!(restored["refused"], 0);
     assert_eq!(restored["still_differs"], 0);
     assert_eq!(restored["stored"], serde_json::json!({"Ok": null}));
-    let (code, diff) = json(&["--link", link, "od", "diff", file]);
+    let (code, diff) = json_run(&["--link", link, "od", "diff", file]);
     assert_eq!((code, diff["differs"].as_u64()), (0, Some(0)), "{diff}");
 
     // Text output for a person.
@@ -126,7 +94,7 @@ fn backup_change_diff_restore_round_trip_over_modbus_tcp() {
 
 #[test]
 fn a_dump_reads_the_whole_configuration_over_every_link() {
-    let dir = TempDir::new("od-dump-links");
+    let dir = temp_dir("od-dump-links");
     let (_modbus, modbus) = Sim::tcp(&[]);
     let (_enip, enip) = Sim::enip(&[]);
     let links = [
@@ -137,9 +105,9 @@ fn a_dump_reads_the_whole_configuration_over_every_link() {
     ];
     let mut counts = vec![];
     for (n, link) in links.iter().enumerate() {
-        let file = dir.path.join(format!("{n}.json"));
+        let file = dir.path().join(format!("{n}.json"));
         let file = file.to_str().expect("utf-8 path");
-        let (code, dump) = json(&["--link", link, "od", "dump", "--out", file]);
+        let (code, dump) = json_run(&["--link", link, "od", "dump", "--out", file]);
         assert_eq!(code, 0, "{link}: {dump}");
         assert_eq!(
             dump["unreadable"].as_array().map(Vec::len),
@@ -162,19 +130,19 @@ fn a_dump_reads_the_whole_configuration_over_every_link() {
 
 #[test]
 fn broken_files_are_refused_with_a_reason() {
-    let dir = TempDir::new("od-bad-files");
-    let missing = dir.path.join("none.json");
+    let dir = temp_dir("od-bad-files");
+    let missing = dir.path().join("none.json");
     let (code, _, stderr) = run(&["od", "diff", missing.to_str().expect("utf-8")]);
     assert_eq!(code, 2);
     assert!(stderr.contains("cannot read"), "{stderr}");
 
-    let not_json = dir.path.join("x.json");
+    let not_json = dir.path().join("x.json");
     std::fs::write(&not_json, "hello").expect("write");
     let (code, _, stderr) = run(&["od", "restore", not_json.to_str().expect("utf-8")]);
     assert_eq!(code, 2);
     assert!(stderr.contains("not a drivedeck backup"), "{stderr}");
 
-    let other = dir.path.join("other.json");
+    let other = dir.path().join("other.json");
     std::fs::write(
         &other,
         r#"{"format":"someone else's","version":1,"saved_at":0,"link":"sim","identity":{},"objects":[]}"#,
@@ -185,7 +153,7 @@ fn broken_files_are_refused_with_a_reason() {
     assert!(stderr.contains("someone else's"), "{stderr}");
 
     // A file from another product is not restored without --force.
-    let foreign = dir.path.join("foreign.json");
+    let foreign = dir.path().join("foreign.json");
     std::fs::write(
         &foreign,
         r#"{"format":"drivedeck backup","version":1,"saved_at":0,"link":"sim",
@@ -199,12 +167,10 @@ fn broken_files_are_refused_with_a_reason() {
     assert_eq!(code, 2);
     assert!(stderr.contains("--force"), "{stderr}");
     // The dry run still shows what it would do, with the warning.
-    let (code, stdout, stderr) = run(&["od", "restore", path, "--dry-run"]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
+    let (stdout, stderr) = ok(&["od", "restore", path, "--dry-run"]);
     assert!(stderr.contains("another kind of device"), "{stderr}");
     assert!(stdout.contains("6081h:00h"), "{stdout}");
-    let (code, stdout, stderr) = run(&["od", "restore", path, "--force"]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
+    let (stdout, _) = ok(&["od", "restore", path, "--force"]);
     assert!(stdout.contains("1 of 1 writes done"), "{stdout}");
 }
 
@@ -303,16 +269,15 @@ fn never_restored() -> Vec<(serde_json::Value, &'static str, &'static str)> {
 
 #[test]
 fn a_restore_never_writes_commands_process_data_or_read_only_objects() {
-    let dir = TempDir::new("od-restore-skips");
-    let file = dir.path.join("crafted.json");
+    let dir = temp_dir("od-restore-skips");
+    let file = dir.path().join("crafted.json");
     let file = file.to_str().expect("utf-8 path");
     let (_sim, addr) = Sim::tcp(&[]);
     let link = format!("modbus-tcp://{addr}");
     let link = link.as_str();
 
     // A real backup of this drive, then the hand-edited additions.
-    let (code, dump) = json(&["--link", link, "od", "dump", "--out", file]);
-    assert_eq!(code, 0, "{dump}");
+    json(&["--link", link, "od", "dump", "--out", file]);
     let mut backup: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(file).expect("written")).expect("JSON");
     let crafted = never_restored();
@@ -321,15 +286,11 @@ fn a_restore_never_writes_commands_process_data_or_read_only_objects() {
     objects.extend(crafted.iter().map(|(o, _, _)| o.clone()));
     std::fs::write(file, backup.to_string()).expect("write");
     // One real setting differs, so there is something to restore.
-    let (code, out, err) = run(&["--link", link, "write", "6081:00", "777"]);
-    assert_eq!(code, 0, "{out}{err}");
-    let (code, out, err) = run(&["--link", link, "read", "6040:00"]);
-    assert_eq!(code, 0, "{out}{err}");
-    let controlword_before = out;
+    ok(&["--link", link, "write", "6081:00", "777"]);
+    let (controlword_before, _) = ok(&["--link", link, "read", "6040:00"]);
 
     // The dry run plans that one write and lists every crafted entry as skipped, with why.
-    let (code, plan) = json(&["--link", link, "od", "restore", file, "--dry-run"]);
-    assert_eq!(code, 0, "{plan}");
+    let plan = json(&["--link", link, "od", "restore", file, "--dry-run"]);
     assert_eq!(addresses(&plan["steps"]), vec!["6081h:00h"], "{plan}");
     let skipped = plan["skipped"].as_array().expect("skipped entries");
     for (_, address, word) in &crafted {
@@ -343,8 +304,7 @@ fn a_restore_never_writes_commands_process_data_or_read_only_objects() {
     assert_eq!(skipped.len(), crafted.len(), "{plan}");
 
     // The restore writes the setting and nothing else; the drive stays as it was.
-    let (code, restored) = json(&["--link", link, "od", "restore", file]);
-    assert_eq!(code, 0, "{restored}");
+    let restored = json(&["--link", link, "od", "restore", file]);
     assert_eq!(
         addresses(&restored["steps"]),
         vec!["6081h:00h"],
@@ -359,8 +319,7 @@ fn a_restore_never_writes_commands_process_data_or_read_only_objects() {
     assert!(!out.contains("5000"), "PDI-SetValue1 was written: {out}");
 
     // diff lists them as skipped and does not count them as differences.
-    let (code, diff) = json(&["--link", link, "od", "diff", file]);
-    assert_eq!(code, 0, "{diff}");
+    let diff = json(&["--link", link, "od", "diff", file]);
     assert_eq!(diff["differs"], 0, "{diff}");
     assert_eq!(diff["skipped"], crafted.len(), "{diff}");
     let rows = diff["objects"].as_array().expect("rows");
@@ -377,14 +336,12 @@ fn a_restore_never_writes_commands_process_data_or_read_only_objects() {
     }
 
     // The same for a person reading the text.
-    let (code, stdout, stderr) = run(&["--link", link, "od", "restore", file, "--dry-run"]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
+    let (stdout, _) = ok(&["--link", link, "od", "restore", file, "--dry-run"]);
     assert!(
         stdout.contains("skipped") && stdout.contains("6040h:00h") && stdout.contains("command"),
         "{stdout}"
     );
-    let (code, stdout, stderr) = run(&["--link", link, "od", "diff", file]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
+    let (stdout, _) = ok(&["--link", link, "od", "diff", file]);
     assert!(
         stdout.contains("1011h:01h") && stdout.contains("skipped"),
         "{stdout}"
@@ -405,12 +362,12 @@ fn never_connected(listener: &std::net::TcpListener) -> bool {
 
 #[test]
 fn a_file_naming_an_object_twice_or_none_is_refused_before_connecting() {
-    let dir = TempDir::new("od-restore-ambiguous");
+    let dir = temp_dir("od-restore-ambiguous");
     let (listener, link) = silent_drive();
     let header = r#""format":"drivedeck backup","version":1,"saved_at":0,"link":"sim","identity":{"vendor":620}"#;
 
     // 6081h twice, written two ways: which value would win?
-    let twice = dir.path.join("twice.json");
+    let twice = dir.path().join("twice.json");
     let objects = serde_json::json!([
         saved_object("6081:00", "Profile Velocity", "UNSIGNED32", "uint", 100),
         saved_object("6083:00", "Profile Acceleration", "UNSIGNED32", "uint", 500),
@@ -435,7 +392,7 @@ fn a_file_naming_an_object_twice_or_none_is_refused_before_connecting() {
     }
 
     // No objects at all.
-    let empty = dir.path.join("empty.json");
+    let empty = dir.path().join("empty.json");
     std::fs::write(&empty, format!(r#"{{{header},"objects":[]}}"#)).expect("write");
     let empty = empty.to_str().expect("utf-8");
     for command in ["restore", "diff"] {
@@ -457,7 +414,7 @@ fn a_file_naming_an_object_twice_or_none_is_refused_before_connecting() {
 
 #[test]
 fn an_eds_given_to_diff_and_restore_judges_the_file() {
-    let dir = TempDir::new("od-restore-eds");
+    let dir = temp_dir("od-restore-eds");
     // The simulated drive's EDS, but with 6081h declared process output (rww).
     let sim_eds = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -474,10 +431,10 @@ fn an_eds_given_to_diff_and_restore_judges_the_file() {
         &sim_eds[..access],
         &sim_eds[access + "AccessType=rw".len()..]
     );
-    let eds = dir.path.join("rww.eds");
+    let eds = dir.path().join("rww.eds");
     std::fs::write(&eds, eds_text).expect("write");
     let eds = eds.to_str().expect("utf-8");
-    let file = dir.path.join("drive.json");
+    let file = dir.path().join("drive.json");
     let header = r#""format":"drivedeck backup","version":1,"saved_at":0,"link":"sim","identity":{"vendor":620,"product":66}"#;
     let objects = serde_json::json!([
         saved_object("6081:00", "Profile Velocity", "UNSIGNED32", "uint", 777),
@@ -493,16 +450,14 @@ fn an_eds_given_to_diff_and_restore_judges_the_file() {
     let file = file.to_str().expect("utf-8");
 
     // The built-in catalog: both are settings.
-    let (code, plan) = json(&["od", "restore", file, "--dry-run", "--force"]);
-    assert_eq!(code, 0, "{plan}");
+    let plan = json(&["od", "restore", file, "--dry-run", "--force"]);
     assert_eq!(
         addresses(&plan["steps"]),
         vec!["6081h:00h", "6083h:00h"],
         "{plan}"
     );
     // The EDS: 6081h is process data there, so it is skipped.
-    let (code, plan) = json(&["od", "restore", file, "--dry-run", "--force", "--eds", eds]);
-    assert_eq!(code, 0, "{plan}");
+    let plan = json(&["od", "restore", file, "--dry-run", "--force", "--eds", eds]);
     assert_eq!(addresses(&plan["steps"]), vec!["6083h:00h"], "{plan}");
     assert_eq!(addresses(&plan["skipped"]), vec!["6081h:00h"], "{plan}");
     assert!(
@@ -511,7 +466,7 @@ fn an_eds_given_to_diff_and_restore_judges_the_file() {
             .is_some_and(|r| r.contains("rww")),
         "{plan}"
     );
-    let (code, diff) = json(&["od", "diff", file, "--eds", eds]);
+    let (code, diff) = json_run(&["od", "diff", file, "--eds", eds]);
     assert_eq!(code, 1, "{diff}");
     assert_eq!(
         (diff["differs"].as_u64(), diff["skipped"].as_u64()),

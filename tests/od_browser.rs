@@ -3,48 +3,26 @@
 //! restore round trip on the simulated drive.
 
 mod common;
+mod window;
 
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use common::TempDir;
+use common::temp_dir;
 use drivedeck::od::{Address, Value};
 use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT, Queryable};
+use window::{connected, harness_with, step_until};
 
+/// The window on the simulated drive with the object dictionary open.
 fn browser() -> Harness<'static, App> {
-    let app = App::new(Settings::default(), Arc::new(|| {}), true);
-    let mut harness = Harness::builder()
-        .with_size(egui::vec2(1600.0, 1000.0))
-        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    let mut harness = harness_with(Settings::default(), true, egui::vec2(1600.0, 1000.0));
     harness.run();
-    step_until(&mut harness, "connected", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     harness.get_by_label("Object dictionary").click();
     harness.run();
     harness
-}
-
-fn step_until(
-    harness: &mut Harness<'_, App>,
-    what: &str,
-    timeout: Duration,
-    done: impl Fn(&Harness<'_, App>) -> bool,
-) {
-    let deadline = Instant::now() + timeout;
-    while !done(harness) {
-        assert!(
-            Instant::now() < deadline,
-            "{what} did not happen within {timeout:?}; message: {:?}; log: {:#?}",
-            harness.state().state.browser.message,
-            harness.state().state.log
-        );
-        std::thread::sleep(Duration::from_millis(10));
-        harness.step();
-    }
 }
 
 fn filter(harness: &mut Harness<'_, App>, text: &str) {
@@ -52,6 +30,51 @@ fn filter(harness: &mut Harness<'_, App>, text: &str) {
         .get_by_label("Object filter")
         .set_text_value_accesskit(text);
     harness.run();
+}
+
+/// Point the backup file box at `path`.
+fn backup_file(harness: &mut Harness<'_, App>, path: &std::path::Path) {
+    harness
+        .get_by_label("Backup file")
+        .set_text_value_accesskit(path.to_str().expect("utf-8"));
+    harness.run();
+}
+
+/// "Compare with file", and wait for the comparison.
+fn compare(harness: &mut Harness<'_, App>) {
+    harness.run();
+    harness.get_by_label("Compare with file").click();
+    harness.step();
+    step_until(harness, "the comparison", Duration::from_secs(20), |h| {
+        h.state().state.browser.comparison.is_some()
+    });
+}
+
+/// "Restore from file", and wait for the preview.
+fn preview_restore(harness: &mut Harness<'_, App>) {
+    harness.run();
+    harness.get_by_label("Restore from file").click();
+    harness.step();
+    step_until(harness, "the preview", Duration::from_secs(20), |h| {
+        h.state().state.browser.restore.is_some()
+    });
+}
+
+/// Confirm the previewed restore of one write, and wait until it is written.
+fn restore_the_one_write(harness: &mut Harness<'_, App>) {
+    harness.run();
+    harness.get_by_label("Restore 1 writes").click();
+    harness.run();
+    harness.get_by_label("Write them").click();
+    harness.step();
+    step_until(harness, "the restore", Duration::from_secs(10), |h| {
+        h.state()
+            .state
+            .browser
+            .restore
+            .as_ref()
+            .is_some_and(|r| r.results == vec![Some(Ok(()))])
+    });
 }
 
 fn value_of(harness: &Harness<'_, App>, address: Address) -> Option<Result<Value, String>> {
@@ -214,13 +237,10 @@ fn read_all_fills_the_table_with_progress_and_can_be_cancelled() {
 
 #[test]
 fn backup_change_compare_and_restore_undo_exactly_the_change() {
-    let dir = TempDir::new("backup");
-    let path = dir.path.join("drive.json");
+    let dir = temp_dir("backup");
+    let path = dir.path().join("drive.json");
     let mut harness = browser();
-    harness
-        .get_by_label("Backup file")
-        .set_text_value_accesskit(path.to_str().expect("utf-8"));
-    harness.run();
+    backup_file(&mut harness, &path);
     harness.get_by_label("Save backup").click();
     harness.step();
     step_until(
@@ -255,15 +275,7 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
     });
 
     // The comparison lists exactly that object.
-    harness.run();
-    harness.get_by_label("Compare with file").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the comparison",
-        Duration::from_secs(20),
-        |h| h.state().state.browser.comparison.is_some(),
-    );
+    compare(&mut harness);
     let differing: Vec<Address> = harness
         .state()
         .state
@@ -280,12 +292,7 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
     assert_eq!(differing, vec![PROFILE_VELOCITY]);
 
     // The restore previews exactly one write, and undoes it.
-    harness.run();
-    harness.get_by_label("Restore from file").click();
-    harness.step();
-    step_until(&mut harness, "the preview", Duration::from_secs(20), |h| {
-        h.state().state.browser.restore.is_some()
-    });
+    preview_restore(&mut harness);
     let steps = harness
         .state()
         .state
@@ -298,19 +305,7 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
     assert_eq!(steps[0].address, PROFILE_VELOCITY);
     assert_eq!(steps[0].before, Some(Value::Uint(777)));
     assert_eq!(steps[0].value, saved);
-    harness.run();
-    harness.get_by_label("Restore 1 writes").click();
-    harness.run();
-    harness.get_by_label("Write them").click();
-    harness.step();
-    step_until(&mut harness, "the restore", Duration::from_secs(10), |h| {
-        h.state()
-            .state
-            .browser
-            .restore
-            .as_ref()
-            .is_some_and(|r| r.results == vec![Some(Ok(()))])
-    });
+    restore_the_one_write(&mut harness);
     // Read back: as before the change.
     harness.run();
     harness.get_by_label("Read 6081h:00h").click();
@@ -382,8 +377,8 @@ fn crafted_backup(objects: &[(&str, &str, &str, &str, u64)]) -> String {
 
 #[test]
 fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_the_reason() {
-    let dir = TempDir::new("backup-crafted");
-    let path = dir.path.join("crafted.json");
+    let dir = temp_dir("backup-crafted");
+    let path = dir.path().join("crafted.json");
     std::fs::write(
         &path,
         crafted_backup(&[
@@ -408,17 +403,10 @@ fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_th
         (Address::new(0x2FF0, 0), "not in the dictionary"),
     ];
     let mut harness = browser();
-    harness
-        .get_by_label("Backup file")
-        .set_text_value_accesskit(path.to_str().expect("utf-8"));
-    harness.run();
+    backup_file(&mut harness, &path);
 
     // The preview plans the one setting; the rest is listed as skipped, with the reason.
-    harness.get_by_label("Restore from file").click();
-    harness.step();
-    step_until(&mut harness, "the preview", Duration::from_secs(20), |h| {
-        h.state().state.browser.restore.is_some()
-    });
+    preview_restore(&mut harness);
     let restore = harness
         .state()
         .state
@@ -451,29 +439,10 @@ fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_th
     );
 
     // Restoring writes that one setting.
-    harness.get_by_label("Restore 1 writes").click();
-    harness.run();
-    harness.get_by_label("Write them").click();
-    harness.step();
-    step_until(&mut harness, "the restore", Duration::from_secs(10), |h| {
-        h.state()
-            .state
-            .browser
-            .restore
-            .as_ref()
-            .is_some_and(|r| r.results == vec![Some(Ok(()))])
-    });
+    restore_the_one_write(&mut harness);
 
     // The comparison lists the same entries as skipped, not as differences.
-    harness.run();
-    harness.get_by_label("Compare with file").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the comparison",
-        Duration::from_secs(20),
-        |h| h.state().state.browser.comparison.is_some(),
-    );
+    compare(&mut harness);
     let message = harness.state().state.browser.message.clone();
     assert!(
         matches!(&message, Some(Ok(m)) if m.contains("0 differ") && m.contains("7 entries skipped")),
@@ -489,8 +458,8 @@ fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_th
 
 #[test]
 fn a_file_naming_an_object_twice_is_refused_with_the_object_named() {
-    let dir = TempDir::new("backup-twice");
-    let path = dir.path.join("twice.json");
+    let dir = temp_dir("backup-twice");
+    let path = dir.path().join("twice.json");
     std::fs::write(
         &path,
         crafted_backup(&[
@@ -500,10 +469,7 @@ fn a_file_naming_an_object_twice_is_refused_with_the_object_named() {
     )
     .expect("write");
     let mut harness = browser();
-    harness
-        .get_by_label("Backup file")
-        .set_text_value_accesskit(path.to_str().expect("utf-8"));
-    harness.run();
+    backup_file(&mut harness, &path);
     harness.get_by_label("Restore from file").click();
     harness.run();
     let message = harness.state().state.browser.message.clone();

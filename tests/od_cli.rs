@@ -1,35 +1,9 @@
 //! `drivedeck od list`: the built-in catalog and EDS files offline, and values read from
 //! the simulated drive with `--link`.
 
-use std::process::{Command, Output};
+mod common;
 
-fn drivedeck(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("HOME", std::env::temp_dir())
-        .output()
-        .expect("the binary runs")
-}
-
-/// stdout and stderr of a successful run.
-fn ok(args: &[&str]) -> (String, String) {
-    let out = drivedeck(args);
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(
-        out.status.success(),
-        "{args:?} failed with {:?}: {stdout}{stderr}",
-        out.status.code()
-    );
-    (stdout, stderr)
-}
-
-fn json(args: &[&str]) -> serde_json::Value {
-    let mut all = vec!["--json"];
-    all.extend_from_slice(args);
-    serde_json::from_str(&ok(&all).0).expect("valid JSON")
-}
+use common::cli::{fails, json, ok};
 
 /// The rows of a text listing (without the header), by address.
 fn table(stdout: &str) -> Vec<&str> {
@@ -256,20 +230,15 @@ fn json_lists() {
 
 #[test]
 fn unusable_files_are_refused() {
-    let out = drivedeck(&["od", "list", "--eds", "tests/data/eds/no-such.eds"]);
-    assert_eq!(out.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = fails(&["od", "list", "--eds", "tests/data/eds/no-such.eds"], 2);
     assert!(
         stderr.contains("cannot read tests/data/eds/no-such.eds"),
         "{stderr}"
     );
-    let out = drivedeck(&["od", "list", "--eds", "Cargo.toml"]);
-    assert_eq!(out.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = fails(&["od", "list", "--eds", "Cargo.toml"], 2);
     assert!(
         stderr.contains("Cargo.toml: no object could be imported"),
         "{stderr}"
     );
-    let out = drivedeck(&["od", "list", "--node", "200"]);
-    assert_eq!(out.status.code(), Some(2));
+    fails(&["od", "list", "--node", "200"], 2);
 }

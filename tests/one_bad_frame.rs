@@ -12,14 +12,9 @@ use std::time::{Duration, Instant};
 
 use drivedeck::link::LinkSpec;
 use drivedeck::pdi::Action;
-use drivedeck::sim::server::ServerThread;
-use drivedeck::worker::{CommandProgress, Event, Request};
+use drivedeck::worker::{CommandProgress, Event};
 use probe::Probe;
 use proxy::{Fault, Framing, Noise, Proxy, SerialProxy};
-
-fn local() -> SocketAddr {
-    "127.0.0.1:0".parse().expect("address")
-}
 
 fn modbus(addr: SocketAddr) -> LinkSpec {
     format!("modbus-tcp://{addr}").parse().expect("spec")
@@ -30,23 +25,16 @@ fn enip_explicit(addr: SocketAddr) -> LinkSpec {
 }
 
 /// One turn at 120 rpm: about half a second of motion, plenty of exchanges to spoil.
-fn a_move() -> Request {
-    Request::Command(Action::MoveRelative {
-        distance: 3600,
-        speed: 120,
-    })
-}
+const A_MOVE: Action = Action::MoveRelative {
+    distance: 3600,
+    speed: 120,
+};
 
 /// Start a move, spoil one reply with `spoil`, and check the move reaches its target on
 /// the same connection. Returns the probe for more checks.
 fn move_through(spec: LinkSpec, spoil: impl FnOnce()) -> Probe {
     let mut probe = Probe::connected(spec);
-    let id = probe.send(a_move());
-    probe.wait(
-        "the move accepted",
-        Duration::from_secs(3),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    let id = probe.start(A_MOVE);
     spoil();
     let outcome = probe.outcome(id, Duration::from_secs(15));
     assert!(
@@ -54,38 +42,20 @@ fn move_through(spec: LinkSpec, spoil: impl FnOnce()) -> Probe {
         "the move did not survive one bad frame: {outcome:?}; notices: {:#?}",
         probe.notices()
     );
-    let lost = probe
-        .seen
-        .iter()
-        .find(|e| matches!(e, Event::Disconnected { .. } | Event::ConnectFailed { .. }));
-    assert!(lost.is_none(), "the link was dropped: {lost:?}");
+    probe.never_dropped();
     probe
 }
 
 /// A notice that says `words` (all of them).
 fn named(probe: &Probe, words: &[&str]) -> bool {
-    probe
-        .notices()
-        .iter()
-        .any(|n| words.iter().all(|w| n.contains(w)))
+    probe.notice_with(words).is_some()
 }
 
 /// FC 23, the process-image exchange of every cycle.
 const FC_23: u8 = 0x17;
 
-/// A notice with `text`, seen already or coming within a few seconds.
-fn expect_notice(probe: &mut Probe, text: &str) {
-    if !named(probe, &[text]) {
-        probe.wait(
-            text,
-            Duration::from_secs(3),
-            |e| matches!(e, Event::Notice(n) if n.text.contains(text)),
-        );
-    }
-}
-
 fn modbus_move_through(fault: Fault) -> (Probe, Proxy) {
-    let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+    let server = common::modbus_server(Default::default());
     let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
     let probe = move_through(modbus(proxy.addr), || proxy.fault_on(5, fault, FC_23));
     assert_eq!(
@@ -119,7 +89,7 @@ fn modbus_tcp_a_late_reply_is_taken_or_skipped() {
         probe.notices()
     );
     let mut probe = probe;
-    expect_notice(&mut probe, "recovered after 1 failed exchange");
+    probe.expect_notice(&["recovered after 1 failed exchange"]);
 }
 
 #[test]
@@ -170,53 +140,24 @@ fn modbus_tcp_one_exception_is_the_drives_answer_not_a_lost_link() {
 
 #[test]
 fn two_failed_exchanges_in_a_row_are_not_yet_a_lost_link() {
-    let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+    let server = common::modbus_server(Default::default());
     let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
     // Each failed exchange is three tries: six replies lost are two exchanges.
     let mut probe = move_through(modbus(proxy.addr), || proxy.drop_next(6));
     assert_eq!(proxy.dropped(), 6);
-    expect_notice(&mut probe, "recovered after 2 failed exchange");
+    probe.expect_notice(&["recovered after 2 failed exchange"]);
 }
 
 /// Every reply lost from mid-move on: the link counts as lost after exactly `lost_after`
 /// failed exchanges, and the message says so and what was done to the drive.
 fn lost_after(lost_after: u32) {
-    let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+    let server = common::modbus_server(Default::default());
     let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
-    let mut probe = Probe::connected(modbus(proxy.addr));
-    probe.send(Request::SetLostAfter(lost_after));
-    let id = probe.send(Request::Command(Action::Velocity { speed: 60 }));
-    probe.wait(
-        "the velocity accepted",
-        Duration::from_secs(3),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    let (mut probe, id) = Probe::turning(modbus(proxy.addr), lost_after);
     let cut = Instant::now();
     proxy.drop_all();
-    let lost = probe.wait("the link loss", Duration::from_secs(20), |e| {
-        matches!(e, Event::Disconnected { reason: Some(_) })
-    });
-    let took = cut.elapsed();
-    let Event::Disconnected {
-        reason: Some(reason),
-    } = lost
-    else {
-        unreachable!()
-    };
-    assert!(
-        reason.contains(&format!("{lost_after} exchanges failed in a row")),
-        "{reason}"
-    );
-    assert!(reason.contains("no answer within"), "{reason}");
-    assert!(
-        reason.contains("halt"),
-        "what was done to the drive: {reason}"
-    );
     // Three tries of 500 ms per failed exchange (plus the halt attempt), never fewer.
-    assert!(
-        took >= Duration::from_millis(500) * (lost_after - 1),
-        "lost after {took:?}"
-    );
+    probe.lost_after_exactly(lost_after, cut, Duration::from_millis(500));
     let failed = probe.notices();
     assert!(
         failed
@@ -239,27 +180,12 @@ fn lost_after(lost_after: u32) {
 
 #[test]
 fn a_link_lost_during_a_move_whose_last_halt_gets_through_says_the_drive_took_it() {
-    let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+    let server = common::modbus_server(Default::default());
     let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
-    let mut probe = Probe::connected(modbus(proxy.addr));
-    probe.send(Request::SetLostAfter(1));
-    let id = probe.send(Request::Command(Action::Velocity { speed: 60 }));
-    probe.wait(
-        "the velocity accepted",
-        Duration::from_secs(3),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    let (mut probe, _) = Probe::turning(modbus(proxy.addr), 1);
     // One request's three tries are lost; the next frame, the last halt, goes through.
     proxy.drop_next(3);
-    let lost = probe.wait("the link loss", Duration::from_secs(10), |e| {
-        matches!(e, Event::Disconnected { reason: Some(_) })
-    });
-    let Event::Disconnected {
-        reason: Some(reason),
-    } = lost
-    else {
-        unreachable!()
-    };
+    let reason = probe.lost(Duration::from_secs(10));
     assert!(
         reason.contains("a halt was sent and the drive"),
         "the last halt reached the drive: {reason}"
@@ -292,14 +218,7 @@ fn the_link_counts_as_lost_after_the_configured_number_of_failed_exchanges() {
 }
 
 fn enip_move_through(fault: Fault) -> Probe {
-    let server = ServerThread::enip(
-        local(),
-        drivedeck::sim::server::enip::AdapterOptions {
-            io_port: 0,
-            ..Default::default()
-        },
-    )
-    .expect("adapter");
+    let server = common::enip_adapter();
     let proxy = Proxy::start(server.addr, Framing::Enip);
     let probe = move_through(enip_explicit(proxy.addr), || proxy.fault_in(8, fault));
     assert_eq!(
@@ -415,16 +334,15 @@ mod window;
 /// three tries all go unanswered loses the link; with the default 3 the same is got over.
 #[test]
 fn the_windows_lost_after_setting_decides_when_the_link_counts_as_lost() {
-    use drivedeck::ui::Settings;
-    use drivedeck::ui::state::{Connection, ConnectionForm};
+    use drivedeck::ui::state::Connection;
     for (lost_after, survives) in [(1u32, false), (3, true)] {
-        let server = ServerThread::modbus_tcp(local(), Default::default()).expect("server");
+        let server = common::modbus_server(Default::default());
         let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
-        let mut settings = Settings::default();
-        settings.connection = ConnectionForm::from_spec(&modbus(proxy.addr), settings.connection);
-        settings.lost_after = lost_after;
-        let mut harness = window::harness_with(settings, true, eframe::egui::vec2(1366.0, 768.0));
-        window::connected(&mut harness);
+        let mut harness = window::connected_to(
+            &modbus(proxy.addr),
+            Some(lost_after),
+            eframe::egui::vec2(1366.0, 768.0),
+        );
         // Let the setting go out before the trouble starts.
         window::step_for(&mut harness, Duration::from_millis(200));
         proxy.drop_next(3);

@@ -15,8 +15,8 @@ use std::sync::{Arc, Barrier};
 use std::thread;
 use std::time::{Duration, SystemTime};
 
-use common::TempDir;
 use common::peers::{self, PeerCheck, Pin, Record, Venv};
+use common::temp_dir;
 
 const PINS: &str = "# a comment\npymodbus==3.16.1\n\ncanopen==2.4.1  # trailing comment\n";
 const INSTALLED: &str = r#"{"pymodbus": "3.16.1", "canopen": "2.4.1"}"#;
@@ -44,17 +44,17 @@ fn write_script(path: &Path, body: &str) {
 /// answers, `-m pip install` "installs" state/after-pip.json. Each venv and pip run is
 /// logged.
 struct Fake {
-    dir: TempDir,
+    dir: tempfile::TempDir,
 }
 
 impl Fake {
     fn new(venv: &str, pip: &str) -> Fake {
-        let dir = TempDir::new("fake-python");
-        let root = dir.path.display().to_string();
-        fs::write(dir.path.join("requirements.txt"), PINS).expect("pins");
-        fs::write(dir.path.join("after-pip.json"), INSTALLED).expect("after pip");
+        let dir = temp_dir("fake-python");
+        let root = dir.path().display().to_string();
+        fs::write(dir.path().join("requirements.txt"), PINS).expect("pins");
+        fs::write(dir.path().join("after-pip.json"), INSTALLED).expect("after pip");
         write_script(
-            &dir.path.join("venv-python"),
+            &dir.path().join("venv-python"),
             &format!(
                 r#"case "$1" in
   -c) cat "{root}/installed.json" 2>/dev/null || echo '{{}}' ;;
@@ -66,7 +66,7 @@ esac
             ),
         );
         write_script(
-            &dir.path.join("python3"),
+            &dir.path().join("python3"),
             &format!(
                 r#"[ "$1 $2" = "-m venv" ] || exit 2
 echo venv >> "{root}/log"
@@ -88,10 +88,10 @@ mkdir -p "$3/bin" && cp "{root}/venv-python" "$3/bin/python"
 
     fn venv(&self) -> Venv {
         Venv {
-            dir: self.dir.path.join("venv"),
-            requirements: self.dir.path.join("requirements.txt"),
-            lock: self.dir.path.join("venv.lock"),
-            python3: self.dir.path.join("python3"),
+            dir: self.dir.path().join("venv"),
+            requirements: self.dir.path().join("requirements.txt"),
+            lock: self.dir.path().join("venv.lock"),
+            python3: self.dir.path().join("python3"),
             failure: None,
             announce: false,
         }
@@ -99,7 +99,7 @@ mkdir -p "$3/bin" && cp "{root}/venv-python" "$3/bin/python"
 
     /// What ran, in order: `venv`, `pip`.
     fn log(&self) -> Vec<String> {
-        fs::read_to_string(self.dir.path.join("log"))
+        fs::read_to_string(self.dir.path().join("log"))
             .unwrap_or_default()
             .lines()
             .map(str::to_owned)
@@ -188,7 +188,7 @@ fn racing_threads_make_the_venv_once_under_the_lock_and_later_calls_reuse_it() {
     // A new pin installs again into the same venv.
     fs::write(&venv.requirements, "pymodbus==3.17.0\n").expect("new pin");
     fs::write(
-        fake.dir.path.join("after-pip.json"),
+        fake.dir.path().join("after-pip.json"),
         r#"{"pymodbus": "3.17.0"}"#,
     )
     .expect("pip");
@@ -260,9 +260,9 @@ fn a_venv_that_cannot_be_made_gives_the_reason_and_what_to_do() {
 #[test]
 fn a_failure_stands_for_the_rest_of_the_run_instead_of_trying_again() {
     let failing = Fake::new("echo 'no venv module' >&2; exit 1", "");
-    let run = TempDir::new("peer-run");
+    let run = temp_dir("peer-run");
     let mut venv = failing.venv();
-    venv.failure = Some(run.path.join("provisioning-failed"));
+    venv.failure = Some(run.path().join("provisioning-failed"));
     let first = venv.provision().expect_err("fails");
     assert!(first.contains("no venv module"), "{first}");
     // A later test binary of the run (with a python3 that would work now) is told the
@@ -277,7 +277,7 @@ fn a_failure_stands_for_the_rest_of_the_run_instead_of_trying_again() {
     );
     assert_eq!(working.log(), Vec::<String>::new());
     // A new run tries again.
-    later.failure = Some(run.path.join("next-run/provisioning-failed"));
+    later.failure = Some(run.path().join("next-run/provisioning-failed"));
     assert_eq!(later.provision(), Ok(later.python()));
 }
 
@@ -317,8 +317,8 @@ fn child(run: &Path, require: bool) -> (bool, String) {
 
 #[test]
 fn a_test_without_its_peer_says_so_after_the_results_and_notes_it() {
-    let run = TempDir::new("peer-run");
-    let (passed, output) = child(&run.path, false);
+    let run = temp_dir("peer-run");
+    let (passed, output) = child(run.path(), false);
     assert!(passed, "{output}");
     // libtest reports it passed (it cannot do otherwise) and shows nothing it captured...
     let ok = output.find("test child_a_peer_test_without_its_peer ... ok\n");
@@ -334,7 +334,7 @@ fn a_test_without_its_peer_says_so_after_the_results_and_notes_it() {
         ok.is_some() && ok < result && result < said && said < named,
         "{output}"
     );
-    let records = peers::read_records(&run.path);
+    let records = peers::read_records(run.path());
     assert_eq!(records.len(), 1, "{records:?}");
     let (binary, test, kind) = (&records[0].binary, &records[0].test, &records[0].kind);
     assert_eq!(
@@ -355,8 +355,8 @@ fn a_test_without_its_peer_says_so_after_the_results_and_notes_it() {
 
 #[test]
 fn with_require_peers_a_test_without_its_peer_fails() {
-    let run = TempDir::new("peer-run");
-    let (passed, output) = child(&run.path, true);
+    let run = temp_dir("peer-run");
+    let (passed, output) = child(run.path(), true);
     assert!(!passed, "{output}");
     assert!(
         output.contains("DRIVEDECK_REQUIRE_PEERS=1 and no drivedeck_no_such_module: cannot run"),
@@ -488,11 +488,11 @@ fn the_summary_is_one_line_when_the_peers_ran_and_a_block_when_tests_went_withou
 
 #[test]
 fn old_runs_notes_are_removed_and_the_current_kept() {
-    let root = TempDir::new("peer-runs");
+    let root = temp_dir("peer-runs");
     let (old, current, recent) = (
-        root.path.join("1"),
-        root.path.join("2"),
-        root.path.join("3"),
+        root.path().join("1"),
+        root.path().join("2"),
+        root.path().join("3"),
     );
     let two_days_ago = SystemTime::now() - Duration::from_secs(2 * 24 * 3600);
     for dir in [&old, &current, &recent] {
@@ -505,7 +505,7 @@ fn old_runs_notes_are_removed_and_the_current_kept() {
             .expect("age");
     }
     assert_eq!(
-        peers::prune_runs(&root.path, &current, Duration::from_secs(24 * 3600)),
+        peers::prune_runs(root.path(), &current, Duration::from_secs(24 * 3600)),
         1
     );
     assert!(!old.exists() && current.exists() && recent.exists());

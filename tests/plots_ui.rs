@@ -2,6 +2,7 @@
 //! an object added from the dictionary browser — egui_kittest clicking by label, the real
 //! worker sampling the simulated drive.
 
+mod common;
 mod window;
 
 use std::time::Duration;
@@ -18,11 +19,9 @@ fn app_harness() -> Harness<'static, App> {
     harness_with(Settings::default(), true, egui::vec2(1600.0, 1000.0))
 }
 
-fn temp_path(name: &str) -> String {
-    std::env::temp_dir()
-        .join(format!("drivedeck-plots-{}-{name}", std::process::id()))
-        .to_string_lossy()
-        .into_owned()
+/// `name` in `dir`, as typed into the path box.
+fn path_in(dir: &tempfile::TempDir, name: &str) -> String {
+    dir.path().join(name).to_string_lossy().into_owned()
 }
 
 #[test]
@@ -63,7 +62,8 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
     assert!(end > paused_at, "following the newest samples again");
 
     // The visible window to CSV, then to JSON: units and identity in the header.
-    let csv = temp_path("visible.csv");
+    let dir = common::temp_dir("plots");
+    let csv = path_in(&dir, "visible.csv");
     harness.state_mut().state.settings.plot.export_path = csv.clone();
     harness.get_by_label("Export visible").click();
     harness.step();
@@ -84,7 +84,7 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
         "{text:.600}"
     );
 
-    let json = temp_path("visible.json");
+    let json = path_in(&dir, "visible.json");
     harness.state_mut().state.settings.plot.export_path = json.clone();
     harness.get_by_label("Export visible").click();
     harness.step();
@@ -92,8 +92,6 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
     let from_json = Recording::from_json(&text).expect("our own JSON reads back");
     assert_eq!(from_json.channels, recording.channels);
     assert!(from_json.len() >= recording.len());
-    let _ = std::fs::remove_file(csv);
-    let _ = std::fs::remove_file(json);
 }
 
 #[test]
@@ -164,7 +162,8 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
         recording.markers
     );
 
-    let path = temp_path("triggered.csv");
+    let dir = common::temp_dir("plots");
+    let path = path_in(&dir, "triggered.csv");
     harness.state_mut().state.settings.plot.export_path = path.clone();
     harness.get_by_label("Save recording").click();
     harness.step();
@@ -180,7 +179,6 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
             .recording()
             .map_or(0, Recording::len)
     );
-    let _ = std::fs::remove_file(path);
 }
 
 #[test]
@@ -204,6 +202,12 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
         "{message:?}"
     );
     harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Plots;
+    // A long move (the default one lasts a fifth of a second, which a window starved on a
+    // busy machine may step over): the velocity stays up long enough to be seen.
+    harness
+        .get_by_label("Move absolute: Target position")
+        .set_text_value_accesskit("30000");
+    harness.step();
     harness.get_by_label("Move absolute").click();
     harness.step();
     step_until(&mut harness, "6044h to move", Duration::from_secs(5), |h| {
@@ -305,15 +309,15 @@ fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
     );
 
     // A directory where the file should be.
-    let dir = std::env::temp_dir();
-    harness.state_mut().settings.plot.export_path = dir.to_string_lossy().into_owned();
+    let dir = common::temp_dir("plots");
+    harness.state_mut().settings.plot.export_path = dir.path().to_string_lossy().into_owned();
     harness.get_by_label("Save recording").click();
     harness.step();
     let error = message(&harness).expect_err("a directory is not a file");
     assert!(error.contains("it is a directory"), "{error}");
 
     // Another place: the same recording, whole, read back from the file.
-    let good = temp_path("retry.csv");
+    let good = path_in(&dir, "retry.csv");
     harness.state_mut().settings.plot.export_path = good.clone();
     harness.get_by_label("Save recording").click();
     harness.step();
@@ -334,7 +338,7 @@ fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
     );
     assert_eq!(std::fs::read_to_string(&good).expect("still there"), text);
     // …but writes elsewhere, and Save recording may write its own file again.
-    let visible = temp_path("retry-visible.csv");
+    let visible = path_in(&dir, "retry-visible.csv");
     harness.state_mut().settings.plot.export_path = visible.clone();
     harness.get_by_label("Export visible").click();
     harness.step();
@@ -344,6 +348,4 @@ fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
     harness.get_by_label("Save recording").click();
     harness.step();
     message(&harness).expect("saved again over its own file");
-    let _ = std::fs::remove_file(good);
-    let _ = std::fs::remove_file(visible);
 }

@@ -4,36 +4,18 @@
 
 mod common;
 
-use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
-use common::{Sim, TempDir};
+use common::cli::{ok, run, start};
+use common::{Sim, temp_dir};
 use drivedeck::telemetry::Recording;
-
-fn drivedeck(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args(args)
-        .env("HOME", std::env::temp_dir())
-        .output()
-        .expect("the binary runs")
-}
-
-/// Exit code, stdout, stderr.
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = drivedeck(args);
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 #[test]
 fn record_writes_the_signals_with_units_and_identity() {
-    let dir = TempDir::new("record");
-    let csv = dir.path.join("run.csv");
+    let dir = temp_dir("record");
+    let csv = dir.path().join("run.csv");
     let csv = csv.to_str().expect("utf-8 path");
-    let (code, stdout, stderr) = run(&[
+    let (stdout, _) = ok(&[
         "--link",
         "sim",
         "--json",
@@ -47,7 +29,6 @@ fn record_writes_the_signals_with_units_and_identity() {
         "--out",
         csv,
     ]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
     let report: serde_json::Value = serde_json::from_str(&stdout).expect("JSON report");
     let recording =
         Recording::from_csv(&std::fs::read_to_string(csv).expect("written")).expect("CSV");
@@ -72,9 +53,9 @@ fn record_writes_the_signals_with_units_and_identity() {
     // Times are the worker's, increasing.
     assert!(recording.times.windows(2).all(|w| w[0] <= w[1]));
 
-    let json = dir.path.join("run.json");
+    let json = dir.path().join("run.json");
     let json = json.to_str().expect("utf-8 path");
-    let (code, stdout, stderr) = run(&[
+    let (stdout, _) = ok(&[
         "record",
         "--signals",
         "torque",
@@ -83,7 +64,6 @@ fn record_writes_the_signals_with_units_and_identity() {
         "--out",
         json,
     ]);
-    assert_eq!(code, 0, "{stdout}{stderr}");
     assert!(stdout.starts_with("recorded "), "{stdout}");
     let recording =
         Recording::from_json(&std::fs::read_to_string(json).expect("written")).expect("JSON");
@@ -92,51 +72,44 @@ fn record_writes_the_signals_with_units_and_identity() {
 
 #[test]
 fn a_trigger_captures_a_move_made_by_another_client() {
-    let dir = TempDir::new("record-trigger");
-    let csv = dir.path.join("move.csv");
+    let dir = temp_dir("record-trigger");
+    let csv = dir.path().join("move.csv");
     let csv = csv.to_str().expect("utf-8 path");
     let (_sim, addr) = Sim::tcp(&["--max-clients", "2"]);
     let link = format!("modbus-tcp://{addr}");
-    let recorder = Command::new(env!("CARGO_BIN_EXE_drivedeck"))
-        .args([
-            "--link",
-            &link,
-            "--json",
-            "record",
-            "--signals",
-            "position,velocity,pdi_status",
-            "--rate",
-            "500",
-            "--trigger",
-            "position rises 1000",
-            "--pre",
-            "0.2s",
-            "--duration",
-            "0.2s",
-            "--wait",
-            "20s",
-            "--out",
-            csv,
-        ])
-        .env("HOME", std::env::temp_dir())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("record starts");
+    let mut recorder = start(&[
+        "--link",
+        &link,
+        "--json",
+        "record",
+        "--signals",
+        "position,velocity,pdi_status",
+        "--rate",
+        "500",
+        "--trigger",
+        "position rises 1000",
+        "--pre",
+        "0.2s",
+        "--duration",
+        "0.2s",
+        "--wait",
+        "20s",
+        "--out",
+        csv,
+    ]);
     // Let the recorder connect and arm before the move.
     std::thread::sleep(Duration::from_millis(1500));
     let (code, stdout, stderr) = run(&[
         "--link", &link, "move-abs", "2000", "--speed", "300", "--wait",
     ]);
     assert_eq!(code, 0, "the move: {stdout}{stderr}");
-    let out = recorder.wait_with_output().expect("record ends");
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let ended = recorder.wait(Duration::from_secs(30));
     assert!(
-        out.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&out.stderr)
+        ended.is_some_and(|status| status.success()),
+        "{}",
+        recorder.report()
     );
-    let report: serde_json::Value = serde_json::from_str(&stdout).expect("JSON report");
+    let report: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
     let at = report["trigger_time_s"].as_f64().expect("fired");
     let recording =
         Recording::from_csv(&std::fs::read_to_string(csv).expect("written")).expect("CSV");
@@ -170,8 +143,8 @@ fn a_trigger_captures_a_move_made_by_another_client() {
 
 #[test]
 fn bad_record_arguments_are_refused_with_the_reason() {
-    let dir = TempDir::new("record-bad");
-    let out = dir.path.join("x.csv");
+    let dir = temp_dir("record-bad");
+    let out = dir.path().join("x.csv");
     let out = out.to_str().expect("utf-8 path");
     for (args, expected) in [
         (vec!["--signals", "speed"], "unknown signal 'speed'"),

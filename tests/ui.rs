@@ -1,12 +1,16 @@
 //! The window, headless: egui_kittest clicks by label, the real worker drives the
 //! simulated drive.
 
+mod common;
 mod window;
 
 use std::time::Duration;
 
 use drivedeck::link::{LinkInfo, LinkSpec};
+use drivedeck::od::Value;
 use drivedeck::pdi::{Action, StatusBit};
+use drivedeck::sim::server::ServerThread;
+use drivedeck::sim::server::modbus::ServerOptions;
 use drivedeck::ui::state::Connection;
 use drivedeck::ui::{AppState, Settings, commands};
 use drivedeck::worker::Request;
@@ -14,7 +18,10 @@ use eframe::egui;
 use egui::accesskit::Toggled;
 use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT, Queryable};
-use window::{app_harness, harness_with, lamp, step_until};
+use window::{
+    app_harness, choose_bus, connected, connected_to, disconnected_harness, fill, lamp, position,
+    read_object, start_turning, step_until, velocity,
+};
 
 #[test]
 fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
@@ -41,10 +48,7 @@ fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
         &mut harness,
         "the target to be reached",
         Duration::from_secs(5),
-        |h| {
-            lamp(h, "Target reached")
-                && h.state().state.latest.and_then(|s| s.position()) == Some(2000.0)
-        },
+        |h| lamp(h, "Target reached") && position(h) == 2000.0,
     );
     let state = &harness.state().state;
     let entry = state
@@ -68,9 +72,7 @@ fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
 #[test]
 fn halt_toggle_stops_and_resumes_the_move() {
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     harness
         .get_by_label("Move absolute: Target position")
         .set_text_value_accesskit("30000");
@@ -81,20 +83,12 @@ fn halt_toggle_stops_and_resumes_the_move() {
         &mut harness,
         "the motor to move",
         Duration::from_secs(3),
-        |h| {
-            h.state()
-                .state
-                .latest
-                .and_then(|s| s.velocity())
-                .is_some_and(|v| v > 100.0)
-        },
+        |h| velocity(h) > 100.0,
     );
     harness.get_by_label("Halt").click();
     harness.step();
     step_until(&mut harness, "the halt", Duration::from_secs(5), |h| {
-        lamp(h, "Quick stop / halt")
-            && lamp(h, "Target reached")
-            && h.state().state.latest.and_then(|s| s.velocity()) == Some(0.0)
+        lamp(h, "Quick stop / halt") && lamp(h, "Target reached") && velocity(h) == 0.0
     });
     assert_eq!(
         harness.get_by_label("Halt").accesskit_node().toggled(),
@@ -106,14 +100,7 @@ fn halt_toggle_stops_and_resumes_the_move() {
         &mut harness,
         "the move to continue",
         Duration::from_secs(3),
-        |h| {
-            !lamp(h, "Quick stop / halt")
-                && h.state()
-                    .state
-                    .latest
-                    .and_then(|s| s.velocity())
-                    .is_some_and(|v| v > 50.0)
-        },
+        |h| !lamp(h, "Quick stop / halt") && velocity(h) > 50.0,
     );
 }
 
@@ -210,23 +197,8 @@ fn a_torque_command_with_slope_zero_asks_first() {
 #[test]
 fn escape_sends_quickstop_from_anywhere() {
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
-    harness.get_by_label("Velocity").click();
-    harness.step();
-    step_until(
-        &mut harness,
-        "the motor to turn",
-        Duration::from_secs(3),
-        |h| {
-            h.state()
-                .state
-                .latest
-                .and_then(|s| s.velocity())
-                .is_some_and(|v| v > 50.0)
-        },
-    );
+    connected(&mut harness);
+    start_turning(&mut harness, 50.0);
     // Focus sits in a text box; Esc still stops.
     harness
         .get_by_label("Move absolute: Target position")
@@ -254,9 +226,7 @@ fn escape_sends_quickstop_from_anywhere() {
 #[test]
 fn the_poll_rate_box_changes_the_worker_rate() {
     let mut harness = app_harness();
-    step_until(&mut harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
-    });
+    connected(&mut harness);
     harness.get_by_label("Poll rate").set_value_accesskit(25.0);
     harness.step();
     assert_eq!(harness.state().state.settings.poll_rate, 25.0);
@@ -277,27 +247,17 @@ fn the_poll_rate_box_changes_the_worker_rate() {
 
 #[test]
 fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor() {
-    use drivedeck::sim::server::ServerThread;
-    use drivedeck::sim::server::modbus::ServerOptions;
-    let server = ServerThread::modbus_tcp(
-        "127.0.0.1:0".parse().expect("addr"),
-        ServerOptions::default(),
-    )
-    .expect("server");
+    let server = common::modbus_server(ServerOptions::default());
     // A window that starts disconnected, as after a fresh install on a machine with a drive.
-    let mut harness = harness_with(Settings::default(), false, egui::vec2(1400.0, 900.0));
-    harness.run();
-    harness.get_by_label("Bus").click();
-    harness.run();
-    harness.get_by_label("Modbus TCP").click();
-    harness.run();
-    harness
-        .get_by_label("Connection: Host")
-        .set_text_value_accesskit("127.0.0.1");
-    harness
-        .get_by_label("Connection: Port")
-        .set_text_value_accesskit(&server.addr.port().to_string());
-    harness.run();
+    let mut harness = disconnected_harness();
+    choose_bus(&mut harness, "Modbus TCP");
+    fill(
+        &mut harness,
+        &[
+            ("Connection: Host", "127.0.0.1"),
+            ("Connection: Port", &server.addr.port().to_string()),
+        ],
+    );
     harness.get_by_label("Connect").click();
     harness.step();
     step_until(
@@ -318,11 +278,7 @@ fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor()
         &mut harness,
         "the target over Modbus",
         Duration::from_secs(5),
-        |h| {
-            lamp(h, "Target reached")
-                && lamp(h, "Operation enabled")
-                && h.state().state.latest.and_then(|s| s.position()) == Some(2000.0)
-        },
+        |h| lamp(h, "Target reached") && lamp(h, "Operation enabled") && position(h) == 2000.0,
     );
     assert!((server.drive().lock().position() - 2000.0).abs() < 0.5);
     // The connection persists in the settings for the next start.
@@ -340,16 +296,9 @@ fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor()
 
 #[test]
 fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
-    let mut harness = harness_with(Settings::default(), false, egui::vec2(1400.0, 900.0));
-    harness.run();
-    harness.get_by_label("Bus").click();
-    harness.run();
-    harness.get_by_label("CANopen (simulated bus)").click();
-    harness.run();
-    harness
-        .get_by_label("Connection: Node")
-        .set_text_value_accesskit("6");
-    harness.run();
+    let mut harness = disconnected_harness();
+    choose_bus(&mut harness, "CANopen (simulated bus)");
+    fill(&mut harness, &[("Connection: Node", "6")]);
     harness.get_by_label("Scan bus").click();
     harness.step();
     step_until(&mut harness, "the scan", Duration::from_secs(5), |h| {
@@ -400,20 +349,12 @@ fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
         },
     );
     // Any object, read the way the link does it best: 1008h over a segmented SDO upload.
-    harness
-        .get_by_label("Object address")
-        .set_text_value_accesskit("1008");
-    harness.run();
-    harness.get_by_label("Read").click();
-    harness.step();
-    step_until(&mut harness, "the string", Duration::from_secs(3), |h| {
-        h.state().state.last_object.as_ref().is_some_and(|r| {
-            r.result
-                == Ok(drivedeck::od::Value::Text(
-                    "drivedeck simulated drive".into(),
-                ))
-        })
-    });
+    read_object(
+        &mut harness,
+        "1008",
+        &Value::Text("drivedeck simulated drive".into()),
+        Duration::from_secs(3),
+    );
 }
 
 /// The status panel, the command panel and the stop strip of a window fed by hand.
@@ -450,6 +391,27 @@ fn lit_lamp_alphas(harness: &Harness<'_, AppState>) -> Vec<u8> {
         .filter(|fill| fill.a() > 0 && !(fill.r() == fill.g() && fill.g() == fill.b()))
         .map(|fill| fill.a())
         .collect()
+}
+
+/// A live panel: no banner, the lit lamps at full strength, the buttons enabled.
+fn shows_live(harness: &Harness<'_, AppState>) {
+    assert!(harness.query_by_label_contains("NO LINK").is_none());
+    assert!(
+        harness
+            .query_by_label_contains("WAITING FOR DATA")
+            .is_none()
+    );
+    let live = lit_lamp_alphas(harness);
+    assert!(
+        !live.is_empty() && live.iter().all(|a| *a == 255),
+        "{live:?}"
+    );
+    assert!(
+        !harness
+            .get_by_label("Move absolute")
+            .accesskit_node()
+            .is_disabled()
+    );
 }
 
 fn operation_enabled_sample(t: f64) -> drivedeck::worker::Sample {
@@ -504,24 +466,8 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
         .apply(Event::Samples(vec![operation_enabled_sample(1.0)]));
     harness.step();
     // Live: no banner, lamps at full strength, the buttons enabled.
-    assert!(harness.query_by_label_contains("NO LINK").is_none());
-    assert!(
-        harness
-            .query_by_label_contains("WAITING FOR DATA")
-            .is_none()
-    );
     assert!(lamp(&harness, "Operation enabled"));
-    let live = lit_lamp_alphas(&harness);
-    assert!(
-        !live.is_empty() && live.iter().all(|a| *a == 255),
-        "{live:?}"
-    );
-    assert!(
-        !harness
-            .get_by_label("Move absolute")
-            .accesskit_node()
-            .is_disabled()
-    );
+    shows_live(&harness);
 
     harness.state_mut().apply(Event::Disconnected {
         reason: Some("connection reset by peer".into()),
@@ -597,42 +543,16 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
         .state_mut()
         .apply(Event::Samples(vec![operation_enabled_sample(0.01)]));
     harness.step();
-    assert!(harness.query_by_label_contains("NO LINK").is_none());
-    assert!(
-        harness
-            .query_by_label_contains("WAITING FOR DATA")
-            .is_none()
-    );
+    shows_live(&harness);
     assert!(harness.query_by_label_contains("not connected").is_none());
-    let live = lit_lamp_alphas(&harness);
-    assert!(
-        !live.is_empty() && live.iter().all(|a| *a == 255),
-        "{live:?}"
-    );
-    assert!(
-        !harness
-            .get_by_label("Move absolute")
-            .accesskit_node()
-            .is_disabled()
-    );
 }
 
 #[test]
 fn the_window_shows_a_drive_whose_server_died_as_last_seen_and_comes_back_live() {
-    use drivedeck::sim::server::ServerThread;
-    use drivedeck::sim::server::modbus::ServerOptions;
-    let server = ServerThread::modbus_tcp(
-        "127.0.0.1:0".parse().expect("addr"),
-        ServerOptions::default(),
-    )
-    .expect("server");
+    let server = common::modbus_server(ServerOptions::default());
     let addr = server.addr;
     let spec: LinkSpec = format!("modbus-tcp://{addr}?unit=0").parse().expect("spec");
-    let mut settings = Settings::default();
-    settings.connection =
-        drivedeck::ui::state::ConnectionForm::from_spec(&spec, settings.connection);
-    let mut harness = harness_with(settings, true, egui::vec2(1366.0, 768.0));
-    window::connected(&mut harness);
+    let mut harness = connected_to(&spec, None, egui::vec2(1366.0, 768.0));
     harness.step();
     assert!(harness.query_by_label_contains("NO LINK").is_none());
     assert!(

@@ -38,21 +38,8 @@ fn snapshot(probe: &mut Probe) -> BTreeMap<Address, Result<Value, drivedeck::wor
 }
 
 fn write(probe: &mut Probe, address: Address, value: u64, path: ObjectPath) {
-    let id = probe.send(Request::WriteObject {
-        address,
-        dtype: DataType::Unsigned32,
-        value: Value::Uint(value),
-        path,
-    });
-    let written = probe.wait(
-        "the write",
-        Duration::from_secs(5),
-        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
-    );
-    assert!(
-        matches!(&written, Event::ObjectWritten { result: Ok(()), .. }),
-        "{written:?}"
-    );
+    let written = probe.write(address, DataType::Unsigned32, Value::Uint(value), path);
+    assert_eq!(written, Ok(()), "{address}");
 }
 
 /// The changes reported so far, as the window keeps them.
@@ -110,11 +97,7 @@ fn restoring_what_was_changed_returns_the_dictionary_to_its_start() {
 
     for request in restore_requests(&changes) {
         let id = probe.send(request);
-        probe.wait(
-            "the restoring write",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::ObjectWritten { id: i, result: Ok(()), .. } if *i == id),
-        );
+        assert_eq!(probe.written(id), Ok(()), "the restoring write");
     }
     assert_eq!(snapshot(&mut probe), start, "every object as it was");
     probe.settle(Duration::from_millis(100));

@@ -28,11 +28,7 @@ fn a_move_reaches_its_target_and_raises_target_reached() {
         Duration::from_secs(2),
         |e| matches!(e, Event::Sent { id: i, image, .. } if *i == id && image.cmd == 20),
     );
-    probe.wait(
-        "the acceptance",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    probe.accepted(id);
     let outcome = probe.outcome(id, Duration::from_secs(10));
     assert_eq!(outcome, CommandProgress::Done { return_value: 2000 });
     let sample = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
@@ -46,15 +42,10 @@ fn a_move_reaches_its_target_and_raises_target_reached() {
 #[test]
 fn halt_stops_and_resume_continues() {
     let mut probe = Probe::connected(LinkSpec::Sim);
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
+    probe.start(Action::MoveAbsolute {
         target: 20_000,
         speed: 300,
-    }));
-    probe.wait(
-        "the acceptance",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    });
     probe.settle(Duration::from_millis(300));
     let halt = probe.send(Request::Halt);
     let halted = probe.outcome(halt, Duration::from_secs(5));
@@ -88,15 +79,7 @@ fn od_write_then_read_through_the_pdi() {
         value: Value::Uint(1000),
         path: ObjectPath::Pdi,
     });
-    let written = probe.wait(
-        "the write",
-        Duration::from_secs(5),
-        |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
-    );
-    assert!(
-        matches!(written, Event::ObjectWritten { result: Ok(()), .. }),
-        "{written:?}"
-    );
+    assert_eq!(probe.written(id), Ok(()));
     assert_eq!(
         probe.read(address, DataType::Unsigned32, ObjectPath::Pdi),
         Ok(Value::Uint(1000))
@@ -154,10 +137,7 @@ fn a_missing_object_comes_back_as_pdi_status_error_06020000h() {
 #[test]
 fn quickstop_jumps_the_queue() {
     let mut probe = Probe::connected(LinkSpec::Sim);
-    let velocity = probe.send(Request::Command(Action::Velocity { speed: 500 }));
-    probe.wait("velocity accepted", Duration::from_secs(2), |e| {
-        matches!(e, Event::Progress { id, progress: CommandProgress::Accepted } if *id == velocity)
-    });
+    probe.start(Action::Velocity { speed: 500 });
     // A queue of PDI reads, then the stop.
     let reads: Vec<u64> = (0..10)
         .map(|_| {
@@ -195,15 +175,10 @@ fn quickstop_jumps_the_queue() {
 #[test]
 fn an_injected_fault_fails_the_move_and_clear_error_needs_the_cause_gone() {
     let mut probe = Probe::connected(LinkSpec::Sim);
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
+    let id = probe.start(Action::MoveAbsolute {
         target: 50_000,
         speed: 100,
-    }));
-    probe.wait(
-        "move accepted",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    });
     probe.send(Request::Inject {
         injection: Injection::OverCurrent,
         active: true,
@@ -212,18 +187,16 @@ fn an_injected_fault_fails_the_move_and_clear_error_needs_the_cause_gone() {
         probe.outcome(id, Duration::from_secs(5)),
         CommandProgress::Failed(Failure::DriveFault { error_code: 0x2300 })
     );
-    let clear = probe.send(Request::Command(Action::ClearError));
     assert_eq!(
-        probe.outcome(clear, Duration::from_secs(5)),
+        probe.command(Action::ClearError, Duration::from_secs(5)),
         CommandProgress::Failed(Failure::FaultPersists { error_code: 0x2300 })
     );
     probe.send(Request::Inject {
         injection: Injection::OverCurrent,
         active: false,
     });
-    let clear = probe.send(Request::Command(Action::ClearError));
     assert!(matches!(
-        probe.outcome(clear, Duration::from_secs(5)),
+        probe.command(Action::ClearError, Duration::from_secs(5)),
         CommandProgress::Done { .. }
     ));
 }
@@ -300,15 +273,10 @@ fn health_reports_the_cycle_rate() {
 #[test]
 fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
     let mut probe = Probe::connected(LinkSpec::Sim);
-    let id = probe.send(Request::Command(Action::MoveAbsolute {
+    let id = probe.start(Action::MoveAbsolute {
         target: 20_000,
         speed: 200,
-    }));
-    probe.wait(
-        "move accepted",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
-    );
+    });
     let before = probe
         .settle(Duration::from_millis(300))
         .position()
@@ -323,30 +291,15 @@ fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
         matches!(&outcome, CommandProgress::LinkLost { reason } if reason.contains("halt")),
         "{outcome:?}"
     );
-    let lost = probe.wait("the link loss", Duration::from_secs(2), |e| {
-        matches!(e, Event::Disconnected { reason: Some(_) })
-    });
-    assert!(
-        matches!(&lost, Event::Disconnected { reason: Some(r) } if r.contains("cable is pulled")),
-        "{lost:?}"
-    );
-    probe.wait("a retry", Duration::from_secs(2), |e| {
-        matches!(
-            e,
-            Event::ConnectFailed {
-                retry_in: Some(_),
-                ..
-            }
-        )
-    });
+    let lost = probe.lost(Duration::from_secs(2));
+    assert!(lost.contains("cable is pulled"), "{lost}");
+    probe.retrying(Duration::from_secs(2));
     // Requests meanwhile get a reason, not a hang.
     let id = probe.send(Request::Command(Action::Nop));
     probe.wait("the rejection", Duration::from_secs(2), |e| {
         matches!(e, Event::Rejected { id: i, reason, .. } if *i == id && *reason == Rejection::NotConnected)
     });
-    probe.wait("the reconnection", Duration::from_secs(10), |e| {
-        matches!(e, Event::Connected(_))
-    });
+    probe.reconnected(Duration::from_secs(10));
     // The same simulated drive: the move went on while the cable was out.
     let after = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
         s.position() == Some(20_000.0)
@@ -358,19 +311,16 @@ fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
 fn a_command_the_drive_never_acknowledges_times_out() {
     let mut probe = Probe::connected(LinkSpec::Sim);
     // PDI-Ctrl off: the drive ignores 2291h, as a real one would.
-    let id = probe.send(Request::WriteObject {
-        address: Address::new(0x2290, 0),
-        dtype: DataType::Unsigned8,
-        value: Value::Uint(0),
-        path: ObjectPath::Native,
-    });
-    probe.wait(
-        "the write",
-        Duration::from_secs(2),
-        |e| matches!(e, Event::ObjectWritten { id: i, result: Ok(()), .. } if *i == id),
+    assert_eq!(
+        probe.write(
+            Address::new(0x2290, 0),
+            DataType::Unsigned8,
+            Value::Uint(0),
+            ObjectPath::Native
+        ),
+        Ok(())
     );
-    let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
-    let outcome = probe.outcome(id, Duration::from_secs(3));
+    let outcome = probe.command(Action::Velocity { speed: 100 }, Duration::from_secs(3));
     let text = outcome.to_string();
     assert!(
         matches!(outcome, CommandProgress::TimedOut { .. }),
@@ -484,15 +434,8 @@ fn the_machines_ports_and_interfaces_come_from_the_worker() {
 #[test]
 fn the_simulated_drive_says_which_homing_methods_it_has() {
     let probe = Probe::connected(LinkSpec::Sim);
-    let info = probe
-        .seen
-        .iter()
-        .find_map(|e| match e {
-            Event::Connected(info) => Some(info.clone()),
-            _ => None,
-        })
-        .expect("connected");
-    let methods = info
+    let methods = probe
+        .link_info()
         .homing_methods
         .expect("the simulator knows its methods");
     assert!(

@@ -1,7 +1,8 @@
-//! Helpers shared by the tests that talk to independent peers over real sockets and
-//! pseudo-terminals: the Python peers (pymodbus, python-canopen), socat pty pairs, and
-//! `drivedeck sim` run as its own process. Each test file takes what it needs
-//! (`mod common;`).
+//! What the tests share beside the worker (`probe`) and the window (`window`): temporary
+//! directories, child processes (`Process`), `drivedeck` on the command line (`cli`), the
+//! simulated drive served in this process (`modbus_server`, `enip_adapter`) or as its own
+//! process (`Sim`), socat pty pairs, and the Python peers (pymodbus, python-canopen,
+//! pycomm3). Each test file takes what it needs (`mod common;`).
 //!
 //! The Python peers come from `./.venv`, which the first test that needs one makes with
 //! the versions pinned in tests/peers/requirements.txt (see `peers`). A test whose peer
@@ -11,17 +12,21 @@
 
 #![allow(dead_code)]
 
+pub mod cli;
 pub mod peers;
 
 use std::io::{BufRead, BufReader, Read};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver};
 use std::sync::{Arc, Mutex};
 use std::thread;
 use std::time::{Duration, Instant};
+
+use drivedeck::sim::server::ServerThread;
+use drivedeck::sim::server::enip::AdapterOptions;
+use drivedeck::sim::server::modbus::ServerOptions;
 
 /// Whether a missing peer fails the test (CI) instead of skipping it.
 pub fn peers_required() -> bool {
@@ -206,32 +211,13 @@ pub fn check_socat() -> Result<PathBuf, String> {
     }
 }
 
-/// A fresh, empty directory under the system's temp dir, removed on drop.
-#[derive(Debug)]
-pub struct TempDir {
-    pub path: PathBuf,
-}
-
-impl TempDir {
-    pub fn new(what: &str) -> TempDir {
-        static SEQ: AtomicUsize = AtomicUsize::new(0);
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.subsec_nanos());
-        let path = std::env::temp_dir().join(format!(
-            "drivedeck-{what}-{}-{}-{nanos}",
-            std::process::id(),
-            SEQ.fetch_add(1, Ordering::SeqCst)
-        ));
-        std::fs::create_dir_all(&path).expect("temp dir");
-        TempDir { path }
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.path);
-    }
+/// A fresh, empty directory under the system's temp dir, named `drivedeck-{what}-…`,
+/// removed on drop.
+pub fn temp_dir(what: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("drivedeck-{what}-"))
+        .tempdir()
+        .expect("temp dir")
 }
 
 /// Collect a child's stream on a thread: every line goes to the shared text and, when
@@ -319,6 +305,16 @@ impl Process {
 
     pub fn pid(&self) -> u32 {
         self.child.id()
+    }
+
+    /// Send `signal` (INT, TERM, HUP, STOP, CONT) to the process, by its own pid.
+    pub fn signal(&self, signal: &str) {
+        let status = Command::new("kill")
+            .arg(format!("-{signal}"))
+            .arg(self.pid().to_string())
+            .status()
+            .expect("kill runs");
+        assert!(status.success(), "kill -{signal} {} failed", self.name);
     }
 
     /// Everything it printed so far, for failure messages.
@@ -420,9 +416,12 @@ pub struct Sim {
 }
 
 impl Sim {
-    fn start(args: &[&str], what: &str) -> Sim {
+    /// `drivedeck sim ARGS…` with `setup` done to its command (its environment), ready
+    /// once it printed its banner.
+    fn start(args: &[&str], what: &str, setup: impl FnOnce(&mut Command)) -> Sim {
         let mut command = Command::new(env!("CARGO_BIN_EXE_drivedeck"));
         command.arg("sim").args(args);
+        setup(&mut command);
         let mut process = Process::spawn("drivedeck sim", &mut command);
         let banner = process.expect_line(what, Duration::from_secs(10));
         assert!(
@@ -435,9 +434,14 @@ impl Sim {
 
     /// `drivedeck sim --modbus-tcp 127.0.0.1:0 ARGS…`: a free port, read from its banner.
     pub fn tcp(args: &[&str]) -> (Sim, SocketAddr) {
+        Sim::tcp_with(args, |_| {})
+    }
+
+    /// `Sim::tcp` with `setup` done to the command first (its environment).
+    pub fn tcp_with(args: &[&str], setup: impl FnOnce(&mut Command)) -> (Sim, SocketAddr) {
         let mut all = vec!["--modbus-tcp", "127.0.0.1:0"];
         all.extend_from_slice(args);
-        let sim = Sim::start(&all, "Modbus TCP banner");
+        let sim = Sim::start(&all, "Modbus TCP banner", setup);
         // "serving the simulated drive on Modbus TCP 127.0.0.1:PORT (…)"
         let addr = sim
             .banner
@@ -454,7 +458,7 @@ impl Sim {
         let path = path.to_str().expect("utf-8 path");
         let mut all = vec!["--modbus-rtu", path];
         all.extend_from_slice(args);
-        let sim = Sim::start(&all, "Modbus RTU banner");
+        let sim = Sim::start(&all, "Modbus RTU banner", |_| {});
         assert!(sim.banner.contains("Modbus RTU"), "{}", sim.banner);
         sim
     }
@@ -470,7 +474,7 @@ impl Sim {
     pub fn enip_on(addr: &str, args: &[&str]) -> (Sim, SocketAddr) {
         let mut all = vec!["--enip", addr, "--enip-io-port", "0"];
         all.extend_from_slice(args);
-        let sim = Sim::start(&all, "EtherNet/IP banner");
+        let sim = Sim::start(&all, "EtherNet/IP banner", |_| {});
         // "serving the simulated drive on EtherNet/IP 127.0.0.1:P (class 1 I/O on UDP …)"
         let addr = sim
             .banner
@@ -489,7 +493,7 @@ impl Sim {
         let node = node.to_string();
         let mut all = vec!["--slcan", path, "--node", &node];
         all.extend_from_slice(args);
-        let sim = Sim::start(&all, "slcan banner");
+        let sim = Sim::start(&all, "slcan banner", |_| {});
         assert!(
             sim.banner.contains(&format!(
                 "CANopen node {node} behind an emulated slcan adapter"
@@ -501,21 +505,31 @@ impl Sim {
     }
 }
 
+/// The link to CANopen node `node` behind the slcan adapter at `path`, at 1 Mbit/s.
+pub fn slcan_spec(path: &Path, node: u8) -> drivedeck::link::LinkSpec {
+    format!(
+        "canopen+slcan://{}?bitrate=1000000&node={node}",
+        path.display()
+    )
+    .parse()
+    .expect("spec")
+}
+
 /// Two connected pseudo-terminals from socat, `a` and `b`, in a temp dir of their own.
 pub struct PtyPair {
     pub a: PathBuf,
     pub b: PathBuf,
     process: Process,
-    _dir: TempDir,
+    _dir: tempfile::TempDir,
 }
 
 impl PtyPair {
     /// `None` (after `skip_or_fail`) without socat.
     pub fn new() -> Option<PtyPair> {
         let socat = socat()?;
-        let dir = TempDir::new("pty");
-        let a = dir.path.join("A");
-        let b = dir.path.join("B");
+        let dir = temp_dir("pty");
+        let a = dir.path().join("A");
+        let b = dir.path().join("B");
         let mut command = Command::new(socat);
         command.args([
             "-d",
@@ -539,7 +553,7 @@ impl PtyPair {
             assert!(
                 process.running() && Instant::now() < deadline,
                 "socat made no pty pair in {}; {}",
-                dir.path.display(),
+                dir.path().display(),
                 process.report()
             );
             thread::sleep(Duration::from_millis(10));
@@ -555,6 +569,43 @@ impl PtyPair {
     pub fn running(&mut self) -> bool {
         self.process.running()
     }
+}
+
+/// Any free port on loopback.
+pub fn loopback() -> SocketAddr {
+    "127.0.0.1:0".parse().expect("address")
+}
+
+/// The simulated drive served over Modbus TCP in this process, on a free loopback port.
+pub fn modbus_server(options: ServerOptions) -> ServerThread {
+    ServerThread::modbus_tcp(loopback(), options).expect("the Modbus TCP server")
+}
+
+/// The simulated EtherNet/IP adapter in this process, on a free loopback port with its
+/// class 1 I/O on a free UDP port (the tests run in parallel).
+pub fn enip_adapter() -> ServerThread {
+    ServerThread::enip(loopback(), enip_options()).expect("the EtherNet/IP adapter")
+}
+
+/// The adapter's options with its class 1 I/O on a free UDP port.
+pub fn enip_options() -> AdapterOptions {
+    AdapterOptions {
+        io_port: 0,
+        ..AdapterOptions::default()
+    }
+}
+
+/// A current-thread runtime for a test that drives a link or a bus itself.
+pub fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime")
+}
+
+/// Wait until `done` holds, or panic with `what` after `timeout`.
+pub fn wait_until(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
+    eventually(what, timeout, || done().then_some(()));
 }
 
 /// Poll `check` until it gives `Some`, or panic with `what` after `timeout`.

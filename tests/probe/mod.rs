@@ -1,16 +1,18 @@
-//! A test's view of the worker thread: send requests, wait for the events a window would
-//! see, and keep every event for the failure message. Shared by the end-to-end tests of
-//! every link (`mod probe;`).
+//! A test's view of the worker thread: connect, send requests, wait for the events a
+//! window would see (a command accepted and done, an object read or written, a notice, the
+//! link lost and back), and keep every event for the failure message. Shared by the
+//! end-to-end tests of every link (`mod probe;`).
 
 #![allow(dead_code)]
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use drivedeck::link::LinkSpec;
+use drivedeck::link::{FoundDevice, LinkFailure, LinkInfo, LinkSpec};
 use drivedeck::od::{Address, DataType, Value};
+use drivedeck::pdi::Action;
 use drivedeck::worker::{
-    CommandProgress, Config, Event, ObjectError, ObjectPath, Request, Sample, Worker,
+    CommandProgress, Config, Event, ObjectError, ObjectPath, Request, RequestId, Sample, Worker,
 };
 
 pub struct Probe {
@@ -52,8 +54,79 @@ impl Probe {
         probe
     }
 
-    pub fn send(&self, request: Request) -> u64 {
+    /// A worker connected to `spec` with the motor turning slowly (a velocity command
+    /// accepted), the link counting as lost after `lost_after` failed exchanges in a row;
+    /// and the velocity command's id.
+    pub fn turning(spec: LinkSpec, lost_after: u32) -> (Probe, RequestId) {
+        let mut probe = Probe::connected(spec);
+        probe.send(Request::SetLostAfter(lost_after));
+        let id = probe.start(Action::Velocity { speed: 60 });
+        (probe, id)
+    }
+
+    /// Ask to connect to `spec`: the worker's first answer, `Event::Connected` or
+    /// `Event::ConnectFailed`.
+    pub fn connect(&mut self, spec: LinkSpec) -> Event {
+        self.send(Request::Connect(spec));
+        self.wait(
+            "the connection or its failure",
+            Duration::from_secs(10),
+            |e| matches!(e, Event::Connected(_) | Event::ConnectFailed { .. }),
+        )
+    }
+
+    /// What the link said of itself when it last connected.
+    pub fn link_info(&self) -> LinkInfo {
+        self.seen
+            .iter()
+            .rev()
+            .find_map(|e| match e {
+                Event::Connected(info) => Some(info.clone()),
+                _ => None,
+            })
+            .expect("connected")
+    }
+
+    pub fn send(&self, request: Request) -> RequestId {
         self.worker.send(request).expect("request queued")
+    }
+
+    /// Send `action` and wait until the drive accepted it.
+    pub fn start(&mut self, action: Action) -> RequestId {
+        let id = self.send(Request::Command(action));
+        self.accepted(id);
+        id
+    }
+
+    /// Wait until the drive accepted command `id`.
+    pub fn accepted(&mut self, id: RequestId) {
+        self.wait(
+            "the command accepted",
+            Duration::from_secs(5),
+            |e| matches!(e, Event::Progress { id: i, progress: CommandProgress::Accepted } if *i == id),
+        );
+    }
+
+    /// An absolute move to `target` at `speed`: done, its return value the target.
+    pub fn move_absolute(&mut self, target: i32, speed: i16) {
+        let done = self.command(
+            Action::MoveAbsolute { target, speed },
+            Duration::from_secs(15),
+        );
+        assert_eq!(
+            done,
+            CommandProgress::Done {
+                return_value: target
+            },
+            "the move to {target} at {speed}; notices: {:#?}",
+            self.notices()
+        );
+    }
+
+    /// Send `action` and wait for its final outcome.
+    pub fn command(&mut self, action: Action, timeout: Duration) -> CommandProgress {
+        let id = self.send(Request::Command(action));
+        self.outcome(id, timeout)
     }
 
     fn keep(&mut self, event: Event) {
@@ -127,6 +200,133 @@ impl Probe {
         }
     }
 
+    /// The vendor id, 1018h:01h, read over `path` (26Ch on the simulated drive).
+    pub fn vendor_id(&mut self, path: ObjectPath) -> Result<Value, ObjectError> {
+        self.read(Address::new(0x1018, 1), DataType::Unsigned32, path)
+    }
+
+    /// The device name, 1008h, read over `path`: a string, longer than one frame on most
+    /// links ("drivedeck simulated drive" on the simulated drive).
+    pub fn device_name(&mut self, path: ObjectPath) -> Result<Value, ObjectError> {
+        self.read(Address::new(0x1008, 0), DataType::VisibleString, path)
+    }
+
+    /// Write one object through the worker.
+    pub fn write(
+        &mut self,
+        address: Address,
+        dtype: DataType,
+        value: Value,
+        path: ObjectPath,
+    ) -> Result<(), ObjectError> {
+        let id = self.send(Request::WriteObject {
+            address,
+            dtype,
+            value,
+            path,
+        });
+        self.written(id)
+    }
+
+    /// The result of write request `id`.
+    pub fn written(&mut self, id: RequestId) -> Result<(), ObjectError> {
+        match self.wait(
+            "the write",
+            Duration::from_secs(10),
+            |e| matches!(e, Event::ObjectWritten { id: i, .. } if *i == id),
+        ) {
+            Event::ObjectWritten { result, .. } => result,
+            _ => unreachable!(),
+        }
+    }
+
+    /// Send a scan or a discovery and wait for what it found.
+    pub fn scan(
+        &mut self,
+        request: Request,
+        timeout: Duration,
+    ) -> Result<Vec<FoundDevice>, LinkFailure> {
+        let id = self.send(request);
+        match self.wait(
+            "the scan",
+            timeout,
+            |e| matches!(e, Event::Scanned { id: i, .. } if *i == id),
+        ) {
+            Event::Scanned { result, .. } => result,
+            _ => unreachable!(),
+        }
+    }
+
+    /// Wait until the link is lost (not disconnected by request): the reason.
+    pub fn lost(&mut self, timeout: Duration) -> String {
+        match self.wait("the link loss", timeout, |e| {
+            matches!(e, Event::Disconnected { reason: Some(_) })
+        }) {
+            Event::Disconnected {
+                reason: Some(reason),
+            } => reason,
+            _ => unreachable!(),
+        }
+    }
+
+    /// Wait until the worker says it will try to connect again.
+    pub fn retrying(&mut self, timeout: Duration) {
+        self.wait("a retry", timeout, |e| {
+            matches!(
+                e,
+                Event::ConnectFailed {
+                    retry_in: Some(_),
+                    ..
+                }
+            )
+        });
+    }
+
+    /// Wait until the worker is connected (again): what the link says of itself.
+    pub fn reconnected(&mut self, timeout: Duration) -> LinkInfo {
+        match self.wait("the reconnection", timeout, |e| {
+            matches!(e, Event::Connected(_))
+        }) {
+            Event::Connected(info) => info,
+            _ => unreachable!(),
+        }
+    }
+
+    /// The link dropped (or a reconnection under way) among the events after the first
+    /// `from` (a connection that needed a second try is not the trouble under test).
+    pub fn dropped_since(&self, from: usize) -> Option<&Event> {
+        self.seen[from..]
+            .iter()
+            .find(|e| matches!(e, Event::Disconnected { .. } | Event::ConnectFailed { .. }))
+    }
+
+    /// The link was not dropped after the first `from` events.
+    pub fn never_dropped_since(&self, from: usize) {
+        let dropped = self.dropped_since(from);
+        assert!(
+            dropped.is_none(),
+            "the link was dropped: {dropped:?}; notices: {:#?}",
+            self.notices()
+        );
+    }
+
+    /// The link was never dropped since the probe connected.
+    pub fn never_dropped(&self) {
+        self.never_dropped_since(0);
+    }
+
+    /// Every sample received so far, oldest first.
+    pub fn samples(&self) -> Vec<Sample> {
+        self.seen
+            .iter()
+            .filter_map(|e| match e {
+                Event::Samples(s) => Some(s.clone()),
+                _ => None,
+            })
+            .flatten()
+            .collect()
+    }
+
     /// Let events arrive for a while; the merged newest values afterwards.
     pub fn settle(&mut self, time: Duration) -> Sample {
         let until = Instant::now() + time;
@@ -154,6 +354,63 @@ impl Probe {
             Event::Samples(s) => *s.iter().rev().find(|x| want(x)).expect("matched"),
             _ => unreachable!(),
         }
+    }
+
+    /// A notice seen so far that says all of `words`.
+    pub fn notice_with(&self, words: &[&str]) -> Option<String> {
+        self.notices()
+            .into_iter()
+            .find(|n| words.iter().all(|w| n.contains(w)))
+    }
+
+    /// A notice that says all of `words`, seen already or coming within a few seconds.
+    pub fn expect_notice(&mut self, words: &[&str]) -> String {
+        if let Some(notice) = self.notice_with(words) {
+            return notice;
+        }
+        match self.wait(
+            &format!("a notice with {words:?}"),
+            Duration::from_secs(5),
+            |e| matches!(e, Event::Notice(n) if words.iter().all(|w| n.text.contains(w))),
+        ) {
+            Event::Notice(n) => n.text,
+            _ => unreachable!(),
+        }
+    }
+
+    /// The link counted as lost after exactly `lost_after` failed exchanges in a row, the
+    /// drive having stopped answering at `cut` (each failed exchange takes at least
+    /// `per_exchange`): the message says so and what was done to the drive, and the
+    /// worker said when it would give up. The reason.
+    pub fn lost_after_exactly(
+        &mut self,
+        lost_after: u32,
+        cut: Instant,
+        per_exchange: Duration,
+    ) -> String {
+        let reason = self.lost(Duration::from_secs(20));
+        let took = cut.elapsed();
+        assert!(
+            reason.contains(&format!("{lost_after} exchanges failed in a row")),
+            "{reason}"
+        );
+        assert!(reason.contains("no answer within"), "{reason}");
+        assert!(
+            reason.contains("halt"),
+            "what was done to the drive: {reason}"
+        );
+        // Never sooner than the failed exchanges before the last could take.
+        assert!(
+            took >= per_exchange * (lost_after - 1),
+            "lost after {took:?}"
+        );
+        let said = format!("the link counts as lost after {lost_after} failures in a row");
+        assert!(
+            self.notice_with(&[&said]).is_some(),
+            "{:#?}",
+            self.notices()
+        );
+        reason
     }
 
     /// The notices the worker has sent so far.

@@ -59,6 +59,43 @@ struct State {
     dropped: u64,
 }
 
+/// One client's connection through a proxy, each end twice: one handle to read, one to
+/// write.
+pub struct Connection {
+    pub from_client: TcpStream,
+    pub to_server: TcpStream,
+    pub from_server: TcpStream,
+    pub to_client: TcpStream,
+}
+
+/// Listen on a free loopback port; connect every client to `upstream` (no Nagle delay
+/// either way) and give the connection to `serve`, on a thread of its own. The address.
+pub fn listen(upstream: SocketAddr, serve: impl Fn(Connection) + Send + 'static) -> SocketAddr {
+    let listener = TcpListener::bind("127.0.0.1:0").expect("proxy port");
+    let addr = listener.local_addr().expect("proxy address");
+    thread::spawn(move || {
+        for client in listener.incoming() {
+            let Ok(client) = client else { break };
+            let Ok(server) = TcpStream::connect(upstream) else {
+                continue;
+            };
+            let _ = client.set_nodelay(true);
+            let _ = server.set_nodelay(true);
+            let (Ok(from_client), Ok(from_server)) = (client.try_clone(), server.try_clone())
+            else {
+                continue;
+            };
+            serve(Connection {
+                from_client,
+                to_server: server,
+                from_server,
+                to_client: client,
+            });
+        }
+    });
+    addr
+}
+
 /// A TCP proxy on a free loopback port in front of `upstream`.
 pub struct Proxy {
     pub addr: SocketAddr,
@@ -67,27 +104,20 @@ pub struct Proxy {
 
 impl Proxy {
     pub fn start(upstream: SocketAddr, framing: Framing) -> Proxy {
-        let listener = TcpListener::bind("127.0.0.1:0").expect("proxy port");
-        let addr = listener.local_addr().expect("proxy address");
         let state = Arc::new(Mutex::new(State::default()));
         let shared = state.clone();
-        thread::spawn(move || {
-            for client in listener.incoming() {
-                let Ok(client) = client else { break };
-                let Ok(server) = TcpStream::connect(upstream) else {
-                    continue;
-                };
-                let _ = client.set_nodelay(true);
-                let _ = server.set_nodelay(true);
-                let (Ok(client_in), Ok(server_out)) = (client.try_clone(), server.try_clone())
-                else {
-                    continue;
-                };
-                // Requests pass as they come.
-                thread::spawn(move || copy(client_in, server_out));
-                let state = shared.clone();
-                thread::spawn(move || replies(server, client, framing, &state));
-            }
+        let addr = listen(upstream, move |connection| {
+            // Requests pass as they come.
+            thread::spawn(move || copy(connection.from_client, connection.to_server));
+            let state = shared.clone();
+            thread::spawn(move || {
+                replies(
+                    connection.from_server,
+                    connection.to_client,
+                    framing,
+                    &state,
+                )
+            });
         });
         Proxy { addr, state }
     }

@@ -5,7 +5,7 @@
 //! There it can drop, delay, duplicate or reorder the Nth datagram of either direction, or
 //! keep the T→O direction silent until the next Forward_Open.
 
-use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener, TcpStream, UdpSocket};
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpStream, UdpSocket};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread;
 use std::time::Duration;
@@ -85,8 +85,6 @@ fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
 impl UdpProxy {
     /// A proxy in front of the adapter whose TCP (explicit messages) address is `upstream`.
     pub fn start(upstream: SocketAddr) -> UdpProxy {
-        let listener = TcpListener::bind("127.0.0.1:0").expect("proxy port");
-        let addr = listener.local_addr().expect("proxy address");
         // The adapter sends T→O datagrams to `from_adapter`, the scanner O→T ones to
         // `from_scanner`; each is passed on from the other socket.
         let from_adapter = UdpSocket::bind("127.0.0.1:0").expect("T→O port");
@@ -95,50 +93,37 @@ impl UdpProxy {
         let ot_port = from_scanner.local_addr().expect("O→T address").port();
         let state = Arc::new(Mutex::new(State::default()));
         let shared = state.clone();
-        thread::spawn(move || {
-            for client in listener.incoming() {
-                let Ok(client) = client else { break };
-                let Ok(server) = TcpStream::connect(upstream) else {
-                    continue;
-                };
-                let _ = client.set_nodelay(true);
-                let _ = server.set_nodelay(true);
-                let (Ok(client_in), Ok(server_in)) = (client.try_clone(), server.try_clone())
-                else {
-                    continue;
-                };
-                let requests = shared.clone();
-                thread::spawn(move || {
-                    relay(client_in, server, &|p| {
-                        rewrite(p, |item| {
-                            if let Item::SockaddrTo(s) = item {
-                                let ip = if s.ip.is_unspecified() {
-                                    Ipv4Addr::LOCALHOST
-                                } else {
-                                    s.ip
-                                };
-                                lock(&requests).scanner =
-                                    Some(SocketAddrV4::new(ip, s.port).into());
-                                s.port = to_port;
-                            }
-                        })
+        let addr = super::listen(upstream, move |connection| {
+            let requests = shared.clone();
+            thread::spawn(move || {
+                relay(connection.from_client, connection.to_server, &|p| {
+                    rewrite(p, |item| {
+                        if let Item::SockaddrTo(s) = item {
+                            let ip = if s.ip.is_unspecified() {
+                                Ipv4Addr::LOCALHOST
+                            } else {
+                                s.ip
+                            };
+                            lock(&requests).scanner = Some(SocketAddrV4::new(ip, s.port).into());
+                            s.port = to_port;
+                        }
                     })
-                });
-                let replies = shared.clone();
-                thread::spawn(move || {
-                    relay(server_in, client, &|p| {
-                        rewrite(p, |item| {
-                            if let Item::SockaddrOt(s) = item {
-                                let mut state = lock(&replies);
-                                state.adapter = Some(s.socket().into());
-                                state.opens += 1;
-                                state.silent = false;
-                                *s = SockAddr::new(SocketAddrV4::new(Ipv4Addr::LOCALHOST, ot_port));
-                            }
-                        })
+                })
+            });
+            let replies = shared.clone();
+            thread::spawn(move || {
+                relay(connection.from_server, connection.to_client, &|p| {
+                    rewrite(p, |item| {
+                        if let Item::SockaddrOt(s) = item {
+                            let mut state = lock(&replies);
+                            state.adapter = Some(s.socket().into());
+                            state.opens += 1;
+                            state.silent = false;
+                            *s = SockAddr::new(SocketAddrV4::new(Ipv4Addr::LOCALHOST, ot_port));
+                        }
                     })
-                });
-            }
+                })
+            });
         });
         let (Ok(adapter_side), Ok(scanner_side)) =
             (from_adapter.try_clone(), from_scanner.try_clone())

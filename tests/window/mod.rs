@@ -1,12 +1,18 @@
 //! The window, headless, for the UI tests: an `App` in an egui_kittest harness with the
-//! real worker, and stepping it in real time until something happens.
+//! real worker, stepping it in real time until something happens, and what a technician
+//! does in it (pick a bus, fill in fields, read an object) and reads off it (lamps,
+//! velocity).
 
 #![allow(dead_code)]
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use drivedeck::link::LinkSpec;
+use drivedeck::od::{Address, DataType, Value};
+use drivedeck::ui::state::ConnectionForm;
 use drivedeck::ui::{App, Settings};
+use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui::accesskit::Toggled;
 use egui_kittest::Harness;
@@ -25,6 +31,30 @@ pub fn app_harness() -> Harness<'static, App> {
     harness_with(Settings::default(), true, egui::vec2(1400.0, 900.0))
 }
 
+/// The window as after a fresh install on a machine with a drive: not connected.
+pub fn disconnected_harness() -> Harness<'static, App> {
+    let mut harness = harness_with(Settings::default(), false, egui::vec2(1400.0, 900.0));
+    harness.run();
+    harness
+}
+
+/// The window connected to `spec` (its connection bar filled in from it), at `size`, with
+/// its first sample in.
+pub fn connected_to(
+    spec: &LinkSpec,
+    lost_after: Option<u32>,
+    size: egui::Vec2,
+) -> Harness<'static, App> {
+    let mut settings = Settings::default();
+    settings.connection = ConnectionForm::from_spec(spec, settings.connection);
+    if let Some(lost_after) = lost_after {
+        settings.lost_after = lost_after;
+    }
+    let mut harness = harness_with(settings, true, size);
+    connected(&mut harness);
+    harness
+}
+
 /// Step the window in real time until `done` holds; on a timeout the log, the plot
 /// panel's message and the fault timeline say what happened instead.
 pub fn step_until(
@@ -38,8 +68,9 @@ pub fn step_until(
         let state = &harness.state().state;
         assert!(
             Instant::now() < deadline,
-            "{what} did not happen within {timeout:?}; plot message: {:?}; timeline: {:#?}; log: {:#?}",
+            "{what} did not happen within {timeout:?}; plot message: {:?}; browser message: {:?}; timeline: {:#?}; log: {:#?}",
             state.plot.message,
+            state.browser.message,
             state.timeline.entries().collect::<Vec<_>>(),
             state.log
         );
@@ -82,4 +113,84 @@ pub fn step_until_shown(harness: &mut Harness<'_, App>, label: &str) {
         Duration::from_secs(3),
         |h| h.query_by_label(label).is_some(),
     );
+}
+
+/// Pick `bus` in the connection bar.
+pub fn choose_bus(harness: &mut Harness<'_, App>, bus: &str) {
+    harness.get_by_label("Bus").click();
+    harness.run();
+    harness.get_by_label(bus).click();
+    harness.run();
+}
+
+/// Type into each field named by its label, then let the window take them.
+pub fn fill(harness: &mut Harness<'_, App>, fields: &[(&str, &str)]) {
+    for (label, text) in fields {
+        harness.get_by_label(label).set_text_value_accesskit(text);
+    }
+    harness.run();
+}
+
+/// Read the object at `address` (as typed) with the window's Read button, and wait until
+/// the window shows `expected`.
+pub fn read_object(
+    harness: &mut Harness<'_, App>,
+    address: &str,
+    expected: &Value,
+    timeout: Duration,
+) {
+    fill(harness, &[("Object address", address)]);
+    harness.get_by_label("Read").click();
+    harness.step();
+    step_until(harness, &format!("{address} read"), timeout, |h| {
+        h.state()
+            .state
+            .last_object
+            .as_ref()
+            .is_some_and(|r| r.result.as_ref() == Ok(expected))
+    });
+}
+
+/// The window's worker writes `value` (UNSIGNED32) to `address`; wait until the window
+/// lists it as the one change made.
+pub fn change(harness: &mut Harness<'_, App>, address: Address, value: u64) {
+    harness.state_mut().state.request(Request::WriteObject {
+        address,
+        dtype: DataType::Unsigned32,
+        value: Value::Uint(value),
+        path: ObjectPath::Auto,
+    });
+    step_until(harness, "the change", Duration::from_secs(3), |h| {
+        h.state().state.changes.len() == 1
+    });
+}
+
+/// Click "Velocity" (the default 300 rpm) and wait until the motor turns faster than
+/// `above` rpm.
+pub fn start_turning(harness: &mut Harness<'_, App>, above: f64) {
+    harness.get_by_label("Velocity").click();
+    harness.step();
+    step_until(harness, "the motor to turn", Duration::from_secs(5), |h| {
+        velocity(h) > above
+    });
+}
+
+/// The newest velocity the window shows (NaN before there is one).
+pub fn velocity(harness: &Harness<'_, App>) -> f64 {
+    harness
+        .state()
+        .state
+        .latest
+        .and_then(|s| s.velocity())
+        .unwrap_or(f64::NAN)
+}
+
+/// The newest position the window shows (NaN before there is one).
+pub fn position(harness: &Harness<'_, App>) -> f64 {
+    harness
+        .state()
+        .state
+        .latest
+        .and_then(|s| s.position())
+        .unwrap_or(f64::NAN)
 }
