@@ -6,16 +6,9 @@ impl AppState {
     /// The reducer: one worker event into the state.
     pub fn apply(&mut self, event: Event) {
         match event {
-            Event::Connecting(spec) => {
-                self.connection = Connection::Connecting(spec.clone());
-                self.info(format!("connecting to {spec}"));
-            }
+            Event::Connecting(spec) => self.on_connecting(spec),
             Event::Connected(info) => self.on_connected(info),
-            Event::LinkChanged(info) => {
-                if self.is_connected() {
-                    self.connection = Connection::Connected(info);
-                }
-            }
+            Event::LinkChanged(info) => self.on_link_changed(info),
             Event::ConnectFailed {
                 spec,
                 error,
@@ -42,14 +35,7 @@ impl AppState {
             } => self.on_object_written(id, address, value, result),
             Event::Samples(samples) => self.on_samples(samples),
             Event::Health(health) => self.health = Some(health),
-            Event::Frames(frames) => {
-                for frame in frames {
-                    if self.frames.len() >= FRAME_LIMIT {
-                        self.frames.pop_front();
-                    }
-                    self.frames.push_back(frame);
-                }
-            }
+            Event::Frames(frames) => self.on_frames(frames),
             Event::SerialPorts(ports) => {
                 self.serial_ports = Some(ports);
                 self.serial_ports_asked = false;
@@ -58,33 +44,60 @@ impl AppState {
                 self.interfaces = Some(interfaces);
                 self.interfaces_asked = false;
             }
-            Event::Scanned { result, .. } => {
-                match &result {
-                    Ok(found) => self.info(format!("bus scan: {} device(s) found", found.len())),
-                    Err(e) => self.info(format!("bus scan failed: {e}")),
-                }
-                self.scan = Some(result);
-            }
+            Event::Scanned { result, .. } => self.on_scanned(result),
             Event::LinkOwnChanges(changes) => self.link_changes = changes,
             Event::Changed {
                 address,
                 dtype,
                 before,
                 after,
-            } => crate::ui::changes::note_change(
-                &mut self.changes,
-                crate::ui::changes::ChangeEntry {
+            } => {
+                let change = crate::ui::changes::ChangeEntry {
                     address,
                     dtype,
                     before,
                     after,
-                },
-            ),
+                };
+                crate::ui::changes::note_change(&mut self.changes, change);
+            }
             Event::Notice(notice) => self.on_notice(notice),
             Event::Cancelled { id, dropped } => {
                 self.browser.on_cancelled(id, dropped);
             }
         }
+    }
+
+    fn on_connecting(&mut self, spec: LinkSpec) {
+        self.info(format!("connecting to {spec}"));
+        self.connection = Connection::Connecting(spec);
+    }
+
+    /// The link describes itself anew (it learned something about the device).
+    fn on_link_changed(&mut self, info: LinkInfo) {
+        if self.is_connected() {
+            self.connection = Connection::Connected(info);
+        }
+    }
+
+    /// Traced frames into the frame log, the oldest going beyond [`FRAME_LIMIT`].
+    fn on_frames(&mut self, frames: Vec<crate::link::TraceRecord>) {
+        for frame in frames {
+            if self.frames.len() >= FRAME_LIMIT {
+                self.frames.pop_front();
+            }
+            self.frames.push_back(frame);
+        }
+    }
+
+    fn on_scanned(
+        &mut self,
+        result: Result<Vec<crate::link::FoundDevice>, crate::link::LinkFailure>,
+    ) {
+        match &result {
+            Ok(found) => self.info(format!("bus scan: {} device(s) found", found.len())),
+            Err(e) => self.info(format!("bus scan failed: {e}")),
+        }
+        self.scan = Some(result);
     }
 
     /// A new link: the session starts again (clock, plots, identity, diagnosis, torque slope).

@@ -83,25 +83,7 @@ impl Adapter {
         target: Target,
         context: &Context,
     ) -> Result<(ForwardOpenReply, Vec<Item>), Refused> {
-        let set = target
-            .assembly_set()
-            .ok_or(Refused::new(extended::INVALID_CONNECTION_POINT))?;
-        if let Some(io) = &self.io {
-            return Err(Refused::new(if io.triad == open.triad() {
-                extended::CONNECTION_IN_USE
-            } else {
-                extended::OWNERSHIP_CONFLICT
-            }));
-        }
-        if !RPI_RANGE_US.contains(&open.ot_rpi_us) || !RPI_RANGE_US.contains(&open.to_rpi_us) {
-            return Err(Refused::new(extended::RPI_NOT_SUPPORTED));
-        }
-        let usable = |kind: ConnectionType, multicast: bool| {
-            kind == ConnectionType::PointToPoint || (multicast && kind == ConnectionType::Multicast)
-        };
-        if !usable(open.ot_params.kind, false) || !usable(open.to_params.kind, true) {
-            return Err(Refused::new(extended::INVALID_CONNECTION_TYPE));
-        }
+        let set = self.class1_set(open, target)?;
         let format = IoFormat::of(open, set)?;
         let Some(stream) = self.streams.get(&context.stream) else {
             return Err(Refused::new(extended::OUT_OF_CONNECTIONS));
@@ -137,6 +119,32 @@ impl Adapter {
             granted(open, ot_id, to_id),
             vec![Item::SockaddrOt(ot_socket)],
         ))
+    }
+
+    /// The assembly set a class 1 Forward_Open asks for, if this adapter can open it now:
+    /// a known set, no other I/O connection, an RPI in range, point-to-point O→T and
+    /// point-to-point or multicast T→O.
+    fn class1_set(&self, open: &ForwardOpen, target: Target) -> Result<AssemblySet, Refused> {
+        let set = target
+            .assembly_set()
+            .ok_or(Refused::new(extended::INVALID_CONNECTION_POINT))?;
+        if let Some(io) = &self.io {
+            return Err(Refused::new(if io.triad == open.triad() {
+                extended::CONNECTION_IN_USE
+            } else {
+                extended::OWNERSHIP_CONFLICT
+            }));
+        }
+        if !RPI_RANGE_US.contains(&open.ot_rpi_us) || !RPI_RANGE_US.contains(&open.to_rpi_us) {
+            return Err(Refused::new(extended::RPI_NOT_SUPPORTED));
+        }
+        let usable = |kind: ConnectionType, multicast: bool| {
+            kind == ConnectionType::PointToPoint || (multicast && kind == ConnectionType::Multicast)
+        };
+        if !usable(open.ot_params.kind, false) || !usable(open.to_params.kind, true) {
+            return Err(Refused::new(extended::INVALID_CONNECTION_TYPE));
+        }
+        Ok(set)
     }
 
     pub(super) fn forward_close(&mut self, data: &[u8], context: Context) -> Reply {
