@@ -18,7 +18,7 @@ use probe::Probe;
 
 #[test]
 fn a_move_reaches_its_target_and_raises_target_reached() {
-    let mut probe = Probe::connected(LinkSpec::Sim);
+    let mut probe = Probe::on_simulated_time();
     let id = probe.send(Request::Command(Action::MoveAbsolute {
         target: 2000,
         speed: 200,
@@ -37,6 +37,58 @@ fn a_move_reaches_its_target_and_raises_target_reached() {
     assert!(sample.tx.status.is_set(StatusBit::TargetReached));
     assert!(sample.tx.status.is_set(StatusBit::OperationEnabled));
     assert_eq!(sample.statusword().map(|w| w & 0x6F), Some(0x27));
+}
+
+#[test]
+fn on_simulated_time_a_long_move_waits_no_real_time() {
+    // Nine turns at 10 rpm: almost a minute of the drive's time, well within the probe's
+    // ten seconds of real time only because the worker's clock jumps ahead.
+    let mut probe = Probe::on_simulated_time();
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 32_000,
+        speed: 10,
+    }));
+    let outcome = probe.outcome(id, Duration::from_secs(10));
+    assert_eq!(
+        outcome,
+        CommandProgress::Done {
+            return_value: 32_000
+        }
+    );
+    let sample = probe.sample_where("the position at the target", Duration::from_secs(5), |s| {
+        s.position() == Some(32_000.0)
+    });
+    assert!(sample.t > 50.0, "the drive's time: {} s", sample.t);
+}
+
+#[test]
+fn simulated_time_is_refused_for_a_real_link() {
+    let config = drivedeck::worker::Config {
+        simulated_time: true,
+        ..Default::default()
+    };
+    let worker =
+        drivedeck::worker::Worker::spawn(config, std::sync::Arc::new(|| {})).expect("worker");
+    let spec: LinkSpec = "modbus-tcp://127.0.0.1:1".parse().expect("spec");
+    worker.send(Request::Connect(spec)).expect("sent");
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    loop {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        match worker.recv_timeout(left) {
+            Ok(Event::ConnectFailed {
+                error, retry_in, ..
+            }) => {
+                assert!(
+                    error.text.contains("cannot run on simulated time"),
+                    "{error}"
+                );
+                assert_eq!(retry_in, None);
+                break;
+            }
+            Ok(_) => {}
+            Err(e) => panic!("no refusal: {e}"),
+        }
+    }
 }
 
 #[test]
@@ -309,7 +361,7 @@ fn a_lost_link_ends_the_command_reports_and_reconnects_to_the_same_drive() {
 
 #[test]
 fn a_command_the_drive_never_acknowledges_times_out() {
-    let mut probe = Probe::connected(LinkSpec::Sim);
+    let mut probe = Probe::on_simulated_time();
     // PDI-Ctrl off: the drive ignores 2291h, as a real one would.
     assert_eq!(
         probe.write(

@@ -4,6 +4,12 @@
 
 use std::time::{Duration, Instant};
 
+/// Now, on the clock of the runtime the link runs on: the wall clock, or tokio's paused
+/// clock when a test runs the worker on simulated time.
+fn now() -> Instant {
+    tokio::time::Instant::now().into_std()
+}
+
 use crate::link::{Answer, Error, Exchange, Link, LinkInfo, LinkSpec, Refusal, Signal, Signals};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::RxImage;
@@ -39,7 +45,7 @@ impl SimLink {
     /// Inject or withdraw a fault: in the drive, or (a link loss) in the simulated cable.
     pub fn inject(&mut self, injection: Injection, active: bool) -> Result<(), Error> {
         if injection.is_link() {
-            self.cut_until = active.then(|| Instant::now() + LINK_LOSS_TIME);
+            self.cut_until = active.then(|| now() + LINK_LOSS_TIME);
             return Ok(());
         }
         self.catch_up()?;
@@ -59,9 +65,7 @@ impl SimLink {
     pub fn with_drive(drive: Drive) -> Self {
         Self {
             drive,
-            clock: Clock::Real {
-                last: Instant::now(),
-            },
+            clock: Clock::Real { last: now() },
             cut_until: None,
         }
     }
@@ -96,7 +100,7 @@ impl SimLink {
 
     fn check_cable(&mut self) -> Result<(), Error> {
         match self.cut_until {
-            Some(until) if Instant::now() < until => Err(Error::Disconnected(
+            Some(until) if now() < until => Err(Error::Disconnected(
                 "no answer: the simulated cable is pulled (injected link loss)".into(),
             )),
             Some(_) => {
@@ -109,7 +113,7 @@ impl SimLink {
 
     fn advance_clock(&mut self) {
         if let Clock::Real { last } = &mut self.clock {
-            let now = Instant::now();
+            let now = now();
             let elapsed = now.saturating_duration_since(*last).min(MAX_CATCH_UP);
             *last = now;
             self.drive.tick(elapsed);

@@ -49,7 +49,7 @@ impl Session {
             });
             return;
         }
-        let now = Instant::now();
+        let now = super::clock::now();
         let described = request.to_string();
         if matches!(request, Request::Command(_) | Request::Resume) {
             // Another command takes over from a jog.
@@ -213,14 +213,14 @@ impl Session {
     pub(super) fn jog(&mut self, id: RequestId, speed: i32, sink: &mut EventSink) {
         self.start_pdi(id, Request::Command(Action::Velocity { speed }), sink);
         if self.master.pending_tag() == Some(id) {
-            self.jog_deadline = Some(Instant::now() + JOG_TIMEOUT);
+            self.jog_deadline = Some(super::clock::now() + JOG_TIMEOUT);
         }
     }
 
     /// `Request::JogKeepAlive`: the jog that runs goes on.
     pub(super) fn keep_jogging(&mut self) {
         if self.jog_deadline.is_some() {
-            self.jog_deadline = Some(Instant::now() + JOG_TIMEOUT);
+            self.jog_deadline = Some(super::clock::now() + JOG_TIMEOUT);
         }
     }
 
@@ -239,7 +239,7 @@ impl Session {
 
     /// Halt a jog whose keep-alive stopped coming.
     pub(super) fn halt_stale_jog(&mut self, sink: &mut EventSink) {
-        if self.jog_deadline.is_none_or(|d| Instant::now() < d) {
+        if self.jog_deadline.is_none_or(|d| super::clock::now() < d) {
             return;
         }
         self.jog_deadline = None;

@@ -68,10 +68,10 @@ impl Session {
         budget: Duration,
     ) -> Result<(), link::Error> {
         let outgoing = self.master.outgoing();
-        let sent = Instant::now();
+        let sent = super::clock::now();
         let exchange = self.link.exchange(outgoing.as_ref()).await?;
         let tx = exchange.tx;
-        let now = Instant::now();
+        let now = super::clock::now();
         let rtt = now - sent;
         self.cycles += 1;
         self.rtt_sum += rtt;
@@ -195,7 +195,7 @@ impl Session {
             return Ok(values);
         }
         let budget = budget.mul_f64(WATCH_SHARE_OF_CYCLE / OBJECT_SHARE_OF_CYCLE);
-        let started = Instant::now();
+        let started = super::clock::now();
         let first = self.watch.next % to_read.len();
         for step in 0..to_read.len() {
             if step > 0 && started.elapsed() >= budget {

@@ -2,7 +2,7 @@
 //! fit in a share of the cycle) or through the PDI (one at a time), with the value each
 //! object had before its first write this session (for undo).
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use super::commands::Purpose;
 use super::protocol::{Event, ObjectError, ObjectPath, Rejection, Request, RequestId};
@@ -83,7 +83,7 @@ impl Session {
         sink: &mut EventSink,
         budget: Duration,
     ) -> Result<(), link::Error> {
-        let started = Instant::now();
+        let started = super::clock::now();
         let mut native_done = 0;
         while let Some((id, request)) = self.queue.front().cloned() {
             let native = match &request {
@@ -290,7 +290,7 @@ impl Session {
                 index: address.index,
                 sub: address.sub,
             },
-            Instant::now(),
+            super::clock::now(),
         );
         match started {
             Ok(_) => {

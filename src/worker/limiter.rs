@@ -20,7 +20,7 @@ impl Limiter {
     const BURST: u32 = 5;
 
     pub(super) fn say(&mut self, text: String, sink: &mut EventSink) {
-        let now = Instant::now();
+        let now = super::clock::now();
         if self
             .window_start
             .is_none_or(|start| now - start >= Self::WINDOW)

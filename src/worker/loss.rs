@@ -2,8 +2,6 @@
 //! link got over by itself) in the log at a bounded rate, deciding when the link counts
 //! as lost, and the last try to stop a move that runs when it is.
 
-use std::time::Instant;
-
 use super::Config;
 use super::protocol::{
     CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, LinkLossAction, MAX_LOST_AFTER, RequestId,
@@ -104,11 +102,11 @@ impl Session {
             .flatten()
             .collect();
         let made = match action {
-            LinkLossAction::Halt => Some(self.master.halt(WORKER_ID, Instant::now())),
+            LinkLossAction::Halt => Some(self.master.halt(WORKER_ID, super::clock::now())),
             LinkLossAction::SwitchOff => Some(self.master.start(
                 WORKER_ID,
                 Action::SwitchOff,
-                Instant::now(),
+                super::clock::now(),
             )),
             LinkLossAction::Nothing => None,
         };

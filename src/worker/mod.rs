@@ -3,6 +3,7 @@
 //! quick stop never waits behind a queue), `Event`s come out, and the UI is woken with a
 //! callback when something new arrives.
 
+mod clock;
 mod commands;
 mod cycle;
 mod jobs;
@@ -54,6 +55,12 @@ pub struct Config {
     pub on_link_loss: LinkLossAction,
     /// Exchanges that must fail in a row before the link counts as lost.
     pub lost_after: u32,
+    /// Run on simulated time: the worker's runtime starts with tokio's clock paused, so
+    /// whenever the worker only waits (for its next cycle) time jumps ahead, and a test of
+    /// the in-process simulated drive waits no real time for a move. Only the in-process
+    /// simulator (`LinkSpec::Sim`) may be opened so: a real link's timeouts would fire at
+    /// once.
+    pub simulated_time: bool,
 }
 
 impl Default for Config {
@@ -65,6 +72,7 @@ impl Default for Config {
             trace: false,
             on_link_loss: LinkLossAction::Halt,
             lost_after: LOST_AFTER,
+            simulated_time: false,
         }
     }
 }
@@ -101,10 +109,9 @@ impl Worker {
             .name("drivedeck-worker".into())
             .spawn(move || {
                 let mut sink = sink::EventSink::new(event_tx, notify);
-                match tokio::runtime::Builder::new_current_thread()
-                    .enable_all()
-                    .build()
-                {
+                let mut builder = tokio::runtime::Builder::new_current_thread();
+                builder.enable_all().start_paused(config.simulated_time);
+                match builder.build() {
                     Ok(runtime) => {
                         runtime.block_on(supervisor::run(config, request_rx, urgent_rx, &mut sink))
                     }

@@ -76,7 +76,7 @@ impl Session {
                 return Err((error, frames));
             }
         };
-        let now = Instant::now();
+        let now = super::clock::now();
         master.on_tx(first.tx, now);
         let info = link.info();
         let native_objects = info.native_objects;

@@ -111,7 +111,7 @@ impl Supervisor {
     async fn tick(&mut self, sink: &mut EventSink) {
         let Some(s) = self.session.as_mut() else {
             if let (Some(spec), Some(at)) = (self.wanted.clone(), self.retry_at)
-                && Instant::now() >= at
+                && super::clock::now() >= at
             {
                 self.connect(&spec, sink).await;
             }
@@ -147,7 +147,7 @@ impl Supervisor {
         if self.config.reconnect && error.is_transient() {
             self.broken = Some(s.link);
             self.backoff = BACKOFF_FIRST;
-            self.retry_at = Some(Instant::now() + self.backoff);
+            self.retry_at = Some(super::clock::now() + self.backoff);
             sink.emit(Event::ConnectFailed {
                 spec,
                 error: LinkFailure::new(&error, reason),
@@ -176,6 +176,13 @@ impl Supervisor {
     /// Open the wanted link, or bring a broken one back.
     pub(super) async fn connect(&mut self, spec: &LinkSpec, sink: &mut EventSink) {
         sink.emit(Event::Connecting(spec.clone()));
+        if self.config.simulated_time && *spec != LinkSpec::Sim {
+            let error = link::Error::Unsupported(format!(
+                "{spec} cannot run on simulated time (only the in-process simulator can)"
+            ));
+            self.connect_failed(spec, error, sink);
+            return;
+        }
         match self.open(spec, sink).await {
             Ok(s) => self.adopt(s, sink),
             Err((error, frames)) => {
@@ -230,7 +237,7 @@ impl Supervisor {
             error: LinkFailure::from(&error),
             retry_in,
         });
-        self.retry_at = retry_in.map(|d| Instant::now() + d);
+        self.retry_at = retry_in.map(|d| super::clock::now() + d);
         if retry_in.is_none() {
             self.broken = None;
         }

@@ -39,9 +39,32 @@ impl Probe {
         }
     }
 
+    /// A worker on simulated time (its clock jumps ahead whenever it only waits) connected
+    /// to the in-process simulated drive: for tests that only wait for the drive.
+    pub fn on_simulated_time() -> Probe {
+        let config = Config {
+            simulated_time: true,
+            ..Config::default()
+        };
+        let mut probe = Probe {
+            worker: Worker::spawn(config, Arc::new(|| {})).expect("worker thread"),
+            seen: vec![],
+            last: None,
+        };
+        probe.connect_first(LinkSpec::Sim);
+        probe
+    }
+
     /// A worker connected to `spec`, with its first sample in.
     pub fn connected(spec: LinkSpec) -> Probe {
         let mut probe = Probe::new();
+        probe.connect_first(spec);
+        probe
+    }
+
+    /// Connect to `spec` and wait for the first sample.
+    fn connect_first(&mut self, spec: LinkSpec) {
+        let probe = self;
         probe.send(Request::Connect(spec));
         probe.wait("connected", Duration::from_secs(10), |e| {
             matches!(e, Event::Connected(_))
@@ -51,7 +74,6 @@ impl Probe {
             Duration::from_secs(5),
             |e| matches!(e, Event::Samples(s) if !s.is_empty()),
         );
-        probe
     }
 
     /// A worker connected to `spec` with the motor turning slowly (a velocity command
