@@ -259,8 +259,31 @@ fn halt_ui(ui: &mut Ui, state: &mut AppState) {
 }
 
 fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
-    let specs = opcode.fields();
     let verdict = validate(state, opcode);
+    command_button_ui(ui, state, opcode, &verdict);
+    // The inputs beside the button, one per line: label, box, unit.
+    ui.vertical(|ui| {
+        set_values_ui(ui, state, opcode);
+        let note = match &verdict {
+            Err(reason) if !opcode.fields().is_empty() => Some((RED, reason.clone())),
+            Ok(request) => caution(state, request).map(|text| (AMBER, text)),
+            _ => None,
+        };
+        if let Some((color, text)) = note {
+            ui.colored_label(color, text);
+        }
+    });
+    ui.end_row();
+}
+
+/// The command's button: enabled with a valid request on a live drive, otherwise saying
+/// why not; a click sends the request.
+fn command_button_ui(
+    ui: &mut Ui,
+    state: &mut AppState,
+    opcode: Opcode,
+    verdict: &Result<Request, String>,
+) {
     let offline = state.offline_reason();
     let enabled = offline.is_none() && verdict.is_ok();
     let button = egui::Button::new(button_label(opcode)).min_size(egui::vec2(110.0, 0.0));
@@ -270,7 +293,7 @@ fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
     if !hint.is_empty() {
         response = response.on_hover_text(&hint);
     }
-    let reason = match (&verdict, offline) {
+    let reason = match (verdict, offline) {
         (Err(reason), None) => reason.clone(),
         (Err(reason), Some(offline)) => format!("{offline}\n{reason}"),
         (Ok(_), Some(offline)) => offline,
@@ -278,62 +301,60 @@ fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
     };
     let response = response.on_disabled_hover_text(&reason);
     if response.clicked()
-        && let Ok(request) = &verdict
+        && let Ok(request) = verdict
     {
         send(state, request.clone());
     }
+}
 
-    // The inputs beside the button, one per line: label, box, unit.
-    ui.vertical(|ui| {
-        let inputs = state
-            .settings
-            .inputs
-            .entry(opcode.name().to_owned())
-            .or_default();
-        inputs.resize(specs.len(), String::new());
-        for (spec, text) in specs.iter().zip(inputs.iter_mut()) {
-            ui.horizontal(|ui| {
-                let height = ui.spacing().interact_size.y;
-                ui.add_sized(
-                    [104.0, height],
-                    egui::Label::new(spec.label).halign(egui::Align::LEFT),
-                );
-                let valid = spec.parse(text).is_ok();
-                let edit = TextEdit::singleline(text)
-                    .desired_width(86.0)
-                    .text_color_opt((!valid).then_some(RED));
-                let field = ui.add(edit);
-                name_widget(
-                    &field,
-                    egui::accesskit::Role::TextInput,
-                    &field_label(opcode, spec),
-                );
-                field.on_hover_text(format!(
-                    "{} ({}): {} to {} {}{}",
-                    spec.field.name(),
-                    spec.field.object(),
-                    spec.format(spec.min),
-                    spec.format(spec.max),
-                    spec.unit,
-                    if spec.hint.is_empty() {
-                        String::new()
-                    } else {
-                        format!("\n{}", spec.hint)
-                    }
-                ));
-                ui.weak(spec.unit);
-            });
-        }
-        let note = match &verdict {
-            Err(reason) if !specs.is_empty() => Some((RED, reason.clone())),
-            Ok(request) => caution(state, request).map(|text| (AMBER, text)),
-            _ => None,
-        };
-        if let Some((color, text)) = note {
-            ui.colored_label(color, text);
-        }
-    });
-    ui.end_row();
+/// One line per set value of the command: its label, its box (red while it does not
+/// parse), its unit; the range and the object on hover.
+fn set_values_ui(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
+    let specs = opcode.fields();
+    let inputs = state
+        .settings
+        .inputs
+        .entry(opcode.name().to_owned())
+        .or_default();
+    inputs.resize(specs.len(), String::new());
+    for (spec, text) in specs.iter().zip(inputs.iter_mut()) {
+        ui.horizontal(|ui| {
+            let height = ui.spacing().interact_size.y;
+            ui.add_sized(
+                [104.0, height],
+                egui::Label::new(spec.label).halign(egui::Align::LEFT),
+            );
+            let valid = spec.parse(text).is_ok();
+            let edit = TextEdit::singleline(text)
+                .desired_width(86.0)
+                .text_color_opt((!valid).then_some(RED));
+            let field = ui.add(edit);
+            name_widget(
+                &field,
+                egui::accesskit::Role::TextInput,
+                &field_label(opcode, spec),
+            );
+            field.on_hover_text(field_hint(spec));
+            ui.weak(spec.unit);
+        });
+    }
+}
+
+/// A set value's range, object and hint, for its box's tooltip.
+fn field_hint(spec: &FieldSpec) -> String {
+    let hint = if spec.hint.is_empty() {
+        String::new()
+    } else {
+        format!("\n{}", spec.hint)
+    };
+    format!(
+        "{} ({}): {} to {} {}{hint}",
+        spec.field.name(),
+        spec.field.object(),
+        spec.format(spec.min),
+        spec.format(spec.max),
+        spec.unit,
+    )
 }
 
 /// Send a command, stopping first to warn about a torque command that cannot work.
