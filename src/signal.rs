@@ -261,7 +261,8 @@ pub const MAX_WATCHED: usize = 8;
 /// One sample of the drive, taken at the worker.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sample {
-    /// Seconds since the link was connected, when the worker received the image.
+    /// Seconds on the worker's clock (from its first connection, going on across
+    /// reconnects), when the worker received the image.
     pub t: f64,
     pub tx: TxImage,
     /// The signals measured in this cycle.

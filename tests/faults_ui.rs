@@ -196,3 +196,57 @@ fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
     );
     assert!(!has(&harness, Origin::Command, "superseded"));
 }
+
+/// The time of the first timeline entry from `origin` whose text contains `text`.
+fn time_of(harness: &Harness<'_, App>, origin: Origin, text: &str) -> Option<f64> {
+    harness
+        .state()
+        .state
+        .timeline
+        .entries()
+        .find(|e| e.origin == origin && e.text.contains(text))
+        .and_then(|e| e.t)
+}
+
+#[test]
+fn the_timeline_keeps_its_entries_and_its_clock_across_a_lost_link() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    harness.state_mut().state.request(Request::Inject {
+        injection: Injection::FollowingError,
+        active: true,
+    });
+    step_until(&mut harness, "the fault", Duration::from_secs(3), |h| {
+        has(h, Origin::PdiStatus, "Fault set")
+    });
+    let fault = time_of(&harness, Origin::PdiStatus, "Fault set").expect("a time");
+
+    // The simulated cable pulled for 3 s; the worker reconnects by itself.
+    harness.state_mut().state.request(Request::Inject {
+        injection: Injection::LinkLoss,
+        active: true,
+    });
+    step_until(
+        &mut harness,
+        "the fault seen again",
+        Duration::from_secs(10),
+        |h| has(h, Origin::PdiStatus, "active on connecting"),
+    );
+    let lost = time_of(&harness, Origin::Link, "link lost").expect("a time");
+    let still = time_of(&harness, Origin::PdiStatus, "active on connecting").expect("a time");
+    // The entries from before stay, and the times go on from them.
+    assert_eq!(
+        time_of(&harness, Origin::PdiStatus, "Fault set"),
+        Some(fault)
+    );
+    assert!(fault <= lost, "{fault} then {lost}");
+    assert!(
+        still - lost >= 2.5,
+        "3 s without the link: {lost} then {still}"
+    );
+    let back = time_of(&harness, Origin::Link, "link back after").expect("the return");
+    assert!(
+        back - lost >= 2.5 && still >= back,
+        "{lost}, {back}, {still}"
+    );
+}

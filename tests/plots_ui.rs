@@ -7,12 +7,16 @@ mod window;
 
 use std::time::Duration;
 
+use drivedeck::diagnostics::Origin;
+use drivedeck::link::LinkSpec;
+use drivedeck::sim::server::ServerThread;
+use drivedeck::sim::server::modbus::ServerOptions;
 use drivedeck::telemetry::{CaptureState, Edge, Recording};
 use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use window::{harness_with, step_for, step_until, step_until_shown};
+use window::{connected_to, harness_with, start_turning, step_for, step_until, step_until_shown};
 
 /// The window on the simulator, wide enough for the dictionary's Plot buttons.
 fn app_harness() -> Harness<'static, App> {
@@ -348,4 +352,87 @@ fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
     harness.get_by_label("Save recording").click();
     harness.step();
     message(&harness).expect("saved again over its own file");
+}
+
+/// The times of the timeline's link entries whose text starts with `text`.
+fn link_entries(harness: &Harness<'_, App>, text: &str) -> Vec<Option<f64>> {
+    harness
+        .state()
+        .state
+        .timeline
+        .entries()
+        .filter(|e| e.origin == Origin::Link && e.text.starts_with(text))
+        .map(|e| e.t)
+        .collect()
+}
+
+#[test]
+fn an_outage_keeps_the_plots_markers_and_timeline_on_one_axis_with_a_gap() {
+    let server = common::modbus_server(ServerOptions::default());
+    let addr = server.addr;
+    let spec: LinkSpec = format!("modbus-tcp://{addr}?unit=0").parse().expect("spec");
+    let mut harness = connected_to(&spec, None, egui::vec2(1366.0, 768.0));
+    start_turning(&mut harness, 100.0);
+    step_for(&mut harness, Duration::from_millis(300));
+    let scope = &harness.state().state.scope;
+    let first = scope.ring().first_time();
+    let (rows, before) = (scope.ring().len(), scope.ring().last_time().unwrap_or(0.0));
+    let markers: Vec<(f64, String)> = scope.markers().map(|m| (m.t, m.text.clone())).collect();
+    assert!(!markers.is_empty(), "the velocity command's marker");
+
+    // The drive's plug pulled for a while, then back on the same address.
+    drop(server);
+    step_until(&mut harness, "the link lost", Duration::from_secs(5), |h| {
+        h.state().state.scope.open_gap().is_some_and(|g| g.lost)
+    });
+    step_for(&mut harness, Duration::from_millis(800));
+    let _server =
+        ServerThread::modbus_tcp(addr, ServerOptions::default()).expect("the same port again");
+    step_until(
+        &mut harness,
+        "samples again",
+        Duration::from_secs(15),
+        |h| {
+            let state = &h.state().state;
+            state.is_connected()
+                && state.scope.open_gap().is_none()
+                && state.scope.ring().len() > rows + 20
+        },
+    );
+
+    let state = &harness.state().state;
+    let scope = &state.scope;
+    assert_eq!(
+        scope.ring().first_time(),
+        first,
+        "the history from before is kept"
+    );
+    let kept: Vec<(f64, String)> = scope.markers().map(|m| (m.t, m.text.clone())).collect();
+    assert_eq!(kept[..markers.len()], markers[..], "and its markers");
+    let gap = scope.gaps().last().cloned().expect("the outage");
+    let back = gap.to.expect("closed");
+    assert!(gap.lost && gap.from >= before, "{gap:?}");
+    assert!(
+        back - gap.from >= 0.8,
+        "the outage on the one time axis: {gap:?}"
+    );
+    assert!(
+        gap.label(back).starts_with("no link "),
+        "{}",
+        gap.label(back)
+    );
+    // The same drive: no marker says otherwise.
+    assert!(
+        kept.iter()
+            .all(|(_, text)| !text.starts_with("another drive"))
+    );
+    // The fault timeline's times go on: the loss at the last sample before, the return at
+    // the first one after.
+    assert_eq!(link_entries(&harness, "link lost: "), [Some(gap.from)]);
+    assert_eq!(link_entries(&harness, "link back after "), [Some(back)]);
+    // The plots draw the whole of it: the range reaches back before the outage.
+    harness.state_mut().state.settings.plot.window_s = 0.0;
+    harness.step();
+    let (from, to) = drivedeck::ui::plots::time_range(&harness.state().state).expect("range");
+    assert!(from <= gap.from && to > back, "{from}..{to} around {gap:?}");
 }

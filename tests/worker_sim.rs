@@ -495,3 +495,99 @@ fn the_simulated_drive_says_which_homing_methods_it_has() {
         "{methods:?}"
     );
 }
+
+/// The samples among the events after the first `from`, oldest first.
+fn samples_since(probe: &Probe, from: usize) -> Vec<drivedeck::worker::Sample> {
+    probe.seen[from..]
+        .iter()
+        .filter_map(|e| match e {
+            Event::Samples(s) => Some(s.clone()),
+            _ => None,
+        })
+        .flatten()
+        .collect()
+}
+
+/// Every sample time so far is later than the one before it.
+fn times_increase(probe: &Probe) {
+    let times: Vec<f64> = probe.samples().iter().map(|s| s.t).collect();
+    assert!(
+        times.windows(2).all(|w| w[0] < w[1]),
+        "sample times went back: {:?}",
+        times
+            .windows(2)
+            .find(|w| w[0] >= w[1])
+            .map(|w| (w[0], w[1]))
+    );
+}
+
+#[test]
+fn sample_and_command_times_go_on_across_a_lost_link_and_a_new_connection() {
+    let mut probe = Probe::on_simulated_time();
+    let before = probe
+        .sample_where("a second of samples", Duration::from_secs(5), |s| s.t > 1.0)
+        .t;
+    // The cable pulled for LINK_LOSS_TIME (3 s); the worker reconnects by itself.
+    probe.send(Request::Inject {
+        injection: Injection::LinkLoss,
+        active: true,
+    });
+    probe.lost(Duration::from_secs(5));
+    let lost_at = probe.samples().last().map_or(before, |s| s.t);
+    let from = probe.seen.len();
+    probe.reconnected(Duration::from_secs(10));
+    probe.sample_where("a sample on the link back", Duration::from_secs(5), |_| {
+        true
+    });
+    let back = samples_since(&probe, from);
+    let first = back.first().map_or(f64::NAN, |s| s.t);
+    // One time axis: the outage lies on it, the new samples come after the old ones.
+    assert!(
+        first - lost_at >= 2.5,
+        "lost at {lost_at} s, back at {first} s"
+    );
+    times_increase(&probe);
+
+    // The user disconnects and connects again (a fresh simulated drive): still one axis.
+    probe.send(Request::Disconnect);
+    probe.wait("disconnected", Duration::from_secs(5), |e| {
+        matches!(e, Event::Disconnected { reason: None })
+    });
+    let last = probe.samples().last().map_or(f64::NAN, |s| s.t);
+    let from = probe.seen.len();
+    probe.send(Request::Connect(LinkSpec::Sim));
+    probe.reconnected(Duration::from_secs(5));
+    probe.sample_where("a sample on the new link", Duration::from_secs(5), |_| true);
+    let first = samples_since(&probe, from)
+        .first()
+        .map_or(f64::NAN, |s| s.t);
+    assert!(
+        first > last,
+        "disconnected at {last} s, connected at {first} s"
+    );
+    times_increase(&probe);
+
+    // A command's marker time is on the same clock: after every sample before it.
+    let newest = probe.samples().last().map_or(f64::NAN, |s| s.t);
+    let id = probe.send(Request::Command(Action::Velocity { speed: 100 }));
+    let sent = probe.wait(
+        "the image sent",
+        Duration::from_secs(2),
+        |e| matches!(e, Event::Sent { id: i, .. } if *i == id),
+    );
+    let Event::Sent { t, .. } = sent else {
+        unreachable!()
+    };
+    assert!(
+        t >= newest,
+        "sent at {t} s, the newest sample at {newest} s"
+    );
+    let next = probe.sample_where("a sample after the command", Duration::from_secs(2), |_| {
+        true
+    });
+    assert!(
+        t <= next.t,
+        "sent at {t} s, the next sample at {} s",
+        next.t
+    );
+}

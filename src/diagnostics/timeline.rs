@@ -59,8 +59,8 @@ impl Origin {
 /// One thing that happened.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Entry {
-    /// On the samples' clock (seconds since connecting), where known: the plot cursor
-    /// jumps there.
+    /// On the samples' clock (seconds since the worker first connected, one axis across
+    /// reconnects), where known: the plot cursor jumps there.
     pub t: Option<f64>,
     /// Wall-clock time, `2026-12-01T18:48:28Z`.
     pub wall: String,

@@ -12,7 +12,7 @@ pub use recording::{ChannelInfo, Marker, Metadata, Recording, RecordingError};
 pub use ring::{BitSpan, PushError, Ring};
 pub use save::{recording_text, save_recording};
 pub use scope::{
-    Builtin, DEFAULT_HISTORY_ROWS, Kind, Scope, ScopeEvent, SignalDef, Source, WatchedObject,
+    Builtin, DEFAULT_HISTORY_ROWS, Gap, Kind, Scope, ScopeEvent, SignalDef, Source, WatchedObject,
     bit_name, format_number, metadata, utc_text, watchable,
 };
 pub use trigger::{Capture, CaptureEvent, CaptureState, Condition, Edge, Trigger};

@@ -182,6 +182,38 @@ pub struct WatchedObject {
     pub unit: String,
 }
 
+/// A stretch of the history without samples: the link lost (or closed) after the sample
+/// at `from`, and back with the sample at `to`. The plots draw no line across it and
+/// shade it; exports mark both ends.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gap {
+    /// The time of the last sample before it.
+    pub from: f64,
+    /// The time of the first sample after it; `None` while the link is still down.
+    pub to: Option<f64>,
+    /// Lost, rather than closed by the user.
+    pub lost: bool,
+    /// Why, in words: "link lost: timed out", "disconnected".
+    pub why: String,
+}
+
+impl Gap {
+    /// Seconds without samples, up to `now` (on the samples' clock) while it is open.
+    pub fn duration(&self, now: f64) -> f64 {
+        (self.to.unwrap_or(now) - self.from).max(0.0)
+    }
+
+    /// Its label on the plots: "no link 12.3 s" (lost), "not connected 4.0 s" (closed).
+    pub fn label(&self, now: f64) -> String {
+        let what = if self.lost {
+            "no link"
+        } else {
+            "not connected"
+        };
+        format!("{what} {:.1} s", self.duration(now))
+    }
+}
+
 /// What the scope did with a sample that the window should hear of.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ScopeEvent {
@@ -197,6 +229,11 @@ pub struct Scope {
     ring: Ring,
     signals: Vec<SignalDef>,
     markers: VecDeque<Marker>,
+    /// The stretches without samples (a lost link, a disconnect), oldest first.
+    gaps: VecDeque<Gap>,
+    /// Since when the samples are of the drive connected now, where another one came
+    /// before it in this history.
+    drive_since: Option<f64>,
     capture: Option<Capture>,
     /// The last triggered recording.
     recording: Option<Recording>,
@@ -234,6 +271,8 @@ impl Scope {
             ring: Ring::new(rows, signals.len()),
             signals,
             markers: VecDeque::new(),
+            gaps: VecDeque::new(),
+            drive_since: None,
             capture: None,
             recording: None,
             meta: Metadata::default(),
@@ -273,10 +312,13 @@ impl Scope {
         self.ring.set_capacity(rows);
     }
 
-    /// Forget the history and markers (a new connection: its clock starts at zero).
+    /// Forget the history, markers and gaps (the user's "Clear plot", or samples whose
+    /// clock started again).
     pub fn clear(&mut self) {
         self.ring.clear();
         self.markers.clear();
+        self.gaps.clear();
+        self.drive_since = None;
         if let Some(capture) = &mut self.capture
             && matches!(capture.state(), CaptureState::Fired { .. })
         {
@@ -296,9 +338,14 @@ impl Scope {
             self.row[signal.column] = value.unwrap_or(f64::NAN);
         }
         if self.ring.push(sample.t, &self.row).is_err() {
-            // Time went backwards: a new connection.
+            // Time went backwards: another clock (the worker keeps one for its life).
             self.clear();
             self.ring.push(sample.t, &self.row).ok()?;
+        }
+        if let Some(gap) = self.gaps.back_mut()
+            && gap.to.is_none()
+        {
+            gap.to = Some(sample.t);
         }
         let capture = self.capture.as_mut()?;
         match capture.feed(sample.t, &self.row) {
@@ -324,6 +371,47 @@ impl Scope {
             t,
             text: text.into(),
         });
+    }
+
+    /// The link went (`lost`) or was closed (`why` says which): a gap opens after the
+    /// newest sample, closed by the next sample that comes. Nothing opens without history
+    /// or while a gap is open already.
+    pub fn link_down(&mut self, lost: bool, why: impl Into<String>) {
+        let Some(from) = self.ring.last_time() else {
+            return;
+        };
+        if self.open_gap().is_some() {
+            return;
+        }
+        if self.gaps.len() >= MARKER_LIMIT {
+            self.gaps.pop_front();
+        }
+        self.gaps.push_back(Gap {
+            from,
+            to: None,
+            lost,
+            why: why.into(),
+        });
+    }
+
+    /// The gap the link is in now, if it is down.
+    pub fn open_gap(&self) -> Option<&Gap> {
+        self.gaps.back().filter(|g| g.to.is_none())
+    }
+
+    /// The gaps that reach into the history, oldest first.
+    pub fn gaps(&self) -> impl Iterator<Item = &Gap> {
+        let first = self.ring.first_time().unwrap_or(f64::INFINITY);
+        self.gaps
+            .iter()
+            .filter(move |g| g.to.is_none_or(|to| to >= first))
+    }
+
+    /// Another drive from `t` on (another link or identity): marked with `text`, and an
+    /// export reaching back before it says so.
+    pub fn new_drive(&mut self, t: f64, text: impl Into<String>) {
+        self.mark(t, text);
+        self.drive_since = Some(t);
     }
 
     /// The markers still inside the history.
@@ -435,10 +523,38 @@ impl Scope {
         recording.markers = self
             .markers
             .iter()
-            .filter(|m| (from..=to).contains(&m.t))
             .cloned()
+            .chain(self.gap_markers())
+            .filter(|m| (from..=to).contains(&m.t))
             .collect();
+        recording.markers.sort_by(|a, b| a.t.total_cmp(&b.t));
+        if let Some(since) = self.drive_since
+            && from < since
+        {
+            let note = format!(
+                "the samples before t = {since:.3} s are of another drive (see the markers)"
+            );
+            recording.meta.note = Some(match recording.meta.note.take() {
+                Some(text) => format!("{text}; {note}"),
+                None => note,
+            });
+        }
         recording
+    }
+
+    /// Both ends of every gap, as markers for the exported files.
+    fn gap_markers(&self) -> impl Iterator<Item = Marker> + '_ {
+        self.gaps.iter().flat_map(|gap| {
+            let back = gap.to.map(|to| Marker {
+                t: to,
+                text: format!("link back after {:.1} s without samples", to - gap.from),
+            });
+            std::iter::once(Marker {
+                t: gap.from,
+                text: gap.why.clone(),
+            })
+            .chain(back)
+        })
     }
 }
 
@@ -557,7 +673,7 @@ mod tests {
     }
 
     #[test]
-    fn samples_land_in_their_columns_and_a_new_connection_starts_afresh() {
+    fn samples_land_in_their_columns_and_a_clock_that_starts_again_starts_afresh() {
         let mut scope = Scope::new(100);
         for i in 0..10 {
             scope.push(&sample(f64::from(i) * 0.01, f64::from(i), 1));
@@ -575,6 +691,57 @@ mod tests {
         scope.push(&sample(0.0, 5.0, 0));
         assert_eq!(scope.ring().len(), 1);
         assert_eq!(scope.markers().count(), 0);
+    }
+
+    #[test]
+    fn an_outage_is_a_gap_in_the_one_history_and_the_exports_mark_it() {
+        let mut scope = Scope::new(1000);
+        for i in 0..10 {
+            scope.push(&sample(f64::from(i) * 0.1, f64::from(i), 1));
+        }
+        scope.mark(0.5, "Velocity");
+        scope.link_down(true, "link lost: timed out");
+        scope.link_down(false, "disconnected");
+        let open = scope
+            .open_gap()
+            .cloned()
+            .expect("a gap while the link is down");
+        assert_eq!((open.from, open.to, open.lost), (0.9, None, true));
+        assert_eq!(open.label(13.2), "no link 12.3 s");
+        for i in 0..5 {
+            scope.push(&sample(13.2 + f64::from(i) * 0.1, 100.0, 1));
+        }
+        assert_eq!(scope.ring().len(), 15, "nothing erased");
+        assert_eq!(scope.markers().count(), 1);
+        assert!(scope.open_gap().is_none());
+        let gaps: Vec<Gap> = scope.gaps().cloned().collect();
+        assert_eq!(gaps.len(), 1);
+        assert_eq!(gaps[0].to, Some(13.2));
+        let rec = scope.export(0.0, 20.0, Metadata::default(), false);
+        let marks: Vec<(f64, &str)> = rec.markers.iter().map(|m| (m.t, m.text.as_str())).collect();
+        assert_eq!(
+            marks,
+            [
+                (0.5, "Velocity"),
+                (0.9, "link lost: timed out"),
+                (13.2, "link back after 12.3 s without samples")
+            ]
+        );
+        assert_eq!(rec.meta.note, None);
+
+        // Another drive from 13.5 s on: an export reaching back before it says so.
+        scope.new_drive(13.5, "another drive: sim");
+        let rec = scope.export(0.0, 20.0, Metadata::default(), false);
+        let note = rec.meta.note.unwrap_or_default();
+        assert!(
+            note.contains("before t = 13.500 s are of another drive"),
+            "{note}"
+        );
+        let rec = scope.export(13.5, 20.0, Metadata::default(), false);
+        assert_eq!(rec.meta.note, None);
+        // Clearing forgets the gaps with the history.
+        scope.clear();
+        assert_eq!(scope.gaps().count(), 0);
     }
 
     #[test]

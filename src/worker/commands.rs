@@ -73,7 +73,7 @@ impl Session {
                 self.purposes.insert(id, purpose);
                 sink.emit(Event::Sent {
                     id,
-                    t: (now - self.started).as_secs_f64(),
+                    t: self.time(now),
                     what: described,
                     image,
                 });

@@ -86,7 +86,7 @@ impl Session {
         let watched = self.sample_watched(&signals, budget, sink).await?;
         self.samples.push(Sample {
             watched,
-            t: (now - self.started).as_secs_f64(),
+            t: self.time(now),
             tx,
             signals,
         });

@@ -348,7 +348,8 @@ pub enum Event {
     /// A PDI image carrying a command was written.
     Sent {
         id: RequestId,
-        /// When, on the samples' clock (seconds since the link was connected).
+        /// When, on the samples' clock (seconds since the worker first connected; it goes
+        /// on across reconnects).
         t: f64,
         what: String,
         image: RxImage,

@@ -22,7 +22,9 @@ pub(super) struct Session {
     /// Whether the device has the PDI at all.
     pub(super) pdi: bool,
     pub(super) master: PdiMaster,
-    pub(super) started: Instant,
+    /// Time zero of the samples' clock: the worker's first connection, kept for the
+    /// worker's whole life so that times go on increasing across reconnects.
+    pub(super) epoch: Instant,
     pub(super) queue: VecDeque<Envelope>,
     pub(super) purposes: HashMap<RequestId, Purpose>,
     pub(super) samples: Vec<Sample>,
@@ -58,11 +60,13 @@ pub(super) struct Session {
 }
 
 impl Session {
-    /// Start a session on an open link.
+    /// Start a session on an open link; its times count from `epoch` (the worker's first
+    /// connection), or from now when this is the first.
     pub(super) async fn start(
         mut link: AnyLink,
         config: &Config,
         watch: &[(Address, DataType)],
+        epoch: Option<Instant>,
         sink: &mut EventSink,
     ) -> link::Traced<Session> {
         let mut master = PdiMaster::new(config.timing);
@@ -85,7 +89,7 @@ impl Session {
             native_objects,
             pdi: info.pdi,
             master,
-            started: now,
+            epoch: epoch.unwrap_or(now),
             queue: VecDeque::new(),
             purposes: HashMap::new(),
             samples: Vec::new(),
@@ -119,6 +123,11 @@ impl Session {
             master.adopt(rx);
         }
         link.exchange(None).await
+    }
+
+    /// `at` on the samples' clock: seconds since the epoch.
+    pub(super) fn time(&self, at: Instant) -> f64 {
+        at.saturating_duration_since(self.epoch).as_secs_f64()
     }
 
     /// The frames exchanged since the last call, where they are traced: sent ahead of any

@@ -35,6 +35,11 @@ pub(super) struct Supervisor {
     pub(super) ticker: tokio::time::Interval,
     /// The objects sampled on request, kept across reconnects.
     pub(super) watch: Vec<(Address, DataType)>,
+    /// Time zero of every sample and marker: the first connection's start, kept for the
+    /// worker's whole life (not per connection), so the window's plots and fault
+    /// timeline keep one time axis across reconnects and a new connection's samples come
+    /// after the old ones.
+    epoch: Option<Instant>,
 }
 
 /// The worker's whole life.
@@ -53,6 +58,7 @@ pub async fn run(
         backoff: BACKOFF_FIRST,
         ticker: new_ticker(config.poll_rate),
         watch: Vec::new(),
+        epoch: None,
     };
     loop {
         tokio::select! {
@@ -199,7 +205,7 @@ impl Supervisor {
     async fn open(&mut self, spec: &LinkSpec, sink: &mut EventSink) -> link::Traced<Session> {
         match self.broken.take() {
             Some(mut link) => match link.reconnect().await {
-                Ok(()) => Session::start(link, &self.config, &self.watch, sink).await,
+                Ok(()) => Session::start(link, &self.config, &self.watch, self.epoch, sink).await,
                 Err(e) => {
                     let trace = link.take_trace();
                     self.broken = Some(link);
@@ -207,7 +213,7 @@ impl Supervisor {
                 }
             },
             None => match connect::open_traced(spec).await {
-                Ok(link) => Session::start(link, &self.config, &self.watch, sink).await,
+                Ok(link) => Session::start(link, &self.config, &self.watch, self.epoch, sink).await,
                 Err(failed) => Err(failed),
             },
         }
@@ -219,6 +225,7 @@ impl Supervisor {
         s.trace_out(sink);
         sink.emit(Event::Connected(s.link.info()));
         sink.emit(Event::LinkOwnChanges(s.link.own_changes()));
+        self.epoch.get_or_insert(s.epoch);
         // What the link learned.
         for notice in s.link.take_notices() {
             sink.emit(Event::Notice(notice));

@@ -1,7 +1,7 @@
 //! A bounded, columnar history of sample rows for the live plots.
 //!
-//! Each row is a time (seconds since connect) and one `f64` per channel; NaN means "no
-//! sample of this channel in this row". The [`Ring`] keeps at most `capacity` rows and drops
+//! Each row is a time (the worker's clock, in seconds) and one `f64` per channel; NaN means
+//! "no sample of this channel in this row". The [`Ring`] keeps at most `capacity` rows and drops
 //! the oldest when full, so its memory never grows past what the capacity needs.
 //!
 //! The UI draws the whole history every frame, so [`Ring::decimate`] has to be fast. Each

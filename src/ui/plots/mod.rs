@@ -108,7 +108,7 @@ impl PlotView {
 pub fn time_range(state: &AppState) -> Option<(f64, f64)> {
     let ring = state.scope.ring();
     let first = ring.first_time()?;
-    let end = state.plot.paused_at.or(ring.last_time())?;
+    let end = state.plot.paused_at.or_else(|| live_end(state))?;
     if !state.plot.follow
         && let Some(range) = state.plot.shown_range
     {
@@ -117,6 +117,23 @@ pub fn time_range(state: &AppState) -> Option<(f64, f64)> {
     let window = state.settings.plot.window_s;
     let start = if window > 0.0 { end - window } else { first };
     Some((start.min(end - 0.001), end.max(start + 0.001)))
+}
+
+/// The newest moment on the samples' clock: the newest sample's time, or while the link
+/// is lost, later by the wall-clock time since that sample came, so an outage grows in
+/// view as it lasts.
+pub fn live_end(state: &AppState) -> Option<f64> {
+    let last = state.scope.ring().last_time()?;
+    let lost = state.scope.open_gap().filter(|gap| gap.lost);
+    Some(match lost {
+        Some(gap) => {
+            let age = state
+                .sample_age(std::time::SystemTime::now())
+                .unwrap_or(0.0);
+            last.max(gap.from + age)
+        }
+        None => last,
+    })
 }
 
 pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {

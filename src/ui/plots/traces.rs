@@ -3,7 +3,7 @@
 //! pixel column, so the whole history draws without dropping a peak.
 
 use eframe::egui::{self, Color32, Ui};
-use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Text, VLine};
+use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
 
 use super::super::state::AppState;
 use super::super::widgets::{AMBER, BLUE, GREEN, RED};
@@ -26,6 +26,8 @@ const MARKER_LABELS: usize = 24;
 const PURPLE: Color32 = Color32::from_rgb(150, 110, 210);
 const TEAL: Color32 = Color32::from_rgb(60, 190, 190);
 const GREY: Color32 = Color32::from_gray(150);
+/// The shade of a stretch without samples.
+const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
 
 fn color_of(signal: &SignalDef, index: usize) -> Color32 {
     match signal.builtin() {
@@ -46,6 +48,14 @@ struct Lane {
     name: String,
 }
 
+/// A stretch without samples in view (a lost link, a disconnect): shaded, labelled, and
+/// no line drawn across it.
+struct Band {
+    from: f64,
+    to: f64,
+    label: String,
+}
+
 /// What the plots report back for the next frame.
 #[derive(Default)]
 struct Interaction {
@@ -64,6 +74,8 @@ struct View<'a> {
     follow: bool,
     group: egui::Id,
     markers: Vec<(f64, &'a str)>,
+    /// The gaps in view, oldest first.
+    bands: Vec<Band>,
     highlight: Option<f64>,
     trigger_at: Option<f64>,
     /// The threshold trigger's signal column and level.
@@ -93,11 +105,46 @@ impl<'a> View<'a> {
             follow: state.plot.follow,
             group: egui::Id::unique("plots_time_axis"),
             markers,
+            bands: bands(state, from, to),
             highlight: state.plot.highlight,
             trigger_at,
             threshold,
         }
     }
+}
+
+/// The gaps between `from` and `to`; one still open reaches to now (while the link is
+/// lost, the plots run on to show it grow).
+fn bands(state: &AppState, from: f64, to: f64) -> Vec<Band> {
+    let now = super::live_end(state).unwrap_or(to);
+    state
+        .scope
+        .gaps()
+        .map(|gap| Band {
+            from: gap.from,
+            to: gap.to.unwrap_or(now),
+            label: gap.label(now),
+        })
+        .filter(|band| band.to > band.from && band.to >= from && band.from <= to)
+        .collect()
+}
+
+/// `points` (in time order) in runs that no band cuts: no line is drawn across a
+/// stretch without samples.
+fn split_at_bands<'p>(points: &'p [[f64; 2]], bands: &[Band]) -> Vec<&'p [[f64; 2]]> {
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for i in 1..points.len() {
+        let (a, b) = (points[i - 1][0], points[i][0]);
+        if bands.iter().any(|band| a <= band.from && b >= band.to) {
+            runs.push(&points[start..i]);
+            start = i;
+        }
+    }
+    if start < points.len() {
+        runs.push(&points[start..]);
+    }
+    runs
 }
 
 /// Where the pointer is on the time axis, and the span the plot showed.
@@ -197,9 +244,12 @@ fn analog_plot_ui(
             if view.follow {
                 plot_ui.set_plot_bounds(follow_bounds(&points, from, to, level));
             }
+            draw_bands(plot_ui, &view.bands, first);
             draw_markers(plot_ui, &view.markers, first);
             draw_moments(plot_ui, view, level);
-            plot_ui.line(Line::new(label, points).color(color));
+            for run in split_at_bands(&points, &view.bands) {
+                plot_ui.line(Line::new(label.as_str(), run.to_vec()).color(color));
+            }
             (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
         })
 }
@@ -253,30 +303,29 @@ fn lanes_plot_ui(
                     [to, lanes.len() as f64 * 1.5],
                 ));
             }
+            draw_bands(plot_ui, &view.bands, false);
             draw_markers(plot_ui, &view.markers, false);
-            draw_lanes(plot_ui, view.ring, lanes, from, to);
+            draw_lanes(plot_ui, view, lanes, from, to);
             (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
         })
 }
 
 /// Each lane's line, 1.5 apart, its name at the left edge over the trace.
-fn draw_lanes(plot_ui: &mut PlotUi, ring: &Ring, lanes: &[Lane], from: f64, to: f64) {
+fn draw_lanes(plot_ui: &mut PlotUi, view: &View<'_>, lanes: &[Lane], from: f64, to: f64) {
     let columns = plot_ui.transform().frame().width().max(1.0) as usize;
     let mut last_column = None;
     let mut spans: Vec<BitSpan> = Vec::new();
     for (k, lane) in lanes.iter().enumerate() {
         if last_column != Some(lane.column) {
-            spans = ring.decimate_bits(lane.column, from, to, columns);
+            spans = view.ring.decimate_bits(lane.column, from, to, columns);
             last_column = Some(lane.column);
         }
         let base = k as f64 * 1.5;
-        plot_ui.line(
-            Line::new("", lane_points(&spans, lane.bit, base)).color(if k % 2 == 0 {
-                GREEN
-            } else {
-                BLUE
-            }),
-        );
+        let color = if k % 2 == 0 { GREEN } else { BLUE };
+        let points = lane_points(&spans, lane.bit, base);
+        for run in split_at_bands(&points, &view.bands) {
+            plot_ui.line(Line::new("", run.to_vec()).color(color));
+        }
         plot_ui.text(
             Text::new("", egui_plot::PlotPoint::new(from, base + 0.5), &lane.name)
                 .anchor(egui::Align2::LEFT_CENTER)
@@ -404,6 +453,32 @@ fn follow_bounds(points: &[[f64; 2]], from: f64, to: f64, level: Option<f64>) ->
     )
 }
 
+/// Every stretch without samples shaded, with its edges; labelled ("no link 12.3 s") on
+/// the top plot.
+fn draw_bands(plot_ui: &mut PlotUi, bands: &[Band], labels: bool) {
+    let top = plot_ui.plot_bounds().max()[1];
+    for band in bands {
+        plot_ui.add(
+            Span::new("", band.from..=band.to)
+                .fill(GAP_FILL)
+                .border(egui::Stroke::new(1.0, AMBER))
+                .border_style(LineStyle::dashed_loose()),
+        );
+        if labels {
+            plot_ui.text(
+                Text::new(
+                    "",
+                    egui_plot::PlotPoint::new((band.from + band.to) / 2.0, top),
+                    &band.label,
+                )
+                .anchor(egui::Align2::CENTER_TOP)
+                .color(AMBER)
+                .allow_hover(false),
+            );
+        }
+    }
+}
+
 /// A dashed line for every command sent, labelled (the newest few) on the top plot.
 fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
     for (t, _) in markers {
@@ -488,4 +563,29 @@ fn lane_points(spans: &[BitSpan], bit: u8, base: f64) -> Vec<[f64; 2]> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn no_line_is_drawn_across_a_gap() {
+        let points = [
+            [0.0, 1.0],
+            [0.9, 2.0],
+            [13.2, 3.0],
+            [13.3, 4.0],
+            [20.0, 5.0],
+        ];
+        let bands = [Band {
+            from: 0.9,
+            to: 13.2,
+            label: String::new(),
+        }];
+        let runs = split_at_bands(&points, &bands);
+        assert_eq!(runs, [&points[..2], &points[2..]]);
+        assert_eq!(split_at_bands(&points, &[]), [&points[..]]);
+        assert!(split_at_bands(&[], &bands).is_empty());
+    }
 }

@@ -100,7 +100,10 @@ impl AppState {
         self.scan = Some(result);
     }
 
-    /// A new link: the session starts again (clock, plots, identity, diagnosis, torque slope).
+    /// A link up (the first, one brought back, or another): the session goes on, with
+    /// one clock, its plot history, markers and timeline kept; identity, diagnosis and
+    /// torque slope are read anew, and another drive than before is marked once its
+    /// identity is known (`note_drive`).
     fn on_connected(&mut self, info: LinkInfo) {
         self.info(format!("connected: {}", info.description));
         let link = info.spec.to_string();
@@ -108,16 +111,15 @@ impl AppState {
         self.connection = Connection::Connected(info);
         self.link_lost = None;
         self.sampled_since_connect = false;
+        self.connected_at = None;
         self.halt_engaged = false;
         self.torque_slope = None;
         self.injected.clear();
-        // The samples' clock starts again; the exports name the device.
-        self.scope.clear();
-        self.plot.paused_at = None;
+        // The exports name the device: read its identity again.
         self.plot.identity = None;
         self.identity_request = None;
         self.identity_reads.clear();
-        self.scope.meta = crate::telemetry::metadata(None, &link, self.settings.poll_rate);
+        self.describe_drive(None, &link);
         self.outbox.push(Self::identity_request());
         self.timeline.reconnected();
         // Changes belong to a drive: another link starts a new list (a reconnect
@@ -163,6 +165,11 @@ impl AppState {
 
     /// The link closed: by the user (no reason) or lost (the reason goes on the timeline).
     fn on_disconnected(&mut self, reason: Option<String>) {
+        // The plots go on on the same clock: a gap until the next sample.
+        match &reason {
+            Some(reason) => self.scope.link_down(true, format!("link lost: {reason}")),
+            None => self.scope.link_down(false, "disconnected"),
+        }
         if let Some(reason) = &reason {
             let t = self.sample_time();
             self.timeline.add(
@@ -271,8 +278,8 @@ impl AppState {
             if self.identity_reads.len() == crate::od::backup::IDENTITY.len() {
                 let identity = crate::od::backup::DeviceIdentity::from_reads(&self.identity_reads);
                 let link = self.scope.meta.link.clone().unwrap_or_default();
-                self.scope.meta =
-                    crate::telemetry::metadata(Some(&identity), &link, self.settings.poll_rate);
+                self.describe_drive(Some(&identity), &link);
+                self.note_drive(&identity);
                 self.plot.identity = Some(identity);
                 self.identity_request = None;
             }
@@ -337,40 +344,29 @@ impl AppState {
 
     /// Samples: timeline, scope and triggers, the latest state, the halt toggle.
     fn on_samples(&mut self, samples: Vec<Sample>) {
-        if !samples.is_empty() {
-            self.last_sample_at = Some(SystemTime::now());
-            self.sampled_since_connect = true;
+        let Some(first) = samples.first() else {
+            return;
+        };
+        self.last_sample_at = Some(SystemTime::now());
+        // The first sample on this link: where it starts on the one time axis.
+        let fresh = !self.sampled_since_connect;
+        if fresh {
+            self.connected_at = Some(first.t);
         }
+        self.sampled_since_connect = true;
+        let gap = self.scope.open_gap().cloned();
         for sample in &samples {
             if self.timeline.observe(sample) {
                 self.want_diagnosis();
             }
-            match self.scope.push(sample) {
-                Some(ScopeEvent::Fired(at)) => {
-                    self.info(format!("trigger fired at {at:.3} s"));
-                }
-                Some(ScopeEvent::Recorded) => {
-                    let text = self.scope.recording().map(|r| {
-                        format!(
-                            "triggered recording ready: {:.2} s, {} samples; Save recording writes it",
-                            r.duration(),
-                            r.len()
-                        )
-                    });
-                    if let Some(text) = text {
-                        self.plot.message = Some(Ok(text.clone()));
-                        self.info(text);
-                    }
-                }
-                None => {}
-            }
+            self.scoped(sample);
         }
-        for sample in &samples {
-            self.latest = Some(match &self.latest {
-                Some(older) if sample.t >= older.t => sample.merged_over(older),
-                _ => *sample,
-            });
+        if let Some(gap) = gap
+            && self.scope.open_gap().is_none()
+        {
+            self.link_back(&gap, first.t);
         }
+        self.take_latest(&samples, fresh);
         if let Some(last) = samples.last() {
             // A finished halt the drive no longer shows (a new command, a quick
             // stop, a fault) releases the toggle.
@@ -381,6 +377,58 @@ impl AppState {
                 self.halt_engaged = false;
             }
         }
+    }
+
+    /// One sample into the plots' history and the trigger.
+    fn scoped(&mut self, sample: &Sample) {
+        match self.scope.push(sample) {
+            Some(ScopeEvent::Fired(at)) => {
+                self.info(format!("trigger fired at {at:.3} s"));
+            }
+            Some(ScopeEvent::Recorded) => {
+                let text = self.scope.recording().map(|r| {
+                    format!(
+                        "triggered recording ready: {:.2} s, {} samples; Save recording writes it",
+                        r.duration(),
+                        r.len()
+                    )
+                });
+                if let Some(text) = text {
+                    self.plot.message = Some(Ok(text.clone()));
+                    self.info(text);
+                }
+            }
+            None => {}
+        }
+    }
+
+    /// The newest value of every signal, merged over the samples before on this link (the
+    /// first sample of a link starts afresh: another drive's values are not carried over).
+    fn take_latest(&mut self, samples: &[Sample], fresh: bool) {
+        for (i, sample) in samples.iter().enumerate() {
+            self.latest = Some(match &self.latest {
+                Some(older) if !(fresh && i == 0) && sample.t >= older.t => {
+                    sample.merged_over(older)
+                }
+                _ => *sample,
+            });
+        }
+    }
+
+    /// Samples again after a gap (`at`: the first): how long the plots went without, on
+    /// the timeline.
+    fn link_back(&mut self, gap: &crate::telemetry::Gap, at: f64) {
+        let what = if gap.lost {
+            "link back"
+        } else {
+            "connected again"
+        };
+        self.timeline.add(
+            Some(at),
+            crate::diagnostics::Severity::Info,
+            crate::diagnostics::Origin::Link,
+            format!("{what} after {:.1} s without samples", at - gap.from),
+        );
     }
 
     /// Something the link reported; EMCY and stopped jogs go on the timeline too.

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::injection::Injection;
 use crate::link::{LinkFailure, LinkInfo, LinkSpec, Notice, NoticeKind};
+use crate::od::backup::DeviceIdentity;
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{Action, Opcode, RxImage, StatusBit};
 use crate::telemetry::{Scope, ScopeEvent};
@@ -175,6 +176,12 @@ pub struct AppState {
     pub last_sample_at: Option<SystemTime>,
     /// A sample came on the link connected now; until then `latest` is from before.
     pub sampled_since_connect: bool,
+    /// The time of the first sample on the link connected now (the samples' clock goes
+    /// on across connections).
+    pub connected_at: Option<f64>,
+    /// The drive of the last connection whose identity was read, and its link: another
+    /// one is marked on the plots and the timeline (see `note_drive`).
+    drive: Option<(LinkSpec, DeviceIdentity)>,
     /// Why the link went, when it was lost rather than closed (cleared on connecting
     /// again and on the user's disconnect).
     pub link_lost: Option<String>,
@@ -277,6 +284,8 @@ impl AppState {
             latest: None,
             last_sample_at: None,
             sampled_since_connect: false,
+            connected_at: None,
+            drive: None,
             link_lost: None,
             health: None,
             scope,
@@ -358,6 +367,47 @@ impl AppState {
         if std::mem::take(&mut self.diagnosis_again) {
             self.want_diagnosis();
         }
+    }
+
+    /// The exports' header: the drive (where its identity is known) and the link; the
+    /// session's start stays that of its first connection (t = 0 of the samples' clock).
+    fn describe_drive(&mut self, identity: Option<&DeviceIdentity>, link: &str) {
+        let started = self.scope.meta.started.take();
+        self.scope.meta = crate::telemetry::metadata(identity, link, self.settings.poll_rate);
+        if started.is_some() {
+            self.scope.meta.started = started;
+        }
+    }
+
+    /// The drive connected now, its identity read. Another link or another identity (1018h)
+    /// than the drive before in this session is another drive: the history stays, and a
+    /// marker on the plots and an entry on the timeline say from when the samples are of
+    /// this one.
+    fn note_drive(&mut self, identity: &DeviceIdentity) {
+        let Some(spec) = self.link_info().map(|info| info.spec.clone()) else {
+            return;
+        };
+        let Some((link, was)) = self.drive.replace((spec.clone(), identity.clone())) else {
+            return;
+        };
+        if link == spec && same_device(&was, identity) {
+            return;
+        }
+        let text = format!("another drive: {} on {spec}", device_text(identity));
+        let t = self.connected_at.or(self.sample_time());
+        if let Some(t) = t {
+            self.scope.new_drive(t, text.clone());
+        }
+        self.timeline.add(
+            t,
+            crate::diagnostics::Severity::Info,
+            crate::diagnostics::Origin::Link,
+            format!(
+                "{text}; before: {} on {link} (its history stays)",
+                device_text(&was)
+            ),
+        );
+        self.info(text);
     }
 
     /// An object access the device refused, on the timeline.
@@ -694,6 +744,21 @@ pub fn age_text(seconds: f64) -> String {
     } else {
         let whole = seconds as u64;
         format!("{} h {} min ago", whole / 3600, whole / 60 % 60)
+    }
+}
+
+/// Whether two identities are of the same device: vendor, product, revision and serial
+/// number (1018h) alike.
+fn same_device(a: &DeviceIdentity, b: &DeviceIdentity) -> bool {
+    (a.vendor, a.product, a.revision, a.serial) == (b.vendor, b.product, b.revision, b.serial)
+}
+
+/// A device in a few words: its name (1008h) and serial number.
+fn device_text(identity: &DeviceIdentity) -> String {
+    let name = identity.name.as_deref().unwrap_or("a device");
+    match identity.serial {
+        Some(serial) => format!("{name} serial {serial:08X}h"),
+        None => name.to_owned(),
     }
 }
 

@@ -158,3 +158,139 @@ fn every_connection_string_survives_the_connection_bar() {
         assert_eq!(form.spec(), Ok(spec), "{text}");
     }
 }
+
+/// A sample at `t` with `status` as PDI-Status.
+fn sample_at(t: f64, status: u16) -> Sample {
+    Sample {
+        t,
+        tx: crate::pdi::TxImage {
+            status: crate::pdi::Status(status),
+            ..crate::pdi::TxImage::default()
+        },
+        ..Sample::default()
+    }
+}
+
+/// Samples every 10 ms from `from` to `to` (inclusive, the worker's clock).
+fn samples(from: f64, to: f64, status: u16) -> Event {
+    let n = ((to - from) * 100.0).round() as u32;
+    Event::Samples(
+        (0..=n)
+            .map(|i| sample_at(from + f64::from(i) * 0.01, status))
+            .collect(),
+    )
+}
+
+#[test]
+fn a_reconnect_keeps_the_history_with_a_gap_and_the_timeline_goes_on() {
+    let mut state = AppState::new(Settings::default());
+    state.apply(Event::Connected(info()));
+    state.apply(samples(0.0, 1.0, 0));
+    state.apply(Event::Sent {
+        id: 1,
+        t: 0.5,
+        what: "Velocity: 300 rpm".into(),
+        image: RxImage::default(),
+    });
+    state.apply(samples(1.01, 2.0, StatusBit::Warning.mask()));
+    state.apply(Event::Disconnected {
+        reason: Some("timed out".into()),
+    });
+    let gap = state.scope.open_gap().cloned().expect("a gap while lost");
+    assert_eq!((gap.from, gap.lost), (2.0, true));
+    state.apply(Event::Connecting(LinkSpec::Sim));
+    state.apply(Event::Connected(info()));
+    // The worker's clock went on through the outage.
+    state.apply(samples(14.3, 15.0, 0));
+    assert_eq!(state.scope.ring().len(), 101 + 100 + 71, "nothing erased");
+    assert_eq!(state.scope.markers().count(), 1, "the command's marker");
+    let gaps: Vec<_> = state.scope.gaps().cloned().collect();
+    assert_eq!(gaps.len(), 1);
+    assert_eq!(gaps[0].to, Some(14.3));
+    assert_eq!(state.connected_at, Some(14.3));
+    let entries: Vec<(Option<f64>, String)> = state
+        .timeline
+        .entries()
+        .map(|e| (e.t, e.text.clone()))
+        .collect();
+    let texts: Vec<&str> = entries.iter().map(|(_, text)| text.as_str()).collect();
+    assert!(texts[0].starts_with("Warning set"), "{texts:?}");
+    assert_eq!(entries[1].0, Some(2.0));
+    assert_eq!(texts[1], "link lost: timed out");
+    assert_eq!(entries[2].0, Some(14.3));
+    assert_eq!(texts[2], "link back after 12.3 s without samples");
+    assert_eq!(texts.len(), 3, "{texts:?}");
+    let times: Vec<f64> = entries.iter().filter_map(|(t, _)| *t).collect();
+    assert!(times.windows(2).all(|w| w[0] <= w[1]), "{entries:?}");
+}
+
+/// The identity read the window asks for on connecting, answered with `serial`.
+fn identify(state: &mut AppState, id: RequestId, serial: u32) {
+    state.note_queued(id, &AppState::identity_request());
+    for (address, _) in crate::od::backup::IDENTITY {
+        let value = match address.index {
+            0x1018 if address.sub == 4 => Value::Uint(u64::from(serial)),
+            0x1018 => Value::Uint(u64::from(address.sub)),
+            _ => Value::Text("PD4-C".into()),
+        };
+        state.apply(Event::ObjectRead {
+            id,
+            address,
+            result: Ok(value),
+        });
+    }
+}
+
+#[test]
+fn another_drive_keeps_the_history_and_is_marked_from_its_first_sample() {
+    let mut state = AppState::new(Settings::default());
+    state.apply(Event::Connected(info()));
+    identify(&mut state, 10, 0x1234);
+    state.apply(samples(0.0, 1.0, 0));
+    // The same drive again: no marker.
+    state.apply(Event::Disconnected {
+        reason: Some("timed out".into()),
+    });
+    state.apply(Event::Connected(info()));
+    state.apply(samples(2.0, 3.0, 0));
+    identify(&mut state, 11, 0x1234);
+    assert_eq!(state.scope.markers().count(), 0);
+
+    // The user connects to another drive (another link and serial number).
+    state.apply(Event::Disconnected { reason: None });
+    let other: LinkSpec = "modbus-tcp://10.0.0.1:502?unit=0".parse().expect("spec");
+    state.apply(Event::Connected(LinkInfo {
+        spec: other,
+        ..info()
+    }));
+    state.apply(samples(10.0, 10.5, 0));
+    identify(&mut state, 12, 0x5678);
+    assert_eq!(state.scope.ring().len(), 101 + 101 + 51, "nothing erased");
+    let marker = state.scope.markers().next().cloned().expect("a marker");
+    assert_eq!(marker.t, 10.0, "at the first sample of the other drive");
+    assert!(
+        marker
+            .text
+            .starts_with("another drive: PD4-C serial 00005678h on modbus-tcp://10.0.0.1:502"),
+        "{}",
+        marker.text
+    );
+    let gap = state.scope.gaps().last().cloned().expect("the disconnect");
+    assert_eq!((gap.from, gap.to, gap.lost), (3.0, Some(10.0), false));
+    let entry = state.timeline.entries().last().cloned().expect("an entry");
+    assert!(
+        entry.text.contains("before: PD4-C serial 00001234h on sim"),
+        "{}",
+        entry.text
+    );
+    assert_eq!(entry.t, Some(10.0));
+    // An export reaching back before the other drive says so.
+    let rec = state
+        .scope
+        .export(0.0, 11.0, state.scope.meta.clone(), false);
+    assert!(
+        rec.meta
+            .note
+            .is_some_and(|n| n.contains("are of another drive")),
+    );
+}
