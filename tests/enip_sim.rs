@@ -592,6 +592,7 @@ fn drive_refusals_map_to_cip_statuses() {
         max: None,
         group: Group::Manufacturer,
         role: drivedeck::od::Role::WriteOnly,
+        bits: Vec::new(),
     });
     let drive = SharedDrive::new(Drive::with_catalog(&catalog, World::default()));
     let server = ServerThread::enip_with(local(), options(), drive).expect("server");

@@ -63,6 +63,9 @@ pub struct Entry {
     /// Setting, command, process data or read-only: whether a backup saves it and a
     /// restore may write it. Set by [`Role::of`] (built-in catalog) or [`Role::of_eds`].
     pub role: Role,
+    /// Names of single bits, ascending (status and control words, digital inputs, the
+    /// error register); empty where the catalog names none.
+    pub bits: Vec<(u8, String)>,
 }
 
 impl Entry {
@@ -240,6 +243,9 @@ struct ObjectDef {
     max: Option<String>,
     #[serde(default)]
     subs: Vec<SubDef>,
+    /// Bit number (decimal) → name.
+    #[serde(default)]
+    bits: BTreeMap<String, String>,
     /// How firm the public record is (H, M, L; protocol notes §0.2); kept for reviewers.
     #[serde(default, rename = "confidence")]
     _confidence: Option<String>,
@@ -259,6 +265,34 @@ struct SubDef {
     default: Option<String>,
     min: Option<String>,
     max: Option<String>,
+    #[serde(default)]
+    bits: BTreeMap<String, String>,
+}
+
+/// The named bits of an object of type `dtype`, checked: a bit number must be decimal and
+/// inside the type.
+fn bit_names(
+    bits: &BTreeMap<String, String>,
+    dtype: DataType,
+    address: Address,
+) -> Result<Vec<(u8, String)>, Error> {
+    let width = dtype.size().unwrap_or(0) * 8;
+    let mut named = Vec::with_capacity(bits.len());
+    for (bit, name) in bits {
+        let number = bit
+            .parse::<u8>()
+            .ok()
+            .filter(|b| usize::from(*b) < width)
+            .ok_or_else(|| {
+                Error::Catalog(format!(
+                    "{address} bit '{bit}': not a bit of a {} ({width} bits)",
+                    dtype.short_name()
+                ))
+            })?;
+        named.push((number, name.clone()));
+    }
+    named.sort_by_key(|(bit, _)| *bit);
+    Ok(named)
 }
 
 fn parse_hex_u32(text: &str, what: &str, limit: u32) -> Result<u32, Error> {
@@ -335,6 +369,7 @@ impl ObjectDef {
             max: optional_value(&self.max, dtype, address, "max")?,
             group: Group::of_index(index),
             role: Role::of(address, access, dtype),
+            bits: bit_names(&self.bits, dtype, address)?,
         })
     }
 
@@ -361,6 +396,7 @@ impl ObjectDef {
             max: optional_value(&max, sub.dtype, address, "max")?,
             group: Group::of_index(index),
             role: Role::of(address, sub.access, sub.dtype),
+            bits: bit_names(&sub.bits, sub.dtype, address)?,
         })
     }
 }
@@ -396,6 +432,32 @@ mod tests {
         .unwrap_err();
         assert!(err.to_string().contains("6064h:00h default"), "{err}");
         assert!(Catalog::from_json("{").is_err());
+        let err = Catalog::from_json(
+            r#"{"objects":[{"index":"1001","name":"E","type":"UNSIGNED8","access":"ro","bits":{"8":"past the end"}}]}"#,
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("1001h:00h bit '8': not a bit of a U8 (8 bits)"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn words_name_their_bits_in_order() {
+        let catalog = Catalog::builtin().unwrap();
+        let status = catalog.get(Address::new(0x6041, 0)).unwrap();
+        assert_eq!(status.bits.first(), Some(&(0, "ready to switch on".into())));
+        assert!(status.bits.windows(2).all(|w| w[0].0 < w[1].0));
+        let inputs = catalog.get(Address::new(0x60FD, 0)).unwrap();
+        assert_eq!(inputs.bits[1], (1, "positive limit switch".into()));
+        assert!(
+            catalog
+                .get(Address::new(0x6064, 0))
+                .unwrap()
+                .bits
+                .is_empty()
+        );
     }
 
     #[test]

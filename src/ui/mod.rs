@@ -15,6 +15,7 @@ pub mod power_state;
 pub mod scan;
 pub mod state;
 pub mod status;
+pub mod watch;
 pub mod widgets;
 
 use std::sync::Arc;
@@ -193,8 +194,20 @@ impl App {
                 let central = &mut state.settings.central;
                 ui.selectable_value(central, state::Central::Plots, "Plots");
                 ui.selectable_value(central, state::Central::Dictionary, "Object dictionary");
+                ui.separator();
+                let watched = state.settings.watch.pins.len();
+                ui.toggle_value(&mut state.settings.watch.open, format!("Watch ({watched})"))
+                    .on_hover_text(
+                        "Objects pinned to be read live, beside the plots and the dictionary",
+                    );
             });
             ui.separator();
+            if state.settings.watch.open {
+                egui::Panel::right("watch")
+                    .resizable(true)
+                    .default_size(300.0)
+                    .show(ui, |ui| watch::watch_ui(ui, state));
+            }
             match state.settings.central {
                 state::Central::Plots => plots::plots_ui(ui, state),
                 state::Central::Dictionary => browser::browser_ui(ui, state),

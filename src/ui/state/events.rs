@@ -194,7 +194,10 @@ impl AppState {
 
     /// A request the worker would not send.
     fn on_rejected(&mut self, id: RequestId, request: String, reason: Rejection) {
-        if self.slope_reads.contains(&id) || self.browser.on_rejected(id, &reason) {
+        if self.slope_reads.contains(&id)
+            || self.browser.on_rejected(id, &reason)
+            || self.watch.on_rejected(id, &reason)
+        {
             return;
         }
         if self.halt_request == Some(id) {
@@ -285,7 +288,9 @@ impl AppState {
             }
             return;
         }
-        if self.browser.on_read(id, address, &result, self.clock) {
+        if self.browser.on_read(id, address, &result, self.clock)
+            || self.watch.on_read(id, address, &result, self.clock)
+        {
             return;
         }
         if let Some(at) = self.slope_reads.iter().position(|r| *r == id) {

@@ -57,6 +57,8 @@ pub struct Settings {
     pub on_link_loss: crate::worker::LinkLossAction,
     /// Exchanges that must fail in a row before the link counts as lost.
     pub lost_after: u32,
+    /// The watch panel: pinned objects, their formats, the refresh rate.
+    pub watch: super::watch::WatchSettings,
 }
 
 /// The middle of the window: the plots or the object dictionary.
@@ -100,6 +102,7 @@ impl Default for Settings {
             timeline_path: "drivedeck-faults.csv".into(),
             on_link_loss: crate::worker::LinkLossAction::Halt,
             lost_after: crate::worker::LOST_AFTER,
+            watch: super::watch::WatchSettings::default(),
         }
     }
 }
@@ -226,6 +229,8 @@ pub struct AppState {
     interfaces_asked: bool,
     /// The object dictionary browser.
     pub browser: super::browser::Browser,
+    /// The watch panel's readings.
+    pub watch: super::watch::Watch,
     /// The last bus scan's result.
     pub scan: Option<Result<Vec<crate::link::FoundDevice>, LinkFailure>>,
     /// Reads of 6087h the window asked for itself (not logged).
@@ -301,6 +306,7 @@ impl AppState {
             serial_ports: None,
             scan: None,
             browser: super::browser::Browser::new(),
+            watch: super::watch::Watch::default(),
             interfaces: None,
             serial_ports_asked: false,
             interfaces_asked: false,
@@ -648,7 +654,7 @@ impl AppState {
         if matches!(request, Request::Watch(_) | Request::JogKeepAlive) {
             return;
         }
-        if self.browser.note_queued(id, request) {
+        if self.browser.note_queued(id, request) || self.watch.note_queued(id, request) {
             return;
         }
         if matches!(request, Request::ReadObject { address, .. } if *address == TORQUE_SLOPE)
@@ -685,7 +691,7 @@ impl AppState {
 
     /// The worker could not take a request.
     pub fn note_unsent(&mut self, request: &Request, reason: String) {
-        if self.browser.note_unsent(request, &reason) {
+        if self.browser.note_unsent(request, &reason) || self.watch.note_unsent(request, &reason) {
             return;
         }
         self.push_log(LogEntry {

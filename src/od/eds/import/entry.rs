@@ -52,6 +52,13 @@ impl Importer<'_> {
                 dtype,
                 matches!(access, EdsAccess::Rww | EdsAccess::Rwr),
             ),
+            // Bit names are the profile's (CiA 301/402), not the EDS's: borrowed from the
+            // built-in catalog where it names the same object with the same type.
+            bits: crate::od::builtin()
+                .get(address)
+                .filter(|known| known.dtype == dtype)
+                .map(|known| known.bits.clone())
+                .unwrap_or_default(),
         };
         self.check_default(s, &at, &entry);
         let info = EntryInfo {

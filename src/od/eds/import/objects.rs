@@ -236,6 +236,7 @@ impl Importer<'_> {
             max: None,
             group: Group::of_index(index),
             role: Role::ReadOnly,
+            bits: Vec::new(),
         };
         let count_info = EntryInfo {
             type_code: DataType::Unsigned8.code(),
