@@ -205,7 +205,7 @@ impl App {
             if state.settings.watch.open {
                 egui::Panel::right("watch")
                     .resizable(true)
-                    .default_size(300.0)
+                    .default_size(270.0)
                     .show(ui, |ui| watch::watch_ui(ui, state));
             }
             match state.settings.central {

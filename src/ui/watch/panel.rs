@@ -200,9 +200,9 @@ fn value_ui(
 /// Each named bit as a chip: green and strong when set, dim when clear.
 fn bits_ui(ui: &mut Ui, shown: &[(u8, String, bool)]) {
     ui.horizontal_wrapped(|ui| {
-        ui.spacing_mut().item_spacing = egui::vec2(6.0, 2.0);
+        ui.spacing_mut().item_spacing = egui::vec2(8.0, 3.0);
         for (bit, name, on) in shown {
-            let text = RichText::new(format!("{bit}: {name}")).small();
+            let text = RichText::new(format!("{bit} {name}"));
             if *on {
                 ui.label(text.color(Color32::BLACK).background_color(GREEN));
             } else {
