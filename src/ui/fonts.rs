@@ -80,10 +80,15 @@ mod tests {
             let text = std::fs::read_to_string(file).unwrap_or_default();
             literal_chars(&text, file.strip_prefix(root).unwrap_or(file), &mut found);
         }
-        assert!(found.contains_key(&'→'), "the scan finds T→O");
+        assert!(
+            found.contains_key(&'→'),
+            "the scan finds T\u{2192}O (EtherNet/IP's directions)"
+        );
         let ctx = egui::Context::default();
         ctx.set_fonts(super::definitions());
-        let _ = ctx.run_ui(egui::RawInput::default(), |_| {});
+        // One frame builds the font atlas; its texture is not uploaded anywhere.
+        let mut output = ctx.run_ui(egui::RawInput::default(), |_| {});
+        output.textures_delta.clear();
         let missing: Vec<String> = ctx.fonts_mut(|fonts| {
             [FontFamily::Proportional, FontFamily::Monospace]
                 .into_iter()
