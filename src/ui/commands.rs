@@ -375,7 +375,8 @@ fn set_values_ui(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
                 &field_label(opcode, spec),
             );
             field.on_hover_text(field_hint(spec));
-            ui.weak(spec.unit);
+            // A long unit ("‰ of rated torque") wraps rather than widen the panel.
+            ui.add(egui::Label::new(RichText::new(spec.unit).weak()).wrap());
         });
     }
 }
@@ -528,6 +529,7 @@ fn object_ui(ui: &mut Ui, state: &mut AppState) {
                 path: ObjectPath::Auto,
             });
         }
-        ui.weak(name);
+        // The object's name wraps rather than widen the panel.
+        ui.add(egui::Label::new(RichText::new(name).weak()).wrap());
     });
 }
