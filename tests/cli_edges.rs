@@ -758,3 +758,31 @@ fn trace_shows_the_frames_of_a_failed_exchange_before_the_error() {
         lines[error]
     );
 }
+
+#[test]
+fn enable_switches_the_power_stage_on_without_moving_and_is_refused_while_turning() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    let link = link(addr);
+    let before = status(addr);
+    assert_eq!(before["state"], "Switch on disabled", "{before}");
+    let (text, _) = ok(&["--link", &link, "enable"]);
+    assert!(
+        text.contains("drive now   Operation enabled, velocity 0 rpm"),
+        "{text}"
+    );
+    let after = status(addr);
+    assert_eq!(after["state"], "Operation enabled", "{after}");
+    assert_eq!(velocity(&after), 0.0, "{after}");
+    assert_eq!(position(&after), position(&before), "enable moved nothing");
+
+    // Turning: velocity 0 would brake it, so nothing is sent.
+    ok(&["--link", &link, "velocity", "300", "--wait"]);
+    let (code, _, stderr) = run(&["--link", &link, "enable"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("enable refused, nothing was sent"),
+        "{stderr}"
+    );
+    assert!(velocity(&status(addr)) > 250.0, "still turning");
+    ok(&["--link", &link, "halt"]);
+}

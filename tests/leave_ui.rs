@@ -14,7 +14,7 @@ use drivedeck::cia::PowerState;
 use drivedeck::od::{Address, Value};
 use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::ServerOptions;
-use drivedeck::ui::state::{Bus, Connection};
+use drivedeck::ui::state::{Bus, Connection, Outcome};
 use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
@@ -50,6 +50,8 @@ fn disconnected(harness: &Harness<'_, App>) -> bool {
 /// Click `label` (Disconnect, or an answer to the question it asks) and wait until the
 /// window is disconnected.
 fn click_and_disconnect(harness: &mut Harness<'_, App>, label: &str) {
+    harness.get_by_label(label).hover();
+    harness.run_steps(2);
     harness.get_by_label(label).click();
     harness.step();
     step_until(
@@ -68,7 +70,37 @@ fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
     step_until_shown(&mut harness, "Halt, then disconnect");
     assert!(harness.state().state.leaving.is_some(), "it asks first");
     assert!(!disconnected(&harness), "nothing happens before the answer");
+    // It says what the motor does, and which button Enter presses.
+    let sentence = window::text_containing(&harness, "The power stage is on: the motor is ");
+    assert!(
+        sentence.starts_with("The power stage is on: the motor is moving at 3"),
+        "{sentence}"
+    );
+    harness.get_by_label("Enter presses this button");
     click_and_disconnect(&mut harness, "Halt, then disconnect");
+    // The log says the drive confirmed the halt, as a success (green, not red).
+    let verdict = harness
+        .state()
+        .state
+        .log
+        .iter()
+        .find(|e| e.what == "Halt before disconnecting")
+        .map(|e| e.outcome.clone());
+    assert!(
+        matches!(&verdict, Some(Outcome::Succeeded(text))
+            if text.starts_with("confirmed by the drive: halt bit set") && text.contains("standing still")),
+        "{verdict:?}"
+    );
+    assert!(
+        !harness
+            .state()
+            .state
+            .log
+            .iter()
+            .any(|e| matches!(e.outcome, Outcome::Failed(_))),
+        "nothing logged as failed: {:#?}",
+        harness.state().state.log
+    );
     // The halt bit reached the drive before the link closed: it brakes to a stop and
     // stays energised.
     let drive = server.drive();
@@ -116,6 +148,23 @@ fn leaving_it_on_keeps_it_turning_and_an_idle_drive_disconnects_without_asking()
     let idle = self::server();
     let mut harness = window_on(&idle);
     click_and_disconnect(&mut harness, "Disconnect");
+}
+
+#[test]
+fn pressing_enter_in_the_question_halts_then_disconnects() {
+    let server = server();
+    let mut harness = turning(&server);
+    harness.get_by_label("Disconnect").click();
+    step_until_shown(&mut harness, "Enter presses this button");
+    harness.key_press(egui::Key::Enter);
+    harness.step();
+    step_until(
+        &mut harness,
+        "the disconnect",
+        Duration::from_secs(8),
+        disconnected,
+    );
+    assert!(server.drive().lock().rx_image().cmd & 0x40 != 0, "halted");
 }
 
 #[test]

@@ -90,11 +90,10 @@ fn halt_toggle_stops_and_resumes_the_move() {
     step_until(&mut harness, "the halt", Duration::from_secs(5), |h| {
         lamp(h, "Quick stop / halt") && lamp(h, "Target reached") && velocity(h) == 0.0
     });
-    assert_eq!(
-        harness.get_by_label("Halt").accesskit_node().toggled(),
-        Some(Toggled::True)
-    );
-    harness.get_by_label("Halt").click();
+    // The button says it is halted, and that pressing it resumes.
+    let halted = harness.get_by_label("Halted — press to resume");
+    assert_eq!(halted.accesskit_node().toggled(), Some(Toggled::True));
+    halted.click();
     harness.step();
     step_until(
         &mut harness,

@@ -95,6 +95,10 @@ pub enum Command {
     Velocity(VelocityArgs),
     /// Profile Torque (PDI-Cmd 25) at T ‰ of rated torque, limited to --max-speed rpm.
     Torque(TorqueArgs),
+    /// Switch the power stage on without moving the motor: Profile Velocity (PDI-Cmd 23)
+    /// at 0 rpm (PDI spec §2.2.2), so the motor holds where it stands. Refused while the
+    /// motor turns.
+    Enable,
     /// Set the halt bit on the drive's travel command.
     Halt(WaitArg),
     /// Reset the halt bit: continue to the old target.

@@ -65,6 +65,7 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
             Request::Command(action(Opcode::Torque, &[a.torque, a.max_speed])?),
             a.wait,
         )),
+        Command::Enable => Some((Request::Command(Action::Velocity { speed: 0 }), true)),
         Command::Halt(w) => Some((Request::Halt, w.wait)),
         Command::Resume(w) => Some((Request::Resume, w.wait)),
         Command::Quickstop => Some((Request::Command(Action::Quickstop), true)),
@@ -158,6 +159,7 @@ fn execute(
             session.write(w.address, dtype, value.clone(), path(w.via), timeout)?;
             Report::Object(report::object(w.address, Some(dtype), &value, true))
         }
+        (Command::Enable, Some((request, _))) => enable(&mut session, request, timeout)?,
         (Command::Torque(t), Some((request, wait))) => {
             torque_slope(&mut session, t.slope, timeout)?;
             motion(&mut session, request, wait, timeout)?
@@ -174,6 +176,25 @@ fn execute(
     report.set_warnings(std::mem::take(&mut session.warnings));
     report.set_notes(std::mem::take(&mut session.notes));
     Ok(report)
+}
+
+/// `enable`: Profile Velocity at 0 rpm switches the power stage on and holds the motor
+/// where it stands (PDI spec §2.2.2); the report says what the drive shows after. A motor
+/// that turns is not touched: velocity 0 would brake it.
+fn enable(session: &mut Session, request: Request, timeout: Duration) -> Result<Report, Failure> {
+    session.refresh();
+    if let Some(v) = session.latest.and_then(|s| s.velocity())
+        && v.abs() >= crate::ui::glance::AT_REST_RPM
+    {
+        return Err(failed(format!(
+            "enable refused, nothing was sent: the motor turns at {v:.0} rpm and enable would brake it to 0 (halt or quickstop stops it)"
+        )));
+    }
+    let (what, image, progress) = session.command(request, true, timeout)?;
+    session.refresh();
+    let mut command = report::command(what, image, &progress);
+    command.drive = session.latest.map(|s| report::drive_after(&s));
+    Ok(Report::Command(command))
 }
 
 /// Profile Torque's slope 6087h: set to `--slope`, or else checked, since the factory's 0

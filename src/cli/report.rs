@@ -126,8 +126,30 @@ pub struct CommandReport {
     pub image: Option<[u8; 8]>,
     pub outcome: &'static str,
     pub return_value: Option<i32>,
+    /// What the drive shows after the command (`enable` says whether it moved).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drive: Option<DriveAfter>,
     pub warnings: Vec<String>,
     pub notes: Vec<String>,
+}
+
+/// The drive as a command left it: CiA 402 state, speed and position.
+#[derive(Serialize, Debug)]
+pub struct DriveAfter {
+    pub state: Option<&'static str>,
+    pub velocity: Option<f64>,
+    pub position: Option<f64>,
+}
+
+pub fn drive_after(sample: &Sample) -> DriveAfter {
+    DriveAfter {
+        state: sample
+            .statusword()
+            .and_then(PowerState::from_statusword)
+            .map(|s| s.name()),
+        velocity: sample.velocity(),
+        position: sample.position(),
+    }
 }
 
 pub fn status(link: &LinkSpec, sample: Option<Sample>) -> StatusReport {
@@ -201,6 +223,7 @@ pub fn command(what: String, image: Option<[u8; 8]>, progress: &CommandProgress)
         image,
         outcome,
         return_value,
+        drive: None,
         warnings: vec![],
         notes: vec![],
     }
@@ -300,6 +323,16 @@ fn print_command(c: &CommandReport) {
     match c.return_value {
         Some(rv) => outln!("{}{image}: {} (ReturnValue {rv})", c.command, c.outcome),
         None => outln!("{}{image}: {}", c.command, c.outcome),
+    }
+    if let Some(d) = &c.drive {
+        let mut parts = vec![d.state.unwrap_or("CiA 402 state unknown").to_owned()];
+        if let Some(v) = d.velocity {
+            parts.push(format!("velocity {v:.0} rpm"));
+        }
+        if let Some(p) = d.position {
+            parts.push(format!("position {p:.0} (0.1°)"));
+        }
+        outln!("drive now   {}", parts.join(", "));
     }
 }
 

@@ -173,17 +173,56 @@ const GROUPS: [(&str, &[Opcode]); 3] = [
     ),
     (
         "Objects and housekeeping",
-        &[
-            Opcode::OdRead,
-            Opcode::OdWrite,
-            Opcode::ClearError,
-            Opcode::Nop,
-        ],
+        // Clear error sits beside the state tile, where the fault shows.
+        &[Opcode::OdRead, Opcode::OdWrite, Opcode::Nop],
     ),
 ];
 
+/// How wide the command panel is while collapsed.
+pub const STRIP_WIDTH: f32 = 34.0;
+
+/// The collapsed command panel: a button to bring it back, and its name, upright.
+pub fn collapsed_strip_ui(ui: &mut Ui, state: &mut AppState) {
+    ui.add_space(4.0);
+    let expand = ui
+        .add(egui::Button::new(RichText::new("«").size(18.0)).min_size(egui::vec2(24.0, 28.0)))
+        .on_hover_text("Show the command panel");
+    name_widget(
+        &expand,
+        egui::accesskit::Role::Button,
+        "Expand the command panel",
+    );
+    if expand.clicked() {
+        state.settings.commands_collapsed = false;
+    }
+    let font = egui::FontId::proportional(15.0);
+    let color = ui.visuals().text_color();
+    let galley = ui
+        .painter()
+        .layout_no_wrap("Commands".to_owned(), font, color);
+    let top = ui.cursor().min + egui::vec2(ui.available_width() / 2.0 + galley.size().y / 2.0, 8.0);
+    ui.painter().add(
+        egui::epaint::TextShape::new(top, galley, color).with_angle(std::f32::consts::FRAC_PI_2),
+    );
+}
+
 pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
-    ui.heading("Commands");
+    ui.horizontal(|ui| {
+        ui.heading("Commands");
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            let collapse = ui
+                .small_button(RichText::new("»").size(16.0))
+                .on_hover_text("Fold the command panel to a narrow strip: more room for the plots");
+            name_widget(
+                &collapse,
+                egui::accesskit::Role::Button,
+                "Collapse the command panel",
+            );
+            if collapse.clicked() {
+                state.settings.commands_collapsed = true;
+            }
+        });
+    });
     // Why every button below is disabled, on screen as well as in each tooltip.
     if let Some(reason) = state.offline_reason() {
         clipped_label(ui, RichText::new(reason).color(AMBER).strong(), 2);
@@ -225,20 +264,24 @@ pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
     torque_warning_ui(ui, state);
 }
 
+/// The halt toggle: "Halt" brakes the running travel command; once halted it says so
+/// and resumes on the next press.
 fn halt_ui(ui: &mut Ui, state: &mut AppState) {
     let offline = state.offline_reason();
     let connected = offline.is_none();
     let halted = state.halt_engaged;
     ui.horizontal(|ui| {
-        let button = egui::Button::selectable(
-            halted,
-            RichText::new("Halt").size(20.0).strong().color(if halted { Color32::BLACK } else { AMBER }),
-        )
-        .min_size(egui::vec2(110.0, 36.0))
-        .fill(if halted { AMBER } else { ui.visuals().widgets.inactive.bg_fill });
+        let text = if halted {
+            RichText::new("Halted — press to resume").size(16.0).strong().color(Color32::BLACK)
+        } else {
+            RichText::new("Halt").size(20.0).strong().color(AMBER)
+        };
+        let button = egui::Button::selectable(halted, text)
+            .min_size(egui::vec2(110.0, 36.0))
+            .fill(if halted { AMBER } else { ui.visuals().widgets.inactive.bg_fill });
         let response = ui
             .add_enabled(connected, button)
-            .on_hover_text("Halt bit (PDI-Cmd bit 6): brake to speed 0 with the ramp and stay energised. Click again to continue to the old target.")
+            .on_hover_text("Halt bit (PDI-Cmd bit 6): brake to speed 0 with the ramp and stay energised. Press again to continue to the old target.")
             .on_disabled_hover_text(offline.unwrap_or_default());
         if response.clicked() {
             state.request(if halted {
@@ -247,14 +290,11 @@ fn halt_ui(ui: &mut Ui, state: &mut AppState) {
                 crate::worker::Request::Halt
             });
         }
-        ui.vertical(|ui| {
-            if halted {
-                ui.colored_label(AMBER, "Halted: click to resume the old target,");
-                ui.colored_label(AMBER, "or send a new travel command.");
-            } else {
-                ui.weak("Brakes the running travel command.");
-            }
-        });
+        if halted {
+            ui.weak("or send a new travel command");
+        } else {
+            ui.weak("Brakes the running travel command.");
+        }
     });
 }
 
@@ -335,7 +375,8 @@ fn set_values_ui(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
                 &field_label(opcode, spec),
             );
             field.on_hover_text(field_hint(spec));
-            ui.weak(spec.unit);
+            // A long unit ("‰ of rated torque") wraps rather than widen the panel.
+            ui.add(egui::Label::new(RichText::new(spec.unit).weak()).wrap());
         });
     }
 }
@@ -488,6 +529,7 @@ fn object_ui(ui: &mut Ui, state: &mut AppState) {
                 path: ObjectPath::Auto,
             });
         }
-        ui.weak(name);
+        // The object's name wraps rather than widen the panel.
+        ui.add(egui::Label::new(RichText::new(name).weak()).wrap());
     });
 }

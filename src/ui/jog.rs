@@ -112,11 +112,13 @@ pub fn jog_ui(ui: &mut Ui, state: &mut AppState) {
                     format!("jogging {}", if hold.direction < 0 { "-" } else { "+" }),
                 );
             }
-            (Ok(_), None) => {
-                ui.weak("hold, or hold the Left/Right arrow keys");
-            }
+            (Ok(_), None) => {}
         }
     });
+    // Under the buttons, so the row stays narrow enough for a narrow command panel.
+    if speed.is_ok() && state.jog.is_none() {
+        ui.weak("Hold a button, or the Left/Right arrow key.");
+    }
     // The arrow keys, unless a text box is being typed in.
     let typing = ui.ctx().memory(|m| m.focused().is_some());
     if usable && held == 0 && !typing {

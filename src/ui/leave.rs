@@ -5,11 +5,11 @@
 
 use eframe::egui::{self, RichText, Ui};
 
-use super::state::AppState;
+use super::state::{AppState, LogEntry, Outcome};
 use super::widgets::{AMBER, RED};
 use crate::cia::PowerState;
 use crate::pdi::{Action, StatusBit};
-use crate::worker::Request;
+use crate::worker::{Request, Sample};
 
 /// What stays of the motor when the tool lets go.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -28,6 +28,8 @@ pub enum StopChoice {
 pub enum Stage {
     /// The dialog is open.
     Asking,
+    /// The halt or switch-off went out; waiting until the drive shows it (window clock).
+    Stopping { since: f64 },
     /// Writing the old values back; since (window clock).
     Restoring { since: f64 },
     /// All done: disconnect (and close) now.
@@ -45,6 +47,59 @@ pub struct Leaving {
 
 /// How long restoring may take before the window disconnects anyway (and says so).
 const RESTORE_TIMEOUT_S: f64 = 10.0;
+/// How long the window waits for the drive to show the halt (or switch-off) before it
+/// disconnects anyway (and says so, in red).
+pub const STOP_TIMEOUT_S: f64 = 5.0;
+
+/// What the drive showed of the stop asked for before disconnecting: the log line's
+/// words and its colour.
+fn stop_verdict(stop: StopChoice, sample: Option<Sample>, live: bool) -> Outcome {
+    let Some(sample) = sample.filter(|_| live) else {
+        return Outcome::Failed(
+            "not confirmed: no live status from the drive (the link is down)".to_owned(),
+        );
+    };
+    let status = sample.tx.status;
+    let motion = super::glance::motion_words(&sample);
+    if stop == StopChoice::SwitchOff {
+        return match sample.statusword().and_then(PowerState::from_statusword) {
+            Some(state) if !state.is_energised() => Outcome::Succeeded(format!(
+                "confirmed by the drive: power stage off ({}), {motion}",
+                state.name()
+            )),
+            None if !status.is_set(StatusBit::OperationEnabled) => Outcome::Succeeded(format!(
+                "confirmed by the drive: PdiStatusOperationEnabled clear, {motion}"
+            )),
+            _ => Outcome::Failed(format!(
+                "not confirmed: the power stage is still on after {STOP_TIMEOUT_S:.0} s, {motion}"
+            )),
+        };
+    }
+    let halt_bit = status.is_set(StatusBit::QsHaltBit);
+    match (halt_bit, at_rest(&sample)) {
+        (true, true) => Outcome::Succeeded(format!(
+            "confirmed by the drive: halt bit set (PdiStatusQsHaltBit), {motion}"
+        )),
+        (true, false) => Outcome::Caution(format!(
+            "halt bit set by the drive (PdiStatusQsHaltBit), but still {motion} after {STOP_TIMEOUT_S:.0} s"
+        )),
+        (false, true) => Outcome::Caution(format!(
+            "the drive shows no halt bit, but the motor is {motion}"
+        )),
+        (false, false) => Outcome::Failed(format!(
+            "not confirmed: no halt bit from the drive within {STOP_TIMEOUT_S:.0} s, motor {motion}"
+        )),
+    }
+}
+
+/// Whether the motor stands still: speed under half an rpm, or (speed unknown) the
+/// target reached.
+fn at_rest(sample: &Sample) -> bool {
+    match sample.velocity() {
+        Some(v) => v.abs() < super::glance::AT_REST_RPM,
+        None => sample.tx.status.is_set(StatusBit::TargetReached),
+    }
+}
 
 impl AppState {
     /// Whether the power stage is on (from 6041h, or the PDI bit where 6041h is unknown).
@@ -86,19 +141,57 @@ impl AppState {
         };
         leaving.stop = stop;
         leaving.restore = restore;
-        leaving.stage = Stage::Restoring { since: self.clock };
-        let close_window = leaving.close_window;
+        leaving.stage = Stage::Stopping { since: self.clock };
         match stop {
             StopChoice::Halt => self.request(Request::Halt),
             StopChoice::SwitchOff => self.request(Request::Command(Action::SwitchOff)),
-            StopChoice::LeaveOn => {}
+            StopChoice::LeaveOn => self.stopped(),
         }
-        if restore {
+    }
+
+    /// The stop is done (or given up on): restore, then disconnect.
+    fn stopped(&mut self) {
+        let Some(leaving) = self.leaving.as_mut() else {
+            return;
+        };
+        if leaving.restore {
+            leaving.stage = Stage::Restoring { since: self.clock };
             self.restore_changes();
-        } else if let Some(l) = self.leaving.as_mut() {
-            l.stage = Stage::Disconnecting;
-            l.close_window = close_window;
+        } else {
+            leaving.stage = Stage::Disconnecting;
         }
+    }
+
+    /// One frame of waiting for the stop: on when the drive shows it, the stop command
+    /// is over, the link is gone or the time is up; the log says what the drive showed.
+    fn stopping_step(&mut self, stop: StopChoice, since: f64) {
+        let sample = self.latest;
+        let live = self.is_live(std::time::SystemTime::now());
+        // The halt still queued or running: its outcome is not in yet.
+        let waiting = self.outbox.iter().any(Request::is_urgent) || self.halt_pending();
+        let shown = match stop {
+            StopChoice::Halt => sample.is_some_and(|s| {
+                (s.tx.status.is_set(StatusBit::QsHaltBit) || !waiting) && at_rest(&s)
+            }),
+            StopChoice::SwitchOff => !self.power_stage_on(),
+            StopChoice::LeaveOn => true,
+        };
+        let late = self.clock - since > STOP_TIMEOUT_S;
+        if !(shown || late || !self.is_connected()) {
+            return;
+        }
+        let what = match stop {
+            StopChoice::SwitchOff => "Switch off before disconnecting",
+            _ => "Halt before disconnecting",
+        };
+        self.push_log(LogEntry {
+            at: self.clock,
+            id: None,
+            what: what.to_owned(),
+            image: None,
+            outcome: stop_verdict(stop, sample, live),
+        });
+        self.stopped();
     }
 
     /// One frame of leaving. `true` when the window may close now.
@@ -108,6 +201,10 @@ impl AppState {
         };
         match leaving.stage {
             Stage::Asking => false,
+            Stage::Stopping { since } => {
+                self.stopping_step(leaving.stop, since);
+                false
+            }
             Stage::Restoring { since } => {
                 let pending = self.changes.iter().any(|c| c.before.is_some());
                 let late = self.clock - since > RESTORE_TIMEOUT_S;
@@ -136,6 +233,34 @@ impl AppState {
     }
 }
 
+/// What the motor does, for the question: "The power stage is on: the motor is moving
+/// at 300 rpm."; `None` while the power stage is off.
+pub fn motor_sentence(state: &AppState) -> Option<String> {
+    if !state.power_stage_on() {
+        return None;
+    }
+    let motion = state
+        .latest
+        .map(|s| super::glance::motion_words(&s))
+        .unwrap_or_default();
+    let now = std::time::SystemTime::now();
+    Some(
+        match state.sample_age(now).filter(|_| !state.is_live(now)) {
+            Some(age) => format!(
+                "The power stage was on ({}): the motor was {motion}.",
+                super::state::age_text(age)
+            ),
+            None => format!("The power stage is on: the motor is {motion}."),
+        },
+    )
+}
+
+/// The user's answer to the question.
+enum Answer {
+    Stop(StopChoice),
+    Cancel,
+}
+
 /// The question, while it is asked.
 pub fn leave_dialog(ctx: &egui::Context, state: &mut AppState) {
     let Some(leaving) = state.leaving else {
@@ -144,63 +269,73 @@ pub fn leave_dialog(ctx: &egui::Context, state: &mut AppState) {
     if leaving.stage != Stage::Asking {
         return;
     }
-    let restorable = state.changes.iter().filter(|c| c.before.is_some()).count();
     let mut restore = leaving.restore;
-    let mut choice = None;
-    let mut cancel = false;
-    egui::Modal::new(egui::Id::unique("leave_dialog")).show(ctx, |ui: &mut Ui| {
-        ui.set_max_width(460.0);
-        ui.heading(if leaving.close_window {
-            "Close drivedeck"
-        } else {
-            "Disconnect"
-        });
-        if state.power_stage_on() {
-            ui.colored_label(
-                AMBER,
-                "The power stage is on: the motor is energised. What should stay behind?",
-            );
-        }
-        if restorable > 0 {
-            ui.checkbox(
-                &mut restore,
-                format!("First restore what I changed ({restorable} objects, newest first)"),
-            );
-        }
-        ui.add_space(6.0);
-        let halt = ui.button(RichText::new("Halt, then disconnect").strong());
-        if halt.clicked() {
-            choice = Some(StopChoice::Halt);
-        }
-        // Enter takes the default.
-        if ui.input(|i| i.key_pressed(egui::Key::Enter)) {
-            choice = Some(StopChoice::Halt);
-        }
-        if ui
-            .button(RichText::new("Switch off, then disconnect").color(RED))
-            .on_hover_text("Power stage off: the motor coasts and holds no torque")
-            .clicked()
-        {
-            choice = Some(StopChoice::SwitchOff);
-        }
-        if ui
-            .button("Leave it as it is, disconnect")
-            .on_hover_text("The drive keeps doing what it does")
-            .clicked()
-        {
-            choice = Some(StopChoice::LeaveOn);
-        }
-        ui.separator();
-        if ui.button("Cancel").clicked() {
-            cancel = true;
-        }
-    });
+    let answer = egui::Modal::new(egui::Id::unique("leave_dialog"))
+        .show(ctx, |ui: &mut Ui| {
+            leave_question_ui(ui, state, leaving.close_window, &mut restore)
+        })
+        .inner;
     if let Some(l) = state.leaving.as_mut() {
         l.restore = restore;
     }
-    if cancel {
-        state.leaving = None;
-    } else if let Some(stop) = choice {
-        state.confirm_leave(stop, restore);
+    match answer {
+        Some(Answer::Cancel) => state.leaving = None,
+        Some(Answer::Stop(stop)) => state.confirm_leave(stop, restore),
+        None => {}
     }
+}
+
+/// The dialog's content: what the motor does, restore or not, and the three ways to go.
+fn leave_question_ui(
+    ui: &mut Ui,
+    state: &AppState,
+    close_window: bool,
+    restore: &mut bool,
+) -> Option<Answer> {
+    let mut answer = None;
+    ui.set_max_width(460.0);
+    ui.heading(if close_window {
+        "Close drivedeck"
+    } else {
+        "Disconnect"
+    });
+    if let Some(sentence) = motor_sentence(state) {
+        ui.colored_label(AMBER, sentence);
+        ui.label("What should stay behind?");
+    }
+    let restorable = state.changes.iter().filter(|c| c.before.is_some()).count();
+    if restorable > 0 {
+        ui.checkbox(
+            restore,
+            format!("First restore what I changed ({restorable} objects, newest first)"),
+        );
+    }
+    ui.add_space(6.0);
+    ui.horizontal(|ui| {
+        let halt = ui.button(RichText::new("Halt, then disconnect").strong());
+        ui.weak("Enter presses this button");
+        // Enter takes the default.
+        if halt.clicked() || ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+            answer = Some(Answer::Stop(StopChoice::Halt));
+        }
+    });
+    if ui
+        .button(RichText::new("Switch off, then disconnect").color(RED))
+        .on_hover_text("Power stage off: the motor coasts and holds no torque")
+        .clicked()
+    {
+        answer = Some(Answer::Stop(StopChoice::SwitchOff));
+    }
+    if ui
+        .button("Leave it as it is, disconnect")
+        .on_hover_text("The drive keeps doing what it does")
+        .clicked()
+    {
+        answer = Some(Answer::Stop(StopChoice::LeaveOn));
+    }
+    ui.separator();
+    if ui.button("Cancel").clicked() {
+        answer = Some(Answer::Cancel);
+    }
+    answer
 }

@@ -73,6 +73,7 @@ fn log_entry_ui(ui: &mut Ui, entry: &LogEntry) {
         Outcome::Accepted => ui.colored_label(AMBER, "accepted, running"),
         Outcome::Succeeded(text) => ui.colored_label(GREEN, text),
         Outcome::Failed(text) => ui.colored_label(RED, RichText::new(text).strong()),
+        Outcome::Caution(text) => ui.colored_label(AMBER, text),
         Outcome::Superseded(text) => ui
             .weak(text)
             .on_hover_text("A newer command took its place; not a fault"),

@@ -7,6 +7,8 @@ pub mod commands;
 pub mod connection;
 pub mod connection_form;
 pub mod faults;
+pub mod fonts;
+pub mod glance;
 pub mod jog;
 pub mod leave;
 pub mod log;
@@ -41,6 +43,8 @@ pub struct App {
     last_lost_after: Option<u32>,
     /// Leaving is done: let the window close.
     may_close: bool,
+    /// The window's fonts are installed.
+    fonts_set: bool,
 }
 
 impl App {
@@ -69,6 +73,7 @@ impl App {
             last_link_loss: None,
             last_lost_after: None,
             may_close: false,
+            fonts_set: false,
         };
         if connect {
             match app.state.settings.connection.spec() {
@@ -136,9 +141,13 @@ impl App {
 
     /// Draw the whole window into `ui`.
     pub fn draw(&mut self, ui: &mut Ui) {
-        connection::stop_keys(ui.ctx(), &mut self.state);
-        // Closing the window with the drive energised asks first.
         let ctx = ui.ctx().clone();
+        if !self.fonts_set {
+            ctx.set_fonts(fonts::definitions());
+            self.fonts_set = true;
+        }
+        connection::stop_keys(&ctx, &mut self.state);
+        // Closing the window with the drive energised asks first.
         if ctx.input(|i| i.viewport().close_requested()) && !self.may_close {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
             if self.state.leaving.is_none() {
@@ -151,68 +160,11 @@ impl App {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
         let state = &mut self.state;
-        egui::Panel::top("connection_bar").show(ui, |ui| {
-            ui.add_space(4.0);
-            ui.horizontal(|ui| {
-                ui.heading("drivedeck");
-                ui.separator();
-                ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-                    connection::stop_strip_ui(ui, state);
-                    ui.with_layout(egui::Layout::left_to_right(egui::Align::Center), |ui| {
-                        connection::connection_ui(ui, state);
-                    });
-                });
-            });
-            if state.scan.is_some() {
-                ui.separator();
-                scan::scan_results_ui(ui, state);
-            }
-            ui.add_space(4.0);
-        });
-        egui::Panel::bottom("log")
-            .resizable(true)
-            .default_size(150.0)
-            .show(ui, |ui| log::log_ui(ui, state));
-        egui::Panel::left("status")
-            .resizable(true)
-            .default_size(290.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical()
-                    .id_salt("status_scroll")
-                    .show(ui, |ui| status::status_ui(ui, state));
-            });
-        egui::Panel::right("commands")
-            .resizable(true)
-            .default_size(430.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical()
-                    .id_salt("commands_scroll")
-                    .show(ui, |ui| commands::commands_ui(ui, state));
-            });
-        egui::CentralPanel::default_margins().show(ui, |ui| {
-            ui.horizontal(|ui| {
-                let central = &mut state.settings.central;
-                ui.selectable_value(central, state::Central::Plots, "Plots");
-                ui.selectable_value(central, state::Central::Dictionary, "Object dictionary");
-                ui.separator();
-                let watched = state.settings.watch.pins.len();
-                ui.toggle_value(&mut state.settings.watch.open, format!("Watch ({watched})"))
-                    .on_hover_text(
-                        "Objects pinned to be read live, beside the plots and the dictionary",
-                    );
-            });
-            ui.separator();
-            if state.settings.watch.open {
-                egui::Panel::right("watch")
-                    .resizable(true)
-                    .default_size(270.0)
-                    .show(ui, |ui| watch::watch_ui(ui, state));
-            }
-            match state.settings.central {
-                state::Central::Plots => plots::plots_ui(ui, state),
-                state::Central::Dictionary => browser::browser_ui(ui, state),
-            }
-        });
+        top_bar_ui(ui, state);
+        log_panel_ui(ui, state);
+        status_panel_ui(ui, state);
+        commands_panel_ui(ui, state);
+        egui::CentralPanel::default_margins().show(ui, |ui| central_ui(ui, state));
     }
 
     /// One frame without eframe (UI tests): events in, draw, requests out.
@@ -220,6 +172,107 @@ impl App {
         self.pump_events();
         self.draw(ui);
         self.flush_outbox();
+    }
+}
+
+/// The connection bar, the stop strip at its right, and a bus scan's results under them.
+fn top_bar_ui(ui: &mut Ui, state: &mut AppState) {
+    egui::Panel::top("connection_bar").show(ui, |ui| {
+        ui.add_space(4.0);
+        ui.horizontal(|ui| {
+            ui.heading("drivedeck");
+            ui.separator();
+            ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                connection::stop_strip_ui(ui, state);
+                ui.with_layout(egui::Layout::left_to_right(egui::Align::Center), |ui| {
+                    connection::connection_ui(ui, state);
+                });
+            });
+        });
+        if state.scan.is_some() {
+            ui.separator();
+            scan::scan_results_ui(ui, state);
+        }
+        ui.add_space(4.0);
+    });
+}
+
+/// The log at the bottom: resizable, its height kept with the window's memory between
+/// runs; a sixth of the window's height the first time.
+fn log_panel_ui(ui: &mut Ui, state: &mut AppState) {
+    let height = ui.ctx().content_rect().height();
+    egui::Panel::bottom("log")
+        .resizable(true)
+        .default_size((height / 6.0).clamp(90.0, 220.0))
+        .min_size(60.0)
+        .max_size((height * 0.6).max(120.0))
+        .show(ui, |ui| log::log_ui(ui, state));
+}
+
+/// The status panel: the state tile as its fixed head, the details scrolling under it.
+fn status_panel_ui(ui: &mut Ui, state: &mut AppState) {
+    egui::Panel::left("status")
+        .resizable(true)
+        .default_size(290.0)
+        .show(ui, |ui| {
+            ui.add_space(4.0);
+            glance::state_tile_ui(ui, state);
+            ui.add_space(2.0);
+            egui::ScrollArea::vertical()
+                .id_salt("status_scroll")
+                .show(ui, |ui| status::status_ui(ui, state));
+        });
+}
+
+/// The command panel, or the narrow strip it collapses to (the choice is kept).
+fn commands_panel_ui(ui: &mut Ui, state: &mut AppState) {
+    let mut expanded = !state.settings.commands_collapsed;
+    let strip = egui::Panel::right("commands_strip")
+        .resizable(true)
+        .exact_size(commands::STRIP_WIDTH);
+    // A quarter of the window's width the first time: 340 px at 1366, 460 at 1920.
+    let width = ui.ctx().content_rect().width();
+    let full = egui::Panel::right("commands")
+        .resizable(true)
+        .default_size((width / 4.0).clamp(320.0, 460.0))
+        .min_size(300.0);
+    let asked = expanded;
+    egui::Panel::show_switched(ui, &mut expanded, strip, full, |ui, shown| {
+        if shown {
+            egui::ScrollArea::vertical()
+                .id_salt("commands_scroll")
+                .show(ui, |ui| commands::commands_ui(ui, state));
+        } else {
+            commands::collapsed_strip_ui(ui, state);
+        }
+    });
+    // Dragged open or shut: that is the choice now (a button set it in the contents).
+    if expanded != asked {
+        state.settings.commands_collapsed = !expanded;
+    }
+}
+
+/// The middle: the plots or the object dictionary, in all the room the panels leave.
+fn central_ui(ui: &mut Ui, state: &mut AppState) {
+    ui.horizontal(|ui| {
+        let central = &mut state.settings.central;
+        ui.selectable_value(central, state::Central::Plots, "Plots");
+        ui.selectable_value(central, state::Central::Dictionary, "Object dictionary");
+        ui.separator();
+        let watched = state.settings.watch.pins.len();
+        ui.toggle_value(&mut state.settings.watch.open, format!("Watch ({watched})"))
+            .on_hover_text("Objects pinned to be read live, beside the plots and the dictionary");
+    });
+    ui.separator();
+    if state.settings.watch.open {
+        egui::Panel::right("watch")
+            .resizable(true)
+            .default_size(270.0)
+            .show(ui, |ui| watch::watch_ui(ui, state));
+    }
+    match state.settings.central {
+        state::Central::Plots => plots::plots_ui(ui, state),
+        state::Central::Dictionary => browser::browser_ui(ui, state),
     }
 }
 
@@ -246,9 +299,13 @@ impl eframe::App for App {
 /// Open the window. Blocks until it is closed.
 pub fn run_window(connect_to: Option<crate::link::LinkSpec>) -> Result<(), eframe::Error> {
     let options = eframe::NativeOptions {
+        // The first time, the whole screen: eframe clamps the size to the monitor, and a
+        // window manager maximises it. Later, the size and place it had (eframe keeps
+        // them with the settings).
         viewport: egui::ViewportBuilder::default()
             .with_title("drivedeck")
-            .with_inner_size([1380.0, 860.0])
+            .with_inner_size([7680.0, 4320.0])
+            .with_maximized(true)
             .with_min_inner_size([900.0, 560.0]),
         ..Default::default()
     };

@@ -157,9 +157,9 @@ fn power_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
     } else {
         power.name().to_owned()
     };
+    // Its meaning is in the state tile above (and in the tooltip).
     ui.label(RichText::new(name).size(18.0).color(color).strong())
         .on_hover_text(power.meaning());
-    ui.small(power.meaning());
     ui.add_space(4.0);
     super::power_state::power_state_ui(ui, Some(power));
 }

@@ -194,3 +194,14 @@ pub fn position(harness: &Harness<'_, App>) -> f64 {
         .and_then(|s| s.position())
         .unwrap_or(f64::NAN)
 }
+
+/// The whole text of the first widget whose label contains `text` (a label keeps its
+/// text as its value to accessibility, a button as its label).
+pub fn text_containing<State>(harness: &Harness<'_, State>, text: &str) -> String {
+    let node = harness.get_by_label_contains(text);
+    let node = node.accesskit_node();
+    node.value()
+        .or_else(|| node.label())
+        .unwrap_or_default()
+        .to_string()
+}

@@ -204,6 +204,9 @@ impl AppState {
             self.halt_request = None;
             self.halt_engaged = false;
         }
+        if let Rejection::Refused(why) = &reason {
+            self.why = Some(format!("{request} refused: {why}"));
+        }
         match self.entry(id) {
             Some(entry) => entry.outcome = Outcome::Failed(reason.to_string()),
             None => self.push_log(LogEntry {
@@ -254,6 +257,7 @@ impl AppState {
                 crate::diagnostics::Origin::Command,
                 format!("{what}: {progress}"),
             );
+            self.why = Some(format!("{what}: {progress}"));
         }
         if let Some(entry) = self.entry(id) {
             entry.outcome = match &progress {
@@ -453,6 +457,7 @@ impl AppState {
             NoticeKind::MotorStopped => {
                 self.timeline
                     .add(t, Severity::Warning, Origin::Link, notice.text.clone());
+                self.why = Some(notice.text.clone());
             }
             NoticeKind::Info => {}
         }

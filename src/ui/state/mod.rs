@@ -59,6 +59,8 @@ pub struct Settings {
     pub lost_after: u32,
     /// The watch panel: pinned objects, their formats, the refresh rate.
     pub watch: super::watch::WatchSettings,
+    /// The command panel folded to a narrow strip (more room for the plots).
+    pub commands_collapsed: bool,
 }
 
 /// The middle of the window: the plots or the object dictionary.
@@ -103,6 +105,7 @@ impl Default for Settings {
             on_link_loss: crate::worker::LinkLossAction::Halt,
             lost_after: crate::worker::LOST_AFTER,
             watch: super::watch::WatchSettings::default(),
+            commands_collapsed: false,
         }
     }
 }
@@ -144,6 +147,9 @@ pub enum Outcome {
     /// A newer command took its place (a relative move followed by the next): not a
     /// fault, the drive did what it was told last.
     Superseded(String),
+    /// Done, but not quite as asked (a halt the drive shows while the motor still
+    /// brakes): drawn amber.
+    Caution(String),
     /// Not tied to a request (connection changes, notices).
     Info,
 }
@@ -198,6 +204,9 @@ pub struct AppState {
     pub outbox: Vec<Request>,
     /// Whether the user holds the halt toggle on.
     pub halt_engaged: bool,
+    /// Why the drive last stopped or refused, in one line for the state tile (a quick
+    /// stop sent, a command refused); cleared by the next command.
+    pub why: Option<String>,
     /// 6087h as last read (None = unknown).
     pub torque_slope: Option<i64>,
     pub torque_warning: Option<TorqueWarning>,
@@ -298,6 +307,7 @@ impl AppState {
             log: VecDeque::new(),
             outbox: Vec::new(),
             halt_engaged: false,
+            why: None,
             torque_slope: None,
             torque_warning: None,
             last_object: None,
@@ -593,6 +603,11 @@ impl AppState {
         })
     }
 
+    /// Whether a halt the window sent is still queued or running.
+    pub fn halt_pending(&self) -> bool {
+        self.halt_request.is_some()
+    }
+
     /// Whether a status bit is set in the newest sample.
     pub fn bit(&self, bit: StatusBit) -> bool {
         self.latest.is_some_and(|s| s.tx.status.is_set(bit))
@@ -618,7 +633,26 @@ impl AppState {
             Request::Resume => self.halt_engaged = false,
             _ => {}
         }
+        self.note_why(&request);
         self.outbox.push(request);
+    }
+
+    /// A stop sent from the window is the reason for what follows; any other command
+    /// makes the last reason old news.
+    fn note_why(&mut self, request: &Request) {
+        let at = clock_text(SystemTime::now());
+        match request {
+            Request::Command(Action::Quickstop) => {
+                self.why = Some(format!("Quickstop sent from this window at {at}"));
+            }
+            Request::Command(Action::SwitchOff) => {
+                self.why = Some(format!("Switch off sent from this window at {at}"));
+            }
+            Request::Command(_) | Request::Halt | Request::Resume | Request::Jog { .. } => {
+                self.why = None;
+            }
+            _ => {}
+        }
     }
 
     /// Ask the worker for the serial ports (once until it answers).
@@ -713,7 +747,7 @@ impl AppState {
         });
     }
 
-    fn push_log(&mut self, entry: LogEntry) {
+    pub(crate) fn push_log(&mut self, entry: LogEntry) {
         if self.log.len() >= LOG_LIMIT {
             self.log.pop_front();
         }
