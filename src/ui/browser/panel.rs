@@ -1,7 +1,7 @@
 //! The browser panel: its toolbar, EDS loading, the bulk reads, and how values and limits read.
 
 use super::*;
-use crate::ui::widgets::{labelled_text_edit_ui, message_ui};
+use crate::ui::widgets::labelled_text_edit_ui;
 
 pub(super) fn value_text(value: &Value, entry: &Entry) -> String {
     backup::shown(value, entry)
@@ -36,13 +36,15 @@ pub fn parse_edit(entry: &Entry, text: &str) -> Result<Value, String> {
 
 pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
     let connected = state.is_connected();
-    let clock = state.clock;
     let link = state
         .link_info()
         .map(|i| i.spec.to_string())
         .unwrap_or_default();
     let b = &mut state.browser;
-    b.link_text = link;
+    b.follow_link(&link);
+    b.now = state.clock;
+    // Before any text box can take them.
+    let keys = table_keys(ui, b);
     let outbox = &mut state.outbox;
 
     ui.horizontal_wrapped(|ui| {
@@ -64,18 +66,21 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
 
     bulk_ui(ui, b, outbox);
     backup_ui(ui, b, outbox, connected);
-    message_ui(ui, b.message.as_ref());
+    message::message_ui(ui, b);
     comparison_ui(ui, b);
     restore_ui(ui, b, outbox, connected);
-    confirm_ui(ui, b, outbox);
-    table_ui(ui, b, outbox, connected, clock);
+    edit::confirm_ui(ui, b, outbox);
+    table_ui(ui, b, outbox, connected, keys);
+    b.refresh_visible(outbox, connected);
     if let Some(address) = state.browser.plot_request.take() {
         state.watch_object(&address.to_string());
-        state.browser.message = state
-            .plot
-            .message
-            .clone()
-            .map(|m| m.map(|text| format!("{text}: see the Plots tab")));
+        let said = state.plot.message.clone().map(|m| match m {
+            Ok(text) => (Tone::Done, format!("{text}: see the Plots tab")),
+            Err(text) => (Tone::Failed, text),
+        });
+        if let Some((tone, text)) = said {
+            state.browser.say(tone, text);
+        }
     }
 }
 
@@ -132,7 +137,7 @@ const EDS_WARNINGS_SHOWN: usize = 3;
 fn load_eds(b: &mut Browser) {
     let path = b.eds_path.trim().to_owned();
     if path.is_empty() {
-        b.message = Some(Err("give the path of an EDS or DCF file first".into()));
+        b.say(Tone::Failed, "give the path of an EDS or DCF file first");
         return;
     }
     // A CANopen link's node id resolves the file's $NODEID formulas (COB-IDs).
@@ -150,40 +155,47 @@ fn load_eds(b: &mut Browser) {
             for w in &eds.warnings {
                 tracing::warn!("{path}: {w}");
             }
-            let mut text = format!(
-                "loaded {} objects from {path} ({} {})",
-                merged.catalog.len(),
-                eds.device_info
-                    .vendor_name
-                    .as_deref()
-                    .unwrap_or("unknown vendor"),
-                eds.device_info
-                    .product_name
-                    .as_deref()
-                    .unwrap_or("unknown product"),
-            );
-            if !eds.warnings.is_empty() {
-                let shown: Vec<String> = eds
-                    .warnings
-                    .iter()
-                    .take(EDS_WARNINGS_SHOWN)
-                    .map(ToString::to_string)
-                    .collect();
-                text.push_str(&format!(
-                    "; {} warning(s): {}",
-                    eds.warnings.len(),
-                    shown.join("; ")
-                ));
-                if eds.warnings.len() > EDS_WARNINGS_SHOWN {
-                    text.push_str(" (the rest in the log)");
-                }
-            }
-            b.message = Some(Ok(text));
+            let (tone, text) = eds_loaded_text(&eds, merged.catalog.len(), &path);
+            b.say(tone, text);
             b.values.clear();
             b.eds = Some((path, merged.catalog));
         }
-        Err(e) => b.message = Some(Err(format!("{path}: {e}"))),
+        Err(e) => b.say(Tone::Failed, format!("{path}: {e}")),
     }
+}
+
+/// What a loaded EDS says: how many objects from which device; with what the import
+/// skipped or guessed, counted, the first few named, in amber.
+fn eds_loaded_text(eds: &Eds, objects: usize, path: &str) -> (Tone, String) {
+    let mut text = format!(
+        "loaded {objects} objects from {path} ({} {})",
+        eds.device_info
+            .vendor_name
+            .as_deref()
+            .unwrap_or("unknown vendor"),
+        eds.device_info
+            .product_name
+            .as_deref()
+            .unwrap_or("unknown product"),
+    );
+    if eds.warnings.is_empty() {
+        return (Tone::Done, text);
+    }
+    let shown: Vec<String> = eds
+        .warnings
+        .iter()
+        .take(EDS_WARNINGS_SHOWN)
+        .map(ToString::to_string)
+        .collect();
+    text.push_str(&format!(
+        "; {} warning(s), entries skipped or guessed: {}",
+        eds.warnings.len(),
+        shown.join("; ")
+    ));
+    if eds.warnings.len() > EDS_WARNINGS_SHOWN {
+        text.push_str(" (the rest in the log)");
+    }
+    (Tone::Warning, text)
 }
 
 /// The progress row of a bulk read. Always drawn (idle: empty, Cancel disabled), so the
