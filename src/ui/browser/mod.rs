@@ -30,7 +30,10 @@ mod edit;
 mod message;
 pub use message::{Message, Tone};
 mod refresh;
-pub use refresh::{CHANGED_FOR, REFRESH_AFTER, REFRESH_IN_FLIGHT, REFRESH_INTERVAL, Refresh};
+pub use refresh::{
+    CHANGED_FOR, DictionarySettings, MOST_READS_PER_SECOND, REFRESH_AFTER, REFRESH_IN_FLIGHT,
+    Refresh,
+};
 mod table;
 #[allow(unused_imports)]
 pub use table::*;
@@ -156,8 +159,10 @@ pub struct Browser {
     /// The connection string, for backup files and to know whose values are shown ("" when
     /// not connected).
     pub link_text: String,
-    /// The link the values, previews and messages came from: the last one connected.
+    /// The link the values came from: the last one connected.
     drive: String,
+    /// How many connections were made so far (see [`Browser::on_connected`]).
+    connection: u64,
     /// `AppState::clock` as last seen.
     now: f64,
     unsent: Vec<(Request, Pending)>,

@@ -41,16 +41,19 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
         .map(|i| i.spec.to_string())
         .unwrap_or_default();
     let b = &mut state.browser;
-    b.follow_link(&link);
+    // "" while not connected; a new connection is `Browser::on_connected`'s.
+    b.link_text = link;
     b.now = state.clock;
     // Before any text box can take them.
     let keys = table_keys(ui, b);
     let outbox = &mut state.outbox;
+    let rate = &mut state.settings.dictionary.reads_per_second;
 
     ui.horizontal_wrapped(|ui| {
         ui.heading("Object dictionary");
         labelled_text_edit_ui(ui, "Filter", &mut b.filter, 160.0, "Object filter");
         read_buttons_ui(ui, b, outbox, connected);
+        auto_read_ui(ui, rate);
         dictionary_ui(ui, b);
     });
     ui.horizontal(|ui| {
@@ -71,7 +74,7 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
     restore_ui(ui, b, outbox, connected);
     edit::confirm_ui(ui, b, outbox);
     table_ui(ui, b, outbox, connected, keys);
-    b.refresh_visible(outbox, connected);
+    b.refresh_visible(outbox, connected, *rate);
     if let Some(address) = state.browser.plot_request.take() {
         state.watch_object(&address.to_string());
         let said = state.plot.message.clone().map(|m| match m {
@@ -114,6 +117,29 @@ fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, conn
     {
         b.read_many(outbox, readable, Purpose::Browse);
     }
+}
+
+/// How many objects a second the table reads by itself (0: none).
+fn auto_read_ui(ui: &mut Ui, rate: &mut f64) {
+    ui.label("Auto-read");
+    let field = ui
+        .add(
+            egui::DragValue::new(rate)
+                .range(0.0..=MOST_READS_PER_SECOND)
+                .speed(1.0)
+                .max_decimals(0)
+                .suffix(" /s"),
+        )
+        .on_hover_text(format!(
+            "The rows on screen are read by themselves, this many objects a second at most, \
+             again when their value is older than {REFRESH_AFTER:.0} s; a value that changed is \
+             lit for a while. 0: only on request."
+        ));
+    crate::ui::widgets::name_widget(
+        &field,
+        egui::accesskit::Role::SpinButton,
+        "Auto-read objects per second",
+    );
 }
 
 /// The dictionary shown: an EDS's (with the way back to the built-in one), or the built-in.

@@ -1,34 +1,54 @@
 //! The table reads the rows on screen by itself: those never read, and those read longer
-//! than [`REFRESH_AFTER`] ago, a few at a time. At most [`REFRESH_IN_FLIGHT`] such objects
-//! wait for the drive at once and a batch goes out at most every [`REFRESH_INTERVAL`], so
-//! the worker's queues (`JOB_QUEUE`, `BULK_QUEUE` in `worker::jobs`) never fill with them
-//! and a slow link simply reads them more slowly. Writes and restores read back the
-//! objects they wrote the same way (not rate-limited: they are as many as were written).
+//! than [`REFRESH_AFTER`] ago, at most [`DictionarySettings::reads_per_second`] objects a
+//! second (a bucket of [`REFRESH_IN_FLIGHT`] reads that fills at that rate), and never more
+//! than [`REFRESH_IN_FLIGHT`] waiting for the drive at once, so the worker's queues
+//! (`JOB_QUEUE`, `BULK_QUEUE` in `worker::jobs`) never fill with them and a slow link simply
+//! reads them more slowly. Writes and restores read back the objects they wrote the same
+//! way (not rate-limited: they are as many as were written).
 
 use std::collections::BTreeMap;
 
+use serde::{Deserialize, Serialize};
+
 use super::*;
 
-/// Objects the table reads by itself that may wait for the drive at once.
+/// Objects the table reads by itself that may wait for the drive at once, and how many it
+/// may read in one go after a pause.
 pub const REFRESH_IN_FLIGHT: usize = 8;
-/// Seconds between two batches of reads the table makes by itself, at least.
-pub const REFRESH_INTERVAL: f64 = 0.25;
 /// A row on screen whose value is older than this (seconds) is read again.
 pub const REFRESH_AFTER: f64 = 5.0;
 /// How long (seconds) a changed value stays highlighted, fading.
 pub const CHANGED_FOR: f64 = 4.0;
 /// A read not answered after this long (seconds) is given up (a link that went away).
 const GIVE_UP_AFTER: f64 = 10.0;
+/// The most the reads-per-second box takes.
+pub const MOST_READS_PER_SECOND: f64 = 200.0;
+
+/// The dictionary's choices kept with the window's settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DictionarySettings {
+    /// How many objects a second the table reads by itself; 0: it reads none.
+    pub reads_per_second: f64,
+}
+
+impl Default for DictionarySettings {
+    fn default() -> Self {
+        Self {
+            reads_per_second: 20.0,
+        }
+    }
+}
 
 /// The reads outside the bulk one that wait for the drive.
 #[derive(Clone, Debug, Default)]
 pub struct Refresh {
     /// Each object asked for and not answered yet, with when it was asked.
     in_flight: BTreeMap<Address, f64>,
-    /// When the table last sent a batch by itself.
-    last_batch: Option<f64>,
-    /// How many batches the table sent by itself so far.
-    pub batches: usize,
+    /// Reads the table may make by itself now, and when that was counted.
+    allowance: Option<(f64, f64)>,
+    /// How many objects the table asked for by itself so far.
+    pub sent: usize,
 }
 
 impl Refresh {
@@ -94,32 +114,43 @@ impl Browser {
         self.read_back(outbox, objects);
     }
 
-    /// The rows on screen due for a read, as many as may go now. Nothing while a bulk read
-    /// or a restore runs (they read and write themselves) or without a link.
-    pub(super) fn refresh_visible(&mut self, outbox: &mut Vec<Request>, connected: bool) {
+    /// The rows on screen due for a read, as many as may go now at `rate` objects a
+    /// second. Nothing while a bulk read or a restore runs (they read and write
+    /// themselves) or without a link.
+    pub(super) fn refresh_visible(
+        &mut self,
+        outbox: &mut Vec<Request>,
+        connected: bool,
+        rate: f64,
+    ) {
         let now = self.now;
-        if !connected {
+        if !connected || rate <= 0.0 {
             self.refresh.forget_all();
+            self.refresh.allowance = None;
             return;
         }
         self.refresh
             .in_flight
             .retain(|_, asked| now - *asked < GIVE_UP_AFTER);
+        let burst = REFRESH_IN_FLIGHT as f64;
+        let allowance = match self.refresh.allowance {
+            None => burst,
+            Some((at, left)) => (left + (now - at).max(0.0) * rate).min(burst),
+        };
+        self.refresh.allowance = Some((now, allowance));
         let busy = self.bulk.is_some() || self.restore.as_ref().is_some_and(|r| r.running);
-        let resting = self
-            .refresh
-            .last_batch
-            .is_some_and(|at| now - at < REFRESH_INTERVAL);
-        let room = REFRESH_IN_FLIGHT.saturating_sub(self.refresh.in_flight.len());
-        if busy || resting || room == 0 {
+        let room = REFRESH_IN_FLIGHT
+            .saturating_sub(self.refresh.in_flight.len())
+            .min(allowance.floor() as usize);
+        if busy || room == 0 {
             return;
         }
         let due = self.due(room);
         if due.is_empty() {
             return;
         }
-        self.refresh.last_batch = Some(now);
-        self.refresh.batches += 1;
+        self.refresh.allowance = Some((now, allowance - due.len() as f64));
+        self.refresh.sent += due.len();
         self.read_back(outbox, due);
     }
 
@@ -154,5 +185,106 @@ pub(super) fn change_glow(age: f64) -> f32 {
         (1.0 - age / CHANGED_FOR) as f32
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A browser showing the first `rows` readable objects of the built-in catalog.
+    fn showing(rows: usize) -> Browser {
+        let mut b = Browser::new();
+        b.visible = crate::od::builtin()
+            .filter("")
+            .filter(|e| e.access.readable())
+            .take(rows)
+            .map(|e| e.address)
+            .collect();
+        b
+    }
+
+    /// Every read asked for answered at once.
+    fn answer_all(b: &mut Browser, outbox: &mut Vec<Request>) {
+        for request in outbox.drain(..) {
+            if let Request::ReadMany { objects, .. } = request {
+                for (address, _) in objects {
+                    b.refresh.arrived(address);
+                    b.store_value(address, Ok(Value::Uint(1)), b.now);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_rows_on_screen_are_read_no_faster_than_the_rate() {
+        let rate = 10.0;
+        let mut b = showing(40);
+        let mut outbox = vec![];
+        let mut t = 0.0;
+        while t < 6.0 {
+            b.now = t;
+            b.refresh_visible(&mut outbox, true, rate);
+            assert!(b.refresh.in_flight() <= REFRESH_IN_FLIGHT);
+            answer_all(&mut b, &mut outbox);
+            let allowed = REFRESH_IN_FLIGHT as f64 + rate * t;
+            assert!(
+                b.refresh.sent as f64 <= allowed + 1e-9,
+                "{} at {t}",
+                b.refresh.sent
+            );
+            t += 0.01;
+        }
+        // 40 rows at 10 a second (8 at once to start with): all read after 3.2 s, none
+        // again before they are REFRESH_AFTER old.
+        assert!(b.visible.iter().all(|a| b.values.contains_key(a)));
+        assert!(
+            b.refresh.sent >= 40 && b.refresh.sent < 40 + 2 * 10,
+            "{}",
+            b.refresh.sent
+        );
+    }
+
+    #[test]
+    fn nothing_is_read_by_itself_at_rate_zero_or_without_a_link() {
+        let mut b = showing(10);
+        let mut outbox = vec![];
+        b.now = 1.0;
+        b.refresh_visible(&mut outbox, true, 0.0);
+        b.refresh_visible(&mut outbox, false, 10.0);
+        assert!(outbox.is_empty());
+        assert_eq!(b.refresh.sent, 0);
+    }
+
+    #[test]
+    fn rows_read_longer_ago_than_refresh_after_are_read_again() {
+        let mut b = showing(3);
+        let mut outbox = vec![];
+        b.refresh_visible(&mut outbox, true, 100.0);
+        answer_all(&mut b, &mut outbox);
+        assert_eq!(b.refresh.sent, 3);
+        b.now = REFRESH_AFTER / 2.0;
+        b.refresh_visible(&mut outbox, true, 100.0);
+        assert!(outbox.is_empty(), "fresh");
+        b.now = REFRESH_AFTER;
+        b.refresh_visible(&mut outbox, true, 100.0);
+        assert_eq!(b.refresh.sent, 6, "read again");
+    }
+
+    #[test]
+    fn a_value_that_differs_from_the_one_before_is_marked() {
+        let mut b = showing(1);
+        let address = b.visible[0];
+        b.store_value(address, Ok(Value::Uint(1)), 1.0);
+        assert_eq!(
+            b.values[&address].changed, None,
+            "the first read changes nothing"
+        );
+        b.store_value(address, Ok(Value::Uint(1)), 2.0);
+        assert_eq!(b.values[&address].changed, None);
+        b.store_value(address, Ok(Value::Uint(2)), 3.0);
+        assert_eq!(b.values[&address].changed, Some((3.0, Value::Uint(1))));
+        assert!(change_glow(0.0) > change_glow(CHANGED_FOR / 2.0));
+        assert_eq!(change_glow(CHANGED_FOR), 0.0);
     }
 }
