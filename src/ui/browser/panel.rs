@@ -49,25 +49,34 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
     let outbox = &mut state.outbox;
     let rate = &mut state.settings.dictionary.reads_per_second;
 
+    // The tab above says what this is: no heading, the rows get the room. Each group
+    // (a label and its box, a bar and its button) stays on one line when the rows wrap.
     ui.horizontal_wrapped(|ui| {
-        ui.heading("Object dictionary");
-        labelled_text_edit_ui(ui, "Filter", &mut b.filter, 160.0, "Object filter");
+        together(ui, 330.0, |ui| {
+            labelled_text_edit_ui(ui, "Filter", &mut b.filter, 160.0, "Object filter");
+            ui.weak(format!(
+                "{} of {} objects",
+                b.rows().len(),
+                b.catalog().len()
+            ));
+        });
         read_buttons_ui(ui, b, outbox, connected);
-        auto_read_ui(ui, rate);
-        dictionary_ui(ui, b);
+        together(ui, 130.0, |ui| auto_read_ui(ui, rate));
     });
-    ui.horizontal(|ui| {
-        labelled_text_edit_ui(ui, "EDS", &mut b.eds_path, 220.0, "EDS path");
-        if ui
-            .button("Load EDS")
-            .on_hover_text("Use a device's EDS file (CiA 306) instead of the built-in catalog")
-            .clicked()
-        {
-            load_eds(b);
-        }
+    ui.horizontal_wrapped(|ui| {
+        together(ui, 300.0, |ui| bulk_ui(ui, b, outbox));
+        together(ui, 360.0, |ui| {
+            dictionary_ui(ui, b);
+            labelled_text_edit_ui(ui, "EDS", &mut b.eds_path, 160.0, "EDS path");
+            if ui
+                .button("Load EDS")
+                .on_hover_text("Use a device's EDS file (CiA 306) instead of the built-in catalog")
+                .clicked()
+            {
+                load_eds(b);
+            }
+        });
     });
-
-    bulk_ui(ui, b, outbox);
     backup_ui(ui, b, outbox, connected);
     message::message_ui(ui, b);
     comparison_ui(ui, b);
@@ -87,12 +96,9 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
     }
 }
 
-/// How many objects pass the filter; Read visible and Read all.
+/// Read visible and Read all.
 fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
-    let rows = b.rows();
-    let count = rows.len();
-    let readable = Browser::readable(&rows);
-    ui.weak(format!("{count} of {} objects", b.catalog().len()));
+    let readable = Browser::readable(&b.rows());
     let busy = b.bulk.is_some();
     if ui
         .add_enabled(connected && !busy, egui::Button::new("Read visible"))
@@ -117,6 +123,16 @@ fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, conn
     {
         b.read_many(outbox, readable, Purpose::Browse);
     }
+}
+
+/// In a wrapping row: `add` on one line, on the next one when less than `width` is left.
+fn together(ui: &mut Ui, width: f32, add: impl FnOnce(&mut Ui)) {
+    if ui.available_rect_before_wrap().width() < width
+        && ui.cursor().left() > ui.max_rect().left() + 1.0
+    {
+        ui.end_row();
+    }
+    ui.horizontal(add);
 }
 
 /// How many objects a second the table reads by itself (0: none).
@@ -152,7 +168,9 @@ fn dictionary_ui(ui: &mut Ui, b: &mut Browser) {
             }
         }
         None => {
-            ui.weak("dictionary: built-in Nanotec catalog");
+            ui.weak("built-in catalog").on_hover_text(
+                "The objects of Nanotec's drives, as built in; Load EDS for another device's",
+            );
         }
     }
 }
@@ -245,10 +263,10 @@ fn bulk_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
         }
         None => (0.0, "no read running".to_owned(), None, false),
     };
-    ui.horizontal(|ui| {
+    ui.scope(|ui| {
         let mut bar = egui::ProgressBar::new(fraction)
             .text(text)
-            .desired_width(320.0);
+            .desired_width(220.0);
         if id.is_none() {
             // Idle: no coloured fill, only the text.
             bar = bar.fill(ui.visuals().extreme_bg_color);

@@ -20,8 +20,8 @@ use egui_extras::TableRow;
 
 /// The scrolled columns, left to right: title and first width.
 const SCROLLED: [(&str, f32); 8] = [
-    ("Value", 170.0),
-    ("", 150.0),
+    ("Value", 150.0),
+    ("", 160.0),
     ("Hex", 96.0),
     ("Type", 50.0),
     ("Access", 50.0),
@@ -43,6 +43,8 @@ pub struct Columns {
     pub widths: [f32; SCROLLED.len()],
     /// How far (points) the scrolled columns are shifted left.
     pub scroll: f32,
+    /// The Value column was fitted to the table's first width.
+    fitted: bool,
 }
 
 impl Default for Columns {
@@ -50,11 +52,25 @@ impl Default for Columns {
         Self {
             widths: SCROLLED.map(|(_, width)| width),
             scroll: 0.0,
+            fitted: false,
         }
     }
 }
 
 impl Columns {
+    /// The first time the table is drawn, `width` wide: the Value column takes a share of
+    /// it (within 110 to 220 points), so a narrow panel still shows the row's buttons
+    /// beside the value; then it keeps the width the user drags it to.
+    fn fit(&mut self, width: f32) {
+        if self.fitted || width <= 0.0 {
+            return;
+        }
+        self.fitted = true;
+        if let Some(value) = self.widths.get_mut(VALUE) {
+            *value = (width * 0.22).clamp(110.0, 220.0);
+        }
+    }
+
     /// Each column's left and right edge from the scrolled window's left, unscrolled.
     fn spans(&self) -> [(f32, f32); SCROLLED.len()] {
         let mut left = 0.0;
@@ -147,6 +163,7 @@ pub(super) fn table_ui(
     let rows: Vec<Entry> = b.rows().into_iter().cloned().collect();
     let area = ui.available_rect_before_wrap();
     let mut columns = b.columns.clone();
+    columns.fit(area.width());
     sideways_wheel(ui, area, &mut columns);
     let (key_action, scroll_to) = keys;
     let mut actions: Vec<(Address, RowAction)> = key_action.into_iter().collect();
@@ -155,7 +172,7 @@ pub(super) fn table_ui(
     ui.scope_builder(UiBuilder::new().max_rect(table_rect), |ui| {
         // Labels take no clicks: a click anywhere on a row picks it.
         ui.style_mut().interaction.selectable_labels = false;
-        let mut builder = with_columns(TableBuilder::new(ui));
+        let mut builder = with_columns(TableBuilder::new(ui), area.width());
         if let Some(row) = scroll_to {
             builder = builder.scroll_to_row(row, None);
         }
@@ -197,8 +214,12 @@ pub(super) fn table_ui(
     }
 }
 
-/// The table's look and its columns: Object and Name, then the window onto the rest.
-fn with_columns(table: TableBuilder<'_>) -> TableBuilder<'_> {
+/// The table's look and its columns: Object and Name, then the window onto the rest. The
+/// Name column starts at a fifth of the table's `width` (within 130 to 260 points), so a
+/// narrow panel still shows the value and the row's buttons beside it; then it keeps the
+/// width the user drags it to.
+fn with_columns(table: TableBuilder<'_>, width: f32) -> TableBuilder<'_> {
+    let name = (width * 0.2).clamp(130.0, 260.0);
     table
         .id_salt("od_table")
         .striped(true)
@@ -206,8 +227,8 @@ fn with_columns(table: TableBuilder<'_>) -> TableBuilder<'_> {
         .sense(Sense::click())
         .auto_shrink([false, false])
         .min_scrolled_height(120.0)
-        .column(Column::initial(80.0).at_least(64.0))
-        .column(Column::initial(200.0).at_least(90.0).clip(true))
+        .column(Column::initial(76.0).at_least(64.0))
+        .column(Column::initial(name).at_least(90.0).clip(true))
         .column(Column::remainder().at_least(120.0).clip(true))
 }
 
