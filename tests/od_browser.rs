@@ -9,6 +9,7 @@ use std::time::Duration;
 
 use common::temp_dir;
 use drivedeck::od::{Address, Value};
+use drivedeck::ui::browser::{Message, REFRESH_AFTER, Tone};
 use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
@@ -17,7 +18,12 @@ use window::{connected, harness_with, step_until};
 
 /// The window on the simulated drive with the object dictionary open.
 fn browser() -> Harness<'static, App> {
-    let mut harness = harness_with(Settings::default(), true, egui::vec2(1600.0, 1000.0));
+    browser_with(Settings::default())
+}
+
+/// The window with `settings` on the simulated drive, the object dictionary open.
+fn browser_with(settings: Settings) -> Harness<'static, App> {
+    let mut harness = harness_with(settings, true, egui::vec2(1600.0, 1000.0));
     harness.run();
     connected(&mut harness);
     harness.get_by_label("Object dictionary").click();
@@ -87,6 +93,23 @@ fn value_of(harness: &Harness<'_, App>, address: Address) -> Option<Result<Value
         .map(|c| c.result.clone())
 }
 
+/// Labels `left` and `right` on one line, `left` first (a row of a comparison or a
+/// preview).
+fn side_by_side(harness: &Harness<'_, App>, left: &str, right: &str) -> bool {
+    harness.query_all_by_label(left).any(|l| {
+        let l = l.rect();
+        harness.query_all_by_label(right).any(|r| {
+            let r = r.rect();
+            (l.center().y - r.center().y).abs() < 2.0 && l.right() < r.left()
+        })
+    })
+}
+
+/// What the browser says now.
+fn said(harness: &Harness<'_, App>) -> Option<Message> {
+    harness.state().state.browser.message.clone()
+}
+
 const PROFILE_VELOCITY: Address = Address::new(0x6081, 0);
 
 #[test]
@@ -153,16 +176,17 @@ fn a_bad_value_is_refused_with_its_reason_and_a_good_one_is_written_and_read_bac
     assert!(harness.query_by_label("Write to the drive?").is_some());
     assert!(
         harness
-            .query_by_label(&format!("{before} -> 500"))
+            .query_by_label(&format!("{before} rpm -> 500 rpm"))
             .is_some(),
-        "the confirmation shows the old and the new value"
+        "the confirmation shows the old and the new value, with the unit"
     );
     harness.get_by_label("Confirm write").click();
     harness.step();
+    // Read back well before the table would read the row again by itself.
     step_until(
         &mut harness,
         "the write and the read back",
-        Duration::from_secs(5),
+        Duration::from_secs_f64(REFRESH_AFTER / 2.0),
         |h| value_of(h, PROFILE_VELOCITY) == Some(Ok(Value::Uint(500))),
     );
     assert_eq!(
@@ -191,9 +215,9 @@ fn read_all_fills_the_table_with_progress_and_can_be_cancelled() {
         Duration::from_secs(20),
         |h| h.state().state.browser.bulk.is_none(),
     );
-    let message = harness.state().state.browser.message.clone();
+    let message = said(&harness);
     assert!(
-        matches!(&message, Some(Ok(m)) if m.starts_with("read ")),
+        matches!(&message, Some(m) if m.tone == Tone::Done && m.text.starts_with("read ")),
         "{message:?}"
     );
     assert!(matches!(
@@ -226,11 +250,11 @@ fn read_all_fills_the_table_with_progress_and_can_be_cancelled() {
         Duration::from_secs(20),
         |h| h.state().state.browser.bulk.is_none(),
     );
-    let message = harness.state().state.browser.message.clone();
+    let message = said(&harness);
     assert!(
-        matches!(&message, Some(Err(m)) if m.starts_with("cancelled after")) ||
+        matches!(&message, Some(m) if m.tone == Tone::Warning && m.text.starts_with("cancelled after")) ||
             // On a fast machine everything may have been read before the cancel arrived.
-            matches!(&message, Some(Ok(m)) if m.starts_with("read ")),
+            matches!(&message, Some(m) if m.tone == Tone::Done && m.text.starts_with("read ")),
         "{message:?}"
     );
 }
@@ -247,7 +271,7 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
         &mut harness,
         "the backup",
         Duration::from_secs(20),
-        |h| matches!(&h.state().state.browser.message, Some(Ok(m)) if m.starts_with("saved")),
+        |h| matches!(said(h), Some(m) if m.tone == Tone::Done && m.text.starts_with("saved")),
     );
     let text = std::fs::read_to_string(&path).expect("the file");
     let file = drivedeck::od::backup::Backup::from_json(&text).expect("a backup");
@@ -274,8 +298,14 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
         value_of(h, PROFILE_VELOCITY) == Some(Ok(Value::Uint(777)))
     });
 
-    // The comparison lists exactly that object.
+    // The comparison lists exactly that object, the file's value with its unit.
     compare(&mut harness);
+    harness.run();
+    let file_value = format!("{saved} rpm");
+    assert!(
+        side_by_side(&harness, &file_value, "777 rpm"),
+        "the comparison shows {file_value} (file) and 777 rpm (drive)"
+    );
     let differing: Vec<Address> = harness
         .state()
         .state
@@ -305,14 +335,32 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
     assert_eq!(steps[0].address, PROFILE_VELOCITY);
     assert_eq!(steps[0].before, Some(Value::Uint(777)));
     assert_eq!(steps[0].value, saved);
-    restore_the_one_write(&mut harness);
-    // Read back: as before the change.
     harness.run();
-    harness.get_by_label("Read 6081h:00h").click();
-    harness.step();
-    step_until(&mut harness, "the read back", Duration::from_secs(5), |h| {
-        value_of(h, PROFILE_VELOCITY) == Some(Ok(saved.clone()))
-    });
+    assert!(
+        side_by_side(&harness, "777 rpm", &file_value),
+        "the preview shows 777 rpm (now) and {file_value} (to write)"
+    );
+    restore_the_one_write(&mut harness);
+    // The restore reads back what it wrote: the row shows the value from the file, without
+    // a Read (well before the table would read the row again by itself).
+    step_until(
+        &mut harness,
+        "the read back",
+        Duration::from_secs_f64(REFRESH_AFTER / 2.0),
+        |h| value_of(h, PROFILE_VELOCITY) == Some(Ok(saved.clone())),
+    );
+    let cell = harness
+        .state()
+        .state
+        .browser
+        .values
+        .get(&PROFILE_VELOCITY)
+        .cloned();
+    assert_eq!(
+        cell.and_then(|c| c.changed).map(|(_, before)| before),
+        Some(Value::Uint(777)),
+        "the row is marked as changed, from 777"
+    );
 }
 
 #[test]
@@ -325,9 +373,9 @@ fn an_eds_replaces_the_catalog_and_a_broken_path_says_why() {
     harness.run();
     harness.get_by_label("Load EDS").click();
     harness.run();
-    let message = harness.state().state.browser.message.clone();
+    let message = said(&harness);
     assert!(
-        matches!(&message, Some(Ok(m)) if m.contains("loaded") && m.contains("sample.eds")),
+        matches!(&message, Some(m) if m.text.contains("loaded") && m.text.contains("sample.eds")),
         "{message:?}"
     );
     // sample.eds describes another maker's device: none of Nanotec's manufacturer
@@ -348,9 +396,9 @@ fn an_eds_replaces_the_catalog_and_a_broken_path_says_why() {
     harness.run();
     harness.get_by_label("Load EDS").click();
     harness.run();
-    let message = harness.state().state.browser.message.clone();
+    let message = said(&harness);
     assert!(
-        matches!(&message, Some(Err(m)) if m.contains("/nonexistent/drive.eds")),
+        matches!(&message, Some(m) if m.tone == Tone::Failed && m.text.contains("/nonexistent/drive.eds")),
         "{message:?}"
     );
 }
@@ -443,9 +491,9 @@ fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_th
 
     // The comparison lists the same entries as skipped, not as differences.
     compare(&mut harness);
-    let message = harness.state().state.browser.message.clone();
+    let message = said(&harness);
     assert!(
-        matches!(&message, Some(Ok(m)) if m.contains("0 differ") && m.contains("7 entries skipped")),
+        matches!(&message, Some(m) if m.tone == Tone::Done && m.text.contains("0 differ") && m.text.contains("7 entries skipped")),
         "{message:?}"
     );
     harness.run();
@@ -472,11 +520,369 @@ fn a_file_naming_an_object_twice_is_refused_with_the_object_named() {
     backup_file(&mut harness, &path);
     harness.get_by_label("Restore from file").click();
     harness.run();
-    let message = harness.state().state.browser.message.clone();
+    let message = said(&harness);
     assert!(
-        matches!(&message, Some(Err(m)) if m.contains("6081h:00h") && m.contains("twice")),
+        matches!(&message, Some(m) if m.tone == Tone::Failed && m.text.contains("6081h:00h") && m.text.contains("twice")),
         "{message:?}"
     );
     assert!(harness.state().state.browser.bulk.is_none(), "nothing read");
     assert!(harness.state().state.browser.restore.is_none());
+}
+
+/// Double-click at `pos` (a row's value cell, say).
+fn double_click_at(harness: &mut Harness<'_, App>, pos: egui::Pos2) {
+    // The harness runs a frame per event, a quarter of a second each: the four events of a
+    // double-click take longer than egui's 0.3 s between its clicks.
+    harness
+        .ctx
+        .options_mut(|o| o.input_options.max_double_click_delay = 1.0);
+    harness.hover_at(pos);
+    harness.step();
+    for _ in 0..2 {
+        for pressed in [true, false] {
+            harness.event(egui::Event::PointerButton {
+                pos,
+                button: egui::PointerButton::Primary,
+                pressed,
+                modifiers: egui::Modifiers::NONE,
+            });
+        }
+    }
+    harness.run();
+}
+
+/// The title of the dictionary's column `title`, in the header right above the row
+/// `row` (the commands panel has a "Value" of its own).
+fn header(harness: &Harness<'_, App>, title: &str, row: &str) -> Option<egui::Rect> {
+    let row = harness.get_by_label(row).rect();
+    harness
+        .query_all_by_label(title)
+        .map(|n| n.rect())
+        .find(|r| r.bottom() <= row.top() + 1.0 && r.bottom() > row.top() - 40.0)
+}
+
+/// Scroll the table sideways by `dx` points (negative: to the right), with the wheel over
+/// `label`.
+fn wheel_sideways(harness: &mut Harness<'_, App>, label: &str, dx: f32) {
+    harness.get_by_label(label).hover();
+    harness.event(egui::Event::MouseWheel {
+        unit: egui::MouseWheelUnit::Point,
+        delta: egui::vec2(dx, 0.0),
+        modifiers: egui::Modifiers::NONE,
+        phase: egui::TouchPhase::Move,
+        source: egui::MouseWheelSource::Wheel,
+    });
+    // The wheel is smoothed over a few frames.
+    for _ in 0..30 {
+        harness.step();
+    }
+}
+
+#[test]
+fn object_and_name_stay_in_view_while_the_other_columns_scroll_sideways() {
+    let mut harness = browser();
+    filter(&mut harness, "6081");
+    let object = harness.get_by_label("6081h:00h").rect();
+    let name = harness.get_by_label("Profile Velocity").rect();
+    let value = header(&harness, "Value", "6081h:00h").expect("the Value column");
+    assert!(
+        header(&harness, "Limits", "6081h:00h").is_none(),
+        "at 1600 px the last columns are out of view at first"
+    );
+
+    wheel_sideways(&mut harness, "Profile Velocity", -2000.0);
+
+    // Scrolled to the right end: the last columns in view, the value cell gone left.
+    assert!(
+        header(&harness, "Limits", "6081h:00h").is_some(),
+        "scrolled to the Limits column"
+    );
+    let value_now = header(&harness, "Value", "6081h:00h").map(|v| v.left());
+    assert!(
+        value_now.is_none_or(|x| x < value.left() - 100.0),
+        "the Value column moved left: {value_now:?} from {}",
+        value.left()
+    );
+    // The row still says which object it is, where it was.
+    let object_now = harness.get_by_label("6081h:00h").rect();
+    let name_now = harness.get_by_label("Profile Velocity").rect();
+    // (Sideways only: the rows may move up or down as the lines above them change.)
+    assert_eq!(
+        object_now.x_range(),
+        object.x_range(),
+        "the Object column is pinned"
+    );
+    assert_eq!(
+        name_now.x_range(),
+        name.x_range(),
+        "the Name column is pinned"
+    );
+    assert!(
+        object_now.right() < name_now.left(),
+        "{object_now:?} {name_now:?}"
+    );
+    // The Limits column is right of the pinned ones, not under them.
+    let limits = header(&harness, "Limits", "6081h:00h").expect("the Limits column");
+    assert!(limits.left() > name_now.right());
+}
+
+const QUICK_STOP_OPTION: Address = Address::new(0x605A, 0);
+
+#[test]
+fn a_value_is_edited_in_place_with_the_limit_error_under_the_field_as_typed() {
+    let mut harness = browser();
+    filter(&mut harness, "605a");
+    // The row reads its value by itself.
+    step_until(
+        &mut harness,
+        "the row's value",
+        Duration::from_secs(5),
+        |h| value_of(h, QUICK_STOP_OPTION).is_some(),
+    );
+    harness.run();
+    let row = harness.get_by_label("605Ah:00h").rect();
+    let value = header(&harness, "Value", "605Ah:00h").expect("the Value column");
+    double_click_at(&mut harness, egui::pos2(value.center().x, row.center().y));
+    let field = harness.get_by_label("New value 605Ah:00h");
+    assert!(field.is_focused(), "the box has the keyboard");
+
+    // 605Ah takes 0 to 6: 9 is refused as it is typed, right under the box.
+    field.set_text_value_accesskit("9");
+    harness.run();
+    let field = harness.get_by_label("New value 605Ah:00h").rect();
+    let error = harness.get_by_label_contains("9 is above").rect();
+    assert!(
+        error.top() >= field.bottom() - 1.0 && error.top() < field.bottom() + 24.0,
+        "the error {error:?} is right under the box {field:?}"
+    );
+    assert!(
+        (error.left() - field.left()).abs() < 16.0,
+        "{error:?} {field:?}"
+    );
+    // Enter does not write it.
+    harness.key_press(egui::Key::Enter);
+    harness.run();
+    assert!(harness.query_by_label("Write to the drive?").is_none());
+    assert!(harness.query_by_label_contains("9 is above").is_some());
+
+    // A good value: no error; Enter asks, then writes and reads back.
+    harness
+        .get_by_label("New value 605Ah:00h")
+        .set_text_value_accesskit("5");
+    harness.run();
+    assert!(harness.query_by_label_contains("9 is above").is_none());
+    harness.get_by_label("New value 605Ah:00h").focus();
+    harness.run();
+    harness.key_press(egui::Key::Enter);
+    harness.run();
+    assert!(harness.query_by_label("Write to the drive?").is_some());
+    harness.get_by_label("Confirm write").click();
+    harness.step();
+    step_until(&mut harness, "the write", Duration::from_secs(5), |h| {
+        value_of(h, QUICK_STOP_OPTION) == Some(Ok(Value::Int(5)))
+    });
+    harness.run();
+    assert!(harness.query_by_label("New value 605Ah:00h").is_none());
+
+    // Enter on the selected row edits it again; Esc cancels.
+    harness.key_press(egui::Key::Enter);
+    harness.run();
+    assert!(harness.query_by_label("New value 605Ah:00h").is_some());
+    harness.key_press(egui::Key::Escape);
+    harness.run();
+    assert!(harness.query_by_label("New value 605Ah:00h").is_none());
+    assert!(harness.state().state.browser.edit.is_none());
+}
+
+#[test]
+fn the_rows_on_screen_are_read_by_themselves_at_the_rate_chosen() {
+    use drivedeck::ui::browser::REFRESH_IN_FLIGHT;
+    const RATE: f64 = 10.0;
+    let mut settings = Settings::default();
+    settings.dictionary.reads_per_second = RATE;
+    let mut harness = browser_with(settings);
+    let visible: Vec<Address> = harness
+        .state()
+        .state
+        .browser
+        .visible
+        .iter()
+        .copied()
+        .filter(|a| {
+            drivedeck::od::builtin()
+                .get(*a)
+                .is_some_and(|e| e.access.readable())
+        })
+        .collect();
+    assert!(visible.len() > REFRESH_IN_FLIGHT, "{} rows", visible.len());
+    let started = std::time::Instant::now();
+    let sent_before = harness.state().state.browser.refresh.sent;
+    let mut most = 0;
+    // The rows on screen now (as the lines above the table settle, one may go or come).
+    let all_read = |h: &Harness<'_, App>| {
+        let b = &h.state().state.browser;
+        b.visible
+            .iter()
+            .filter(|a| {
+                drivedeck::od::builtin()
+                    .get(**a)
+                    .is_some_and(|e| e.access.readable())
+            })
+            .all(|a| b.values.contains_key(a))
+    };
+    while !all_read(&harness) {
+        let b = &harness.state().state.browser;
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "the rows on screen were not read: {:?} of {:?}",
+            b.values.keys().collect::<Vec<_>>(),
+            b.visible,
+        );
+        // Never more than the rate allows since the start (plus what may go at once).
+        let sent = b.refresh.sent - sent_before;
+        let allowed = RATE * started.elapsed().as_secs_f64() + REFRESH_IN_FLIGHT as f64;
+        assert!(sent as f64 <= allowed, "{sent} read, {allowed} allowed");
+        harness.step();
+        most = most.max(harness.state().state.browser.refresh.in_flight());
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(most > 0 && most <= REFRESH_IN_FLIGHT, "{most} in flight");
+    // Nothing more while they are fresh.
+    let sent = harness.state().state.browser.refresh.sent;
+    window::step_for(&mut harness, Duration::from_millis(500));
+    assert_eq!(harness.state().state.browser.refresh.sent, sent);
+    // The box that sets the rate is in the toolbar.
+    assert!(
+        harness
+            .query_by_label("Auto-read objects per second")
+            .is_some()
+    );
+}
+
+#[test]
+fn with_auto_read_off_the_rows_wait_for_a_read() {
+    let mut settings = Settings::default();
+    settings.dictionary.reads_per_second = 0.0;
+    let mut harness = browser_with(settings);
+    filter(&mut harness, "6081");
+    window::step_for(&mut harness, Duration::from_millis(500));
+    assert_eq!(
+        value_of(&harness, PROFILE_VELOCITY),
+        None,
+        "not read by itself"
+    );
+    assert_eq!(harness.state().state.browser.refresh.sent, 0);
+    harness.get_by_label("Read 6081h:00h").click();
+    harness.step();
+    step_until(&mut harness, "the read", Duration::from_secs(5), |h| {
+        value_of(h, PROFILE_VELOCITY).is_some()
+    });
+}
+
+#[test]
+fn an_eds_load_with_warnings_is_amber_and_counts_them() {
+    let mut harness = browser();
+    let eds = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/eds/sample.eds");
+    harness
+        .get_by_label("EDS path")
+        .set_text_value_accesskit(eds);
+    harness.run();
+    harness.get_by_label("Load EDS").click();
+    harness.run();
+    let message = said(&harness).expect("a message");
+    assert_eq!(message.tone, Tone::Warning, "{message:?}");
+    assert_eq!(
+        message.tone.color(),
+        Some(drivedeck::ui::widgets::AMBER),
+        "amber, not green"
+    );
+    assert!(message.text.contains("7 warning(s)"), "{message:?}");
+    assert!(harness.query_by_label_contains("7 warning(s)").is_some());
+}
+
+#[test]
+fn a_preview_from_another_drive_goes_when_the_link_changes() {
+    let dir = temp_dir("backup-other-drive");
+    let path = dir.path().join("crafted.json");
+    std::fs::write(
+        &path,
+        crafted_backup(&[("6081:00", "Profile Velocity", "UNSIGNED32", "uint", 777)]),
+    )
+    .expect("write");
+    let mut harness = browser();
+    backup_file(&mut harness, &path);
+    preview_restore(&mut harness);
+    harness.run();
+    assert!(harness.query_by_label("Restore 1 writes").is_some());
+
+    let other: drivedeck::link::LinkSpec = "canopen+sim://?node=3".parse().expect("a spec");
+    harness
+        .state_mut()
+        .state
+        .request(drivedeck::worker::Request::Connect(other.clone()));
+    step_until(
+        &mut harness,
+        "the other drive",
+        Duration::from_secs(10),
+        |h| h.state().state.link_info().is_some_and(|i| i.spec == other),
+    );
+    harness.step();
+    harness.run();
+    assert!(harness.state().state.browser.restore.is_none());
+    assert!(harness.query_by_label("Restore 1 writes").is_none());
+    assert!(harness.query_by_label("Restore preview").is_none());
+    // The message about the preview says which link it came from.
+    assert!(
+        harness
+            .query_by_label_contains("[sim, earlier connection] 1 writes would make")
+            .is_some(),
+        "{:?}",
+        said(&harness)
+    );
+}
+
+#[test]
+fn a_new_connection_to_the_same_drive_drops_the_preview_made_before() {
+    let dir = temp_dir("backup-reconnect");
+    let path = dir.path().join("crafted.json");
+    std::fs::write(
+        &path,
+        crafted_backup(&[("6081:00", "Profile Velocity", "UNSIGNED32", "uint", 777)]),
+    )
+    .expect("write");
+    let mut harness = browser();
+    backup_file(&mut harness, &path);
+    preview_restore(&mut harness);
+    harness.run();
+    assert!(harness.query_by_label("Restore 1 writes").is_some());
+    let before = harness.state().state.browser.connection();
+
+    let same = harness
+        .state()
+        .state
+        .link_info()
+        .map(|i| i.spec.clone())
+        .expect("connected");
+    harness
+        .state_mut()
+        .state
+        .request(drivedeck::worker::Request::Connect(same));
+    step_until(
+        &mut harness,
+        "the new connection",
+        Duration::from_secs(10),
+        |h| h.state().state.browser.connection() > before && h.state().state.is_connected(),
+    );
+    harness.step();
+    harness.run();
+    assert!(harness.state().state.browser.restore.is_none());
+    assert!(harness.query_by_label("Restore 1 writes").is_none());
+    let message = said(&harness).expect("the preview's message");
+    assert!(message.earlier(harness.state().state.browser.connection()));
+    assert!(
+        harness
+            .query_by_label_contains("[sim, earlier connection] 1 writes would make")
+            .is_some(),
+        "{message:?}"
+    );
 }

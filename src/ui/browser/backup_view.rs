@@ -139,9 +139,9 @@ pub(super) fn comparison_ui(ui: &mut Ui, b: &mut Browser) {
             for d in differences.iter().filter(|d| d.device != Comparison::Same) {
                 ui.monospace(d.address.to_string());
                 ui.label(&d.name);
-                ui.label(d.file.to_string());
+                ui.label(b.shown(d.address, &d.file));
                 match &d.device {
-                    Comparison::Differs(v) => ui.colored_label(AMBER, v.to_string()),
+                    Comparison::Differs(v) => ui.colored_label(AMBER, b.shown(d.address, v)),
                     Comparison::Unreadable(reason) => ui.colored_label(RED, reason),
                     Comparison::Skipped(reason) => ui.weak(format!("skipped: {reason}")),
                     Comparison::Same => ui.label(""),
@@ -167,7 +167,7 @@ pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>
         if restore.steps.is_empty() {
             ui.label("The device already matches the file: nothing to write.");
         }
-        restore_steps_ui(ui, restore);
+        restore_steps_ui(ui, b.catalog(), restore);
         skipped_ui(ui, b.catalog(), restore);
         let can = connected
             && !restore.running
@@ -197,7 +197,7 @@ pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>
 
 /// The writes a restore makes, in order: the value now and the one written, why, and how
 /// each went.
-fn restore_steps_ui(ui: &mut Ui, restore: &Restore) {
+fn restore_steps_ui(ui: &mut Ui, catalog: &Catalog, restore: &Restore) {
     egui::Grid::new("restore_steps")
         .striped(true)
         .show(ui, |ui| {
@@ -212,10 +212,10 @@ fn restore_steps_ui(ui: &mut Ui, restore: &Restore) {
                 ui.label(
                     step.before
                         .as_ref()
-                        .map(Value::to_string)
+                        .map(|v| shown_in(catalog, step.address, v))
                         .unwrap_or_default(),
                 );
-                ui.label(step.value.to_string());
+                ui.label(shown_in(catalog, step.address, &step.value));
                 match (&step.why, &step.warning) {
                     (_, Some(warning)) => ui.colored_label(AMBER, warning),
                     (Why::Procedure(text), None) => ui.weak(*text),

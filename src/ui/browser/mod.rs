@@ -1,9 +1,12 @@
 //! The object dictionary browser: every known object in a filtered table with its value,
-//! read one at a time, the visible rows or all of them (with progress and cancel), edited
-//! by type with range checks and a confirmation; and backups: save, compare, restore and
-//! store to the device's memory. What a comparison or a restore may touch is judged by the
-//! dictionary shown (`od::backup::skip_reason`): commands, process data, read-only and
-//! unknown objects in a file are listed as skipped, with the reason, and never written.
+//! the rows on screen read by themselves (a few at a time, changes highlighted), one row,
+//! the visible rows or all of them on request (with progress and cancel), edited in place
+//! by type with range checks and a confirmation, read back after every write; and backups:
+//! save, compare, restore and store to the device's memory. What a comparison or a restore
+//! may touch is judged by the dictionary shown (`od::backup::skip_reason`): commands,
+//! process data, read-only and unknown objects in a file are listed as skipped, with the
+//! reason, and never written. Messages say how things went by their colour and belong to
+//! the link they came from.
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -23,6 +26,14 @@ pub use panel::*;
 mod backup_view;
 #[allow(unused_imports)]
 pub use backup_view::*;
+mod edit;
+mod message;
+pub use message::{Message, Tone};
+mod refresh;
+pub use refresh::{
+    CHANGED_FOR, DictionarySettings, MOST_READS_PER_SECOND, REFRESH_AFTER, REFRESH_IN_FLIGHT,
+    Refresh,
+};
 mod table;
 #[allow(unused_imports)]
 pub use table::*;
@@ -33,6 +44,9 @@ pub struct Cell {
     pub result: Result<Value, String>,
     /// `AppState::clock` when it arrived.
     pub at: f64,
+    /// When a read last brought another value than the one before, and that value (the
+    /// row is highlighted for [`CHANGED_FOR`] seconds).
+    pub changed: Option<(f64, Value)>,
 }
 
 /// What a bulk read is for.
@@ -66,7 +80,10 @@ pub struct Bulk {
 pub struct Edit {
     pub address: Address,
     pub text: String,
+    /// Why the text is not a value the object takes (type, range, limits), as typed.
     pub error: Option<String>,
+    /// The box takes the keyboard in the next frame.
+    focus: bool,
 }
 
 /// A write waiting for the user's yes.
@@ -96,10 +113,18 @@ pub struct Restore {
 /// What a request the browser sent is for.
 #[derive(Clone, Debug, PartialEq)]
 enum Pending {
-    Read,
-    Write { address: Address },
+    /// The bulk read ([`Browser::bulk`]).
+    Bulk,
+    /// Reads outside the bulk one (a row's Read, the rows on screen, read-backs after a
+    /// write or a restore): this many answers still to come.
+    Refresh(usize),
+    Write {
+        address: Address,
+    },
     RestoreStep(usize),
     Store,
+    /// Sent over a link to another drive than the one shown now: its answers are dropped.
+    Stale,
 }
 
 /// The browser's state.
@@ -113,11 +138,17 @@ pub struct Browser {
     pub confirm_store: bool,
     /// The last write's outcome per object, shown inline.
     pub write_results: BTreeMap<Address, Result<(), String>>,
-    /// The rows drawn in the last frame ("read visible").
+    /// The rows drawn in the last frame ("read visible", and read by themselves).
     pub visible: Vec<Address>,
+    /// The row picked by a click (Enter edits it, the arrow keys move it).
+    pub selected: Option<Address>,
+    /// The scrolled columns' widths and how far they are scrolled sideways.
+    pub columns: Columns,
+    /// The reads the table makes by itself, rate-limited.
+    pub refresh: Refresh,
     pub backup_path: String,
-    /// What the backup section says (saved to, loaded, failed).
-    pub message: Option<Result<String, String>>,
+    /// What the browser says about the last thing done (read, saved, loaded, failed).
+    pub message: Option<Message>,
     pub comparison: Option<(Box<Backup>, Vec<Difference>)>,
     pub restore: Option<Restore>,
     /// A dictionary loaded from an EDS instead of the built-in catalog.
@@ -125,10 +156,25 @@ pub struct Browser {
     pub eds_path: String,
     /// An object the user asked to plot (the app takes it after the panel is drawn).
     pub plot_request: Option<Address>,
-    /// The connection string, for backup files.
+    /// The connection string, for backup files and to know whose values are shown ("" when
+    /// not connected).
     pub link_text: String,
+    /// The link the values came from: the last one connected.
+    drive: String,
+    /// How many connections were made so far (see [`Browser::on_connected`]).
+    connection: u64,
+    /// `AppState::clock` as last seen.
+    now: f64,
     unsent: Vec<(Request, Pending)>,
     ids: HashMap<RequestId, Pending>,
+}
+
+/// A value with the unit `catalog` gives its object (as it is, for an object it lacks).
+fn shown_in(catalog: &Catalog, address: Address, value: &Value) -> String {
+    match catalog.get(address) {
+        Some(entry) => backup::shown(value, entry),
+        None => value.to_string(),
+    }
 }
 
 impl Browser {
@@ -150,6 +196,11 @@ impl Browser {
     /// The entries that pass the filter (index `6064`, `1018:01`, or a name).
     pub fn rows(&self) -> Vec<&Entry> {
         self.catalog().filter(self.filter.trim()).collect()
+    }
+
+    /// A value as the browser shows it: with the unit the dictionary gives its object.
+    pub fn shown(&self, address: Address, value: &Value) -> String {
+        shown_in(self.catalog(), address, value)
     }
 
     fn send(&mut self, outbox: &mut Vec<Request>, request: Request, pending: Pending) {
@@ -182,20 +233,13 @@ impl Browser {
                 objects,
                 path: ObjectPath::Auto,
             },
-            Pending::Read,
+            Pending::Bulk,
         );
     }
 
     /// One object, read by itself.
     pub fn read_one(&mut self, outbox: &mut Vec<Request>, address: Address, dtype: DataType) {
-        self.send(
-            outbox,
-            Request::ReadMany {
-                objects: vec![(address, dtype)],
-                path: ObjectPath::Auto,
-            },
-            Pending::Read,
-        );
+        self.read_back(outbox, vec![(address, dtype)]);
     }
 
     fn readable(entries: &[&Entry]) -> Vec<(Address, DataType)> {
@@ -212,9 +256,9 @@ impl Browser {
             return false;
         };
         let (_, pending) = self.unsent.remove(at);
-        if let (Pending::Read, Some(bulk)) = (&pending, self.bulk.as_mut())
+        if pending == Pending::Bulk
+            && let Some(bulk) = self.bulk.as_mut()
             && bulk.id.is_none()
-            && matches!(request, Request::ReadMany { objects, .. } if objects.len() == bulk.total)
         {
             bulk.id = Some(id);
         }
@@ -227,11 +271,18 @@ impl Browser {
         let Some(at) = self.unsent.iter().position(|(r, _)| r == request) else {
             return false;
         };
-        self.unsent.remove(at);
-        if matches!(request, Request::ReadMany { .. }) {
-            self.bulk = None;
+        let (_, pending) = self.unsent.remove(at);
+        match (pending, request) {
+            (Pending::Refresh(_), Request::ReadMany { objects, .. }) => {
+                // The table tries again by itself; no message for what nobody asked for.
+                self.refresh.forget(objects.iter().map(|(a, _)| *a));
+            }
+            (Pending::Bulk, _) => {
+                self.bulk = None;
+                self.say(Tone::Failed, reason);
+            }
+            _ => self.say(Tone::Failed, reason),
         }
-        self.message = Some(Err(reason.to_owned()));
         true
     }
 
@@ -247,29 +298,50 @@ impl Browser {
         result: &Result<Value, ObjectError>,
         clock: f64,
     ) -> bool {
-        if !self.ids.contains_key(&id) {
-            return false;
+        self.now = clock;
+        match self.ids.get_mut(&id) {
+            None => return false,
+            Some(Pending::Stale) => return true,
+            Some(Pending::Refresh(left)) => {
+                *left = left.saturating_sub(1);
+                if *left == 0 {
+                    self.ids.remove(&id);
+                }
+                self.refresh.arrived(address);
+            }
+            Some(_) => {}
         }
         // The table shows the refusal in words; the variant decided nothing here.
         let result = result.clone().map_err(|e| e.to_string());
-        self.values.insert(
-            address,
-            Cell {
-                result: result.clone(),
-                at: clock,
-            },
-        );
+        self.store_value(address, result.clone(), clock);
         if self.is_bulk(id) {
             if let Some(bulk) = self.bulk.as_mut() {
                 bulk.done += 1;
                 if result.is_err() {
                     bulk.failed += 1;
                 }
-                bulk.reads.insert(address, result.clone());
+                bulk.reads.insert(address, result);
             }
             self.bulk_progressed(id);
         }
         true
+    }
+
+    /// A value read: into its row, marked when it differs from the one read before.
+    fn store_value(&mut self, address: Address, result: Result<Value, String>, clock: f64) {
+        let old = self.values.get(&address);
+        let changed = match (old.map(|c| &c.result), &result) {
+            (Some(Ok(before)), Ok(now)) if before != now => Some((clock, before.clone())),
+            _ => old.and_then(|c| c.changed.clone()),
+        };
+        self.values.insert(
+            address,
+            Cell {
+                result,
+                at: clock,
+                changed,
+            },
+        );
     }
 
     /// A refusal of a request of ours (not connected, link lost…).
@@ -279,28 +351,41 @@ impl Browser {
             return false;
         };
         match pending {
-            Pending::Read if self.is_bulk(id) => {
-                if let Some(bulk) = self.bulk.as_mut() {
-                    // A whole ReadMany refused, or one of its objects dropped with the link.
-                    if bulk.done == 0 && *rejection == Rejection::NotConnected {
-                        bulk.done = bulk.total;
-                        bulk.failed = bulk.total;
-                    } else {
-                        bulk.done += 1;
-                        bulk.failed += 1;
-                    }
-                }
-                self.message = Some(Err(reason));
-                self.bulk_progressed(id);
+            Pending::Stale => {}
+            Pending::Bulk => self.bulk_rejected(id, rejection),
+            Pending::Refresh(_) => {
+                // Which objects went unread is not said: the table reads them again once
+                // they are due; later refusals of the same request are dropped.
+                self.ids.insert(id, Pending::Stale);
+                self.refresh.forget_all();
             }
-            Pending::Read => self.message = Some(Err(reason)),
             Pending::Write { address } => {
                 self.write_results.insert(address, Err(reason));
             }
-            Pending::RestoreStep(step) => self.restore_result(step, Err(reason)),
-            Pending::Store => self.message = Some(Err(format!("store to device: {reason}"))),
+            Pending::RestoreStep(step) => {
+                self.restore_result(step, Err(reason));
+            }
+            Pending::Store => self.say(Tone::Failed, format!("store to device: {reason}")),
         }
         true
+    }
+
+    /// The bulk read refused whole, or one of its objects dropped with the link.
+    fn bulk_rejected(&mut self, id: RequestId, rejection: &Rejection) {
+        if !self.is_bulk(id) {
+            return;
+        }
+        if let Some(bulk) = self.bulk.as_mut() {
+            if bulk.done == 0 && *rejection == Rejection::NotConnected {
+                bulk.done = bulk.total;
+                bulk.failed = bulk.total;
+            } else {
+                bulk.done += 1;
+                bulk.failed += 1;
+            }
+        }
+        self.say(Tone::Failed, rejection.to_string());
+        self.bulk_progressed(id);
     }
 
     /// The worker dropped what was left of a bulk read.
@@ -316,7 +401,7 @@ impl Browser {
         true
     }
 
-    /// A write result; `true` when it was ours. Writes read the object back.
+    /// A write result; `true` when it was ours. The objects written are read back.
     pub fn on_written(
         &mut self,
         id: RequestId,
@@ -328,51 +413,67 @@ impl Browser {
         let Some(pending) = self.ids.remove(&id) else {
             return false;
         };
-        let dtype = self.catalog().get(address).map(|e| e.dtype);
         match pending {
             Pending::Write { .. } => {
                 self.write_results.insert(address, result.clone());
-                if let Some(dtype) = dtype {
-                    self.read_one(outbox, address, dtype);
+                if let Some(entry) = self.catalog().get(address) {
+                    let object = (address, entry.dtype);
+                    self.read_back(outbox, vec![object]);
                 }
             }
-            Pending::RestoreStep(step) => self.restore_result(step, result.clone()),
+            Pending::RestoreStep(step) => {
+                if self.restore_result(step, result.clone()) {
+                    self.read_back_restored(outbox);
+                }
+            }
             Pending::Store => {
                 self.message = Some(match result {
-                    Ok(()) => Ok("stored: the drive keeps these values after a restart".into()),
-                    Err(e) => Err(format!("store to device failed: {e}")),
+                    Ok(()) => self.message_now(
+                        Tone::Done,
+                        "stored: the drive keeps these values after a restart",
+                    ),
+                    Err(e) => {
+                        self.message_now(Tone::Failed, format!("store to device failed: {e}"))
+                    }
                 })
             }
-            Pending::Read => {}
+            Pending::Refresh(_) | Pending::Bulk | Pending::Stale => {}
         }
         true
     }
 
-    fn restore_result(&mut self, step: usize, result: Result<(), String>) {
-        if let Some(restore) = self.restore.as_mut() {
-            if let Some(slot) = restore.results.get_mut(step) {
-                *slot = Some(result);
-            }
-            if restore.results.iter().all(Option::is_some) {
-                restore.running = false;
-                let failed = restore
-                    .results
-                    .iter()
-                    .filter(|r| matches!(r, Some(Err(_))))
-                    .count();
-                self.message = Some(if failed == 0 {
-                    Ok(format!(
-                        "restored: {} writes done; \"Store to device\" keeps them after a restart",
-                        restore.results.len()
-                    ))
-                } else {
-                    Err(format!(
-                        "restore finished with {failed} of {} writes refused (see the list)",
-                        restore.results.len()
-                    ))
-                });
-            }
+    /// A restore step's outcome; `true` when it was the last one.
+    fn restore_result(&mut self, step: usize, result: Result<(), String>) -> bool {
+        let Some(restore) = self.restore.as_mut() else {
+            return false;
+        };
+        if let Some(slot) = restore.results.get_mut(step) {
+            *slot = Some(result);
         }
+        if !restore.running || !restore.results.iter().all(Option::is_some) {
+            return false;
+        }
+        restore.running = false;
+        let total = restore.results.len();
+        let failed = restore
+            .results
+            .iter()
+            .filter(|r| matches!(r, Some(Err(_))))
+            .count();
+        if failed == 0 {
+            self.say(
+                Tone::Done,
+                format!(
+                    "restored: {total} writes done; \"Store to device\" keeps them after a restart"
+                ),
+            );
+        } else {
+            self.say(
+                Tone::Failed,
+                format!("restore finished with {failed} of {total} writes refused (see the list)"),
+            );
+        }
+        true
     }
 
     /// A bulk read moved on; when complete, finish what it was for.
@@ -388,11 +489,14 @@ impl Browser {
             return;
         };
         if bulk.cancelled {
-            self.message = Some(Err(format!(
-                "cancelled after {} of {} objects",
-                bulk.reads.len(),
-                bulk.total
-            )));
+            self.say(
+                Tone::Warning,
+                format!(
+                    "cancelled after {} of {} objects",
+                    bulk.reads.len(),
+                    bulk.total
+                ),
+            );
             return;
         }
         match bulk.purpose {
@@ -405,15 +509,17 @@ impl Browser {
 
     /// The table filled: how many objects were read, how many refused.
     fn finish_browse(&mut self, bulk: &Bulk) {
-        self.message = Some(Ok(format!(
-            "read {} objects{}",
-            bulk.total,
-            if bulk.failed > 0 {
-                format!(", {} refused (see the rows)", bulk.failed)
-            } else {
-                String::new()
-            }
-        )));
+        if bulk.failed == 0 {
+            self.say(Tone::Done, format!("read {} objects", bulk.total));
+        } else {
+            self.say(
+                Tone::Warning,
+                format!(
+                    "read {} objects, {} refused (see the rows)",
+                    bulk.total, bulk.failed
+                ),
+            );
+        }
     }
 
     /// The device against the file: where they differ, and what of the file is no setting.
@@ -427,15 +533,23 @@ impl Browser {
             |f: fn(&Comparison) -> bool| differences.iter().filter(|d| f(&d.device)).count();
         let differing = count(|c| matches!(c, Comparison::Differs(_) | Comparison::Unreadable(_)));
         let skipped = count(|c| matches!(c, Comparison::Skipped(_)));
-        self.message = Some(Ok(format!(
-            "compared {} objects with the file: {differing} differ or could not be read{}",
-            differences.len() - skipped,
-            if skipped > 0 {
-                format!("; {skipped} entries skipped (not settings, never restored)")
-            } else {
-                String::new()
-            }
-        )));
+        let tone = if differing == 0 {
+            Tone::Done
+        } else {
+            Tone::Warning
+        };
+        self.say(
+            tone,
+            format!(
+                "compared {} objects with the file: {differing} differ or could not be read{}",
+                differences.len() - skipped,
+                if skipped > 0 {
+                    format!("; {skipped} entries skipped (not settings, never restored)")
+                } else {
+                    String::new()
+                }
+            ),
+        );
         self.comparison = Some((file, differences));
     }
 
@@ -447,7 +561,7 @@ impl Browser {
         reads: &BTreeMap<Address, Result<Value, String>>,
     ) {
         let steps = backup::restore_plan(&file, self.catalog(), reads);
-        let skipped = backup::compare(&file, self.catalog(), reads)
+        let skipped: Vec<(Address, String)> = backup::compare(&file, self.catalog(), reads)
             .into_iter()
             .filter_map(|d| match d.device {
                 Comparison::Skipped(reason) => Some((d.address, reason)),
@@ -458,10 +572,23 @@ impl Browser {
                 _ => None,
             })
             .collect();
-        self.message = Some(Ok(format!(
-            "{} writes would make the device match the file",
-            steps.len()
-        )));
+        let tone = if steps.is_empty() {
+            Tone::Done
+        } else {
+            Tone::Info
+        };
+        self.say(
+            tone,
+            format!(
+                "{} writes would make the device match the file{}",
+                steps.len(),
+                if skipped.is_empty() {
+                    String::new()
+                } else {
+                    format!("; {} entries left alone (see the list)", skipped.len())
+                }
+            ),
+        );
         self.restore = Some(Restore {
             results: vec![None; steps.len()],
             backup: file,
@@ -478,21 +605,28 @@ impl Browser {
             .map(|d| d.as_secs())
             .unwrap_or(0);
         let file = Backup::new(&self.link_text, self.catalog(), reads, saved_at);
-        self.message = Some(
-            match crate::file::write_whole(std::path::Path::new(path), file.to_json()) {
-                Ok(()) => Ok(format!(
+        match crate::file::write_whole(std::path::Path::new(path), file.to_json()) {
+            Ok(()) => {
+                let unreadable = file.unreadable.len();
+                let text = format!(
                     "saved {} objects of {} to {path}{}",
                     file.objects.len(),
                     file.identity.summary(),
-                    if file.unreadable.is_empty() {
+                    if unreadable == 0 {
                         String::new()
                     } else {
-                        format!(" ({} could not be read)", file.unreadable.len())
+                        format!(" ({unreadable} could not be read)")
                     }
-                )),
-                Err(e) => Err(format!("cannot write {path}: {e}")),
-            },
-        );
+                );
+                let tone = if unreadable == 0 {
+                    Tone::Done
+                } else {
+                    Tone::Warning
+                };
+                self.say(tone, text);
+            }
+            Err(e) => self.say(Tone::Failed, format!("cannot write {path}: {e}")),
+        }
     }
 
     /// Load a backup file for a comparison or a restore.
@@ -500,13 +634,13 @@ impl Browser {
         let path = self.backup_path.trim().to_owned();
         match std::fs::read_to_string(&path) {
             Err(e) => {
-                self.message = Some(Err(format!("cannot read {path}: {e}")));
+                self.say(Tone::Failed, format!("cannot read {path}: {e}"));
                 None
             }
             Ok(text) => match Backup::from_json(&text) {
                 Ok(file) => Some(Box::new(file)),
                 Err(e) => {
-                    self.message = Some(Err(format!("{path}: {e}")));
+                    self.say(Tone::Failed, format!("{path}: {e}"));
                     None
                 }
             },

@@ -1,7 +1,7 @@
 //! The browser panel: its toolbar, EDS loading, the bulk reads, and how values and limits read.
 
 use super::*;
-use crate::ui::widgets::{labelled_text_edit_ui, message_ui};
+use crate::ui::widgets::labelled_text_edit_ui;
 
 pub(super) fn value_text(value: &Value, entry: &Entry) -> String {
     backup::shown(value, entry)
@@ -36,55 +36,69 @@ pub fn parse_edit(entry: &Entry, text: &str) -> Result<Value, String> {
 
 pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
     let connected = state.is_connected();
-    let clock = state.clock;
     let link = state
         .link_info()
         .map(|i| i.spec.to_string())
         .unwrap_or_default();
     let b = &mut state.browser;
+    // "" while not connected; a new connection is `Browser::on_connected`'s.
     b.link_text = link;
+    b.now = state.clock;
+    // Before any text box can take them.
+    let keys = table_keys(ui, b);
     let outbox = &mut state.outbox;
+    let rate = &mut state.settings.dictionary.reads_per_second;
 
+    // The tab above says what this is: no heading, the rows get the room. Each group
+    // (a label and its box, a bar and its button) stays on one line when the rows wrap.
     ui.horizontal_wrapped(|ui| {
-        ui.heading("Object dictionary");
-        labelled_text_edit_ui(ui, "Filter", &mut b.filter, 160.0, "Object filter");
+        together(ui, 330.0, |ui| {
+            labelled_text_edit_ui(ui, "Filter", &mut b.filter, 160.0, "Object filter");
+            ui.weak(format!(
+                "{} of {} objects",
+                b.rows().len(),
+                b.catalog().len()
+            ));
+        });
         read_buttons_ui(ui, b, outbox, connected);
-        dictionary_ui(ui, b);
+        together(ui, 130.0, |ui| auto_read_ui(ui, rate));
     });
-    ui.horizontal(|ui| {
-        labelled_text_edit_ui(ui, "EDS", &mut b.eds_path, 220.0, "EDS path");
-        if ui
-            .button("Load EDS")
-            .on_hover_text("Use a device's EDS file (CiA 306) instead of the built-in catalog")
-            .clicked()
-        {
-            load_eds(b);
-        }
+    ui.horizontal_wrapped(|ui| {
+        together(ui, 300.0, |ui| bulk_ui(ui, b, outbox));
+        together(ui, 360.0, |ui| {
+            dictionary_ui(ui, b);
+            labelled_text_edit_ui(ui, "EDS", &mut b.eds_path, 160.0, "EDS path");
+            if ui
+                .button("Load EDS")
+                .on_hover_text("Use a device's EDS file (CiA 306) instead of the built-in catalog")
+                .clicked()
+            {
+                load_eds(b);
+            }
+        });
     });
-
-    bulk_ui(ui, b, outbox);
     backup_ui(ui, b, outbox, connected);
-    message_ui(ui, b.message.as_ref());
+    message::message_ui(ui, b);
     comparison_ui(ui, b);
     restore_ui(ui, b, outbox, connected);
-    confirm_ui(ui, b, outbox);
-    table_ui(ui, b, outbox, connected, clock);
+    edit::confirm_ui(ui, b, outbox);
+    table_ui(ui, b, outbox, connected, keys);
+    b.refresh_visible(outbox, connected, *rate);
     if let Some(address) = state.browser.plot_request.take() {
         state.watch_object(&address.to_string());
-        state.browser.message = state
-            .plot
-            .message
-            .clone()
-            .map(|m| m.map(|text| format!("{text}: see the Plots tab")));
+        let said = state.plot.message.clone().map(|m| match m {
+            Ok(text) => (Tone::Done, format!("{text}: see the Plots tab")),
+            Err(text) => (Tone::Failed, text),
+        });
+        if let Some((tone, text)) = said {
+            state.browser.say(tone, text);
+        }
     }
 }
 
-/// How many objects pass the filter; Read visible and Read all.
+/// Read visible and Read all.
 fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
-    let rows = b.rows();
-    let count = rows.len();
-    let readable = Browser::readable(&rows);
-    ui.weak(format!("{count} of {} objects", b.catalog().len()));
+    let readable = Browser::readable(&b.rows());
     let busy = b.bulk.is_some();
     if ui
         .add_enabled(connected && !busy, egui::Button::new("Read visible"))
@@ -111,6 +125,39 @@ fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, conn
     }
 }
 
+/// In a wrapping row: `add` on one line, on the next one when less than `width` is left.
+fn together(ui: &mut Ui, width: f32, add: impl FnOnce(&mut Ui)) {
+    if ui.available_rect_before_wrap().width() < width
+        && ui.cursor().left() > ui.max_rect().left() + 1.0
+    {
+        ui.end_row();
+    }
+    ui.horizontal(add);
+}
+
+/// How many objects a second the table reads by itself (0: none).
+fn auto_read_ui(ui: &mut Ui, rate: &mut f64) {
+    ui.label("Auto-read");
+    let field = ui
+        .add(
+            egui::DragValue::new(rate)
+                .range(0.0..=MOST_READS_PER_SECOND)
+                .speed(1.0)
+                .max_decimals(0)
+                .suffix(" /s"),
+        )
+        .on_hover_text(format!(
+            "The rows on screen are read by themselves, this many objects a second at most, \
+             again when their value is older than {REFRESH_AFTER:.0} s; a value that changed is \
+             lit for a while. 0: only on request."
+        ));
+    crate::ui::widgets::name_widget(
+        &field,
+        egui::accesskit::Role::SpinButton,
+        "Auto-read objects per second",
+    );
+}
+
 /// The dictionary shown: an EDS's (with the way back to the built-in one), or the built-in.
 fn dictionary_ui(ui: &mut Ui, b: &mut Browser) {
     match &b.eds {
@@ -121,7 +168,9 @@ fn dictionary_ui(ui: &mut Ui, b: &mut Browser) {
             }
         }
         None => {
-            ui.weak("dictionary: built-in Nanotec catalog");
+            ui.weak("built-in catalog").on_hover_text(
+                "The objects of Nanotec's drives, as built in; Load EDS for another device's",
+            );
         }
     }
 }
@@ -132,7 +181,7 @@ const EDS_WARNINGS_SHOWN: usize = 3;
 fn load_eds(b: &mut Browser) {
     let path = b.eds_path.trim().to_owned();
     if path.is_empty() {
-        b.message = Some(Err("give the path of an EDS or DCF file first".into()));
+        b.say(Tone::Failed, "give the path of an EDS or DCF file first");
         return;
     }
     // A CANopen link's node id resolves the file's $NODEID formulas (COB-IDs).
@@ -150,40 +199,47 @@ fn load_eds(b: &mut Browser) {
             for w in &eds.warnings {
                 tracing::warn!("{path}: {w}");
             }
-            let mut text = format!(
-                "loaded {} objects from {path} ({} {})",
-                merged.catalog.len(),
-                eds.device_info
-                    .vendor_name
-                    .as_deref()
-                    .unwrap_or("unknown vendor"),
-                eds.device_info
-                    .product_name
-                    .as_deref()
-                    .unwrap_or("unknown product"),
-            );
-            if !eds.warnings.is_empty() {
-                let shown: Vec<String> = eds
-                    .warnings
-                    .iter()
-                    .take(EDS_WARNINGS_SHOWN)
-                    .map(ToString::to_string)
-                    .collect();
-                text.push_str(&format!(
-                    "; {} warning(s): {}",
-                    eds.warnings.len(),
-                    shown.join("; ")
-                ));
-                if eds.warnings.len() > EDS_WARNINGS_SHOWN {
-                    text.push_str(" (the rest in the log)");
-                }
-            }
-            b.message = Some(Ok(text));
+            let (tone, text) = eds_loaded_text(&eds, merged.catalog.len(), &path);
+            b.say(tone, text);
             b.values.clear();
             b.eds = Some((path, merged.catalog));
         }
-        Err(e) => b.message = Some(Err(format!("{path}: {e}"))),
+        Err(e) => b.say(Tone::Failed, format!("{path}: {e}")),
     }
+}
+
+/// What a loaded EDS says: how many objects from which device; with what the import
+/// skipped or guessed, counted, the first few named, in amber.
+fn eds_loaded_text(eds: &Eds, objects: usize, path: &str) -> (Tone, String) {
+    let mut text = format!(
+        "loaded {objects} objects from {path} ({} {})",
+        eds.device_info
+            .vendor_name
+            .as_deref()
+            .unwrap_or("unknown vendor"),
+        eds.device_info
+            .product_name
+            .as_deref()
+            .unwrap_or("unknown product"),
+    );
+    if eds.warnings.is_empty() {
+        return (Tone::Done, text);
+    }
+    let shown: Vec<String> = eds
+        .warnings
+        .iter()
+        .take(EDS_WARNINGS_SHOWN)
+        .map(ToString::to_string)
+        .collect();
+    text.push_str(&format!(
+        "; {} warning(s), entries skipped or guessed: {}",
+        eds.warnings.len(),
+        shown.join("; ")
+    ));
+    if eds.warnings.len() > EDS_WARNINGS_SHOWN {
+        text.push_str(" (the rest in the log)");
+    }
+    (Tone::Warning, text)
 }
 
 /// The progress row of a bulk read. Always drawn (idle: empty, Cancel disabled), so the
@@ -207,10 +263,10 @@ fn bulk_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
         }
         None => (0.0, "no read running".to_owned(), None, false),
     };
-    ui.horizontal(|ui| {
+    ui.scope(|ui| {
         let mut bar = egui::ProgressBar::new(fraction)
             .text(text)
-            .desired_width(320.0);
+            .desired_width(220.0);
         if id.is_none() {
             // Idle: no coloured fill, only the text.
             bar = bar.fill(ui.visuals().extreme_bg_color);

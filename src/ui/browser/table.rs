@@ -1,238 +1,504 @@
-//! The object table: rows with value, limits and age, in-place actions, the write confirmation.
+//! The object table: Object and Name pinned on the left, the other columns scrolled
+//! sideways under one bar, a row picked by a click and edited in place.
+//!
+//! egui_extras' `TableBuilder` owns a table's vertical `ScrollArea`. Two tables side by
+//! side (pinned and scrolled) can only follow each other a frame late: a `ScrollArea`
+//! applies the wheel, kinetic scrolling and its bar's drag when it ends, after its rows
+//! are laid out. And a table inside a horizontal `ScrollArea` has its vertical bar at the
+//! far end of its content, out of view whenever it is scrolled. So this is one table of
+//! three columns, Object, Name and a window onto the other columns, which each row draws
+//! shifted left by `Columns::scroll`: the pinned and the scrolled cells of a row are laid
+//! out in the same pass and cannot drift apart, and the vertical bar stays at the panel's
+//! edge. The sideways offset moves with the bar under the window, a horizontal wheel or
+//! Shift+wheel over the table; a column's width by dragging its header's right edge.
 
+use super::edit::{edit_box_ui, edit_buttons_ui, edit_note_ui};
+use super::refresh::change_glow;
 use super::*;
-use eframe::egui::Response;
+use eframe::egui::{Rect, Response, Sense, UiBuilder};
 use egui_extras::TableRow;
 
-pub(super) fn confirm_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
-    let Some(confirm) = b.confirm.clone() else {
-        return;
-    };
-    let modal = egui::Modal::new(egui::Id::unique("confirm_write")).show(ui.ctx(), |ui| {
-        ui.heading("Write to the drive?");
-        ui.label(format!("{} {}", confirm.address, confirm.name));
-        ui.label(format!(
-            "{} -> {}",
-            confirm
-                .before
-                .as_ref()
-                .map(Value::to_string)
-                .unwrap_or_else(|| "(not read)".into()),
-            confirm.value
-        ));
-        let mut go = false;
-        let mut cancel = false;
-        ui.horizontal(|ui| {
-            let write = ui.button("Write");
-            crate::ui::widgets::name_widget(&write, egui::accesskit::Role::Button, "Confirm write");
-            go = write.clicked();
-            cancel = ui.button("Cancel").clicked();
-        });
-        (go, cancel)
-    });
-    let (go, cancel) = modal.inner;
-    if go {
-        b.confirm = None;
-        b.edit = None;
-        b.write_results.remove(&confirm.address);
-        b.send(
-            outbox,
-            Request::WriteObject {
-                address: confirm.address,
-                dtype: confirm.dtype,
-                value: confirm.value,
-                path: ObjectPath::Auto,
-            },
-            Pending::Write {
-                address: confirm.address,
-            },
-        );
-    } else if cancel || modal.should_close() {
-        b.confirm = None;
+/// The scrolled columns, left to right: title and first width.
+const SCROLLED: [(&str, f32); 8] = [
+    ("Value", 150.0),
+    ("", 160.0),
+    ("Hex", 96.0),
+    ("Type", 50.0),
+    ("Access", 50.0),
+    ("Default", 90.0),
+    ("Limits", 120.0),
+    ("Read", 64.0),
+];
+const VALUE: usize = 0;
+const ACTIONS: usize = 1;
+/// Space between two scrolled columns.
+const GAP: f32 = 8.0;
+const ROW: f32 = 22.0;
+/// The bar under the scrolled columns.
+const BAR: f32 = 10.0;
+
+/// The scrolled columns' widths and how far they are scrolled sideways.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Columns {
+    pub widths: [f32; SCROLLED.len()],
+    /// How far (points) the scrolled columns are shifted left.
+    pub scroll: f32,
+    /// The Value column was fitted to the table's first width.
+    fitted: bool,
+}
+
+impl Default for Columns {
+    fn default() -> Self {
+        Self {
+            widths: SCROLLED.map(|(_, width)| width),
+            scroll: 0.0,
+            fitted: false,
+        }
     }
 }
 
+impl Columns {
+    /// The first time the table is drawn, `width` wide: the Value column takes a share of
+    /// it (within 110 to 220 points), so a narrow panel still shows the row's buttons
+    /// beside the value; then it keeps the width the user drags it to.
+    fn fit(&mut self, width: f32) {
+        if self.fitted || width <= 0.0 {
+            return;
+        }
+        self.fitted = true;
+        if let Some(value) = self.widths.get_mut(VALUE) {
+            *value = (width * 0.22).clamp(110.0, 220.0);
+        }
+    }
+
+    /// Each column's left and right edge from the scrolled window's left, unscrolled.
+    fn spans(&self) -> [(f32, f32); SCROLLED.len()] {
+        let mut left = 0.0;
+        self.widths.map(|width| {
+            let span = (left, left + width);
+            left += width + GAP;
+            span
+        })
+    }
+
+    /// All the scrolled columns side by side.
+    fn width(&self) -> f32 {
+        self.widths.iter().sum::<f32>() + GAP * (SCROLLED.len() - 1) as f32
+    }
+
+    /// Keep the offset within what there is to scroll in a window `view` wide.
+    fn clamp(&mut self, view: f32) {
+        self.scroll = self.scroll.clamp(0.0, (self.width() - view).max(0.0));
+    }
+
+    /// Where column `i` is in a row whose window is `cell`, and whether any of it shows.
+    fn rect(&self, i: usize, cell: Rect, y: egui::Rangef) -> Option<Rect> {
+        let (left, right) = self.spans().get(i).copied()?;
+        let x0 = cell.left() - self.scroll + left;
+        let x1 = cell.left() - self.scroll + right;
+        (x1 > cell.left() && x0 < cell.right()).then(|| Rect::from_x_y_ranges(x0..=x1, y))
+    }
+}
+
+/// What the user did in a row.
+pub(super) enum RowAction {
+    Select,
+    Read,
+    Plot,
+    Edit,
+    Typed(String),
+    Submit,
+    CancelEdit,
+    /// The edit box took the keyboard.
+    Focused,
+}
+
+/// The keys of the table, read before anything else takes them: Enter edits the selected
+/// row, the up and down arrows move the selection. Only while no text box has the
+/// keyboard and no dialog is open.
+pub(super) fn table_keys(ui: &Ui, b: &Browser) -> (Option<(Address, RowAction)>, Option<usize>) {
+    let busy = ui.ctx().egui_wants_keyboard_input()
+        || ui.ctx().memory(|m| m.top_modal_layer().is_some())
+        || b.edit.is_some()
+        || b.confirm.is_some();
+    if busy {
+        return (None, None);
+    }
+    let (enter, up, down) = ui.input(|i| {
+        (
+            i.key_pressed(egui::Key::Enter),
+            i.key_pressed(egui::Key::ArrowUp),
+            i.key_pressed(egui::Key::ArrowDown),
+        )
+    });
+    let rows = b.rows();
+    let at = b
+        .selected
+        .and_then(|s| rows.iter().position(|e| e.address == s));
+    let to = match (at, up, down) {
+        (Some(at), true, false) => Some(at.saturating_sub(1)),
+        (Some(at), false, true) => Some((at + 1).min(rows.len().saturating_sub(1))),
+        (None, true, _) | (None, _, true) => Some(0),
+        _ => None,
+    };
+    if let Some(to) = to
+        && let Some(entry) = rows.get(to)
+    {
+        return (Some((entry.address, RowAction::Select)), Some(to));
+    }
+    match (enter, b.selected) {
+        (true, Some(address)) => (Some((address, RowAction::Edit)), None),
+        _ => (None, None),
+    }
+}
+
+/// The table: its rows (those drawn become `b.visible`), what was done in them applied.
 pub(super) fn table_ui(
     ui: &mut Ui,
     b: &mut Browser,
     outbox: &mut Vec<Request>,
     connected: bool,
-    clock: f64,
+    keys: (Option<(Address, RowAction)>, Option<usize>),
 ) {
     let rows: Vec<Entry> = b.rows().into_iter().cloned().collect();
+    let area = ui.available_rect_before_wrap();
+    let mut columns = b.columns.clone();
+    columns.fit(area.width());
+    sideways_wheel(ui, area, &mut columns);
+    let (key_action, scroll_to) = keys;
+    let mut actions: Vec<(Address, RowAction)> = key_action.into_iter().collect();
     let mut visible = vec![];
-    let mut actions: Vec<(Address, RowAction)> = vec![];
-    // Wider than the panel on a laptop screen: the columns right of the value scroll into
-    // view sideways, the header stays on top.
-    egui::ScrollArea::horizontal()
-        .id_salt("od_table_sideways")
-        .show(ui, |ui| {
-            with_columns(TableBuilder::new(ui))
-                .header(20.0, |mut header| {
-                    for title in [
-                        "Object", "Name", "Value", "", "Hex", "Type", "Access", "Default",
-                        "Limits", "Read",
-                    ] {
-                        header.col(|ui| {
-                            ui.strong(title);
-                        });
-                    }
-                })
-                .body(|body| {
-                    body.rows(22.0, rows.len(), |mut row| {
-                        let Some(entry) = rows.get(row.index()) else {
-                            return;
-                        };
-                        visible.push(entry.address);
-                        let view = RowView {
-                            b,
-                            entry,
-                            connected,
-                        };
-                        entry_row(&mut row, &view, clock, &mut actions);
-                    });
-                });
+    let table_rect = area.with_max_y((area.max.y - BAR - 2.0).max(area.min.y));
+    ui.scope_builder(UiBuilder::new().max_rect(table_rect), |ui| {
+        // Labels take no clicks: a click anywhere on a row picks it.
+        ui.style_mut().interaction.selectable_labels = false;
+        let mut builder = with_columns(TableBuilder::new(ui), area.width());
+        if let Some(row) = scroll_to {
+            builder = builder.scroll_to_row(row, None);
+        }
+        let mut window = Rect::NOTHING;
+        let mut table = builder.header(ROW, |mut header| {
+            header.col(|ui| {
+                ui.strong("Object");
+            });
+            header.col(|ui| {
+                ui.strong("Name");
+            });
+            header.col(|ui| window = ui.max_rect());
         });
+        columns.clamp(window.width());
+        let bar = Rect::from_x_y_ranges(window.x_range(), (table_rect.max.y + 2.0)..=area.max.y);
+        sideways_bar_ui(table.ui_mut(), bar, &mut columns);
+        scrolled_header_ui(table.ui_mut(), window, &mut columns);
+        let view = TableView {
+            b,
+            columns: &columns,
+            connected,
+        };
+        let heights: Vec<f32> = rows.iter().map(|e| view.height(e)).collect();
+        table.body(|body| {
+            body.heterogeneous_rows(heights.into_iter(), |mut row| {
+                let Some(entry) = rows.get(row.index()) else {
+                    return;
+                };
+                visible.push(entry.address);
+                entry_row(&mut row, &view, entry, &mut actions);
+            });
+        });
+    });
+    ui.allocate_rect(area, Sense::hover());
+    b.columns = columns;
     b.visible = visible;
     for (address, action) in actions {
         apply_row_action(b, outbox, address, action);
     }
 }
 
-/// The table's look and its columns, the value wide enough to type in.
-fn with_columns(table: TableBuilder<'_>) -> TableBuilder<'_> {
+/// The table's look and its columns: Object and Name, then the window onto the rest. The
+/// Name column starts at a fifth of the table's `width` (within 130 to 260 points), so a
+/// narrow panel still shows the value and the row's buttons beside it; then it keeps the
+/// width the user drags it to.
+fn with_columns(table: TableBuilder<'_>, width: f32) -> TableBuilder<'_> {
+    let name = (width * 0.2).clamp(130.0, 260.0);
     table
         .id_salt("od_table")
         .striped(true)
         .resizable(true)
+        .sense(Sense::click())
         .auto_shrink([false, false])
         .min_scrolled_height(120.0)
-        .column(Column::initial(70.0).at_least(60.0))
-        .column(Column::initial(200.0).at_least(80.0).clip(true))
-        .column(Column::initial(170.0).at_least(80.0).clip(true))
-        .column(Column::initial(120.0).at_least(100.0))
-        .column(Column::initial(90.0).clip(true))
-        .column(Column::initial(46.0))
-        .column(Column::initial(44.0))
-        .column(Column::initial(80.0).clip(true))
-        .column(Column::initial(110.0).clip(true))
-        .column(Column::remainder().at_least(60.0))
+        .column(Column::initial(76.0).at_least(64.0))
+        .column(Column::initial(name).at_least(90.0).clip(true))
+        .column(Column::remainder().at_least(120.0).clip(true))
 }
 
-/// What a row is drawn from.
-struct RowView<'a> {
+/// A horizontal wheel (or Shift+wheel) over the table moves the scrolled columns; the
+/// vertical one is the table's own.
+fn sideways_wheel(ui: &mut Ui, area: Rect, columns: &mut Columns) {
+    if !ui.rect_contains_pointer(area) {
+        return;
+    }
+    let dx = ui.input(|i| i.smooth_scroll_delta.x);
+    if dx != 0.0 {
+        columns.scroll -= dx;
+        ui.input_mut(|i| i.smooth_scroll_delta.x = 0.0);
+    }
+}
+
+/// The bar under the scrolled columns: drag its handle, or click the track to move there.
+fn sideways_bar_ui(ui: &mut Ui, track: Rect, columns: &mut Columns) {
+    let view = track.width();
+    let content = columns.width();
+    if content <= view || view <= 0.0 {
+        return;
+    }
+    let response = ui.interact(
+        track,
+        ui.scope_id().with("od_sideways_bar"),
+        Sense::click_and_drag(),
+    );
+    crate::ui::widgets::name_widget(
+        &response,
+        egui::accesskit::Role::ScrollBar,
+        "Scroll the columns sideways",
+    );
+    let handle = (view / content * view).max(24.0).min(view);
+    let travel = (view - handle).max(1.0);
+    let range = content - view;
+    if response.dragged() {
+        columns.scroll += response.drag_delta().x * range / travel;
+    } else if response.clicked()
+        && let Some(at) = response.interact_pointer_pos()
+    {
+        columns.scroll = (at.x - track.left() - handle / 2.0) / travel * range;
+    }
+    columns.clamp(view);
+    let x = track.left() + columns.scroll / range * travel;
+    let knob = Rect::from_min_size(
+        egui::pos2(x, track.top()),
+        egui::vec2(handle, track.height()),
+    );
+    let painter = ui.painter();
+    painter.rect_filled(track, 3.0, ui.visuals().extreme_bg_color);
+    painter.rect_filled(
+        knob.shrink(1.0),
+        3.0,
+        ui.style().interact(&response).bg_fill,
+    );
+}
+
+/// The titles of the scrolled columns, each one's right edge a handle to resize it.
+fn scrolled_header_ui(ui: &mut Ui, window: Rect, columns: &mut Columns) {
+    for (i, (title, _)) in SCROLLED.iter().enumerate() {
+        let Some(rect) = columns.rect(i, window, window.y_range()) else {
+            continue;
+        };
+        let mut child = scrolled_child(ui, rect, window, ("od_head", i));
+        child.strong(*title);
+        let edge =
+            Rect::from_x_y_ranges((rect.right() - 3.0)..=(rect.right() + 3.0), rect.y_range());
+        let handle = ui.interact(edge, ui.scope_id().with(("od_resize", i)), Sense::drag());
+        if handle.hovered() || handle.dragged() {
+            ui.ctx().set_cursor_icon(egui::CursorIcon::ResizeHorizontal);
+            let stroke = ui.visuals().widgets.hovered.fg_stroke;
+            ui.painter().with_clip_rect(window).vline(
+                rect.right() + GAP / 2.0,
+                window.y_range(),
+                stroke,
+            );
+        }
+        if handle.dragged()
+            && let Some(width) = columns.widths.get_mut(i)
+        {
+            *width = (*width + handle.drag_delta().x).max(30.0);
+        }
+    }
+}
+
+/// A child of `ui` drawing one scrolled cell at `rect`, clipped to the window.
+fn scrolled_child(ui: &mut Ui, rect: Rect, window: Rect, salt: impl egui::AsIdSalt) -> Ui {
+    let mut child = ui.new_child(
+        UiBuilder::new()
+            .id_salt(salt)
+            .max_rect(rect)
+            .layout(egui::Layout::left_to_right(egui::Align::Center)),
+    );
+    child.set_clip_rect(rect.intersect(window).intersect(ui.clip_rect()));
+    child
+}
+
+/// What the rows are drawn from.
+struct TableView<'a> {
     b: &'a Browser,
-    entry: &'a Entry,
+    columns: &'a Columns,
     connected: bool,
 }
 
-impl RowView<'_> {
-    /// The value last read, or why it could not be.
-    fn cell(&self) -> Option<&Cell> {
-        self.b.values.get(&self.entry.address)
+impl TableView<'_> {
+    /// The value being typed into `entry`'s row, if it is.
+    fn editing(&self, entry: &Entry) -> Option<&Edit> {
+        self.b.edit.as_ref().filter(|e| e.address == entry.address)
     }
 
-    /// The value being typed into this row, if it is.
-    fn editing(&self) -> Option<&Edit> {
-        self.b
-            .edit
-            .as_ref()
-            .filter(|e| e.address == self.entry.address)
+    /// A row being edited has a second line, for why the value is refused.
+    fn height(&self, entry: &Entry) -> f32 {
+        if self.editing(entry).is_some() {
+            2.0 * ROW
+        } else {
+            ROW
+        }
     }
 }
 
-/// One object's row: its cells left to right, what the user did in it into `actions`.
+/// One object's row: Object and Name, then its scrolled cells; a click picks it, a
+/// double-click edits it.
 fn entry_row(
     row: &mut TableRow<'_, '_>,
-    view: &RowView<'_>,
-    clock: f64,
+    view: &TableView<'_>,
+    entry: &Entry,
     actions: &mut Vec<(Address, RowAction)>,
 ) {
-    let entry = view.entry;
-    let cell = view.cell();
+    row.set_selected(view.b.selected == Some(entry.address));
     row.col(|ui| {
         ui.monospace(entry.address.to_string());
     });
     row.col(|ui| {
-        let response = ui.label(entry.full_name());
+        let name = ui.add(egui::Label::new(entry.full_name()).truncate());
         if !entry.description.is_empty() {
-            response.on_hover_text(&entry.description);
+            name.on_hover_text(&entry.description);
         }
     });
-    row.col(|ui| value_cell_ui(ui, view, actions));
-    row.col(|ui| {
-        ui.horizontal(|ui| match view.editing() {
-            Some(edit) => edit_buttons_ui(ui, entry, edit, actions),
-            None => row_buttons_ui(ui, view, actions),
-        });
-    });
-    row.col(|ui| {
-        if let Some(Ok(value)) = cell.map(|c| &c.result) {
-            ui.monospace(value.to_hex(entry.dtype));
-        }
-    });
-    row.col(|ui| {
-        ui.label(entry.dtype.short_name());
-    });
-    row.col(|ui| {
-        ui.label(entry.access.short_name());
-    });
-    row.col(|ui| {
-        if let Some(default) = &entry.default {
-            ui.label(default.to_string());
-        }
-    });
-    row.col(|ui| {
-        ui.label(limits_text(entry));
-    });
-    row.col(|ui| {
-        if let Some(cell) = cell {
-            ui.weak(age_text(clock, cell.at));
-        }
-    });
+    row.col(|ui| scrolled_cells_ui(ui, view, entry, actions));
+    let response = row.response();
+    if response.double_clicked() {
+        actions.push((entry.address, RowAction::Select));
+        actions.push((entry.address, RowAction::Edit));
+    } else if response.clicked() {
+        actions.push((entry.address, RowAction::Select));
+    }
 }
 
-/// The value: the box it is typed into, or as last read (a refusal in red).
-fn value_cell_ui(ui: &mut Ui, view: &RowView<'_>, actions: &mut Vec<(Address, RowAction)>) {
-    let entry = view.entry;
-    if let Some(edit) = view.editing() {
-        edit_box_ui(ui, entry, edit, actions);
-    } else if let Some(Err(e)) = view.b.write_results.get(&entry.address) {
+/// The cells of the scrolled columns that show in the window; under a value being
+/// edited, why it is refused.
+fn scrolled_cells_ui(
+    ui: &mut Ui,
+    view: &TableView<'_>,
+    entry: &Entry,
+    actions: &mut Vec<(Address, RowAction)>,
+) {
+    let window = ui.max_rect();
+    let line = egui::Rangef::new(window.top(), window.top() + ROW);
+    for i in 0..SCROLLED.len() {
+        let Some(rect) = view.columns.rect(i, window, line) else {
+            continue;
+        };
+        let mut child = scrolled_child(ui, rect, window, ("od_cell", i));
+        cell_ui(&mut child, i, view, entry, actions);
+    }
+    if let Some(edit) = view.editing(entry)
+        && let Some((left, _)) = view.columns.spans().get(VALUE).copied()
+    {
+        let x0 = window.left() - view.columns.scroll + left;
+        let under = Rect::from_x_y_ranges(x0..=window.right(), line.max..=window.bottom());
+        edit_note_ui(ui, under.intersect(window), entry, edit);
+    }
+}
+
+/// Scrolled column `i` of `entry`'s row.
+fn cell_ui(
+    ui: &mut Ui,
+    i: usize,
+    view: &TableView<'_>,
+    entry: &Entry,
+    actions: &mut Vec<(Address, RowAction)>,
+) {
+    let cell = view.b.values.get(&entry.address);
+    let value = cell.and_then(|c| c.result.as_ref().ok());
+    match i {
+        VALUE => value_cell_ui(ui, view, entry, actions),
+        ACTIONS => match view.editing(entry) {
+            Some(_) => edit_buttons_ui(ui, entry, actions),
+            None => row_buttons_ui(ui, view, entry, actions),
+        },
+        2 => {
+            if let Some(value) = value {
+                ui.monospace(value.to_hex(entry.dtype));
+            }
+        }
+        3 => {
+            ui.label(entry.dtype.short_name());
+        }
+        4 => {
+            ui.label(entry.access.short_name());
+        }
+        5 => {
+            if let Some(default) = &entry.default {
+                ui.label(backup::shown(default, entry));
+            }
+        }
+        6 => {
+            ui.label(limits_text(entry));
+        }
+        _ => {
+            if let Some(cell) = cell {
+                ui.weak(age_text(view.b.now, cell.at));
+            }
+        }
+    }
+}
+
+/// The value: the box it is typed into, or as last read (a refusal in red), lit for a
+/// while when it changed since the read before.
+fn value_cell_ui(
+    ui: &mut Ui,
+    view: &TableView<'_>,
+    entry: &Entry,
+    actions: &mut Vec<(Address, RowAction)>,
+) {
+    let cell = view.b.values.get(&entry.address);
+    if let Some(edit) = view.editing(entry) {
+        edit_box_ui(ui, entry, edit, ui.max_rect().width() - 4.0, actions);
+        return;
+    }
+    if let Some(Err(e)) = view.b.write_results.get(&entry.address) {
         ui.colored_label(RED, e).on_hover_text(e);
-    } else {
-        match view.cell().map(|c| &c.result) {
-            Some(Ok(value)) => {
-                ui.label(value_text(value, entry));
-            }
-            Some(Err(e)) => {
-                ui.colored_label(RED, e).on_hover_text(e);
-            }
-            None => {
-                ui.weak("?");
-            }
+        return;
+    }
+    let Some(cell) = cell else {
+        ui.weak("?");
+        return;
+    };
+    // The highlight goes under the text, drawn once the text is.
+    let behind = ui.painter().add(egui::Shape::Noop);
+    let label = match &cell.result {
+        Ok(value) => ui.label(value_text(value, entry)),
+        Err(e) => ui.colored_label(RED, e).on_hover_text(e),
+    };
+    if let Some((at, before)) = &cell.changed {
+        // No repaint asked for the fading: values change only while connected, and the
+        // samples of a link repaint the window every cycle.
+        let glow = change_glow(view.b.now - at);
+        if glow > 0.0 {
+            let lit =
+                egui::Shape::rect_filled(ui.max_rect(), 2.0, AMBER.gamma_multiply(0.35 * glow));
+            ui.painter().set(behind, lit);
         }
-    }
-}
-
-/// The box a new value is typed into; Enter submits it.
-fn edit_box_ui(ui: &mut Ui, entry: &Entry, edit: &Edit, actions: &mut Vec<(Address, RowAction)>) {
-    let mut text = edit.text.clone();
-    let response = crate::ui::widgets::named_text_edit(
-        ui,
-        &mut text,
-        110.0,
-        &format!("New value {}", entry.address),
-    );
-    if text != edit.text {
-        actions.push((entry.address, RowAction::Typed(text)));
-    }
-    if response.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
-        actions.push((entry.address, RowAction::Submit));
+        label.on_hover_text(format!(
+            "changed {} (was {})",
+            age_text(view.b.now, *at),
+            backup::shown(before, entry)
+        ));
     }
 }
 
 /// A row's small button, named "<what> <address>" for screen readers.
-fn row_button_ui(ui: &mut Ui, enabled: bool, text: &str, what: &str, address: Address) -> Response {
+pub(super) fn row_button_ui(
+    ui: &mut Ui,
+    enabled: bool,
+    text: &str,
+    what: &str,
+    address: Address,
+) -> Response {
     let button = ui.add_enabled(enabled, egui::Button::new(text).small());
     crate::ui::widgets::name_widget(
         &button,
@@ -242,27 +508,13 @@ fn row_button_ui(ui: &mut Ui, enabled: bool, text: &str, what: &str, address: Ad
     button
 }
 
-/// While a value is typed: write it (after the confirmation), or cancel; why it is refused.
-fn edit_buttons_ui(
+/// Read, Plot (what can be sampled) and Edit; "written" after a write went through.
+fn row_buttons_ui(
     ui: &mut Ui,
+    view: &TableView<'_>,
     entry: &Entry,
-    edit: &Edit,
     actions: &mut Vec<(Address, RowAction)>,
 ) {
-    if row_button_ui(ui, true, "Write…", "Write", entry.address).clicked() {
-        actions.push((entry.address, RowAction::Submit));
-    }
-    if ui.small_button("Cancel").clicked() {
-        actions.push((entry.address, RowAction::CancelEdit));
-    }
-    if let Some(error) = &edit.error {
-        ui.colored_label(RED, error);
-    }
-}
-
-/// Read, Plot (what can be sampled) and Edit; "written" after a write went through.
-fn row_buttons_ui(ui: &mut Ui, view: &RowView<'_>, actions: &mut Vec<(Address, RowAction)>) {
-    let entry = view.entry;
     let address = entry.address;
     let readable = entry.access.readable();
     if row_button_ui(ui, view.connected && readable, "Read", "Read", address).clicked() {
@@ -283,6 +535,7 @@ fn row_buttons_ui(ui: &mut Ui, view: &RowView<'_>, actions: &mut Vec<(Address, R
     }
     let writable = entry.access.writable();
     let edit = row_button_ui(ui, view.connected && writable, "Edit", "Edit", address)
+        .on_hover_text("Or double-click the row, or Enter on it")
         .on_disabled_hover_text(if writable {
             "not connected"
         } else {
@@ -296,16 +549,6 @@ fn row_buttons_ui(ui: &mut Ui, view: &RowView<'_>, actions: &mut Vec<(Address, R
     }
 }
 
-/// What the user did in a row.
-enum RowAction {
-    Read,
-    Plot,
-    Edit,
-    Typed(String),
-    Submit,
-    CancelEdit,
-}
-
 fn apply_row_action(
     b: &mut Browser,
     outbox: &mut Vec<Request>,
@@ -316,66 +559,22 @@ fn apply_row_action(
         return;
     };
     match action {
+        RowAction::Select => b.selected = Some(address),
         RowAction::Read => b.read_one(outbox, address, entry.dtype),
         RowAction::Plot => b.plot_request = Some(address),
         RowAction::Edit => {
-            let text = edit_text(b.values.get(&address), &entry);
-            b.edit = Some(Edit {
-                address,
-                text,
-                error: None,
-            });
-        }
-        RowAction::Typed(text) => {
-            if let Some(edit) = b.edit.as_mut() {
-                edit.text = text;
-                edit.error = None;
+            let connected = !b.link_text.is_empty();
+            if connected && entry.access.writable() {
+                edit::start_edit(b, &entry);
             }
         }
+        RowAction::Typed(text) => edit::typed(b, &entry, text),
         RowAction::CancelEdit => b.edit = None,
-        RowAction::Submit => submit_edit(b, address, &entry),
-    }
-}
-
-/// What the edit box starts with: the value as last read (bytes in hex, a flag as 0 or
-/// 1), else the default.
-fn edit_text(cell: Option<&Cell>, entry: &Entry) -> String {
-    match cell.map(|c| &c.result) {
-        Some(Ok(Value::Bytes(bytes))) => bytes
-            .iter()
-            .map(|x| format!("{x:02X}"))
-            .collect::<Vec<_>>()
-            .join(" "),
-        Some(Ok(Value::Text(t))) => t.clone(),
-        Some(Ok(Value::Bool(v))) => u8::from(*v).to_string(),
-        Some(Ok(v)) => v.to_string(),
-        _ => entry
-            .default
-            .as_ref()
-            .map(Value::to_string)
-            .unwrap_or_default(),
-    }
-}
-
-/// The value typed, checked: the confirmation asked for, or why it is refused.
-fn submit_edit(b: &mut Browser, address: Address, entry: &Entry) {
-    let Some(edit) = b.edit.as_mut() else {
-        return;
-    };
-    match parse_edit(entry, &edit.text) {
-        Err(reason) => edit.error = Some(reason),
-        Ok(value) => {
-            let before = b
-                .values
-                .get(&address)
-                .and_then(|c| c.result.as_ref().ok().cloned());
-            b.confirm = Some(Confirm {
-                address,
-                name: entry.full_name(),
-                dtype: entry.dtype,
-                value,
-                before,
-            });
+        RowAction::Submit => edit::submit_edit(b, &entry),
+        RowAction::Focused => {
+            if let Some(edit) = b.edit.as_mut() {
+                edit.focus = false;
+            }
         }
     }
 }

@@ -108,6 +108,7 @@ impl AppState {
         self.info(format!("connected: {}", info.description));
         let link = info.spec.to_string();
         let spec = info.spec.clone();
+        self.browser.on_connected(&link);
         self.connection = Connection::Connected(info);
         self.link_lost = None;
         self.sampled_since_connect = false;

@@ -49,6 +49,8 @@ pub struct Settings {
     pub central: Central,
     /// The plot panel's choices.
     pub plot: super::plots::PlotSettings,
+    /// The object dictionary's choices.
+    pub dictionary: super::browser::DictionarySettings,
     /// The jog speed as typed, rpm.
     pub jog_speed: String,
     /// Where the fault timeline's export goes.
@@ -100,6 +102,7 @@ impl Default for Settings {
             frame_log_path: "drivedeck-frames.log".into(),
             central: Central::Plots,
             plot: super::plots::PlotSettings::default(),
+            dictionary: super::browser::DictionarySettings::default(),
             jog_speed: "100".into(),
             timeline_path: "drivedeck-faults.csv".into(),
             on_link_loss: crate::worker::LinkLossAction::Halt,
