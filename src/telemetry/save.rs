@@ -63,8 +63,12 @@ pub fn load_recording(path: &Path, limit: u64) -> Result<Recording, String> {
     if bytes.len() as u64 > limit {
         return Err(format!("{shown} is larger than a recording may be"));
     }
-    let text = String::from_utf8(bytes)
-        .map_err(|e| format!("{shown} is not a recording: not text (byte {} is not UTF-8)", e.utf8_error().valid_up_to()))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        format!(
+            "{shown} is not a recording: not text (byte {} is not UTF-8)",
+            e.utf8_error().valid_up_to()
+        )
+    })?;
     let json = is_json(path) || text.trim_start().starts_with('{');
     let recording = if json {
         Recording::from_json(&text)
@@ -94,13 +98,33 @@ mod tests {
     fn crafted_files_are_refused_with_the_file_and_the_reason() {
         let nested = "[".repeat(100_000);
         let cases: [(&str, &[u8], &str); 7] = [
-            ("binary.csv", b"\x89PNG\r\n\x1a\n\0\0\xff", "is not a recording: not text (byte 0 is not UTF-8)"),
-            ("empty.csv", b"", "holds no samples"),
+            (
+                "binary.csv",
+                b"\x89PNG\r\n\x1a\n\0\0\xff",
+                "is not a recording: not text (byte 0 is not UTF-8)",
+            ),
+            ("empty.csv", b"", "line 1: no header row"),
             ("header-only.csv", b"t [s],position\n", "holds no samples"),
-            ("ragged.json", br#"{"channels":[{"id":"a"}],"t":[0,1],"columns":[[1]]}"#, "column 0 has 1 values for 2 times"),
-            ("backwards.json", br#"{"channels":[],"t":[1,0],"columns":[]}"#, "is before the previous one"),
-            ("nested.json", nested.as_bytes(), "is not a recording we can read: JSON"),
-            ("words.csv", b"t [s],position\nnot a number,1\n", "is not a recording we can read: line 2"),
+            (
+                "ragged.json",
+                br#"{"channels":[{"id":"a"}],"t":[0,1],"columns":[[1]]}"#,
+                "column 0 has 1 values for 2 times",
+            ),
+            (
+                "backwards.json",
+                br#"{"channels":[],"t":[1,0],"columns":[]}"#,
+                "is before the previous one",
+            ),
+            (
+                "nested.json",
+                nested.as_bytes(),
+                "is not a recording we can read: JSON",
+            ),
+            (
+                "words.csv",
+                b"t [s],position\nnot a number,1\n",
+                "is not a recording we can read: line 2",
+            ),
         ];
         for (name, bytes, expected) in cases {
             let (_dir, path) = file_with(name, bytes);
@@ -110,10 +134,16 @@ mod tests {
         }
         let (_dir, path) = file_with("big.csv", &[b'1'; 2000]);
         let error = load_recording(&path, 1000).expect_err("too big");
-        assert!(error.contains("more than the 0 MB a recording may have"), "{error}");
+        assert!(
+            error.contains("more than the 0 MB a recording may have"),
+            "{error}"
+        );
         let missing = std::env::temp_dir().join("drivedeck-no-such-recording.csv");
         let error = load_recording(&missing, MAX_RECORDING_BYTES).expect_err("missing");
-        assert!(error.starts_with(&format!("cannot open {}: ", missing.display())), "{error}");
+        assert!(
+            error.starts_with(&format!("cannot open {}: ", missing.display())),
+            "{error}"
+        );
     }
 
     #[test]
@@ -134,7 +164,10 @@ mod tests {
         };
         // JSON under a name without .json: told by its first character.
         let (_dir, path) = file_with("run.txt", recording.to_json().as_bytes());
-        assert_eq!(load_recording(&path, MAX_RECORDING_BYTES), Ok(recording.clone()));
+        assert_eq!(
+            load_recording(&path, MAX_RECORDING_BYTES),
+            Ok(recording.clone())
+        );
         let (_dir, path) = file_with("run.CSV", recording.to_csv().as_bytes());
         assert_eq!(load_recording(&path, MAX_RECORDING_BYTES), Ok(recording));
     }

@@ -111,7 +111,10 @@ mod tests {
         let status = scope.signal("pdi_status").expect("status");
         assert_eq!(status.kind, Kind::Bits);
         let object = scope.signal("2031h_00h").expect("object");
-        assert_eq!((object.kind, object.source), (Kind::Analog, Source::Recorded));
+        assert_eq!(
+            (object.kind, object.source),
+            (Kind::Analog, Source::Recorded)
+        );
         assert!(scope.is_drawn(object));
         // ReturnValue is not drawn by default, live or recorded.
         let rv = scope.signal("return_value").expect("rv");
@@ -130,7 +133,10 @@ mod tests {
             markers: Vec::new(),
         };
         let error = Scope::from_recording(&recording).err().unwrap_or_default();
-        assert!(error.starts_with("row 3 of the samples: sample time 0.1 s is before"), "{error}");
+        assert!(
+            error.starts_with("row 3 of the samples: sample time 0.1 s is before"),
+            "{error}"
+        );
         recording.times = vec![0.0, f64::NAN, 0.3];
         let error = Scope::from_recording(&recording).err().unwrap_or_default();
         assert!(error.contains("not a finite number"), "{error}");

@@ -352,20 +352,37 @@ impl Job {
 
     /// The dialog's title, the file's part of the proposed name, its extension and the
     /// kinds of file listed.
-    fn dialog(&self) -> (&'static str, &'static str, &'static str, Vec<(String, Vec<String>)>) {
+    fn dialog(
+        &self,
+    ) -> (
+        &'static str,
+        &'static str,
+        &'static str,
+        Vec<(String, Vec<String>)>,
+    ) {
         let recordings = || {
             vec![
                 ("CSV recording".to_owned(), vec!["csv".to_owned()]),
                 ("JSON recording".to_owned(), vec!["json".to_owned()]),
             ]
         };
-        let any = || ("Recording (CSV or JSON)".to_owned(), vec!["csv".to_owned(), "json".to_owned()]);
+        let any = || {
+            (
+                "Recording (CSV or JSON)".to_owned(),
+                vec!["csv".to_owned(), "json".to_owned()],
+            )
+        };
         match self {
             Job::Save {
                 kind: Export::Visible,
                 ..
             } => ("Export the visible window", "visible", "csv", recordings()),
-            Job::Save { .. } => ("Save the triggered recording", "capture", "csv", recordings()),
+            Job::Save { .. } => (
+                "Save the triggered recording",
+                "capture",
+                "csv",
+                recordings(),
+            ),
             Job::Png(_) => (
                 "Save a picture of the plots",
                 "plots",
@@ -409,12 +426,21 @@ pub fn ask(ctx: &egui::Context, state: &mut AppState, job: Job) {
         name: if ext.is_empty() {
             String::new()
         } else {
-            default_name(device_name(state).as_deref(), std::time::SystemTime::now(), what, ext)
+            default_name(
+                device_name(state).as_deref(),
+                std::time::SystemTime::now(),
+                what,
+                ext,
+            )
         },
         filters,
     };
     let answer = Answer::default();
-    state.plot.files.clone().pick(ask, answer.clone(), ctx.clone());
+    state
+        .plot
+        .files
+        .clone()
+        .pick(ask, answer.clone(), ctx.clone());
     state.plot.asking = Some((job, answer));
 }
 
@@ -495,7 +521,9 @@ pub fn confirm_ui(ctx: &egui::Context, state: &mut AppState) {
         ui.set_max_width(520.0);
         ui.heading("Replace the file?");
         ui.label(text);
-        ui.label(format!("Replacing it writes {what} in its place; the old file is gone."));
+        ui.label(format!(
+            "Replacing it writes {what} in its place; the old file is gone."
+        ));
         ui.horizontal(|ui| {
             if ui.button("Replace").clicked() {
                 choice = Some(Confirm::Replace);
@@ -634,6 +662,9 @@ mod tests {
             (what, ext)
         })
         .collect();
-        assert_eq!(names, [("capture", "csv"), ("visible", "csv"), ("plots", "png")]);
+        assert_eq!(
+            names,
+            [("capture", "csv"), ("visible", "csv"), ("plots", "png")]
+        );
     }
 }

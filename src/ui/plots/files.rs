@@ -117,7 +117,12 @@ impl FilePicker for ScriptedPicker {
 /// The proposed name of a file: the device, the date and the minute (UTC), and what it
 /// holds — `PD4-E601L42_2026-12-02_1432_capture.csv`. Characters a file system may refuse
 /// become `-`.
-pub fn default_name(device: Option<&str>, at: std::time::SystemTime, what: &str, ext: &str) -> String {
+pub fn default_name(
+    device: Option<&str>,
+    at: std::time::SystemTime,
+    what: &str,
+    ext: &str,
+) -> String {
     let device: String = device
         .map(str::trim)
         .filter(|d| !d.is_empty())

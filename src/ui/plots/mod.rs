@@ -6,7 +6,7 @@
 mod capture;
 pub mod files;
 mod picture;
-mod readout;
+pub mod readout;
 pub mod review;
 mod traces;
 
@@ -248,9 +248,6 @@ pub fn live_end(state: &AppState) -> Option<f64> {
 }
 
 pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
-    picture::poll(ui.ctx(), state);
-    capture::poll(ui.ctx(), state);
-    review::poll(state);
     toolbar(ui, state);
     review::review_ui(ui, state);
     capture::capture_ui(ui, state);
@@ -259,6 +256,11 @@ pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
     let plots = traces::traces_ui(ui, state);
     state.plot.plots_rect = plots;
     picture::taken(ui.ctx(), state, band, plots);
+    // The answers of this frame's dialogs (a scripted one answers at once) and of those
+    // that came in between.
+    picture::poll(ui.ctx(), state);
+    capture::poll(ui.ctx(), state);
+    review::poll(state);
     capture::confirm_ui(ui.ctx(), state);
 }
 
@@ -406,7 +408,9 @@ fn signals_menu_body(ui: &mut Ui, state: &mut AppState) {
         }
     })
     .response
-    .on_hover_text("Positions in the factory unit (0.1°) drawn as counted, in degrees or in revolutions");
+    .on_hover_text(
+        "Positions in the factory unit (0.1°) drawn as counted, in degrees or in revolutions",
+    );
     if state.plot.review.is_some() {
         return;
     }
@@ -484,4 +488,3 @@ fn history_menu(ui: &mut Ui, state: &mut AppState) {
         ui.weak("The default, 600 000, is 10 minutes at 1 kHz. The oldest samples go first.");
     });
 }
-

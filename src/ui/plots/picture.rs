@@ -51,7 +51,11 @@ pub fn title_band_ui(ui: &mut Ui, state: &AppState) -> Option<Rect> {
 pub fn title_lines(state: &AppState, now: std::time::SystemTime) -> (String, String) {
     let scope = super::shown_scope(state);
     let meta = &scope.meta;
-    let identity = state.plot.identity.as_ref().filter(|_| state.plot.review.is_none());
+    let identity = state
+        .plot
+        .identity
+        .as_ref()
+        .filter(|_| state.plot.review.is_none());
     let device = identity
         .and_then(|i| i.name.clone())
         .or_else(|| meta.device_name.clone())
@@ -62,12 +66,35 @@ pub fn title_lines(state: &AppState, now: std::time::SystemTime) -> (String, Str
     };
     let hex = |v: Option<u32>| v.map(|v| format!("{v:08X}h"));
     let fields = [
-        ("vendor", identity.and_then(|i| hex(i.vendor)).or_else(|| meta.vendor.clone())),
-        ("product", identity.and_then(|i| hex(i.product)).or_else(|| meta.product.clone())),
-        ("revision", identity.and_then(|i| hex(i.revision)).or_else(|| meta.revision.clone())),
-        ("serial", identity.and_then(|i| hex(i.serial)).or_else(|| meta.serial.clone())),
+        (
+            "vendor",
+            identity
+                .and_then(|i| hex(i.vendor))
+                .or_else(|| meta.vendor.clone()),
+        ),
+        (
+            "product",
+            identity
+                .and_then(|i| hex(i.product))
+                .or_else(|| meta.product.clone()),
+        ),
+        (
+            "revision",
+            identity
+                .and_then(|i| hex(i.revision))
+                .or_else(|| meta.revision.clone()),
+        ),
+        (
+            "serial",
+            identity
+                .and_then(|i| hex(i.serial))
+                .or_else(|| meta.serial.clone()),
+        ),
         ("link", meta.link.clone()),
-        ("recorded", meta.started.clone().filter(|_| state.plot.review.is_some())),
+        (
+            "recorded",
+            meta.started.clone().filter(|_| state.plot.review.is_some()),
+        ),
     ];
     let mut parts: Vec<String> = fields
         .into_iter()
@@ -110,7 +137,11 @@ pub fn taken(ctx: &egui::Context, state: &mut AppState, band: Option<Rect>, plot
 }
 
 /// `area` (in points) of the screenshot, in its pixels.
-pub fn cut(image: &egui::ColorImage, area: Rect, pixels_per_point: f32) -> Result<egui::ColorImage, String> {
+pub fn cut(
+    image: &egui::ColorImage,
+    area: Rect,
+    pixels_per_point: f32,
+) -> Result<egui::ColorImage, String> {
     let whole = Rect::from_min_size(
         egui::Pos2::ZERO,
         egui::vec2(image.size[0] as f32, image.size[1] as f32) / pixels_per_point,

@@ -1,7 +1,7 @@
 //! What the plots say in numbers: the values under the pointer (or the newest ones), and
 //! the two cursors A and B with Δt and, per signal, the value at each and Δvalue.
 
-use eframe::egui::{self, Ui};
+use eframe::egui::Ui;
 
 use super::super::state::AppState;
 use super::{shown_scope, with_turns};
@@ -41,8 +41,8 @@ pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
     cursors_ui(ui, state);
 }
 
-/// One line per cursor pair: "A 1.200 s  B 1.700 s  Δt 0.500 s", then per analog signal
-/// its value at A and B and the difference (positions also in degrees and revolutions).
+/// The cursors: "A 1.200 s  B 1.700 s  Δt 0.500 s", then per analog signal its value at
+/// A and B and the difference (positions also in degrees and revolutions).
 fn cursors_ui(ui: &mut Ui, state: &mut AppState) {
     let [a, b] = state.plot.cursors;
     if a.is_none() && b.is_none() {
@@ -52,26 +52,15 @@ fn cursors_ui(ui: &mut Ui, state: &mut AppState) {
     let scope = shown_scope(state);
     let rows = cursor_rows(scope, a, b);
     let mut clear = false;
+    // One wrapped line (the plots under it move as little as can be): the times, then
+    // each signal's values and change.
     ui.horizontal_wrapped(|ui| {
         ui.strong(cursor_times(a, b));
-        clear = ui.button("Clear cursors").clicked();
+        clear = ui.small_button("Clear cursors").clicked();
+        for [name, at_a, at_b, delta] in rows {
+            ui.monospace(format!("| {name}: A {at_a} · B {at_b} · Δ {delta}"));
+        }
     });
-    egui::Grid::new("plot_cursors")
-        .num_columns(4)
-        .spacing([16.0, 2.0])
-        .striped(true)
-        .show(ui, |ui| {
-            for heading in ["signal", "at A", "at B", "Δ (B − A)"] {
-                ui.weak(heading);
-            }
-            ui.end_row();
-            for row in rows {
-                for cell in row {
-                    ui.monospace(cell);
-                }
-                ui.end_row();
-            }
-        });
     if clear {
         state.plot.cursors = [None; 2];
     }
@@ -142,7 +131,10 @@ mod tests {
                 },
             ],
             times: vec![0.0, 0.5, 1.0, 1.5],
-            columns: vec![vec![0.0, 900.0, 1800.0, 3600.0], vec![0.0, 100.0, 300.0, 300.0]],
+            columns: vec![
+                vec![0.0, 900.0, 1800.0, 3600.0],
+                vec![0.0, 100.0, 300.0, 300.0],
+            ],
             markers: Vec::new(),
         };
         let scope = Scope::from_recording(&recording).expect("scope");
@@ -163,6 +155,9 @@ mod tests {
         );
         assert_eq!(rows[1][3], "200 rpm");
         let rows = cursor_rows(&scope, None, Some(1.0));
-        assert_eq!(rows[1][1..], ["–".to_owned(), "300 rpm".to_owned(), "–".to_owned()]);
+        assert_eq!(
+            rows[1][1..],
+            ["–".to_owned(), "300 rpm".to_owned(), "–".to_owned()]
+        );
     }
 }

@@ -79,7 +79,10 @@ impl Review {
 }
 
 /// A recording being read, for the base or the overlay: its file, then what came of it.
-pub type Loading = (bool, Arc<Mutex<Option<Result<(PathBuf, Recording), String>>>>);
+pub type Loading = (
+    bool,
+    Arc<Mutex<Option<Result<(PathBuf, Recording), String>>>>,
+);
 
 /// Read `path` on a thread of its own (a large file does not stall the window); `poll`
 /// puts it on screen.
@@ -90,8 +93,9 @@ pub fn load(ctx: &egui::Context, state: &mut AppState, path: PathBuf, overlay: b
     let spawned = std::thread::Builder::new()
         .name("open recording".into())
         .spawn(move || {
-            let read = crate::telemetry::load_recording(&path, crate::telemetry::MAX_RECORDING_BYTES)
-                .map(|recording| (path, recording));
+            let read =
+                crate::telemetry::load_recording(&path, crate::telemetry::MAX_RECORDING_BYTES)
+                    .map(|recording| (path, recording));
             if let Ok(mut slot) = reply.lock() {
                 *slot = Some(read);
             }
@@ -119,12 +123,16 @@ pub fn poll(state: &mut AppState) {
         return;
     };
     let shown = read.and_then(|(path, recording)| {
-        let name = path
-            .file_name()
-            .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
         match Shown::new(name, &recording) {
             Ok(shown) => Ok((path, recording, shown)),
-            Err(e) => Err(format!("{} is not a recording we can show: {e}", path.display())),
+            Err(e) => Err(format!(
+                "{} is not a recording we can show: {e}",
+                path.display()
+            )),
         }
     });
     match shown {
@@ -232,7 +240,7 @@ pub fn review_ui(ui: &mut Ui, state: &mut AppState) {
     let mut rearm = false;
     ui.horizontal_wrapped(|ui| {
         if review.capture {
-            ui.colored_label(AMBER, egui::RichText::new("⏸ Frozen:").strong());
+            ui.colored_label(AMBER, egui::RichText::new("Frozen:").strong());
             ui.strong(format!(
                 "{}; the live plots go on underneath",
                 review.base.title
@@ -264,7 +272,11 @@ pub fn review_ui(ui: &mut Ui, state: &mut AppState) {
                     .suffix(" s")
                     .max_decimals(4),
             );
-            crate::ui::widgets::name_widget(&drag, egui::accesskit::Role::SpinButton, "Overlay offset");
+            crate::ui::widgets::name_widget(
+                &drag,
+                egui::accesskit::Role::SpinButton,
+                "Overlay offset",
+            );
             let (offset, how) = review.aligned();
             if ui
                 .button("Align")

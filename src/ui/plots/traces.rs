@@ -46,7 +46,10 @@ const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
 /// The colours for traces that are no built-in signal, in order.
 const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY, SAND, GREEN, BLUE];
 /// The cursors' colours (A, B).
-const CURSOR_COLORS: [Color32; 2] = [Color32::from_rgb(250, 230, 80), Color32::from_rgb(90, 230, 230)];
+const CURSOR_COLORS: [Color32; 2] = [
+    Color32::from_rgb(250, 230, 80),
+    Color32::from_rgb(90, 230, 230),
+];
 
 /// A colour per signal, none used twice while the palette lasts: the built-in signals
 /// keep theirs (position blue, velocity green, …), the others take the next free one.
@@ -61,7 +64,12 @@ pub fn colors(signals: &[SignalDef]) -> Vec<Color32> {
         _ => None,
     };
     let mut used: Vec<Color32> = signals.iter().filter_map(fixed).collect();
-    let mut spare = PALETTE.iter().copied().filter(|c| !used.contains(c)).collect::<Vec<_>>().into_iter();
+    let mut spare = PALETTE
+        .iter()
+        .copied()
+        .filter(|c| !used.contains(c))
+        .collect::<Vec<_>>()
+        .into_iter();
     signals
         .iter()
         .enumerate()
@@ -257,7 +265,10 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
     }
 
     let bottom = ui.cursor().min;
-    let plots = egui::Rect::from_min_max(top, egui::pos2(interaction.right.max(top.x + 1.0), bottom.y));
+    let plots = egui::Rect::from_min_max(
+        top,
+        egui::pos2(interaction.right.max(top.x + 1.0), bottom.y),
+    );
     remember_view(state, &interaction, (from, to));
     Some(plots)
 }
@@ -346,7 +357,11 @@ fn analog_plot_ui(
             draw_markers(plot_ui, &view.markers, first);
             draw_moments(plot_ui, view, level);
             for run in split_at_bands(&points, &view.bands) {
-                plot_ui.line(Line::new(label.as_str(), run.to_vec()).color(color).width(1.5));
+                plot_ui.line(
+                    Line::new(label.as_str(), run.to_vec())
+                        .color(color)
+                        .width(1.5),
+                );
             }
             if !other.is_empty() {
                 let name = format!("{label} (overlay)");
@@ -434,13 +449,22 @@ fn lanes_plot_ui(
             draw_markers(plot_ui, &view.markers, false);
             draw_moments(plot_ui, view, None);
             let labels = draw_lanes(plot_ui, view, lanes, from, to);
-            ((plot_ui.pointer_coordinate().map(|p| p.x), (from, to)), labels)
+            (
+                (plot_ui.pointer_coordinate().map(|p| p.x), (from, to)),
+                labels,
+            )
         })
 }
 
 /// Each lane, 1.5 apart, the first on top: its high stretches filled in its colour over
 /// a thin low line, so high and low are told apart at a glance.
-fn draw_lanes(plot_ui: &mut PlotUi, view: &View<'_>, lanes: &[Lane], from: f64, to: f64) -> LaneLabels {
+fn draw_lanes(
+    plot_ui: &mut PlotUi,
+    view: &View<'_>,
+    lanes: &[Lane],
+    from: f64,
+    to: f64,
+) -> LaneLabels {
     let columns = plot_ui.transform().frame().width().max(1.0) as usize;
     let transform = *plot_ui.transform();
     let mut last_column = None;
@@ -484,7 +508,11 @@ fn lane_labels_ui(ui: &Ui, labels: &LaneLabels) {
     let painter = ui.painter_at(labels.rect);
     let font = egui::FontId::proportional(LANE_LABEL_SIZE);
     for (name, y, color, high) in &labels.rows {
-        let text = if *high { format!("{name} = 1") } else { name.clone() };
+        let text = if *high {
+            format!("{name} = 1")
+        } else {
+            name.clone()
+        };
         let galley = painter.layout_no_wrap(text, font.clone(), *color);
         let at = egui::pos2(labels.rect.left() + 4.0, y - galley.size().y / 2.0);
         let plate = egui::Rect::from_min_size(at, galley.size()).expand2(egui::vec2(3.0, 1.0));
@@ -600,9 +628,17 @@ impl Interaction {
         }
         self.right = self.right.max(response.rect.right());
         if let Some(at) = cursor {
+            // A right click on a plot starts egui_plot's box zoom, so the plot's
+            // response does not report it: the pointer's own click, inside this plot.
+            let right_click = ui.input(|i| {
+                i.pointer.button_clicked(egui::PointerButton::Secondary)
+                    && i.pointer
+                        .latest_pos()
+                        .is_some_and(|p| response.rect.contains(p))
+            });
             if response.clicked() {
                 self.placed = Some((0, at));
-            } else if response.secondary_clicked() {
+            } else if response.secondary_clicked() || right_click {
                 self.placed = Some((1, at));
             }
         }
@@ -829,7 +865,10 @@ mod tests {
             .map(|(_, c)| *c)
             .collect();
         for (i, c) in analog.iter().enumerate() {
-            assert!(!analog[..i].contains(c), "colour {i} used twice: {analog:?}");
+            assert!(
+                !analog[..i].contains(c),
+                "colour {i} used twice: {analog:?}"
+            );
         }
     }
 
