@@ -1,18 +1,23 @@
-//! The plot panel, headless: pause and resume, exports, a trigger capturing a move, and
-//! an object added from the dictionary browser — egui_kittest clicking by label, the real
-//! worker sampling the simulated drive.
+//! The plot panel, headless: pause and resume, exports through the save dialog (answered
+//! by a script), no file replaced without the user's word, a trigger capturing a move and
+//! the capture frozen until dismissed or re-armed, recordings opened and overlaid with no
+//! drive, the two cursors, and an object added from the dictionary browser —
+//! egui_kittest clicking by label, the real worker sampling the simulated drive.
 
 mod common;
 mod window;
 
-use std::time::Duration;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use drivedeck::diagnostics::Origin;
 use drivedeck::link::LinkSpec;
 use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::ServerOptions;
 use drivedeck::telemetry::{CaptureState, Edge, Recording};
-use drivedeck::ui::{App, Settings};
+use drivedeck::ui::plots::ScriptedPicker;
+use drivedeck::ui::{App, AppState, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
@@ -23,9 +28,21 @@ fn app_harness() -> Harness<'static, App> {
     harness_with(Settings::default(), true, egui::vec2(1600.0, 1000.0))
 }
 
-/// `name` in `dir`, as typed into the path box.
+/// `name` in `dir`.
 fn path_in(dir: &tempfile::TempDir, name: &str) -> String {
     dir.path().join(name).to_string_lossy().into_owned()
+}
+
+/// The dialogs of this window answered by a script.
+fn scripted(state: &mut AppState) -> Arc<ScriptedPicker> {
+    let picker = ScriptedPicker::new();
+    state.plot.files = picker.clone();
+    picker
+}
+
+/// The next dialog picks `path`.
+fn answer(picker: &ScriptedPicker, path: &str) {
+    picker.answer(Some(PathBuf::from(path)));
 }
 
 #[test]
@@ -65,12 +82,31 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
     let (_, end) = drivedeck::ui::plots::time_range(state).expect("a range");
     assert!(end > paused_at, "following the newest samples again");
 
-    // The visible window to CSV, then to JSON: units and identity in the header.
+    // The visible window to CSV, then to JSON: units and identity in the header. The
+    // dialog proposes a name with the device and the date, in the folder used last.
+    let picker = scripted(&mut harness.state_mut().state);
     let dir = common::temp_dir("plots");
     let csv = path_in(&dir, "visible.csv");
-    harness.state_mut().state.settings.plot.export_path = csv.clone();
-    harness.get_by_label("Export visible").click();
+    answer(&picker, &csv);
+    harness.get_by_label("Export visible…").click();
     harness.step();
+    let asked = picker.asked();
+    let device = harness
+        .state()
+        .state
+        .plot
+        .identity
+        .as_ref()
+        .and_then(|i| i.name.clone())
+        .expect("the simulator's 1008h")
+        .replace(' ', "-");
+    assert!(asked[0].save);
+    assert!(
+        asked[0].name.starts_with(&format!("{device}_20"))
+            && asked[0].name.ends_with("_visible.csv"),
+        "{:?}",
+        asked[0]
+    );
     let text = std::fs::read_to_string(&csv).expect("the CSV was written");
     let recording = Recording::from_csv(&text).expect("our own CSV reads back");
     assert!(recording.len() > 10, "{} rows", recording.len());
@@ -89,9 +125,14 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
     );
 
     let json = path_in(&dir, "visible.json");
-    harness.state_mut().state.settings.plot.export_path = json.clone();
-    harness.get_by_label("Export visible").click();
+    answer(&picker, &json);
+    harness.get_by_label("Export visible…").click();
     harness.step();
+    assert_eq!(
+        picker.asked()[1].directory.as_deref(),
+        Some(dir.path()),
+        "the folder used last"
+    );
     let text = std::fs::read_to_string(&json).expect("the JSON was written");
     let from_json = Recording::from_json(&text).expect("our own JSON reads back");
     assert_eq!(from_json.channels, recording.channels);
@@ -166,11 +207,18 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
         recording.markers
     );
 
+    // Frozen on screen until dismissed: the capture, not the live history.
+    let state = &harness.state().state;
+    assert!(state.plot.review.as_ref().is_some_and(|r| r.capture));
+    harness.get_by_label("Dismiss");
+
     let dir = common::temp_dir("plots");
     let path = path_in(&dir, "triggered.csv");
-    harness.state_mut().state.settings.plot.export_path = path.clone();
-    harness.get_by_label("Save recording").click();
+    let picker = scripted(&mut harness.state_mut().state);
+    answer(&picker, &path);
+    harness.get_by_label("Save recording…").click();
     harness.step();
+    assert!(picker.asked()[0].name.ends_with("_capture.csv"));
     let text = std::fs::read_to_string(&path).expect("saved");
     let back = Recording::from_csv(&text).expect("reads back");
     assert_eq!(back.meta.trigger_time_s, Some(at));
@@ -230,13 +278,14 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
     );
 }
 
-/// The plot panel alone, fed samples by hand: a position ramp from 0 to 2000 in 2 s.
-fn plots_harness() -> Harness<'static, drivedeck::ui::AppState> {
+/// The plot panel alone with no drive, fed samples by hand: a position ramp from 0 to
+/// 2000 in 2 s, the trigger armed at 1000.
+fn plots_harness() -> Harness<'static, AppState> {
     let mut harness = Harness::builder()
         .with_size(egui::vec2(1200.0, 800.0))
         .build_ui_state(
-            |ui, state: &mut drivedeck::ui::AppState| drivedeck::ui::plots::plots_ui(ui, state),
-            drivedeck::ui::AppState::new(Settings::default()),
+            |ui, state: &mut AppState| drivedeck::ui::plots::plots_ui(ui, state),
+            AppState::new(Settings::default()),
         );
     {
         let form = &mut harness.state_mut().settings.plot.trigger;
@@ -250,7 +299,17 @@ fn plots_harness() -> Harness<'static, drivedeck::ui::AppState> {
     harness.step();
     harness.get_by_label("Arm").click();
     harness.step();
-    let samples = (0..200)
+    feed(&mut harness, 0..200);
+    assert!(
+        harness.state().scope.recording().is_some(),
+        "the trigger fired"
+    );
+    harness
+}
+
+/// Samples `range` of the ramp (every 10 ms, 10 × 0.1° a sample).
+fn feed(harness: &mut Harness<'static, AppState>, range: std::ops::Range<i32>) {
+    let samples = range
         .map(|i| drivedeck::worker::Sample {
             t: f64::from(i) * 0.01,
             signals: drivedeck::signal::Signals::default()
@@ -262,27 +321,51 @@ fn plots_harness() -> Harness<'static, drivedeck::ui::AppState> {
         .state_mut()
         .apply(drivedeck::worker::Event::Samples(samples));
     harness.step();
-    assert!(
-        harness.state().scope.recording().is_some(),
-        "the trigger fired"
-    );
-    harness
 }
 
-fn message(harness: &Harness<'_, drivedeck::ui::AppState>) -> Result<String, String> {
+/// A few frames: a dialog's answer is taken at the end of a frame, the question or the
+/// message it brings shows in the next.
+fn settle(harness: &mut Harness<'_, AppState>) {
+    for _ in 0..3 {
+        harness.step();
+    }
+}
+
+fn message(harness: &Harness<'_, AppState>) -> Result<String, String> {
     harness.state().plot.message.clone().expect("a message")
+}
+
+/// Step the panel until `done` holds (a file is read on a thread of its own).
+fn step_panel_until(
+    harness: &mut Harness<'_, AppState>,
+    what: &str,
+    done: impl Fn(&AppState) -> bool,
+) {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !done(harness.state()) {
+        assert!(
+            Instant::now() < deadline,
+            "{what} did not happen; message: {:?}",
+            harness.state().plot.message
+        );
+        std::thread::sleep(Duration::from_millis(5));
+        harness.step();
+    }
+    harness.step();
 }
 
 #[test]
 fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
     let mut harness = plots_harness();
+    let picker = scripted(harness.state_mut());
     let recorded = harness.state().scope.recording().map(Recording::len);
 
-    // A directory that does not exist, typed in full.
+    // A directory that does not exist.
     let missing = format!("/nonexistent-drivedeck-{}/run.csv", std::process::id());
-    harness.state_mut().settings.plot.export_path = missing.clone();
-    harness.get_by_label("Save recording").click();
-    harness.step();
+    answer(&picker, &missing);
+    harness.get_by_label("Save recording…").click();
+    settle(&mut harness);
+    settle(&mut harness);
     let error = message(&harness).expect_err("the write fails");
     assert!(
         error.starts_with(&format!(
@@ -300,11 +383,11 @@ fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
         recorded
     );
 
-    // A relative path: the message names the full path it meant.
+    // A relative path (a dialog may answer one): the message names the full path.
     let relative = format!("no-such-dir-{}/run.csv", std::process::id());
-    harness.state_mut().settings.plot.export_path = relative.clone();
-    harness.get_by_label("Save recording").click();
-    harness.step();
+    answer(&picker, &relative);
+    harness.get_by_label("Save recording…").click();
+    settle(&mut harness);
     let error = message(&harness).expect_err("the write fails");
     let full = std::env::current_dir().expect("cwd").join(&relative);
     assert!(
@@ -312,46 +395,320 @@ fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
         "{error}"
     );
 
-    // A directory where the file should be.
+    // A directory where the file should be: asked first (it exists), then refused.
     let dir = common::temp_dir("plots");
-    harness.state_mut().settings.plot.export_path = dir.path().to_string_lossy().into_owned();
-    harness.get_by_label("Save recording").click();
-    harness.step();
+    answer(&picker, &dir.path().to_string_lossy());
+    harness.get_by_label("Save recording…").click();
+    settle(&mut harness);
+    harness.get_by_label("Replace").click();
+    settle(&mut harness);
     let error = message(&harness).expect_err("a directory is not a file");
     assert!(error.contains("it is a directory"), "{error}");
 
-    // Another place: the same recording, whole, read back from the file.
+    // Cancelled: nothing written, said so.
+    picker.answer(None);
+    harness.get_by_label("Save recording…").click();
+    settle(&mut harness);
+    assert_eq!(message(&harness), Ok("cancelled: nothing written".into()));
+
+    // Another place: the same recording, whole, read back from the file; the path shown
+    // with a way to its folder.
     let good = path_in(&dir, "retry.csv");
-    harness.state_mut().settings.plot.export_path = good.clone();
-    harness.get_by_label("Save recording").click();
-    harness.step();
+    answer(&picker, &good);
+    harness.get_by_label("Save recording…").click();
+    settle(&mut harness);
     let saved = message(&harness).expect("saved");
     assert!(saved.contains(&good), "{saved}");
+    harness.get_by_label("Open folder");
     let text = std::fs::read_to_string(&good).expect("written");
     let back = Recording::from_csv(&text).expect("reads back");
     assert_eq!(Some(back.len()), recorded);
     assert_eq!(back.channels[0].id, "position");
+}
 
-    // Export visible does not write over the recording just saved…
-    harness.get_by_label("Export visible").click();
-    harness.step();
-    let refused = message(&harness).expect_err("refused");
-    assert!(
-        refused.contains("holds the triggered recording"),
-        "{refused}"
+#[test]
+fn no_file_is_replaced_without_the_users_word() {
+    let mut harness = plots_harness();
+    let picker = scripted(harness.state_mut());
+    let dir = common::temp_dir("plots");
+    let path = path_in(&dir, "capture.csv");
+    answer(&picker, &path);
+    harness.get_by_label("Save recording…").click();
+    settle(&mut harness);
+    let saved = std::fs::read_to_string(&path).expect("the capture saved");
+
+    // "Export visible" picked the same file: the question, and nothing written yet.
+    answer(&picker, &path);
+    harness.get_by_label("Export visible…").click();
+    settle(&mut harness);
+    settle(&mut harness);
+    harness.get_by_label("Replace the file?");
+    harness.get_by_label_contains(
+        "holds the triggered recording (Save recording wrote it this session)",
     );
-    assert_eq!(std::fs::read_to_string(&good).expect("still there"), text);
-    // …but writes elsewhere, and Save recording may write its own file again.
-    let visible = path_in(&dir, "retry-visible.csv");
-    harness.state_mut().settings.plot.export_path = visible.clone();
-    harness.get_by_label("Export visible").click();
+    assert_eq!(std::fs::read_to_string(&path).expect("there"), saved);
+    harness.get_by_label("Cancel").click();
+    settle(&mut harness);
+    settle(&mut harness);
+    assert_eq!(std::fs::read_to_string(&path).expect("there"), saved);
+    assert_eq!(
+        message(&harness),
+        Ok(format!("nothing written: {path} kept as it was"))
+    );
+    assert!(harness.query_by_label("Replace the file?").is_none());
+
+    // Another name instead: the dialog again, the capture kept, the export beside it.
+    let beside = path_in(&dir, "visible.csv");
+    answer(&picker, &path);
+    answer(&picker, &beside);
+    harness.get_by_label("Export visible…").click();
+    settle(&mut harness);
+    harness.get_by_label("Choose another name…").click();
+    settle(&mut harness);
+    assert_eq!(std::fs::read_to_string(&path).expect("there"), saved);
+    assert!(Recording::from_csv(&std::fs::read_to_string(&beside).expect("exported")).is_ok());
+
+    // Replace, said in so many words: now it is the visible window.
+    answer(&picker, &path);
+    harness.get_by_label("Export visible…").click();
+    settle(&mut harness);
+    harness.get_by_label("Replace").click();
+    settle(&mut harness);
+    let replaced = std::fs::read_to_string(&path).expect("there");
+    assert!(
+        replaced.contains("# note: the visible window of the plots"),
+        "{replaced:.300}"
+    );
+}
+
+#[test]
+fn a_triggered_capture_stays_on_screen_until_dismissed_or_re_armed() {
+    let mut harness = plots_harness();
+    let span = |h: &Harness<'_, AppState>| drivedeck::ui::plots::time_range(h.state());
+    let captured = span(&harness).expect("a range");
+    let recording = harness
+        .state()
+        .scope
+        .recording()
+        .cloned()
+        .expect("recorded");
+    let first = recording.times.first().copied().unwrap_or(f64::NAN);
+    let last = recording.times.last().copied().unwrap_or(f64::NAN);
+    assert_eq!(captured, (first, last));
+    harness.get_by_label_contains("Frozen:");
+    // Ten more seconds of samples: the capture stays put.
+    for k in 0..10 {
+        feed(&mut harness, 200 + k * 100..300 + k * 100);
+    }
+    assert_eq!(span(&harness), Some(captured));
+    assert!(harness.state().scope.ring().last_time().unwrap_or(0.0) > 11.0);
+
+    harness.get_by_label("Dismiss").click();
     harness.step();
-    message(&harness).expect("exported");
-    assert!(std::fs::metadata(&visible).is_ok());
-    harness.state_mut().settings.plot.export_path = good.clone();
-    harness.get_by_label("Save recording").click();
+    assert!(harness.state().plot.review.is_none());
+    let (_, end) = span(&harness).expect("live");
+    assert!(end > 11.0, "live again: {end}");
+    // The capture is still there to save.
+    harness.get_by_label("Save recording…");
+
+    // Re-arm from a frozen capture: live, waiting for the next one.
+    let scope = harness.state().scope.clone();
+    drivedeck::ui::plots::review::freeze_capture(&mut harness.state_mut().plot, &scope);
     harness.step();
-    message(&harness).expect("saved again over its own file");
+    harness.get_by_label("Re-arm").click();
+    harness.step();
+    assert!(harness.state().plot.review.is_none());
+    assert_eq!(harness.state().scope.capture_state(), CaptureState::Armed);
+}
+
+/// A recording of a move to `to` (0.1°) in 1 s with its trigger at `trigger` s, as our
+/// CSV in `dir`.
+fn recording_file(dir: &tempfile::TempDir, name: &str, to: f64, trigger: f64) -> String {
+    let times: Vec<f64> = (0..=100).map(|i| f64::from(i) * 0.01).collect();
+    let recording = Recording {
+        meta: drivedeck::telemetry::Metadata {
+            device_name: Some("PD4-E601L42".into()),
+            trigger_time_s: Some(trigger),
+            ..Default::default()
+        },
+        channels: vec![
+            drivedeck::telemetry::ChannelInfo {
+                id: "position".into(),
+                name: "Position 6064h".into(),
+                unit: "0.1°".into(),
+            },
+            drivedeck::telemetry::ChannelInfo {
+                id: "pdi_status".into(),
+                name: "PDI-Status".into(),
+                unit: String::new(),
+            },
+        ],
+        columns: vec![
+            times.iter().map(|t| t * to).collect(),
+            times
+                .iter()
+                .map(|t| if *t >= trigger { 9.0 } else { 1.0 })
+                .collect(),
+        ],
+        times,
+        markers: Vec::new(),
+    };
+    let path = path_in(dir, name);
+    let text = if name.ends_with(".json") {
+        recording.to_json()
+    } else {
+        recording.to_csv()
+    };
+    std::fs::write(&path, text).expect("written");
+    path
+}
+
+/// The plot panel with no drive at all.
+fn empty_panel() -> Harness<'static, AppState> {
+    Harness::builder()
+        .with_size(egui::vec2(1366.0, 768.0))
+        .build_ui_state(
+            |ui, state: &mut AppState| drivedeck::ui::plots::plots_ui(ui, state),
+            AppState::new(Settings::default()),
+        )
+}
+
+/// A click at `pos`: the primary button or the secondary one.
+fn click_at(harness: &mut Harness<'_, AppState>, pos: egui::Pos2, button: egui::PointerButton) {
+    harness
+        .input_mut()
+        .events
+        .push(egui::Event::PointerMoved(pos));
+    harness.step();
+    for pressed in [true, false] {
+        harness.input_mut().events.push(egui::Event::PointerButton {
+            pos,
+            button,
+            pressed,
+            modifiers: egui::Modifiers::NONE,
+        });
+        harness.step();
+    }
+}
+
+#[test]
+fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger() {
+    let mut harness = empty_panel();
+    harness.step();
+    let picker = scripted(harness.state_mut());
+    let dir = common::temp_dir("plots");
+    let before = recording_file(&dir, "before.csv", 2000.0, 0.5);
+    let after = recording_file(&dir, "after.json", 2400.0, 0.3);
+
+    answer(&picker, &before);
+    harness.get_by_label("Open recording…").click();
+    step_panel_until(&mut harness, "the recording open", |s| {
+        s.plot.review.is_some()
+    });
+    assert!(!picker.asked()[0].save);
+    harness.get_by_label("Recording: before.csv");
+    assert_eq!(
+        drivedeck::ui::plots::time_range(harness.state()),
+        Some((0.0, 1.0))
+    );
+    let shown = drivedeck::ui::plots::shown_scope(harness.state());
+    assert_eq!(shown.ring().len(), 101);
+    assert!(
+        harness.state().scope.ring().is_empty(),
+        "no drive, no live samples"
+    );
+
+    answer(&picker, &after);
+    harness.get_by_label("Overlay recording…").click();
+    step_panel_until(&mut harness, "the overlay", |s| {
+        s.plot.review.as_ref().is_some_and(|r| r.overlay.is_some())
+    });
+    harness.get_by_label("Overlay (dashed): after.json, moved by");
+    let offset = harness
+        .state()
+        .plot
+        .review
+        .as_ref()
+        .map_or(f64::NAN, |r| r.offset_s);
+    assert!((offset - 0.2).abs() < 1e-9, "trigger on trigger: {offset}");
+    // A chosen offset instead, then back on the triggers.
+    if let Some(review) = &mut harness.state_mut().plot.review {
+        review.offset_s = -0.5;
+    }
+    harness.step();
+    assert_eq!(
+        drivedeck::ui::plots::time_range(harness.state()),
+        Some((-0.5, 1.0))
+    );
+    harness.get_by_label("Align").click();
+    harness.step();
+    let offset = harness
+        .state()
+        .plot
+        .review
+        .as_ref()
+        .map_or(f64::NAN, |r| r.offset_s);
+    assert!((offset - 0.2).abs() < 1e-9, "{offset}");
+
+    // Two cursors: a click places A, a right click B; Δt and each signal's Δ read out.
+    // Inside the top plot, at a fraction of its width (the read-out above may have
+    // grown after the first click).
+    let at = |h: &Harness<'_, AppState>, fraction: f32| {
+        let plots = h.state().plot.plots_rect.expect("plots drawn");
+        let left = plots.left() + 80.0;
+        egui::pos2(
+            left + (plots.width() - 100.0) * fraction,
+            plots.top() + 40.0,
+        )
+    };
+    let first = at(&harness, 0.2);
+    click_at(&mut harness, first, egui::PointerButton::Primary);
+    let second = at(&harness, 0.7);
+    click_at(&mut harness, second, egui::PointerButton::Secondary);
+    harness.step();
+    let [a, b] = harness.state().plot.cursors;
+    let (a, b) = (a.expect("cursor A"), b.expect("cursor B"));
+    assert!(a < b, "{a} {b}");
+    let times = format!("A {a:.3} s  B {b:.3} s  Δt {:.3} s", b - a);
+    harness.get_by_label(&times);
+    let rows = drivedeck::ui::plots::readout::cursor_rows(
+        drivedeck::ui::plots::shown_scope(harness.state()),
+        Some(a),
+        Some(b),
+    );
+    let [name, at_a, at_b, delta] = &rows[0];
+    harness.get_by_label(&format!("| {name}: A {at_a} · B {at_b} · Δ {delta}"));
+    assert!(delta.contains("° = ") && delta.ends_with(" rev"), "{delta}");
+    harness.get_by_label("Clear cursors").click();
+    harness.step();
+    assert_eq!(harness.state().plot.cursors, [None, None]);
+
+    // Closed: back to the (empty) live plots.
+    harness.get_by_label("Close recording").click();
+    harness.step();
+    assert!(harness.state().plot.review.is_none());
+}
+
+#[test]
+fn a_file_that_is_no_recording_is_refused_with_the_reason_and_nothing_changes() {
+    let mut harness = empty_panel();
+    harness.step();
+    let picker = scripted(harness.state_mut());
+    let dir = common::temp_dir("plots");
+    let bad = path_in(&dir, "photo.csv");
+    std::fs::write(&bad, b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR").expect("written");
+    answer(&picker, &bad);
+    harness.get_by_label("Open recording…").click();
+    step_panel_until(&mut harness, "the refusal", |s| {
+        matches!(s.plot.message, Some(Err(_)))
+    });
+    let error = message(&harness).expect_err("refused");
+    assert!(
+        error.starts_with(&format!("{bad} is not a recording")),
+        "{error}"
+    );
+    harness.get_by_label(&error);
+    assert!(harness.state().plot.review.is_none());
 }
 
 /// The times of the timeline's link entries whose text starts with `text`.

@@ -10,7 +10,7 @@ pub mod trigger;
 
 pub use recording::{ChannelInfo, Marker, Metadata, Recording, RecordingError};
 pub use ring::{BitSpan, PushError, Ring};
-pub use save::{recording_text, save_recording};
+pub use save::{MAX_RECORDING_BYTES, load_recording, recording_text, save_recording};
 pub use scope::{
     Builtin, DEFAULT_HISTORY_ROWS, Gap, Kind, Scope, ScopeEvent, SignalDef, Source, WatchedObject,
     bit_name, format_number, metadata, utc_text, watchable,

@@ -13,6 +13,8 @@ use crate::od::backup::DeviceIdentity;
 use crate::pdi::StatusBit;
 use crate::signal::{MAX_WATCHED, Sample, Signal};
 
+mod replay;
+
 /// The default history: 10 minutes at 1 kHz.
 pub const DEFAULT_HISTORY_ROWS: usize = 600_000;
 /// Command markers kept (older ones go with the history they belong to anyway).
@@ -149,6 +151,8 @@ pub enum Source {
         slot: usize,
         address: Address,
     },
+    /// A channel of a recording opened from a file that is none of the built-in signals.
+    Recorded,
 }
 
 /// One signal: what it is, where it lives in the history, whether it is drawn.
@@ -169,7 +173,7 @@ impl SignalDef {
     pub fn builtin(&self) -> Option<Builtin> {
         match self.source {
             Source::Builtin(b) => Some(b),
-            Source::Watched { .. } => None,
+            Source::Watched { .. } | Source::Recorded => None,
         }
     }
 }
@@ -334,6 +338,7 @@ impl Scope {
             let value = match signal.source {
                 Source::Builtin(b) => b.value(sample),
                 Source::Watched { slot, .. } => sample.watched.get(slot).copied().flatten(),
+                Source::Recorded => None,
             };
             self.row[signal.column] = value.unwrap_or(f64::NAN);
         }
@@ -462,7 +467,7 @@ impl Scope {
             .iter()
             .filter_map(|s| match s.source {
                 Source::Watched { address, .. } => Some(address),
-                Source::Builtin(_) => None,
+                Source::Builtin(_) | Source::Recorded => None,
             })
             .collect()
     }

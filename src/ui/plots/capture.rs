@@ -1,14 +1,18 @@
 //! The trigger (a status-bit edge or a threshold crossing, with pre- and post-trigger
 //! time) and the exports: the triggered recording or the visible window to CSV or JSON
-//! with the device's identity and units in the header, and the plots to PNG.
+//! with the device's identity and units in the header, and the plots to PNG — each to
+//! the file picked in the save dialog, a file that exists replaced only when the user
+//! says so.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+use std::sync::Arc;
 
 use eframe::egui::{self, Ui};
 use serde::{Deserialize, Serialize};
 
 use super::super::state::AppState;
 use super::super::widgets::{choice_ui, message_ui};
+use super::files::{Answer, Ask, default_name, open_folder};
 use crate::telemetry::{
     Builtin, CaptureState, Condition, Edge, Kind, Recording, Trigger, bit_name,
 };
@@ -99,13 +103,44 @@ impl TriggerForm {
 }
 
 pub fn capture_ui(ui: &mut Ui, state: &mut AppState) {
-    ui.horizontal_wrapped(|ui| {
-        trigger_ui(ui, state);
-    });
+    if state.plot.review.as_ref().is_none_or(|r| r.capture) {
+        ui.horizontal_wrapped(|ui| {
+            trigger_ui(ui, state);
+        });
+    }
     ui.horizontal_wrapped(|ui| {
         export_ui(ui, state);
     });
-    message_ui(ui, state.plot.message.as_ref());
+    ui.horizontal_wrapped(|ui| {
+        message_ui(ui, state.plot.message.as_ref());
+        let saved = state.plot.saved.clone();
+        let said = matches!(&state.plot.message, Some(Ok(text)) if saved.as_ref().is_some_and(|p| text.contains(&*p.to_string_lossy())));
+        if let Some(path) = saved.filter(|_| said)
+            && ui
+                .button("Open folder")
+                .on_hover_text("Show the file in the file manager")
+                .clicked()
+            && let Err(e) = open_folder(&path)
+        {
+            state.plot.message = Some(Err(e));
+        }
+    });
+}
+
+/// Arm the trigger as typed (a capture frozen on screen goes: the plots run live again,
+/// waiting for the next one).
+pub fn arm(state: &mut AppState) {
+    match state.settings.plot.trigger.trigger(&state.scope) {
+        Ok(trigger) => {
+            let text = state.scope.describe_trigger(&trigger);
+            state.scope.arm(trigger);
+            if state.plot.review.as_ref().is_some_and(|r| r.capture) {
+                super::review::close(&mut state.plot);
+            }
+            state.plot.message = Some(Ok(format!("armed: {text}")));
+        }
+        Err(e) => state.plot.message = Some(Err(e)),
+    }
 }
 
 /// A signal the trigger may watch: its id, its name, and which built-in it is.
@@ -237,14 +272,7 @@ fn arm_ui(ui: &mut Ui, state: &mut AppState) {
         .on_hover_text("Wait for the condition, then record the time around it")
         .clicked()
     {
-        match state.settings.plot.trigger.trigger(&state.scope) {
-            Ok(trigger) => {
-                let text = state.scope.describe_trigger(&trigger);
-                state.scope.arm(trigger);
-                state.plot.message = Some(Ok(format!("armed: {text}")));
-            }
-            Err(e) => state.plot.message = Some(Err(e)),
-        }
+        arm(state);
     }
     match capture {
         CaptureState::Idle => ui.weak("not armed"),
@@ -256,50 +284,287 @@ fn arm_ui(ui: &mut Ui, state: &mut AppState) {
     };
 }
 
-/// Where exports go, and the buttons that write them.
+/// The buttons that save and export, each through the save dialog.
 fn export_ui(ui: &mut Ui, state: &mut AppState) {
-    ui.label("Export to");
-    let path_box = ui
-        .add(
-            egui::TextEdit::singleline(&mut state.settings.plot.export_path)
-                .desired_width(220.0)
-                .hint_text("file.csv or file.json"),
-        )
-        .on_hover_text("A path ending in .json writes JSON, anything else CSV; PNG goes beside it");
-    crate::ui::widgets::name_widget(&path_box, egui::accesskit::Role::TextInput, "Export path");
     let has_recording = state.scope.recording().is_some();
     if ui
-        .add_enabled(has_recording, egui::Button::new("Save recording"))
-        .on_hover_text("The triggered recording, every signal")
+        .add_enabled(has_recording, egui::Button::new("Save recording…"))
+        .on_hover_text("The triggered recording, every signal, to CSV or JSON")
         .on_disabled_hover_text("Arm the trigger first: a recording comes when it fires")
         .clicked()
     {
-        state.plot.message = Some(save_triggered(state));
-    }
-    if ui
-        .button("Export visible")
-        .on_hover_text("The time span in view, the signals shown")
-        .clicked()
-    {
-        state.plot.message = Some(export_visible(state));
-    }
-    if ui
-        .button("Save PNG")
-        .on_hover_text("A picture of the plots, beside the export file")
-        .clicked()
-    {
-        let png = Path::new(&state.settings.plot.export_path).with_extension("png");
-        match target(&png.to_string_lossy())
-            .and_then(|path| may_write(&state.plot, &path, Export::Png).map(|()| path))
-        {
-            Ok(path) => request_png(ui.ctx(), state, path),
+        match triggered(state) {
+            Ok(recording) => ask(ui.ctx(), state, Job::save(Export::Recording, recording)),
             Err(e) => state.plot.message = Some(Err(e)),
+        }
+    }
+    if ui
+        .button("Export visible…")
+        .on_hover_text("The time span in view, the signals shown, to CSV or JSON")
+        .clicked()
+    {
+        match visible(state) {
+            Ok(recording) => ask(ui.ctx(), state, Job::save(Export::Visible, recording)),
+            Err(e) => state.plot.message = Some(Err(e)),
+        }
+    }
+    if ui
+        .button("Save PNG…")
+        .on_hover_text(
+            "A picture of the whole plot area at the screen's resolution, with a title: \
+             the device, the date and the time span",
+        )
+        .clicked()
+    {
+        super::picture::request(ui.ctx(), state);
+    }
+}
+
+/// What a file dialog's answer is for.
+#[derive(Clone, Debug)]
+pub enum Job {
+    /// Write this recording (the triggered one, or the visible window).
+    Save {
+        kind: Export,
+        recording: Arc<Recording>,
+    },
+    /// Write this picture of the plots.
+    Png(Arc<egui::ColorImage>),
+    /// Open a recording, on its own or over the one on screen.
+    Open { overlay: bool },
+}
+
+impl Job {
+    fn save(kind: Export, recording: Recording) -> Job {
+        Job::Save {
+            kind,
+            recording: Arc::new(recording),
+        }
+    }
+
+    fn export(&self) -> Option<Export> {
+        match self {
+            Job::Save { kind, .. } => Some(*kind),
+            Job::Png(_) => Some(Export::Png),
+            Job::Open { .. } => None,
+        }
+    }
+
+    /// The dialog's title, the file's part of the proposed name, its extension and the
+    /// kinds of file listed.
+    fn dialog(
+        &self,
+    ) -> (
+        &'static str,
+        &'static str,
+        &'static str,
+        Vec<(String, Vec<String>)>,
+    ) {
+        let recordings = || {
+            vec![
+                ("CSV recording".to_owned(), vec!["csv".to_owned()]),
+                ("JSON recording".to_owned(), vec!["json".to_owned()]),
+            ]
+        };
+        let any = || {
+            (
+                "Recording (CSV or JSON)".to_owned(),
+                vec!["csv".to_owned(), "json".to_owned()],
+            )
+        };
+        match self {
+            Job::Save {
+                kind: Export::Visible,
+                ..
+            } => ("Export the visible window", "visible", "csv", recordings()),
+            Job::Save { .. } => (
+                "Save the triggered recording",
+                "capture",
+                "csv",
+                recordings(),
+            ),
+            Job::Png(_) => (
+                "Save a picture of the plots",
+                "plots",
+                "png",
+                vec![("PNG picture".to_owned(), vec!["png".to_owned()])],
+            ),
+            Job::Open { overlay: false } => ("Open a recording", "", "", vec![any()]),
+            Job::Open { overlay: true } => ("Overlay a recording", "", "", vec![any()]),
         }
     }
 }
 
+/// The device the files are of, for their proposed names: the recording on screen's, or
+/// the drive's (1008h).
+fn device_name(state: &AppState) -> Option<String> {
+    let review = state.plot.review.as_ref().filter(|r| !r.capture);
+    match review {
+        Some(review) => review.base.scope.meta.device_name.clone(),
+        None => state
+            .plot
+            .identity
+            .as_ref()
+            .and_then(|i| i.name.clone())
+            .or_else(|| state.scope.meta.device_name.clone()),
+    }
+}
+
+/// Ask the user where `job` goes (or what to open): the dialog runs by itself, `poll`
+/// takes its answer.
+pub fn ask(ctx: &egui::Context, state: &mut AppState, job: Job) {
+    if state.plot.asking.is_some() {
+        state.plot.message = Some(Err("a file dialog is open already: finish it first".into()));
+        return;
+    }
+    let (title, what, ext, filters) = job.dialog();
+    let dir = &state.settings.plot.export_dir;
+    let ask = Ask {
+        save: !matches!(job, Job::Open { .. }),
+        title: title.into(),
+        directory: (!dir.is_empty()).then(|| PathBuf::from(dir)),
+        name: if ext.is_empty() {
+            String::new()
+        } else {
+            default_name(
+                device_name(state).as_deref(),
+                std::time::SystemTime::now(),
+                what,
+                ext,
+            )
+        },
+        filters,
+    };
+    let answer = Answer::default();
+    state
+        .plot
+        .files
+        .clone()
+        .pick(ask, answer.clone(), ctx.clone());
+    state.plot.asking = Some((job, answer));
+}
+
+/// The dialog's answer, once there: a file to write (a file that exists waits for the
+/// user's word), a recording to open, or nothing (cancelled).
+pub fn poll(ctx: &egui::Context, state: &mut AppState) {
+    let picked = match &state.plot.asking {
+        Some((_, answer)) => answer.lock().ok().and_then(|mut a| a.take()),
+        None => None,
+    };
+    let Some(picked) = picked else {
+        return;
+    };
+    let Some((job, _)) = state.plot.asking.take() else {
+        return;
+    };
+    let Some(path) = picked else {
+        state.plot.message = Some(Ok(match job {
+            Job::Open { .. } => "no recording opened".into(),
+            _ => "cancelled: nothing written".into(),
+        }));
+        return;
+    };
+    let path = std::path::absolute(&path).unwrap_or(path);
+    if let Some(dir) = path.parent() {
+        state.settings.plot.export_dir = dir.to_string_lossy().into_owned();
+    }
+    match job {
+        Job::Open { overlay } => super::review::load(ctx, state, path, overlay),
+        job if std::fs::symlink_metadata(&path).is_ok() => state.plot.confirm = Some((path, job)),
+        job => write(state, path, &job),
+    }
+}
+
+/// Write `job` to `path`; a failed write names the full path and the system's reason,
+/// and leaves the data where it was, to be saved elsewhere.
+fn write(state: &mut AppState, path: PathBuf, job: &Job) {
+    let Some(kind) = job.export() else {
+        return;
+    };
+    let text = path.to_string_lossy().into_owned();
+    let outcome = match job {
+        Job::Save { recording, .. } => crate::telemetry::save_recording(recording, &text),
+        Job::Png(image) => super::picture::write_png(image, &text),
+        Job::Open { .. } => return,
+    }
+    .map_err(|e| format!("{e}; {}", kind.retry()));
+    if outcome.is_ok() {
+        note_written(&mut state.plot, path.clone(), kind);
+        state.plot.saved = Some(path);
+    }
+    state.plot.message = Some(outcome);
+}
+
+/// The question before a file is replaced: what it is (and which button wrote it this
+/// session), Replace, another name, or nothing.
+pub fn confirm_ui(ctx: &egui::Context, state: &mut AppState) {
+    let Some((path, job)) = &state.plot.confirm else {
+        return;
+    };
+    let holds = state
+        .plot
+        .written
+        .iter()
+        .find(|(p, _)| p == path)
+        .map(|(_, other)| {
+            format!(
+                " It holds {} ({} wrote it this session).",
+                other.what(),
+                other.button()
+            )
+        })
+        .unwrap_or_default();
+    let text = format!("{} exists already.{holds}", path.display());
+    let what = job.export().map_or("it", Export::what);
+    let mut choice = None;
+    let modal = egui::Modal::new(egui::Id::unique("plots_replace_file")).show(ctx, |ui| {
+        ui.set_max_width(520.0);
+        ui.heading("Replace the file?");
+        ui.label(text);
+        ui.label(format!(
+            "Replacing it writes {what} in its place; the old file is gone."
+        ));
+        ui.horizontal(|ui| {
+            if ui.button("Replace").clicked() {
+                choice = Some(Confirm::Replace);
+            }
+            if ui.button("Choose another name…").clicked() {
+                choice = Some(Confirm::Elsewhere);
+            }
+            if ui.button("Cancel").clicked() {
+                choice = Some(Confirm::Cancel);
+            }
+        });
+    });
+    if modal.should_close() && choice.is_none() {
+        choice = Some(Confirm::Cancel);
+    }
+    let Some(choice) = choice else {
+        return;
+    };
+    let Some((path, job)) = state.plot.confirm.take() else {
+        return;
+    };
+    match choice {
+        Confirm::Replace => write(state, path, &job),
+        Confirm::Elsewhere => ask(ctx, state, job),
+        Confirm::Cancel => {
+            state.plot.message = Some(Ok(format!(
+                "nothing written: {} kept as it was",
+                path.display()
+            )))
+        }
+    }
+}
+
+enum Confirm {
+    Replace,
+    Elsewhere,
+    Cancel,
+}
+
 /// What an export button writes; each remembers the files it wrote this session, so
-/// another button does not write over them.
+/// the question before replacing one says what it holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Export {
     Recording,
@@ -334,122 +599,42 @@ impl Export {
     }
 }
 
-/// The export path as typed, made absolute so every message names the full path.
-fn target(typed: &str) -> Result<PathBuf, String> {
-    if typed.trim().is_empty() {
-        return Err("type the file to export to in the box first".into());
-    }
-    std::path::absolute(typed).map_err(|e| format!("'{typed}' is not a usable path: {e}"))
-}
-
-/// Refuse to write over a file another export button wrote this session (Export visible
-/// over the recording saved a moment ago, say). The same button writes its file anew.
-fn may_write(plot: &super::PlotView, path: &Path, kind: Export) -> Result<(), String> {
-    match plot.written.iter().find(|(p, _)| p == path) {
-        Some((_, other)) if *other != kind && path.exists() => Err(format!(
-            "{} holds {} ({} wrote it this session): {} does not write over it — choose another name",
-            path.display(),
-            other.what(),
-            other.button(),
-            kind.button()
-        )),
-        _ => Ok(()),
-    }
-}
-
 /// Remember that `kind` wrote `path`.
 pub fn note_written(plot: &mut super::PlotView, path: PathBuf, kind: Export) {
     plot.written.retain(|(p, _)| *p != path);
     plot.written.push((path, kind));
 }
 
-/// Write `recording` to the export path. A failed write names the full path and the
-/// system's reason, and leaves the data where it was, to be saved elsewhere.
-fn save(state: &mut AppState, recording: &Recording, kind: Export) -> Result<String, String> {
-    if recording.is_empty() {
-        return Err("nothing to export: no samples in that span".into());
-    }
-    let path = target(&state.settings.plot.export_path)?;
-    may_write(&state.plot, &path, kind)?;
-    let text = path
-        .to_str()
-        .map_or_else(|| state.settings.plot.export_path.clone(), str::to_owned);
-    let message = crate::telemetry::save_recording(recording, &text)
-        .map_err(|e| format!("{e}; {}", kind.retry()))?;
-    note_written(&mut state.plot, path, kind);
-    Ok(message)
-}
-
-/// The triggered recording to the export file; it stays in memory whatever happens.
-fn save_triggered(state: &mut AppState) -> Result<String, String> {
+/// The triggered recording, with the rates in its header; it stays in memory whatever
+/// happens to the file.
+fn triggered(state: &AppState) -> Result<Recording, String> {
     let mut recording = state
         .scope
         .recording()
         .cloned()
         .ok_or("no recording yet: arm the trigger, it records when it fires")?;
     recording.set_rates(state.settings.poll_rate);
-    save(state, &recording, Export::Recording)
+    Ok(recording)
 }
 
-/// The visible time span of the shown signals to the export file.
-pub fn export_visible(state: &mut AppState) -> Result<String, String> {
+/// The visible time span of the shown signals (of the recording on screen, or live).
+pub fn visible(state: &AppState) -> Result<Recording, String> {
     let (from, to) = super::time_range(state).ok_or("nothing recorded yet")?;
-    let mut meta = state.scope.meta.clone();
-    meta.note = Some("the visible window of the plots".into());
-    let mut recording = state.scope.export(from, to, meta, true);
-    recording.set_rates(state.settings.poll_rate);
-    save(state, &recording, Export::Visible)
-}
-
-/// Ask egui for a screenshot; the plots' part of it is written when it arrives.
-fn request_png(ctx: &egui::Context, state: &mut AppState, path: PathBuf) {
-    let rect = state.plot.plots_rect;
-    let result = state.plot.png_result.clone();
-    let repaint = ctx.clone();
-    let pixels_per_point = ctx.pixels_per_point();
-    ctx.send_viewport_cmd(egui::ViewportCommand::Screenshot(
-        egui::ScreenshotCallback::new(move |image| {
-            // Only the plots, clamped into the picture (`region` panics outside it).
-            let whole = egui::Rect::from_min_size(
-                egui::Pos2::ZERO,
-                egui::vec2(image.size[0] as f32, image.size[1] as f32) / pixels_per_point,
-            );
-            let image = match rect.map(|r| r.intersect(whole.shrink(1.0))) {
-                Some(r) if r.is_positive() => image.region(&r, Some(pixels_per_point)),
-                _ => (*image).clone(),
-            };
-            let outcome = save_png(&image, &path);
-            if let Ok(mut slot) = result.lock() {
-                *slot = Some((path, outcome));
-            }
-            repaint.request_repaint();
-        }),
-    ));
-    state.plot.message = Some(Ok("taking a picture of the plots…".into()));
-}
-
-/// The picture to `path`, a failure said with what to do.
-fn save_png(image: &egui::ColorImage, path: &Path) -> Result<String, String> {
-    write_png(image, &path.to_string_lossy()).map_err(|e| format!("{e}; {}", Export::Png.retry()))
-}
-
-/// An RGBA PNG of `image`.
-pub fn write_png(image: &egui::ColorImage, path: &str) -> Result<String, String> {
-    let [width, height] = image.size;
-    let mut png_bytes = Vec::new();
-    let mut encoder = png::Encoder::new(&mut png_bytes, width as u32, height as u32);
-    encoder.set_color(png::ColorType::Rgba);
-    encoder.set_depth(png::BitDepth::Eight);
-    let bytes: Vec<u8> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
-    encoder
-        .write_header()
-        .and_then(|mut writer| writer.write_image_data(&bytes))
-        .map_err(|e| format!("cannot make the picture for {path}: {e}"))?;
-    crate::file::write_whole(Path::new(path), &png_bytes)
-        .map_err(|e| format!("cannot write {path}: {e}"))?;
-    Ok(format!(
-        "saved a {width}x{height} picture of the plots to {path}"
-    ))
+    let scope = super::shown_scope(state);
+    let mut meta = scope.meta.clone();
+    let note = "the visible window of the plots";
+    meta.note = Some(match (&state.plot.review, meta.note.take()) {
+        (Some(_), Some(before)) => format!("{note}; {before}"),
+        _ => note.into(),
+    });
+    let mut recording = scope.export(from, to, meta, true);
+    if state.plot.review.is_none() {
+        recording.set_rates(state.settings.poll_rate);
+    }
+    if recording.is_empty() {
+        return Err("nothing to export: no samples in that span".into());
+    }
+    Ok(recording)
 }
 
 #[cfg(test)]
@@ -457,36 +642,29 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_png_that_cannot_be_written_names_the_full_path_and_the_reason() {
-        let image = egui::ColorImage::new([4, 3], vec![egui::Color32::RED; 12]);
-        let path = target("no-such-dir-for-a-png/plots.png").expect("a path");
-        assert!(path.is_absolute());
-        let error = save_png(&image, &path).expect_err("no such directory");
+    fn every_job_proposes_its_own_name_so_the_buttons_never_share_a_file() {
+        let recording = || Recording {
+            meta: crate::telemetry::Metadata::default(),
+            channels: Vec::new(),
+            times: Vec::new(),
+            columns: Vec::new(),
+            markers: Vec::new(),
+        };
+        let image = Arc::new(egui::ColorImage::new([1, 1], vec![egui::Color32::RED]));
+        let names: Vec<(&str, &str)> = [
+            Job::save(Export::Recording, recording()),
+            Job::save(Export::Visible, recording()),
+            Job::Png(image),
+        ]
+        .iter()
+        .map(|job| {
+            let (_, what, ext, _) = job.dialog();
+            (what, ext)
+        })
+        .collect();
         assert_eq!(
-            error,
-            format!(
-                "cannot write {}: No such file or directory (os error 2); the plots are unchanged — choose another place",
-                path.display()
-            )
+            names,
+            [("capture", "csv"), ("visible", "csv"), ("plots", "png")]
         );
-        assert!(target("  ").is_err());
-    }
-
-    #[test]
-    fn a_button_does_not_write_over_the_file_another_one_wrote() {
-        let mut plot = super::super::PlotView::default();
-        let path = std::env::temp_dir().join(format!("drivedeck-guard-{}.csv", std::process::id()));
-        std::fs::write(&path, "recording").expect("temp file");
-        note_written(&mut plot, path.clone(), Export::Recording);
-        assert_eq!(may_write(&plot, &path, Export::Recording), Ok(()));
-        let refused = may_write(&plot, &path, Export::Visible).expect_err("refused");
-        assert!(
-            refused
-                .contains("holds the triggered recording (Save recording wrote it this session)"),
-            "{refused}"
-        );
-        // Gone from the disk (deleted, moved): nothing to protect.
-        let _ = std::fs::remove_file(&path);
-        assert_eq!(may_write(&plot, &path, Export::Visible), Ok(()));
     }
 }

@@ -1,23 +1,92 @@
 //! The plot panel: stacked plots of the sampled signals on one time axis, the status bits
 //! as digital lanes, command markers, a cursor read-out, pause, follow, zoom and pan; the
-//! trigger and the exports live in `capture`.
+//! trigger and the exports live in `capture`, the PNG in `picture`, recordings opened
+//! from files (and a frozen capture) in `review`, the dialogs in `files`.
 
 mod capture;
+pub mod files;
+mod picture;
+pub mod readout;
+pub mod review;
 mod traces;
 
-use std::sync::{Arc, Mutex};
+use std::path::PathBuf;
+use std::sync::Arc;
 
-use eframe::egui::{self, Rect, Ui};
+use eframe::egui::{self, Ui};
 use serde::{Deserialize, Serialize};
 
 use super::state::AppState;
 use crate::od::backup::DeviceIdentity;
-use crate::telemetry::{DEFAULT_HISTORY_ROWS, Kind, WatchedObject};
+use crate::telemetry::{DEFAULT_HISTORY_ROWS, Scope, WatchedObject};
 
-pub use capture::{Export, TriggerForm};
+pub use capture::{Export, Job, TriggerForm};
+pub use files::{Ask, FilePicker, NativePicker, ScriptedPicker};
+pub use picture::PngResult;
+pub use review::Review;
 
-/// Where the PNG writer puts its outcome for the next frame: the path and the message.
-pub type PngResult = Arc<Mutex<Option<(std::path::PathBuf, Result<String, String>)>>>;
+/// The unit of positions in the factory-default user units (6064h and its kin).
+pub const FACTORY_POSITION_UNIT: &str = "0.1°";
+
+/// How positions in the factory units are drawn: as the drive counts them, in degrees or
+/// in revolutions of the motor shaft.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PositionUnit {
+    #[default]
+    Tenths,
+    Degrees,
+    Revolutions,
+}
+
+impl PositionUnit {
+    pub const ALL: [PositionUnit; 3] = [
+        PositionUnit::Tenths,
+        PositionUnit::Degrees,
+        PositionUnit::Revolutions,
+    ];
+
+    /// What a value in 0.1° is multiplied by.
+    pub fn scale(self) -> f64 {
+        match self {
+            PositionUnit::Tenths => 1.0,
+            PositionUnit::Degrees => 0.1,
+            PositionUnit::Revolutions => 1.0 / 3600.0,
+        }
+    }
+
+    pub fn unit(self) -> &'static str {
+        match self {
+            PositionUnit::Tenths => FACTORY_POSITION_UNIT,
+            PositionUnit::Degrees => "°",
+            PositionUnit::Revolutions => "rev",
+        }
+    }
+
+    /// The scale and unit a signal in `unit` is drawn with: positions in the factory unit
+    /// in this one, anything else as it is.
+    pub fn drawn(self, unit: &str) -> (f64, String) {
+        if unit == FACTORY_POSITION_UNIT {
+            (self.scale(), self.unit().to_owned())
+        } else {
+            (1.0, unit.to_owned())
+        }
+    }
+}
+
+/// A position in the factory unit said in degrees and revolutions too: "3600 0.1° = 360.0°
+/// = 1.000 rev"; any other value with its unit.
+pub fn with_turns(value: f64, unit: &str) -> String {
+    let number = crate::telemetry::format_number(value);
+    if unit == FACTORY_POSITION_UNIT {
+        format!(
+            "{number} {unit} = {:.1}° = {:.3} rev",
+            value * PositionUnit::Degrees.scale(),
+            value * PositionUnit::Revolutions.scale()
+        )
+    } else {
+        format!("{number} {unit}").trim_end().to_owned()
+    }
+}
 
 /// What the plot panel remembers between runs.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -27,11 +96,13 @@ pub struct PlotSettings {
     pub window_s: f64,
     /// Samples kept per signal.
     pub history_rows: usize,
-    /// Where exports go (`.json` writes JSON, anything else CSV; PNG beside it).
-    pub export_path: String,
+    /// The folder the save and open dialogs start in (the last one used).
+    pub export_dir: String,
     pub trigger: TriggerForm,
     /// The ids of the signals drawn.
     pub shown: Vec<String>,
+    /// How positions in the factory unit are drawn.
+    pub position_unit: PositionUnit,
 }
 
 impl Default for PlotSettings {
@@ -39,9 +110,10 @@ impl Default for PlotSettings {
         Self {
             window_s: 10.0,
             history_rows: DEFAULT_HISTORY_ROWS,
-            export_path: "drivedeck-recording.csv".into(),
+            export_dir: String::new(),
             trigger: TriggerForm::default(),
             shown: Vec::new(),
+            position_unit: PositionUnit::default(),
         }
     }
 }
@@ -68,13 +140,27 @@ pub struct PlotView {
     pub watch_text: String,
     /// The history size being typed.
     pub rows_text: String,
-    /// Where the plots were drawn (for the PNG export).
-    pub plots_rect: Option<Rect>,
-    /// What the PNG writer reported (it runs when the screenshot arrives), and where.
-    pub png_result: PngResult,
+    /// Where the plots (every axis included) were drawn in the last frame.
+    pub plots_rect: Option<egui::Rect>,
+    /// The picture of the plots being taken.
+    pub picture: picture::Picture,
     /// The files the export buttons wrote this session, and which button (the newest
     /// writer of each path).
-    pub written: Vec<(std::path::PathBuf, Export)>,
+    pub written: Vec<(PathBuf, Export)>,
+    /// The file saved last, for "Open folder".
+    pub saved: Option<PathBuf>,
+    /// The open and save dialogs (the system's; a script's in tests).
+    pub files: Arc<dyn FilePicker>,
+    /// A dialog open now, and what its answer is for.
+    pub asking: Option<(Job, files::Answer)>,
+    /// A file that exists, waiting for the user's word before it is replaced.
+    pub confirm: Option<(PathBuf, Job)>,
+    /// A recording (or a frozen capture) on screen instead of the live history.
+    pub review: Option<Review>,
+    /// A recording being read from its file.
+    pub loading: Option<review::Loading>,
+    /// The two cursors (A, B) placed on the time axis: a click places A, a right click B.
+    pub cursors: [Option<f64>; 2],
 }
 
 impl Default for PlotView {
@@ -91,8 +177,15 @@ impl Default for PlotView {
             watch_text: String::new(),
             rows_text: String::new(),
             plots_rect: None,
-            png_result: Arc::default(),
+            picture: picture::Picture::default(),
             written: Vec::new(),
+            saved: None,
+            files: Arc::new(NativePicker),
+            asking: None,
+            confirm: None,
+            review: None,
+            loading: None,
+            cursors: [None; 2],
         }
     }
 }
@@ -103,9 +196,27 @@ impl PlotView {
     }
 }
 
+/// The history the plots draw: the recording under review, or the live one.
+pub fn shown_scope(state: &AppState) -> &Scope {
+    state
+        .plot
+        .review
+        .as_ref()
+        .map_or(&state.scope, |review| &review.base.scope)
+}
+
 /// The time span to draw: the newest `window_s` seconds (or the whole history) up to the
-/// newest sample or the pause, while following; what the user zoomed to otherwise.
+/// newest sample or the pause, while following; the whole recording under review (and
+/// its overlay); what the user zoomed to otherwise.
 pub fn time_range(state: &AppState) -> Option<(f64, f64)> {
+    if let Some(review) = &state.plot.review {
+        if !state.plot.follow
+            && let Some(range) = state.plot.shown_range
+        {
+            return Some(range);
+        }
+        return review.span();
+    }
     let ring = state.scope.ring();
     let first = ring.first_time()?;
     let end = state.plot.paused_at.or_else(|| live_end(state))?;
@@ -137,27 +248,32 @@ pub fn live_end(state: &AppState) -> Option<f64> {
 }
 
 pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
-    let png = state
-        .plot
-        .png_result
-        .lock()
-        .ok()
-        .and_then(|mut result| result.take());
-    if let Some((path, result)) = png {
-        if result.is_ok() {
-            capture::note_written(&mut state.plot, path, Export::Png);
-        }
-        state.plot.message = Some(result);
-    }
     toolbar(ui, state);
+    review::review_ui(ui, state);
     capture::capture_ui(ui, state);
-    readout(ui, state);
-    traces::traces_ui(ui, state);
+    readout::readout_ui(ui, state);
+    let band = picture::title_band_ui(ui, state);
+    let plots = traces::traces_ui(ui, state);
+    state.plot.plots_rect = plots;
+    picture::taken(ui.ctx(), state, band, plots);
+    // The answers of this frame's dialogs (a scripted one answers at once) and of those
+    // that came in between.
+    picture::poll(ui.ctx(), state);
+    capture::poll(ui.ctx(), state);
+    review::poll(state);
+    capture::confirm_ui(ui.ctx(), state);
 }
 
 fn toolbar(ui: &mut Ui, state: &mut AppState) {
     ui.horizontal_wrapped(|ui| {
+        if state.plot.review.is_some() {
+            ui.heading("Recording");
+            review::open_buttons_ui(ui, state);
+            signals_menu(ui, state);
+            return;
+        }
         ui.heading("Live plots");
+        review::open_buttons_ui(ui, state);
         let paused = state.plot.is_paused();
         if ui
             .add(egui::Button::selectable(
@@ -228,22 +344,53 @@ fn window_text(seconds: f64) -> String {
     }
 }
 
-/// Which signals are drawn, and the objects added from the dictionary.
+/// Which signals are drawn (the button says how many; the menu stays open while
+/// choosing, each signal in the colour of its trace), how positions are drawn, and the
+/// objects added from the dictionary.
 fn signals_menu(ui: &mut Ui, state: &mut AppState) {
-    ui.menu_button("Signals", |ui| {
+    let scope = shown_scope(state);
+    let drawn = scope.signals().iter().filter(|s| scope.is_drawn(s)).count();
+    let title = format!("Signals ({drawn} of {})", scope.signals().len());
+    let config = egui::containers::menu::MenuConfig::new()
+        .close_behavior(egui::PopupCloseBehavior::CloseOnClickOutside);
+    let (button, _) = egui::containers::menu::MenuButton::new(title)
+        .config(config)
+        .ui(ui, |ui| signals_menu_body(ui, state));
+    crate::ui::widgets::name_widget(&button, egui::accesskit::Role::Button, "Signals");
+}
+
+fn signals_menu_body(ui: &mut Ui, state: &mut AppState) {
+    {
+        let reviewing = state.plot.review.is_some();
+        let scope = match &mut state.plot.review {
+            Some(review) => &mut review.base.scope,
+            None => &mut state.scope,
+        };
+        let colors = traces::colors(scope.signals());
         let mut changed = false;
-        for signal in state.scope.signals_mut() {
+        let with_samples: Vec<bool> = scope
+            .signals()
+            .iter()
+            .map(|s| scope.ring().latest(s.column).is_some())
+            .collect();
+        for ((signal, color), has) in scope.signals_mut().iter_mut().zip(colors).zip(with_samples) {
+            let mut drawn = signal.shown || (signal.auto && has);
             let label = if signal.info.unit.is_empty() {
                 signal.info.name.clone()
             } else {
                 format!("{} [{}]", signal.info.name, signal.info.unit)
             };
-            if ui.checkbox(&mut signal.shown, label).changed() {
-                signal.auto = false;
-                changed = true;
-            }
+            ui.horizontal(|ui| {
+                let (rect, _) = ui.allocate_exact_size(egui::vec2(14.0, 4.0), egui::Sense::hover());
+                ui.painter().rect_filled(rect, 1.0, color);
+                if ui.checkbox(&mut drawn, label).changed() {
+                    signal.shown = drawn;
+                    signal.auto = false;
+                    changed = true;
+                }
+            });
         }
-        if changed {
+        if changed && !reviewing {
             state.settings.plot.shown = state
                 .scope
                 .signals()
@@ -252,6 +399,22 @@ fn signals_menu(ui: &mut Ui, state: &mut AppState) {
                 .map(|s| s.info.id.clone())
                 .collect();
         }
+    }
+    ui.separator();
+    ui.horizontal(|ui| {
+        ui.label("Positions in");
+        for unit in PositionUnit::ALL {
+            ui.selectable_value(&mut state.settings.plot.position_unit, unit, unit.unit());
+        }
+    })
+    .response
+    .on_hover_text(
+        "Positions in the factory unit (0.1°) drawn as counted, in degrees or in revolutions",
+    );
+    if state.plot.review.is_some() {
+        return;
+    }
+    {
         ui.separator();
         ui.label("Plot an object of the dictionary (sampled every cycle):");
         ui.horizontal(|ui| {
@@ -281,7 +444,7 @@ fn signals_menu(ui: &mut Ui, state: &mut AppState) {
                 state.unwatch_object(&address);
             }
         }
-    });
+    }
 }
 
 fn history_menu(ui: &mut Ui, state: &mut AppState) {
@@ -324,53 +487,4 @@ fn history_menu(ui: &mut Ui, state: &mut AppState) {
         });
         ui.weak("The default, 600 000, is 10 minutes at 1 kHz. The oldest samples go first.");
     });
-}
-
-/// The values under the cursor (or the newest ones) of every signal drawn.
-fn readout(ui: &mut Ui, state: &AppState) {
-    let ring = state.scope.ring();
-    let at = state.plot.cursor.or(ring.last_time());
-    let Some(at) = at else {
-        ui.weak("no samples yet");
-        return;
-    };
-    let Some(row) = ring.index_at_or_before(at) else {
-        return;
-    };
-    ui.horizontal_wrapped(|ui| {
-        let what = if state.plot.cursor.is_some() {
-            "cursor"
-        } else {
-            "latest"
-        };
-        ui.monospace(format!("{what} t = {:.3} s", ring.time(row).unwrap_or(at)));
-        for signal in state
-            .scope
-            .signals()
-            .iter()
-            .filter(|s| state.scope.is_drawn(s))
-        {
-            let Some(v) = value_near(ring, row, signal.column) else {
-                continue;
-            };
-            let text = match signal.kind {
-                Kind::Analog => format!(
-                    "{} {}",
-                    crate::telemetry::format_number(v),
-                    signal.info.unit
-                ),
-                Kind::Bits => format!("{:04X}h", v as u32),
-            };
-            ui.monospace(format!("| {}: {}", signal.info.id, text.trim_end()));
-        }
-    });
-}
-
-/// The channel's value at `row`, or the nearest one before it within a few samples (a
-/// signal read round robin is not in every row).
-fn value_near(ring: &crate::telemetry::Ring, row: usize, column: usize) -> Option<f64> {
-    (0..=32)
-        .filter_map(|back| row.checked_sub(back))
-        .filter_map(|i| ring.value(i, column))
-        .find(|v| !v.is_nan())
 }

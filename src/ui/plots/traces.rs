@@ -1,44 +1,92 @@
 //! The stacked plots: one per analog signal, then the digital lanes, all on one linked
 //! time axis, each drawn from the history's min/max decimation at one point group per
-//! pixel column, so the whole history draws without dropping a peak.
+//! pixel column, so the whole history draws without dropping a peak. The y axes always
+//! fit what is in view (zoom and pan move the time axis only, no trace is clipped); a
+//! recording overlaid is drawn dashed over the one it is compared with.
 
 use eframe::egui::{self, Color32, Ui};
-use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
+use egui_plot::{FilledArea, Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
 
 use super::super::state::AppState;
 use super::super::widgets::{AMBER, BLUE, GREEN, RED};
-use super::time_range;
+use super::{PositionUnit, shown_scope, time_range};
 use crate::telemetry::{
-    BitSpan, Builtin, CaptureState, Condition, Kind, Ring, SignalDef, bit_name,
+    BitSpan, Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef, bit_name,
 };
 
 /// Height of one digital lane, in points: at most, and at least (the lanes take up to
-/// 40 % of the panel between the two).
-const LANE_HEIGHT: f32 = 16.0;
-const LANE_HEIGHT_MIN: f32 = 9.0;
+/// 45 % of the panel between the two).
+const LANE_HEIGHT: f32 = 26.0;
+const LANE_HEIGHT_MIN: f32 = 18.0;
 /// Width of every plot's y axis, so the time axes line up.
 const Y_AXIS_WIDTH: f32 = 56.0;
 /// The lowest an analog plot gets.
-const PLOT_HEIGHT_MIN: f32 = 40.0;
+const PLOT_HEIGHT_MIN: f32 = 60.0;
 /// Marker labels drawn per plot at most (all markers get their line).
 const MARKER_LABELS: usize = 24;
+/// The PDI-Status lanes drawn even when low throughout.
+const ALWAYS_LANES: [crate::pdi::StatusBit; 3] = [
+    crate::pdi::StatusBit::OperationEnabled,
+    crate::pdi::StatusBit::TargetReached,
+    crate::pdi::StatusBit::Fault,
+];
+/// The lane labels' size, in points.
+const LANE_LABEL_SIZE: f32 = 13.0;
 
 const PURPLE: Color32 = Color32::from_rgb(150, 110, 210);
 const TEAL: Color32 = Color32::from_rgb(60, 190, 190);
+const PINK: Color32 = Color32::from_rgb(230, 110, 170);
+const LIME: Color32 = Color32::from_rgb(170, 210, 60);
+const ORANGE: Color32 = Color32::from_rgb(240, 120, 40);
+const SKY: Color32 = Color32::from_rgb(140, 200, 250);
+const SAND: Color32 = Color32::from_rgb(210, 180, 130);
 const GREY: Color32 = Color32::from_gray(150);
 /// The shade of a stretch without samples.
 const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
+/// The colours for traces that are no built-in signal, in order.
+const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY, SAND, GREEN, BLUE];
+/// The cursors' colours (A, B).
+const CURSOR_COLORS: [Color32; 2] = [
+    Color32::from_rgb(250, 230, 80),
+    Color32::from_rgb(90, 230, 230),
+];
 
-fn color_of(signal: &SignalDef, index: usize) -> Color32 {
-    match signal.builtin() {
-        Some(Builtin::Position) => BLUE,
-        Some(Builtin::Velocity) => GREEN,
-        Some(Builtin::Torque) => AMBER,
-        Some(Builtin::FollowingError) => RED,
-        Some(Builtin::AnalogInput) => PURPLE,
-        Some(Builtin::ReturnValue) => TEAL,
-        _ => [PURPLE, TEAL, AMBER, GREEN, BLUE, RED][index % 6],
-    }
+/// A colour per signal, none used twice while the palette lasts: the built-in signals
+/// keep theirs (position blue, velocity green, …), the others take the next free one.
+pub fn colors(signals: &[SignalDef]) -> Vec<Color32> {
+    let fixed = |signal: &SignalDef| match signal.builtin() {
+        Some(Builtin::Position) => Some(BLUE),
+        Some(Builtin::Velocity) => Some(GREEN),
+        Some(Builtin::Torque) => Some(AMBER),
+        Some(Builtin::FollowingError) => Some(RED),
+        Some(Builtin::AnalogInput) => Some(PURPLE),
+        Some(Builtin::ReturnValue) => Some(TEAL),
+        _ => None,
+    };
+    let mut used: Vec<Color32> = signals.iter().filter_map(fixed).collect();
+    let mut spare = PALETTE
+        .iter()
+        .copied()
+        .filter(|c| !used.contains(c))
+        .collect::<Vec<_>>()
+        .into_iter();
+    signals
+        .iter()
+        .enumerate()
+        .map(|(i, signal)| {
+            fixed(signal).unwrap_or_else(|| {
+                let color = spare.next().unwrap_or(PALETTE[i % PALETTE.len()]);
+                used.push(color);
+                color
+            })
+        })
+        .collect()
+}
+
+/// A lane's colour: the lamp colour of what its bit means where the status panel has
+/// one, a colour of its own otherwise.
+fn lane_color(k: usize) -> Color32 {
+    PALETTE[k % PALETTE.len()]
 }
 
 /// A lane to draw: which bit of which bit signal.
@@ -46,6 +94,13 @@ struct Lane {
     column: usize,
     bit: u8,
     name: String,
+}
+
+/// Where the lanes are and what they say, for their labels.
+struct LaneLabels {
+    rect: egui::Rect,
+    /// Each lane's name and the screen height of its middle.
+    rows: Vec<(String, f32, Color32, bool)>,
 }
 
 /// A stretch without samples in view (a lost link, a disconnect): shaded, labelled, and
@@ -63,12 +118,20 @@ struct Interaction {
     range: Option<(f64, f64)>,
     user_moved: bool,
     follow_again: bool,
+    /// A click placed cursor A (0) or B (1) here.
+    placed: Option<(usize, f64)>,
+    /// The right edge of the plots drawn.
+    right: f32,
 }
 
 /// What every plot of one frame shares: the time span, whether it follows the newest
 /// sample, the linked axis, and the marks drawn across all plots.
 struct View<'a> {
     ring: &'a Ring,
+    /// The recording drawn over this one, and the seconds its times are moved by.
+    overlay: Option<(&'a Scope, f64)>,
+    position_unit: PositionUnit,
+    cursors: [Option<f64>; 2],
     from: f64,
     to: f64,
     follow: bool,
@@ -84,22 +147,34 @@ struct View<'a> {
 
 impl<'a> View<'a> {
     fn new(state: &'a AppState, from: f64, to: f64) -> Self {
-        let markers = state
-            .scope
+        let scope = shown_scope(state);
+        let markers = scope
             .markers()
             .filter(|m| m.t >= from && m.t <= to)
             .map(|m| (m.t, m.text.as_str()))
             .collect();
-        let trigger_at = match state.scope.capture_state() {
-            CaptureState::Fired { at } | CaptureState::Complete { at, .. } => Some(at),
-            _ => None,
+        let review = state.plot.review.as_ref();
+        let trigger_at = match review {
+            Some(review) => review.base.trigger,
+            None => match state.scope.capture_state() {
+                CaptureState::Fired { at } | CaptureState::Complete { at, .. } => Some(at),
+                _ => None,
+            },
         };
-        let threshold = state.scope.trigger().and_then(|t| match t.condition {
-            Condition::Threshold { channel, level, .. } => Some((channel, level)),
-            Condition::Bit { .. } => None,
-        });
+        // The threshold's column is of the live history (a capture has the same ones).
+        let threshold = state
+            .scope
+            .trigger()
+            .and_then(|t| match t.condition {
+                Condition::Threshold { channel, level, .. } => Some((channel, level)),
+                Condition::Bit { .. } => None,
+            })
+            .filter(|_| review.is_none_or(|r| r.capture));
         View {
-            ring: state.scope.ring(),
+            ring: scope.ring(),
+            overlay: review.and_then(|r| r.overlay.as_ref().map(|o| (&o.scope, r.offset_s))),
+            position_unit: state.settings.plot.position_unit,
+            cursors: state.plot.cursors,
             from,
             to,
             follow: state.plot.follow,
@@ -116,6 +191,9 @@ impl<'a> View<'a> {
 /// The gaps between `from` and `to`; one still open reaches to now (while the link is
 /// lost, the plots run on to show it grow).
 fn bands(state: &AppState, from: f64, to: f64) -> Vec<Band> {
+    if state.plot.review.is_some() {
+        return Vec::new();
+    }
     let now = super::live_end(state).unwrap_or(to);
     state
         .scope
@@ -150,48 +228,58 @@ fn split_at_bands<'p>(points: &'p [[f64; 2]], bands: &[Band]) -> Vec<&'p [[f64; 
 /// Where the pointer is on the time axis, and the span the plot showed.
 type Seen = (Option<f64>, (f64, f64));
 
-pub fn traces_ui(ui: &mut Ui, state: &mut AppState) {
+/// The plots; where they were drawn (every axis included), for the picture.
+pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
     let Some((from, to)) = time_range(state) else {
         ui.add_space(8.0);
-        ui.weak("Waiting for samples: connect to a drive (or the simulated one).");
-        return;
+        ui.weak(
+            "Waiting for samples: connect to a drive (or the simulated one), or open a \
+             recording.",
+        );
+        return None;
     };
-    let analog: Vec<(usize, &SignalDef)> = state
-        .scope
+    let scope = shown_scope(state);
+    let colors = colors(scope.signals());
+    let analog: Vec<(&SignalDef, Color32)> = scope
         .signals()
         .iter()
-        .enumerate()
-        .filter(|(_, s)| state.scope.is_drawn(s) && s.kind == Kind::Analog)
+        .zip(colors)
+        .filter(|(s, _)| scope.is_drawn(s) && s.kind == Kind::Analog)
         .collect();
-    let lanes = lanes(state, from, to);
+    let lanes = lanes(scope, from, to);
     let (plot_height, lanes_height) = heights(ui.available_height(), analog.len(), lanes.len());
     let view = View::new(state, from, to);
     let mut interaction = Interaction::default();
     let top = ui.cursor().min;
 
-    for (n, (index, signal)) in analog.iter().enumerate() {
+    for (n, (signal, color)) in analog.iter().enumerate() {
         // The time labels once, under the lowest plot.
         let time_labels = n + 1 == analog.len() && lanes.is_empty();
-        let response = analog_plot_ui(ui, &view, *index, signal, plot_height, n == 0, time_labels);
+        let response = analog_plot_ui(ui, &view, signal, *color, plot_height, n == 0, time_labels);
         interaction.absorb(ui, &response.response, response.inner);
     }
     if !lanes.is_empty() {
         let response = lanes_plot_ui(ui, &view, &lanes, lanes_height);
-        interaction.absorb(ui, &response.response, response.inner);
+        interaction.absorb(ui, &response.response, response.inner.0);
+        lane_labels_ui(ui, &response.inner.1);
     }
 
     let bottom = ui.cursor().min;
-    let plots = egui::Rect::from_min_max(top, egui::pos2(top.x + ui.available_width(), bottom.y));
-    remember_view(state, &interaction, plots, (from, to));
+    let plots = egui::Rect::from_min_max(
+        top,
+        egui::pos2(interaction.right.max(top.x + 1.0), bottom.y),
+    );
+    remember_view(state, &interaction, (from, to));
+    Some(plots)
 }
 
 /// The height of each analog plot and of the lanes' plot: the lanes take what they need
-/// (up to 35 % while analog plots share the panel), the analog plots share the rest.
+/// (up to 45 % while analog plots share the panel), the analog plots share the rest.
 fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
     let lanes_height = if lanes == 0 {
         0.0
     } else {
-        let share = if analog == 0 { 1.0 } else { 0.35 };
+        let share = if analog == 0 { 1.0 } else { 0.45 };
         let lane = ((available * share - 40.0) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
         lanes as f32 * lane + 40.0
     };
@@ -208,20 +296,30 @@ fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
 fn analog_plot_ui(
     ui: &mut Ui,
     view: &View<'_>,
-    index: usize,
     signal: &SignalDef,
+    color: Color32,
     height: f32,
     first: bool,
     time_labels: bool,
 ) -> egui_plot::PlotResponse<Seen> {
-    let label = if signal.info.unit.is_empty() {
+    let (scale, unit) = view.position_unit.drawn(&signal.info.unit);
+    let label = if unit.is_empty() {
         signal.info.name.clone()
     } else {
-        format!("{} [{}]", signal.info.name, signal.info.unit)
+        format!("{} [{unit}]", signal.info.name)
     };
-    let color = color_of(signal, index);
     let column = signal.column;
-    let level = view.threshold.filter(|(c, _)| *c == column).map(|(_, l)| l);
+    let level = view
+        .threshold
+        .filter(|(c, _)| *c == column)
+        .map(|(_, l)| l * scale);
+    // The same signal in the overlaid recording, if it has it.
+    let overlay = view.overlay.and_then(|(scope, offset)| {
+        scope
+            .signal(&signal.info.id)
+            .filter(|s| s.kind == Kind::Analog)
+            .map(|s| (scope.ring(), s.column, offset))
+    });
     Plot::new(("plot", signal.info.id.as_str()))
         .height(height)
         .link_axis(view.group, [true, false])
@@ -229,6 +327,9 @@ fn analog_plot_ui(
         // Top left: the newest samples come in on the right.
         .legend(Legend::default().position(egui_plot::Corner::LeftTop))
         .allow_double_click_reset(false)
+        // The time axis zooms and pans; the value axis always fits what is in view.
+        .allow_zoom([true, false])
+        .allow_drag([true, false])
         // Three or four labelled values on a low plot (egui_plot's decades give one).
         .custom_y_axes(vec![
             egui_plot::AxisHints::new_y().label_spacing(10.0..=16.0),
@@ -236,28 +337,69 @@ fn analog_plot_ui(
         .y_grid_spacer(nice_steps)
         .y_axis_min_width(Y_AXIS_WIDTH)
         .custom_x_axes(time_axis())
+        .x_grid_spacer(time_steps)
         .show_axes([time_labels, true])
         .show(ui, |plot_ui| {
             let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
             let columns = plot_ui.transform().frame().width().max(1.0) as usize;
-            let points = view.ring.decimate(column, from, to, columns);
-            if view.follow {
-                plot_ui.set_plot_bounds(follow_bounds(&points, from, to, level));
-            }
+            let mut points = view.ring.decimate(column, from, to, columns);
+            scale_values(&mut points, scale, 0.0);
+            let mut other = overlay
+                .map(|(ring, column, offset)| {
+                    let mut points = ring.decimate(column, from - offset, to - offset, columns);
+                    scale_values(&mut points, scale, offset);
+                    points
+                })
+                .unwrap_or_default();
+            let fit = [points.as_slice(), other.as_slice()].concat();
+            plot_ui.set_plot_bounds(fit_bounds(&fit, from, to, level));
             draw_bands(plot_ui, &view.bands, first);
             draw_markers(plot_ui, &view.markers, first);
             draw_moments(plot_ui, view, level);
             for run in split_at_bands(&points, &view.bands) {
-                plot_ui.line(Line::new(label.as_str(), run.to_vec()).color(color));
+                plot_ui.line(
+                    Line::new(label.as_str(), run.to_vec())
+                        .color(color)
+                        .width(1.5),
+                );
+            }
+            if !other.is_empty() {
+                let name = format!("{label} (overlay)");
+                plot_ui.line(
+                    Line::new(name, std::mem::take(&mut other))
+                        .color(color.gamma_multiply(0.75))
+                        .style(LineStyle::dashed_loose())
+                        .width(1.5),
+                );
             }
             (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
         })
+}
+
+/// Values times `scale` (positions in degrees or revolutions), times moved by `offset`.
+fn scale_values(points: &mut [[f64; 2]], scale: f64, offset: f64) {
+    if scale != 1.0 || offset != 0.0 {
+        for p in points {
+            p[0] += offset;
+            p[1] *= scale;
+        }
+    }
 }
 
 /// The trigger's moment and level, and the moment marked from the timeline.
 fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<f64>) {
     if let Some(at) = view.trigger_at {
         plot_ui.add(VLine::new("trigger", at).color(RED).width(1.5));
+    }
+    for (k, at) in view.cursors.iter().enumerate() {
+        if let Some(at) = at {
+            plot_ui.add(
+                VLine::new(["cursor A", "cursor B"][k], *at)
+                    .color(CURSOR_COLORS[k])
+                    .width(1.5)
+                    .allow_hover(false),
+            );
+        }
     }
     if let Some(at) = view.highlight {
         plot_ui.add(
@@ -282,7 +424,7 @@ fn lanes_plot_ui(
     view: &View<'_>,
     lanes: &[Lane],
     height: f32,
-) -> egui_plot::PlotResponse<Seen> {
+) -> egui_plot::PlotResponse<(Seen, LaneLabels)> {
     Plot::new("plot_lanes")
         .height(height - 8.0)
         .link_axis(view.group, [true, false])
@@ -295,56 +437,99 @@ fn lanes_plot_ui(
         .y_axis_formatter(|_, _| String::new())
         .y_grid_spacer(|_| Vec::new())
         .custom_x_axes(time_axis())
+        .x_grid_spacer(time_steps)
         .show(ui, |plot_ui| {
             let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
-            if view.follow {
-                plot_ui.set_plot_bounds(PlotBounds::from_min_max(
-                    [from, -0.5],
-                    [to, lanes.len() as f64 * 1.5],
-                ));
-            }
+            // Lane k from the top: its low line at (n - 1 - k) * 1.5, its high one 1 above.
+            plot_ui.set_plot_bounds(PlotBounds::from_min_max(
+                [from, -0.35],
+                [to, lanes.len() as f64 * 1.5 - 0.15],
+            ));
             draw_bands(plot_ui, &view.bands, false);
             draw_markers(plot_ui, &view.markers, false);
-            draw_lanes(plot_ui, view, lanes, from, to);
-            (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
+            draw_moments(plot_ui, view, None);
+            let labels = draw_lanes(plot_ui, view, lanes, from, to);
+            (
+                (plot_ui.pointer_coordinate().map(|p| p.x), (from, to)),
+                labels,
+            )
         })
 }
 
-/// Each lane's line, 1.5 apart, its name at the left edge over the trace.
-fn draw_lanes(plot_ui: &mut PlotUi, view: &View<'_>, lanes: &[Lane], from: f64, to: f64) {
+/// Each lane, 1.5 apart, the first on top: its high stretches filled in its colour over
+/// a thin low line, so high and low are told apart at a glance.
+fn draw_lanes(
+    plot_ui: &mut PlotUi,
+    view: &View<'_>,
+    lanes: &[Lane],
+    from: f64,
+    to: f64,
+) -> LaneLabels {
     let columns = plot_ui.transform().frame().width().max(1.0) as usize;
+    let transform = *plot_ui.transform();
     let mut last_column = None;
     let mut spans: Vec<BitSpan> = Vec::new();
+    let mut rows = Vec::new();
     for (k, lane) in lanes.iter().enumerate() {
         if last_column != Some(lane.column) {
             spans = view.ring.decimate_bits(lane.column, from, to, columns);
             last_column = Some(lane.column);
         }
-        let base = k as f64 * 1.5;
-        let color = if k % 2 == 0 { GREEN } else { BLUE };
+        let base = (lanes.len() - 1 - k) as f64 * 1.5;
+        let color = lane_color(k);
         let points = lane_points(&spans, lane.bit, base);
         for run in split_at_bands(&points, &view.bands) {
-            plot_ui.line(Line::new("", run.to_vec()).color(color));
+            let xs: Vec<f64> = run.iter().map(|p| p[0]).collect();
+            let lows = vec![base; run.len()];
+            let highs: Vec<f64> = run.iter().map(|p| p[1]).collect();
+            plot_ui.add(
+                FilledArea::new("", &xs, &lows, &highs)
+                    .fill_color(color.gamma_multiply(0.55))
+                    .allow_hover(false),
+            );
+            plot_ui.line(Line::new("", run.to_vec()).color(color).width(1.5));
         }
-        plot_ui.text(
-            Text::new("", egui_plot::PlotPoint::new(from, base + 0.5), &lane.name)
-                .anchor(egui::Align2::LEFT_CENTER)
-                .color(Color32::from_gray(210))
-                .allow_hover(false),
-        );
+        let high_now = spans.last().is_some_and(|s| s.all & (1 << lane.bit) != 0);
+        let middle = transform
+            .position_from_point(&egui_plot::PlotPoint::new(from, base + 0.5))
+            .y;
+        rows.push((lane.name.clone(), middle, color, high_now));
+    }
+    LaneLabels {
+        rect: *transform.frame(),
+        rows,
+    }
+}
+
+/// The lanes' names at the left edge of the lanes, legible over any trace: on a dark
+/// plate, in the lane's colour, "= 1" after the name of a bit that is high at the right
+/// edge.
+fn lane_labels_ui(ui: &Ui, labels: &LaneLabels) {
+    let painter = ui.painter_at(labels.rect);
+    let font = egui::FontId::proportional(LANE_LABEL_SIZE);
+    for (name, y, color, high) in &labels.rows {
+        let text = if *high {
+            format!("{name} = 1")
+        } else {
+            name.clone()
+        };
+        let galley = painter.layout_no_wrap(text, font.clone(), *color);
+        let at = egui::pos2(labels.rect.left() + 4.0, y - galley.size().y / 2.0);
+        let plate = egui::Rect::from_min_size(at, galley.size()).expand2(egui::vec2(3.0, 1.0));
+        painter.rect_filled(plate, 3.0, Color32::from_black_alpha(200));
+        painter.galley(at, galley, *color);
     }
 }
 
 /// What the next frame needs of this one: where the plots were, the cursor, whether to
 /// follow, and the span shown.
-fn remember_view(
-    state: &mut AppState,
-    interaction: &Interaction,
-    plots: egui::Rect,
-    (from, to): (f64, f64),
-) {
-    state.plot.plots_rect = Some(plots);
+fn remember_view(state: &mut AppState, interaction: &Interaction, (from, to): (f64, f64)) {
     state.plot.cursor = interaction.cursor;
+    if let Some((k, at)) = interaction.placed
+        && let Some(cursor) = state.plot.cursors.get_mut(k)
+    {
+        *cursor = Some(at);
+    }
     if interaction.follow_again {
         state.plot.follow = true;
     } else if interaction.user_moved {
@@ -364,15 +549,65 @@ fn nice_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
     if !span.is_finite() || span <= 0.0 {
         return Vec::new();
     }
-    let raw = span / 3.0;
+    let step = nice_step(span / 3.0);
+    steps_between(min, max, &[(step, 16), (step / 5.0, 80)])
+}
+
+/// The time axis: a label every 1, 2 or 5 × 10ⁿ s, about one per 90 points whatever the
+/// zoom (egui_plot's decades show one label per 10 s on a 10 s window, none when zoomed
+/// in between two), each with the decimals its step needs.
+fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
+    vec![
+        egui_plot::AxisHints::new_x()
+            .label("time [s]")
+            .label_spacing(30.0..=60.0)
+            .formatter(|mark, _| time_label(mark.value, mark.step_size)),
+    ]
+}
+
+/// A time at `step`'s precision: "12 s" steps give "12", "0.05 s" steps "12.35".
+fn time_label(value: f64, step: f64) -> String {
+    let decimals = if step > 0.0 && step < 1.0 {
+        (-step.log10()).ceil().clamp(0.0, 9.0) as usize
+    } else {
+        0
+    };
+    let text = format!("{value:.decimals$}");
+    // No "-0" at the origin.
+    if text.trim_start_matches(['-', '0', '.']).is_empty() {
+        text.trim_start_matches('-').to_owned()
+    } else {
+        text
+    }
+}
+
+/// The time axis's marks: labelled ones at 1, 2 or 5 × 10ⁿ s about 90 points apart, and
+/// finer unlabelled ones between.
+fn time_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
+    let (min, max) = input.bounds;
+    let span = max - min;
+    if !span.is_finite() || span <= 0.0 || input.base_step_size <= 0.0 {
+        return Vec::new();
+    }
+    // base_step_size is about a pixel's worth of time.
+    let step = nice_step(input.base_step_size * 90.0);
+    steps_between(min, max, &[(step, 200), (step / 5.0, 1000)])
+}
+
+/// The smallest 1, 2 or 5 × 10ⁿ at or above `raw`.
+fn nice_step(raw: f64) -> f64 {
     let decade = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
+    [1.0, 2.0, 5.0, 10.0]
         .into_iter()
         .map(|m| m * decade)
         .find(|s| *s >= raw)
-        .unwrap_or(10.0 * decade);
+        .unwrap_or(10.0 * decade)
+}
+
+/// Marks every `size` between `min` and `max`, for each (size, most marks) that fits.
+fn steps_between(min: f64, max: f64, sizes: &[(f64, i64)]) -> Vec<egui_plot::GridMark> {
     let mut marks = Vec::new();
-    for (size, limit) in [(step, 16), (step / 5.0, 80)] {
+    for &(size, limit) in sizes {
         let first = (min / size).ceil() as i64;
         let last = (max / size).floor() as i64;
         if last - first > limit {
@@ -386,20 +621,26 @@ fn nice_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
     marks
 }
 
-/// The time axis: labels closer together than egui_plot's default (which shows one
-/// label per 10 s on a 10 s window).
-fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
-    vec![
-        egui_plot::AxisHints::new_x()
-            .label("time [s]")
-            .label_spacing(34.0..=48.0),
-    ]
-}
-
 impl Interaction {
     fn absorb(&mut self, ui: &Ui, response: &egui::Response, (cursor, range): Seen) {
         if cursor.is_some() && response.hovered() {
             self.cursor = cursor;
+        }
+        self.right = self.right.max(response.rect.right());
+        if let Some(at) = cursor {
+            // A right click on a plot starts egui_plot's box zoom, so the plot's
+            // response does not report it: the pointer's own click, inside this plot.
+            let right_click = ui.input(|i| {
+                i.pointer.button_clicked(egui::PointerButton::Secondary)
+                    && i.pointer
+                        .latest_pos()
+                        .is_some_and(|p| response.rect.contains(p))
+            });
+            if response.clicked() {
+                self.placed = Some((0, at));
+            } else if response.secondary_clicked() || right_click {
+                self.placed = Some((1, at));
+            }
         }
         self.range.get_or_insert(range);
         if response.double_clicked() {
@@ -430,7 +671,7 @@ fn visible(plot_ui: &PlotUi, follow: bool, from: f64, to: f64) -> (f64, f64) {
 
 /// The time span on x, the data's range with a margin on y (a flat line is not squeezed
 /// into nothing); a trigger level stays in view.
-fn follow_bounds(points: &[[f64; 2]], from: f64, to: f64, level: Option<f64>) -> PlotBounds {
+fn fit_bounds(points: &[[f64; 2]], from: f64, to: f64, level: Option<f64>) -> PlotBounds {
     let (mut low, mut high) = points
         .iter()
         .filter(|p| p[0] >= from && p[0] <= to)
@@ -504,13 +745,14 @@ fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
     }
 }
 
-/// The lanes to draw: every named PDI-Status bit, and the digital inputs that were on
+/// The lanes to draw: the PDI-Status bits that were high somewhere in view (and always
+/// operation enabled, target reached and fault), and the digital inputs that were on
 /// somewhere in view (the limit and home switches when none was).
-fn lanes(state: &AppState, from: f64, to: f64) -> Vec<Lane> {
-    let ring = state.scope.ring();
+fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
+    let ring = scope.ring();
     let mut lanes = Vec::new();
-    for signal in state.scope.signals() {
-        if !state.scope.is_drawn(signal)
+    for signal in scope.signals() {
+        if !scope.is_drawn(signal)
             || signal.kind != Kind::Bits
             || ring.latest(signal.column).is_none()
         {
@@ -518,10 +760,19 @@ fn lanes(state: &AppState, from: f64, to: f64) -> Vec<Lane> {
         }
         let builtin = signal.builtin();
         let bits: Vec<u8> = match builtin {
-            Some(Builtin::PdiStatus) => crate::pdi::StatusBit::ALL
-                .into_iter()
-                .map(|b| b.bit())
-                .collect(),
+            // The bits that were high somewhere in view, and always whether the drive is
+            // on, at its target, faulted: a bit low throughout says nothing new.
+            Some(Builtin::PdiStatus) => {
+                let any = ring
+                    .decimate_bits(signal.column, from, to, 1)
+                    .iter()
+                    .fold(0, |acc, s| acc | s.any);
+                crate::pdi::StatusBit::ALL
+                    .into_iter()
+                    .filter(|b| any & u32::from(b.mask()) != 0 || ALWAYS_LANES.contains(b))
+                    .map(|b| b.bit())
+                    .collect()
+            }
             _ => {
                 let any = ring
                     .decimate_bits(signal.column, from, to, 1)
@@ -568,6 +819,58 @@ fn lane_points(spans: &[BitSpan], bit: u8, base: f64) -> Vec<[f64; 2]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn time_labels_keep_the_decimals_their_step_needs_at_every_zoom() {
+        assert_eq!(time_label(12.0, 2.0), "12");
+        assert_eq!(time_label(12.35, 0.05), "12.35");
+        assert_eq!(time_label(12.3456, 0.0002), "12.3456");
+        assert_eq!(time_label(-0.0, 0.5), "0.0");
+        assert_eq!(nice_step(0.37), 0.5);
+        assert_eq!(nice_step(3.0), 5.0);
+        // A 2 ms window 1000 points wide: a label every 0.2 ms, each one different.
+        let marks = time_steps(egui_plot::GridInput {
+            bounds: (100.0, 100.002),
+            base_step_size: 0.002 / 1000.0,
+        });
+        let labelled: Vec<String> = marks
+            .iter()
+            .filter(|m| m.step_size > 1e-4)
+            .map(|m| time_label(m.value, m.step_size))
+            .collect();
+        assert!(labelled.len() >= 5, "{labelled:?}");
+        let mut unique = labelled.clone();
+        unique.dedup();
+        assert_eq!(unique, labelled);
+    }
+
+    #[test]
+    fn every_trace_has_a_colour_of_its_own() {
+        let mut scope = Scope::new(10);
+        let objects: Vec<crate::telemetry::WatchedObject> = [0x2031u16, 0x6065, 0x6073, 0x6075]
+            .into_iter()
+            .map(|index| crate::telemetry::WatchedObject {
+                address: crate::od::Address::new(index, 0),
+                name: format!("{index:04X}"),
+                unit: String::new(),
+            })
+            .collect();
+        scope.set_watched(&objects);
+        let colors = colors(scope.signals());
+        let analog: Vec<Color32> = scope
+            .signals()
+            .iter()
+            .zip(&colors)
+            .filter(|(s, _)| s.kind == Kind::Analog)
+            .map(|(_, c)| *c)
+            .collect();
+        for (i, c) in analog.iter().enumerate() {
+            assert!(
+                !analog[..i].contains(c),
+                "colour {i} used twice: {analog:?}"
+            );
+        }
+    }
 
     #[test]
     fn no_line_is_drawn_across_a_gap() {

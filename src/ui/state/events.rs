@@ -407,6 +407,7 @@ impl AppState {
                     self.plot.message = Some(Ok(text.clone()));
                     self.info(text);
                 }
+                crate::ui::plots::review::freeze_capture(&mut self.plot, &self.scope);
             }
             None => {}
         }

@@ -1,0 +1,212 @@
+//! Files the way a desktop application handles them: the system's open and save dialogs,
+//! asked on a thread of their own so the window never waits; names that say which device
+//! and when; a confirmation before a file is replaced; and the folder of a saved file
+//! opened in the file manager. Tests answer the dialogs through [`ScriptedPicker`].
+
+use std::collections::VecDeque;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use eframe::egui;
+
+/// What a dialog is asked: open or save, its title, where it starts, the name it
+/// proposes and the kinds of file it lists.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ask {
+    pub save: bool,
+    pub title: String,
+    pub directory: Option<PathBuf>,
+    /// The proposed file name (save dialogs).
+    pub name: String,
+    /// (description, extensions without the dot)
+    pub filters: Vec<(String, Vec<String>)>,
+}
+
+/// Where a dialog's answer goes: the file picked, or `None` when cancelled.
+pub type Answer = Arc<Mutex<Option<Option<PathBuf>>>>;
+
+/// Shows the open and save dialogs. `pick` must not block the window: the answer comes
+/// later through `answer`, and `ctx` is asked to repaint when it is there.
+pub trait FilePicker: Send + Sync + fmt::Debug {
+    fn pick(&self, ask: Ask, answer: Answer, ctx: egui::Context);
+}
+
+/// The system's dialogs (the XDG desktop portal on Linux, no GTK needed), each on a
+/// thread of its own.
+#[derive(Debug, Default)]
+pub struct NativePicker;
+
+impl FilePicker for NativePicker {
+    fn pick(&self, ask: Ask, answer: Answer, ctx: egui::Context) {
+        let reply = answer.clone();
+        let spawned = std::thread::Builder::new()
+            .name("file dialog".into())
+            .spawn(move || {
+                let mut dialog = rfd::FileDialog::new().set_title(&ask.title);
+                if let Some(dir) = &ask.directory {
+                    dialog = dialog.set_directory(dir);
+                }
+                for (what, extensions) in &ask.filters {
+                    dialog = dialog.add_filter(what, extensions);
+                }
+                let picked = if ask.save {
+                    dialog.set_file_name(&ask.name).save_file()
+                } else {
+                    dialog.pick_file()
+                };
+                put(&answer, picked);
+                ctx.request_repaint();
+            });
+        if spawned.is_err() {
+            // No thread, no dialog: said as a cancelled one.
+            put(&reply, None);
+        }
+    }
+}
+
+fn put(answer: &Answer, picked: Option<PathBuf>) {
+    if let Ok(mut slot) = answer.lock() {
+        *slot = Some(picked);
+    }
+}
+
+/// Dialogs answered from a script (for tests, and for scripts driving the window): each
+/// `pick` takes the next answer queued (none left: cancelled) and remembers what it was
+/// asked.
+#[derive(Debug, Default)]
+pub struct ScriptedPicker {
+    answers: Mutex<VecDeque<Option<PathBuf>>>,
+    asked: Mutex<Vec<Ask>>,
+}
+
+impl ScriptedPicker {
+    pub fn new() -> Arc<ScriptedPicker> {
+        Arc::default()
+    }
+
+    /// The next dialog picks `path` (`None`: the user cancels it).
+    pub fn answer(&self, path: Option<PathBuf>) {
+        if let Ok(mut answers) = self.answers.lock() {
+            answers.push_back(path);
+        }
+    }
+
+    /// Every dialog asked so far, oldest first.
+    pub fn asked(&self) -> Vec<Ask> {
+        self.asked.lock().map(|a| a.clone()).unwrap_or_default()
+    }
+}
+
+impl FilePicker for ScriptedPicker {
+    fn pick(&self, ask: Ask, answer: Answer, ctx: egui::Context) {
+        let next = self
+            .answers
+            .lock()
+            .ok()
+            .and_then(|mut answers| answers.pop_front())
+            .flatten();
+        if let Ok(mut asked) = self.asked.lock() {
+            asked.push(ask);
+        }
+        put(&answer, next);
+        ctx.request_repaint();
+    }
+}
+
+/// The proposed name of a file: the device, the date and the minute (UTC), and what it
+/// holds — `PD4-E601L42_2026-12-02_1432_capture.csv`. Characters a file system may refuse
+/// become `-`.
+pub fn default_name(
+    device: Option<&str>,
+    at: std::time::SystemTime,
+    what: &str,
+    ext: &str,
+) -> String {
+    let device: String = device
+        .map(str::trim)
+        .filter(|d| !d.is_empty())
+        .unwrap_or("drivedeck")
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    // 2026-12-02T14:32:05Z
+    let utc = crate::telemetry::utc_text(at);
+    let date = utc.get(..10).unwrap_or("");
+    let minute: String = utc.get(11..16).unwrap_or("").replace(':', "");
+    format!("{device}_{date}_{minute}_{what}.{ext}")
+}
+
+/// Open the folder holding `path` in the file manager, without waiting for it.
+pub fn open_folder(path: &Path) -> Result<(), String> {
+    let folder = path.parent().unwrap_or(Path::new("."));
+    let program = if cfg!(target_os = "windows") {
+        "explorer"
+    } else if cfg!(target_os = "macos") {
+        "open"
+    } else {
+        "xdg-open"
+    };
+    let mut child = std::process::Command::new(program)
+        .arg(folder)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .map_err(|e| format!("cannot open {} with {program}: {e}", folder.display()))?;
+    // Reaped on a thread of its own: the window does not wait for the file manager.
+    std::thread::spawn(move || child.wait());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_default_name_says_the_device_the_minute_and_what_it_holds() {
+        let at = std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1_796_221_925);
+        assert_eq!(
+            default_name(Some("PD4-E601L42"), at, "capture", "csv"),
+            "PD4-E601L42_2026-12-02_1432_capture.csv"
+        );
+        assert_eq!(
+            default_name(Some(" C5-E/2 x "), at, "plots", "png"),
+            "C5-E-2-x_2026-12-02_1432_plots.png"
+        );
+        assert_eq!(
+            default_name(None, at, "visible", "json"),
+            "drivedeck_2026-12-02_1432_visible.json"
+        );
+    }
+
+    #[test]
+    fn a_scripted_picker_answers_in_order_then_cancels() {
+        let picker = ScriptedPicker::new();
+        picker.answer(Some(PathBuf::from("/tmp/a.csv")));
+        let ctx = egui::Context::default();
+        let ask = Ask {
+            save: true,
+            title: "Save".into(),
+            directory: None,
+            name: "a.csv".into(),
+            filters: Vec::new(),
+        };
+        let first: Answer = Arc::default();
+        picker.pick(ask.clone(), first.clone(), ctx.clone());
+        assert_eq!(
+            first.lock().ok().and_then(|a| a.clone()),
+            Some(Some(PathBuf::from("/tmp/a.csv")))
+        );
+        let second: Answer = Arc::default();
+        picker.pick(ask.clone(), second.clone(), ctx);
+        assert_eq!(second.lock().ok().and_then(|a| a.clone()), Some(None));
+        assert_eq!(picker.asked(), [ask.clone(), ask]);
+    }
+}
