@@ -225,6 +225,13 @@ fn at_1366_by_768_nothing_needed_is_cut_off_and_the_command_panel_folds() {
         on_screen(&harness, label, screen);
     }
     let plots_tab = harness.get_by_label("Plots").rect();
+    // The command panel leaves the plots most of the width: no row of it (a long unit,
+    // an object's name) widens it past a third of the window.
+    let commands_left = harness.get_by_label("Move absolute").rect().left();
+    assert!(
+        commands_left > size.x * 2.0 / 3.0,
+        "the command panel starts at {commands_left}"
+    );
 
     // Folded: a strip at the right edge, the plots get the room.
     harness.get_by_label("Collapse the command panel").click();
