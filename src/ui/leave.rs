@@ -95,10 +95,9 @@ fn stop_verdict(stop: StopChoice, sample: Option<Sample>, live: bool) -> Outcome
 /// Whether the motor stands still: speed under half an rpm, or (speed unknown) the
 /// target reached.
 fn at_rest(sample: &Sample) -> bool {
-    match sample.velocity() {
-        Some(v) => v.abs() < super::glance::AT_REST_RPM,
-        None => sample.tx.status.is_set(StatusBit::TargetReached),
-    }
+    sample
+        .at_rest()
+        .unwrap_or_else(|| sample.tx.status.is_set(StatusBit::TargetReached))
 }
 
 impl AppState {
