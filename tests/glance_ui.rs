@@ -45,7 +45,9 @@ fn shown_containing(harness: &mut Harness<'_, App>, text: &str) -> String {
     window::text_containing(harness, text)
 }
 
-/// Move the pointer over the button labelled `label`, as a hand does, then click it.
+/// Move the pointer over the button labelled `label`, as a hand does, then click it. The
+/// frames in between let the layout settle: the tile's headline shortens when the drive
+/// drops a fault's code, and the button under it moves up.
 fn press(harness: &mut Harness<'_, App>, label: &str) {
     harness.get_by_label(label).hover();
     harness.run_steps(2);
