@@ -217,6 +217,12 @@ impl Signals {
         self.get(Signal::Velocity)
     }
 
+    /// Whether the motor stands still (606Ch under [`AT_REST_RPM`]); `None` while 606Ch
+    /// is unknown.
+    pub fn at_rest(&self) -> Option<bool> {
+        self.velocity().map(|v| v.abs() < AT_REST_RPM)
+    }
+
     /// 6077h, ‰ of rated torque
     pub fn torque(&self) -> Option<f64> {
         self.get(Signal::Torque)
@@ -257,6 +263,10 @@ impl Signals {
 
 /// Objects a watch list may name besides the signals (sampled every cycle with them).
 pub const MAX_WATCHED: usize = 8;
+
+/// Below this speed (rpm) the motor counts as standing still: the window's state tile,
+/// the disconnect question and the command line's reports all draw the line here.
+pub const AT_REST_RPM: f64 = 0.5;
 
 /// One sample of the drive, taken at the worker.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -50,8 +50,6 @@ fn disconnected(harness: &Harness<'_, App>) -> bool {
 /// Click `label` (Disconnect, or an answer to the question it asks) and wait until the
 /// window is disconnected.
 fn click_and_disconnect(harness: &mut Harness<'_, App>, label: &str) {
-    harness.get_by_label(label).hover();
-    harness.run_steps(2);
     harness.get_by_label(label).click();
     harness.step();
     step_until(

@@ -600,8 +600,9 @@ fn the_window_shows_a_drive_whose_server_died_as_last_seen_and_comes_back_live()
         Duration::from_secs(15),
         |h| {
             h.state().state.is_connected()
-                && h.query_by_label_contains("NO LINK").is_none()
-                && h.query_by_label_contains("WAITING FOR DATA").is_none()
+                // The state tile and the status panel's banner both say so until then.
+                && h.query_all_by_label_contains("NO LINK").next().is_none()
+                && h.query_all_by_label_contains("WAITING FOR DATA").next().is_none()
         },
     );
     assert!(

@@ -184,7 +184,7 @@ fn execute(
 fn enable(session: &mut Session, request: Request, timeout: Duration) -> Result<Report, Failure> {
     session.refresh();
     if let Some(v) = session.latest.and_then(|s| s.velocity())
-        && v.abs() >= crate::ui::glance::AT_REST_RPM
+        && v.abs() >= crate::signal::AT_REST_RPM
     {
         return Err(failed(format!(
             "enable refused, nothing was sent: the motor turns at {v:.0} rpm and enable would brake it to 0 (halt or quickstop stops it)"

@@ -136,7 +136,9 @@ impl Session {
             ""
         };
         match sample.velocity() {
-            Some(v) if v.abs() < 1.0 => format!("it stands still ({power}{halted})"),
+            Some(v) if v.abs() < crate::signal::AT_REST_RPM => {
+                format!("it stands still ({power}{halted})")
+            }
             Some(v) => format!("it still turns at {v:.0} rpm ({power}{halted})"),
             None => format!("{power}{halted}"),
         }

@@ -375,8 +375,9 @@ fn set_values_ui(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
                 &field_label(opcode, spec),
             );
             field.on_hover_text(field_hint(spec));
-            // A long unit ("‰ of rated torque") wraps rather than widen the panel.
-            ui.add(egui::Label::new(RichText::new(spec.unit).weak()).wrap());
+            // A long unit ("‰ of rated torque") is cut short (whole on hover) rather
+            // than widen the panel.
+            ui.add(egui::Label::new(RichText::new(spec.unit).weak()).truncate());
         });
     }
 }
@@ -467,7 +468,7 @@ fn object_ui(ui: &mut Ui, state: &mut AppState) {
         .on_hover_text("Read or write through the link's own object access (SDO, FC 43, direct), any type and length");
     let offline = state.offline_reason();
     let connected = offline.is_none();
-    ui.horizontal(|ui| {
+    let name = ui.horizontal(|ui| {
         let address_text = &mut state.settings.object_address;
         named_text_edit(ui, address_text, 70.0, "Object address");
         let address = address_text.parse::<Address>();
@@ -529,7 +530,8 @@ fn object_ui(ui: &mut Ui, state: &mut AppState) {
                 path: ObjectPath::Auto,
             });
         }
-        // The object's name wraps rather than widen the panel.
-        ui.add(egui::Label::new(RichText::new(name).weak()).wrap());
+        name
     });
+    // On a line of its own, where it wraps rather than widen the panel.
+    ui.weak(name.inner);
 }

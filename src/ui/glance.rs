@@ -13,10 +13,8 @@ use super::state::{AppState, Connection, age_text};
 use super::widgets::{AMBER, BLUE, GREEN, RED, clipped_label};
 use crate::cia::{ErrorCode, PowerState};
 use crate::pdi::{Action, StatusBit};
+use crate::signal::AT_REST_RPM;
 use crate::worker::{Request, Sample};
-
-/// Below this speed (rpm) the motor counts as standing still.
-pub const AT_REST_RPM: f64 = 0.5;
 
 /// How the tile is coloured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -95,10 +95,9 @@ fn stop_verdict(stop: StopChoice, sample: Option<Sample>, live: bool) -> Outcome
 /// Whether the motor stands still: speed under half an rpm, or (speed unknown) the
 /// target reached.
 fn at_rest(sample: &Sample) -> bool {
-    match sample.velocity() {
-        Some(v) => v.abs() < super::glance::AT_REST_RPM,
-        None => sample.tx.status.is_set(StatusBit::TargetReached),
-    }
+    sample
+        .at_rest()
+        .unwrap_or_else(|| sample.tx.status.is_set(StatusBit::TargetReached))
 }
 
 impl AppState {
@@ -338,4 +337,57 @@ fn leave_question_ui(
         answer = Some(Answer::Cancel);
     }
     answer
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pdi::{Status, TxImage};
+    use crate::signal::{Signal, Signals};
+
+    /// A sample with these PDI-Status bits, statusword and speed.
+    fn sample(bits: &[StatusBit], statusword: u16, rpm: f64) -> Sample {
+        Sample {
+            tx: TxImage {
+                status: Status(bits.iter().fold(0, |word, bit| word | bit.mask())),
+                error_code: 0,
+                return_value: 0,
+            },
+            signals: Signals::default()
+                .with(Signal::Velocity, rpm)
+                .with(Signal::Statusword, f64::from(statusword)),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn the_halt_verdict_is_green_only_when_the_drive_shows_the_halt_bit_at_rest() {
+        let on = [StatusBit::OperationEnabled, StatusBit::QsHaltBit];
+        let halted = sample(&on, 0x0637, 0.0);
+        let verdict = stop_verdict(StopChoice::Halt, Some(halted), true);
+        assert!(
+            matches!(&verdict, Outcome::Succeeded(t) if t == "confirmed by the drive: halt bit set (PdiStatusQsHaltBit), halted, standing still"),
+            "{verdict:?}"
+        );
+        let braking = sample(&on, 0x0637, 120.0);
+        assert!(matches!(
+            stop_verdict(StopChoice::Halt, Some(braking), true),
+            Outcome::Caution(t) if t.contains("still braking, at 120 rpm")
+        ));
+        let turning = sample(&[StatusBit::OperationEnabled], 0x0637, 300.0);
+        assert!(matches!(
+            stop_verdict(StopChoice::Halt, Some(turning), true),
+            Outcome::Failed(t) if t.contains("no halt bit") && t.contains("moving at 300 rpm")
+        ));
+        // Without live status nothing is confirmed, whatever the last sample said.
+        assert!(matches!(
+            stop_verdict(StopChoice::Halt, Some(halted), false),
+            Outcome::Failed(t) if t.contains("no live status")
+        ));
+        let off = sample(&[], 0x0250, 0.0);
+        assert!(matches!(
+            stop_verdict(StopChoice::SwitchOff, Some(off), true),
+            Outcome::Succeeded(t) if t.starts_with("confirmed by the drive: power stage off (Switch on disabled)")
+        ));
+    }
 }

@@ -230,12 +230,13 @@ fn commands_panel_ui(ui: &mut Ui, state: &mut AppState) {
     let strip = egui::Panel::right("commands_strip")
         .resizable(true)
         .exact_size(commands::STRIP_WIDTH);
-    // A quarter of the window's width the first time: 340 px at 1366, 460 at 1920.
+    // A quarter of the window's width the first time, but no less than a command row
+    // needs (button, label, box, unit): 390 px at 1366, 460 at 1920.
     let width = ui.ctx().content_rect().width();
     let full = egui::Panel::right("commands")
         .resizable(true)
-        .default_size((width / 4.0).clamp(320.0, 460.0))
-        .min_size(300.0);
+        .default_size((width / 4.0).clamp(390.0, 460.0))
+        .min_size(330.0);
     let asked = expanded;
     egui::Panel::show_switched(ui, &mut expanded, strip, full, |ui, shown| {
         if shown {

@@ -106,6 +106,8 @@ pub fn lamp<State>(harness: &Harness<'_, State>, label: &str) -> bool {
 
 /// Step until a widget labelled `label` is on screen (a dialog that opens, a row that
 /// a filter brings): the live plots keep repainting, so `Harness::run` may not settle.
+/// Two frames more: a dialog's first frame only measures it, and it moves to its place
+/// in the next (a click at the first frame's place would miss a wide dialog's button).
 pub fn step_until_shown(harness: &mut Harness<'_, App>, label: &str) {
     step_until(
         harness,
@@ -113,6 +115,7 @@ pub fn step_until_shown(harness: &mut Harness<'_, App>, label: &str) {
         Duration::from_secs(3),
         |h| h.query_by_label(label).is_some(),
     );
+    harness.run_steps(2);
 }
 
 /// Pick `bus` in the connection bar.
