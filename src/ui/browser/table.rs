@@ -43,8 +43,9 @@ pub struct Columns {
     pub widths: [f32; SCROLLED.len()],
     /// How far (points) the scrolled columns are shifted left.
     pub scroll: f32,
-    /// The Value column was fitted to the table's first width.
-    fitted: bool,
+    /// The table width the Value column was last fitted to; `None` once the user sized
+    /// the columns by hand.
+    fitted_to: Option<f32>,
 }
 
 impl Default for Columns {
@@ -52,20 +53,23 @@ impl Default for Columns {
         Self {
             widths: SCROLLED.map(|(_, width)| width),
             scroll: 0.0,
-            fitted: false,
+            fitted_to: Some(0.0),
         }
     }
 }
 
 impl Columns {
-    /// The first time the table is drawn, `width` wide: the Value column takes a share of
-    /// it (within 110 to 220 points), so a narrow panel still shows the row's buttons
-    /// beside the value; then it keeps the width the user drags it to.
+    /// The Value column takes a share of the table's `width` (within 110 to 220 points),
+    /// so a narrow panel still shows the row's buttons beside the value, until the user
+    /// drags a column's edge.
     fn fit(&mut self, width: f32) {
-        if self.fitted || width <= 0.0 {
+        let Some(fitted_to) = self.fitted_to else {
+            return;
+        };
+        if width <= 0.0 || (width - fitted_to).abs() < 1.0 {
             return;
         }
-        self.fitted = true;
+        self.fitted_to = Some(width);
         if let Some(value) = self.widths.get_mut(VALUE) {
             *value = (width * 0.22).clamp(110.0, 220.0);
         }
@@ -311,6 +315,7 @@ fn scrolled_header_ui(ui: &mut Ui, window: Rect, columns: &mut Columns) {
             && let Some(width) = columns.widths.get_mut(i)
         {
             *width = (*width + handle.drag_delta().x).max(30.0);
+            columns.fitted_to = None;
         }
     }
 }
@@ -576,5 +581,36 @@ fn apply_row_action(
                 edit.focus = false;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_value_column_follows_the_table_width_until_sized_by_hand() {
+        let mut columns = Columns::default();
+        columns.fit(500.0);
+        assert_eq!(columns.widths[VALUE], 110.0);
+        columns.fit(800.0);
+        assert_eq!(columns.widths[VALUE], 176.0);
+        columns.fit(2000.0);
+        assert_eq!(columns.widths[VALUE], 220.0);
+        columns.fitted_to = None;
+        columns.widths[VALUE] = 300.0;
+        columns.fit(500.0);
+        assert_eq!(columns.widths[VALUE], 300.0, "the user's width stays");
+    }
+
+    #[test]
+    fn the_sideways_offset_stays_within_what_there_is_to_scroll() {
+        let mut columns = Columns::default();
+        let all = columns.width();
+        columns.scroll = 10_000.0;
+        columns.clamp(300.0);
+        assert_eq!(columns.scroll, all - 300.0);
+        columns.clamp(all + 50.0);
+        assert_eq!(columns.scroll, 0.0, "everything fits: nothing to scroll");
     }
 }
