@@ -855,3 +855,44 @@ fn a_new_connection_to_the_same_drive_drops_the_preview_made_before() {
             .expect("connected")
     });
 }
+
+#[test]
+fn rows_scrolled_into_view_are_read_by_themselves() {
+    let mut harness = browser();
+    let first: Vec<Address> = harness.state().state.browser.visible.clone();
+    // Down the table with the wheel over it.
+    harness.get_by_label("Device Type").hover();
+    for _ in 0..4 {
+        harness.event(egui::Event::MouseWheel {
+            unit: egui::MouseWheelUnit::Point,
+            delta: egui::vec2(0.0, -600.0),
+            modifiers: egui::Modifiers::NONE,
+            phase: egui::TouchPhase::Move,
+            source: egui::MouseWheelSource::Wheel,
+        });
+        for _ in 0..10 {
+            harness.step();
+        }
+    }
+    let now: Vec<Address> = harness.state().state.browser.visible.clone();
+    let new: Vec<Address> = now
+        .iter()
+        .copied()
+        .filter(|a| !first.contains(a))
+        .filter(|a| {
+            drivedeck::od::builtin()
+                .get(*a)
+                .is_some_and(|e| e.access.readable())
+        })
+        .collect();
+    assert!(!new.is_empty(), "scrolled: {first:?} then {now:?}");
+    step_until(
+        &mut harness,
+        "the rows scrolled to",
+        Duration::from_secs(10),
+        |h| {
+            let b = &h.state().state.browser;
+            new.iter().all(|a| b.values.contains_key(a))
+        },
+    );
+}
