@@ -654,6 +654,13 @@ fn a_value_is_edited_in_place_with_the_limit_error_under_the_field_as_typed() {
     double_click_at(&mut harness, egui::pos2(value.center().x, row.center().y));
     let field = harness.get_by_label("New value 605Ah:00h");
     assert!(field.is_focused(), "the box has the keyboard");
+    // Under it: the keys, and that Esc is also the Quickstop.
+    assert!(
+        harness
+            .query_by_label_contains("Esc cancels and quick-stops the drive")
+            .is_some()
+    );
+    let field = harness.get_by_label("New value 605Ah:00h");
 
     // 605Ah takes 0 to 6: 9 is refused as it is typed, right under the box.
     field.set_text_value_accesskit("9");
