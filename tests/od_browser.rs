@@ -903,3 +903,18 @@ fn rows_scrolled_into_view_are_read_by_themselves() {
         },
     );
 }
+
+#[test]
+fn the_name_column_takes_its_share_of_a_wider_window() {
+    let mut harness = browser();
+    filter(&mut harness, "6081");
+    let narrow = header(&harness, "Name", "6081h:00h").expect("Name");
+    let value = header(&harness, "Value", "6081h:00h").expect("Value");
+    harness.set_size(egui::vec2(2600.0, 1000.0));
+    harness.run();
+    let wide_value = header(&harness, "Value", "6081h:00h").expect("Value");
+    assert!(
+        wide_value.left() - narrow.left() > value.left() - narrow.left() + 20.0,
+        "the Name column grew: Value from {value:?} to {wide_value:?}"
+    );
+}
