@@ -364,7 +364,7 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
 }
 
 #[test]
-fn an_eds_replaces_the_catalog_and_a_broken_path_says_why() {
+fn an_eds_replaces_the_catalog_in_amber_with_its_warnings_and_a_broken_path_says_why() {
     let mut harness = browser();
     let eds = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/eds/sample.eds");
     harness
@@ -373,11 +373,20 @@ fn an_eds_replaces_the_catalog_and_a_broken_path_says_why() {
     harness.run();
     harness.get_by_label("Load EDS").click();
     harness.run();
-    let message = said(&harness);
+    let message = said(&harness).expect("a message");
     assert!(
-        matches!(&message, Some(m) if m.text.contains("loaded") && m.text.contains("sample.eds")),
+        message.text.contains("loaded") && message.text.contains("sample.eds"),
         "{message:?}"
     );
+    // What the import skipped or guessed is counted, in amber: never success green.
+    assert_eq!(message.tone, Tone::Warning, "{message:?}");
+    assert_eq!(
+        message.tone.color(),
+        Some(drivedeck::ui::widgets::AMBER),
+        "amber, not green"
+    );
+    assert!(message.text.contains("7 warning(s)"), "{message:?}");
+    assert!(harness.query_by_label_contains("7 warning(s)").is_some());
     // sample.eds describes another maker's device: none of Nanotec's manufacturer
     // objects (203Bh motor data), but the CiA 301 ones it lists.
     filter(&mut harness, "203b");
@@ -645,6 +654,13 @@ fn a_value_is_edited_in_place_with_the_limit_error_under_the_field_as_typed() {
     double_click_at(&mut harness, egui::pos2(value.center().x, row.center().y));
     let field = harness.get_by_label("New value 605Ah:00h");
     assert!(field.is_focused(), "the box has the keyboard");
+    // Under it: the keys, and that Esc is also the Quickstop.
+    assert!(
+        harness
+            .query_by_label_contains("Esc cancels and quick-stops the drive")
+            .is_some()
+    );
+    let field = harness.get_by_label("New value 605Ah:00h");
 
     // 605Ah takes 0 to 6: 9 is refused as it is typed, right under the box.
     field.set_text_value_accesskit("9");
@@ -779,71 +795,13 @@ fn with_auto_read_off_the_rows_wait_for_a_read() {
     });
 }
 
-#[test]
-fn an_eds_load_with_warnings_is_amber_and_counts_them() {
-    let mut harness = browser();
-    let eds = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/eds/sample.eds");
-    harness
-        .get_by_label("EDS path")
-        .set_text_value_accesskit(eds);
-    harness.run();
-    harness.get_by_label("Load EDS").click();
-    harness.run();
-    let message = said(&harness).expect("a message");
-    assert_eq!(message.tone, Tone::Warning, "{message:?}");
-    assert_eq!(
-        message.tone.color(),
-        Some(drivedeck::ui::widgets::AMBER),
-        "amber, not green"
-    );
-    assert!(message.text.contains("7 warning(s)"), "{message:?}");
-    assert!(harness.query_by_label_contains("7 warning(s)").is_some());
-}
-
-#[test]
-fn a_preview_from_another_drive_goes_when_the_link_changes() {
-    let dir = temp_dir("backup-other-drive");
-    let path = dir.path().join("crafted.json");
-    std::fs::write(
-        &path,
-        crafted_backup(&[("6081:00", "Profile Velocity", "UNSIGNED32", "uint", 777)]),
-    )
-    .expect("write");
-    let mut harness = browser();
-    backup_file(&mut harness, &path);
-    preview_restore(&mut harness);
-    harness.run();
-    assert!(harness.query_by_label("Restore 1 writes").is_some());
-
-    let other: drivedeck::link::LinkSpec = "canopen+sim://?node=3".parse().expect("a spec");
-    harness
-        .state_mut()
-        .state
-        .request(drivedeck::worker::Request::Connect(other.clone()));
-    step_until(
-        &mut harness,
-        "the other drive",
-        Duration::from_secs(10),
-        |h| h.state().state.link_info().is_some_and(|i| i.spec == other),
-    );
-    harness.step();
-    harness.run();
-    assert!(harness.state().state.browser.restore.is_none());
-    assert!(harness.query_by_label("Restore 1 writes").is_none());
-    assert!(harness.query_by_label("Restore preview").is_none());
-    // The message about the preview says which link it came from.
-    assert!(
-        harness
-            .query_by_label_contains("[sim, earlier connection] 1 writes would make")
-            .is_some(),
-        "{:?}",
-        said(&harness)
-    );
-}
-
-#[test]
-fn a_new_connection_to_the_same_drive_drops_the_preview_made_before() {
-    let dir = temp_dir("backup-reconnect");
+/// A restore preview made, then a new connection to the link `to` picks (from the window
+/// as it is): the preview goes, its message stays, marked as from the earlier connection.
+fn preview_goes_with_a_new_connection(
+    dir: &str,
+    to: impl FnOnce(&Harness<'_, App>) -> drivedeck::link::LinkSpec,
+) {
+    let dir = temp_dir(dir);
     let path = dir.path().join("crafted.json");
     std::fs::write(
         &path,
@@ -857,32 +815,106 @@ fn a_new_connection_to_the_same_drive_drops_the_preview_made_before() {
     assert!(harness.query_by_label("Restore 1 writes").is_some());
     let before = harness.state().state.browser.connection();
 
-    let same = harness
-        .state()
-        .state
-        .link_info()
-        .map(|i| i.spec.clone())
-        .expect("connected");
+    let spec = to(&harness);
     harness
         .state_mut()
         .state
-        .request(drivedeck::worker::Request::Connect(same));
+        .request(drivedeck::worker::Request::Connect(spec.clone()));
     step_until(
         &mut harness,
         "the new connection",
         Duration::from_secs(10),
-        |h| h.state().state.browser.connection() > before && h.state().state.is_connected(),
+        |h| {
+            h.state().state.browser.connection() > before
+                && h.state().state.link_info().is_some_and(|i| i.spec == spec)
+        },
     );
     harness.step();
     harness.run();
     assert!(harness.state().state.browser.restore.is_none());
     assert!(harness.query_by_label("Restore 1 writes").is_none());
+    assert!(harness.query_by_label("Restore preview").is_none());
     let message = said(&harness).expect("the preview's message");
     assert!(message.earlier(harness.state().state.browser.connection()));
+    // The message about the preview says which link it came from.
     assert!(
         harness
             .query_by_label_contains("[sim, earlier connection] 1 writes would make")
             .is_some(),
         "{message:?}"
+    );
+}
+
+#[test]
+fn a_preview_from_another_drive_goes_when_the_link_changes() {
+    preview_goes_with_a_new_connection("backup-other-drive", |_| {
+        "canopen+sim://?node=3".parse().expect("a spec")
+    });
+}
+
+#[test]
+fn a_new_connection_to_the_same_drive_drops_the_preview_made_before() {
+    preview_goes_with_a_new_connection("backup-reconnect", |h| {
+        h.state()
+            .state
+            .link_info()
+            .map(|i| i.spec.clone())
+            .expect("connected")
+    });
+}
+
+#[test]
+fn rows_scrolled_into_view_are_read_by_themselves() {
+    let mut harness = browser();
+    let first: Vec<Address> = harness.state().state.browser.visible.clone();
+    // Down the table with the wheel over it.
+    harness.get_by_label("Device Type").hover();
+    for _ in 0..4 {
+        harness.event(egui::Event::MouseWheel {
+            unit: egui::MouseWheelUnit::Point,
+            delta: egui::vec2(0.0, -600.0),
+            modifiers: egui::Modifiers::NONE,
+            phase: egui::TouchPhase::Move,
+            source: egui::MouseWheelSource::Wheel,
+        });
+        for _ in 0..10 {
+            harness.step();
+        }
+    }
+    let now: Vec<Address> = harness.state().state.browser.visible.clone();
+    let new: Vec<Address> = now
+        .iter()
+        .copied()
+        .filter(|a| !first.contains(a))
+        .filter(|a| {
+            drivedeck::od::builtin()
+                .get(*a)
+                .is_some_and(|e| e.access.readable())
+        })
+        .collect();
+    assert!(!new.is_empty(), "scrolled: {first:?} then {now:?}");
+    step_until(
+        &mut harness,
+        "the rows scrolled to",
+        Duration::from_secs(10),
+        |h| {
+            let b = &h.state().state.browser;
+            new.iter().all(|a| b.values.contains_key(a))
+        },
+    );
+}
+
+#[test]
+fn the_name_column_takes_its_share_of_a_wider_window() {
+    let mut harness = browser();
+    filter(&mut harness, "6081");
+    let narrow = header(&harness, "Name", "6081h:00h").expect("Name");
+    let value = header(&harness, "Value", "6081h:00h").expect("Value");
+    harness.set_size(egui::vec2(2600.0, 1000.0));
+    harness.run();
+    let wide_value = header(&harness, "Value", "6081h:00h").expect("Value");
+    assert!(
+        wide_value.left() - narrow.left() > value.left() - narrow.left() + 20.0,
+        "the Name column grew: Value from {value:?} to {wide_value:?}"
     );
 }

@@ -114,12 +114,17 @@ pub(super) fn edit_note_ui(ui: &mut Ui, rect: Rect, entry: &Entry, edit: &Edit) 
         }
         None => {
             let limits = limits_text(entry);
+            // Esc is the Quickstop whatever has focus (`connection::stop_keys`): said here,
+            // so nobody cancels an edit by it without knowing that it stops the drive too.
+            let keys = "Enter writes; Esc cancels and quick-stops the drive, Cancel only cancels";
             let hint = if limits.is_empty() {
-                "Enter writes, Esc cancels".to_owned()
+                keys.to_owned()
             } else {
-                format!("{limits}; Enter writes, Esc cancels")
+                format!("{limits}; {keys}")
             };
-            child.add(egui::Label::new(RichText::new(hint).weak()).truncate());
+            child
+                .add(egui::Label::new(RichText::new(&hint).weak()).truncate())
+                .on_hover_text(hint);
         }
     }
 }

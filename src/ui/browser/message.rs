@@ -176,6 +176,31 @@ mod tests {
     }
 
     #[test]
+    fn a_read_the_user_asked_for_says_its_refusal_the_table_s_own_do_not() {
+        let mut b = Browser::new();
+        b.on_connected("sim");
+        let mut outbox = vec![];
+        let entry = crate::od::builtin()
+            .filter("6081")
+            .next()
+            .expect("6081h")
+            .clone();
+        // The table's own read, refused: nothing said (it tries again by itself).
+        b.visible = vec![entry.address];
+        b.refresh_visible(&mut outbox, true, 10.0);
+        let own = outbox.pop().expect("a read");
+        assert!(b.note_queued(1, &own));
+        assert!(b.on_rejected(1, &Rejection::LinkGone("gone".into())));
+        assert_eq!(b.message, None);
+        // A row's Read, refused: said in red.
+        b.read_one(&mut outbox, entry.address, entry.dtype);
+        let asked = outbox.pop().expect("a read");
+        assert!(b.note_queued(2, &asked));
+        assert!(b.on_rejected(2, &Rejection::LinkGone("gone".into())));
+        assert_eq!(tone(&b), Some(Tone::Failed));
+    }
+
+    #[test]
     fn a_message_belongs_to_the_connection_it_came_from() {
         let mut b = Browser::new();
         b.on_connected("sim");

@@ -116,8 +116,12 @@ enum Pending {
     /// The bulk read ([`Browser::bulk`]).
     Bulk,
     /// Reads outside the bulk one (a row's Read, the rows on screen, read-backs after a
-    /// write or a restore): this many answers still to come.
-    Refresh(usize),
+    /// write or a restore): `left` answers still to come; `asked` by the user (a Read, a
+    /// write, a restore), whose refusal is said, not by the table itself.
+    Refresh {
+        left: usize,
+        asked: bool,
+    },
     Write {
         address: Address,
     },
@@ -239,7 +243,7 @@ impl Browser {
 
     /// One object, read by itself.
     pub fn read_one(&mut self, outbox: &mut Vec<Request>, address: Address, dtype: DataType) {
-        self.read_back(outbox, vec![(address, dtype)]);
+        self.read_back(outbox, vec![(address, dtype)], true);
     }
 
     fn readable(entries: &[&Entry]) -> Vec<(Address, DataType)> {
@@ -273,9 +277,12 @@ impl Browser {
         };
         let (_, pending) = self.unsent.remove(at);
         match (pending, request) {
-            (Pending::Refresh(_), Request::ReadMany { objects, .. }) => {
+            (Pending::Refresh { asked, .. }, Request::ReadMany { objects, .. }) => {
                 // The table tries again by itself; no message for what nobody asked for.
                 self.refresh.forget(objects.iter().map(|(a, _)| *a));
+                if asked {
+                    self.say(Tone::Failed, reason);
+                }
             }
             (Pending::Bulk, _) => {
                 self.bulk = None;
@@ -302,7 +309,7 @@ impl Browser {
         match self.ids.get_mut(&id) {
             None => return false,
             Some(Pending::Stale) => return true,
-            Some(Pending::Refresh(left)) => {
+            Some(Pending::Refresh { left, .. }) => {
                 *left = left.saturating_sub(1);
                 if *left == 0 {
                     self.ids.remove(&id);
@@ -353,11 +360,14 @@ impl Browser {
         match pending {
             Pending::Stale => {}
             Pending::Bulk => self.bulk_rejected(id, rejection),
-            Pending::Refresh(_) => {
+            Pending::Refresh { asked, .. } => {
                 // Which objects went unread is not said: the table reads them again once
                 // they are due; later refusals of the same request are dropped.
                 self.ids.insert(id, Pending::Stale);
                 self.refresh.forget_all();
+                if asked {
+                    self.say(Tone::Failed, reason);
+                }
             }
             Pending::Write { address } => {
                 self.write_results.insert(address, Err(reason));
@@ -418,7 +428,7 @@ impl Browser {
                 self.write_results.insert(address, result.clone());
                 if let Some(entry) = self.catalog().get(address) {
                     let object = (address, entry.dtype);
-                    self.read_back(outbox, vec![object]);
+                    self.read_back(outbox, vec![object], true);
                 }
             }
             Pending::RestoreStep(step) => {
@@ -437,7 +447,7 @@ impl Browser {
                     }
                 })
             }
-            Pending::Refresh(_) | Pending::Bulk | Pending::Stale => {}
+            Pending::Refresh { .. } | Pending::Bulk | Pending::Stale => {}
         }
         true
     }

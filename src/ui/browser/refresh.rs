@@ -73,11 +73,13 @@ impl Refresh {
 }
 
 impl Browser {
-    /// Read `objects` outside the bulk read, each answer into its row.
+    /// Read `objects` outside the bulk read, each answer into its row; `asked` by the
+    /// user (a refusal of the request is said), or by the table itself.
     pub(super) fn read_back(
         &mut self,
         outbox: &mut Vec<Request>,
         objects: Vec<(Address, DataType)>,
+        asked: bool,
     ) {
         if objects.is_empty() {
             return;
@@ -92,7 +94,7 @@ impl Browser {
                 objects,
                 path: ObjectPath::Auto,
             },
-            Pending::Refresh(count),
+            Pending::Refresh { left: count, asked },
         );
     }
 
@@ -111,7 +113,7 @@ impl Browser {
                 objects.push((step.address, step.dtype));
             }
         }
-        self.read_back(outbox, objects);
+        self.read_back(outbox, objects, true);
     }
 
     /// The rows on screen due for a read, as many as may go now at `rate` objects a
@@ -151,7 +153,7 @@ impl Browser {
         }
         self.refresh.allowance = Some((now, allowance - due.len() as f64));
         self.refresh.sent += due.len();
-        self.read_back(outbox, due);
+        self.read_back(outbox, due, false);
     }
 
     /// The readable rows on screen not read yet, then those read longest ago (beyond

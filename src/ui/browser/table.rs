@@ -43,8 +43,12 @@ pub struct Columns {
     pub widths: [f32; SCROLLED.len()],
     /// How far (points) the scrolled columns are shifted left.
     pub scroll: f32,
-    /// The Value column was fitted to the table's first width.
-    fitted: bool,
+    /// The table width the Name and Value columns were last fitted to; `None` once the
+    /// user sized a column by hand.
+    fitted_to: Option<f32>,
+    /// The Name column's width in the last frame (a change the fitting did not make is
+    /// the user's).
+    name_seen: f32,
 }
 
 impl Default for Columns {
@@ -52,23 +56,38 @@ impl Default for Columns {
         Self {
             widths: SCROLLED.map(|(_, width)| width),
             scroll: 0.0,
-            fitted: false,
+            fitted_to: Some(0.0),
+            name_seen: 0.0,
         }
     }
 }
 
 impl Columns {
-    /// The first time the table is drawn, `width` wide: the Value column takes a share of
-    /// it (within 110 to 220 points), so a narrow panel still shows the row's buttons
-    /// beside the value; then it keeps the width the user drags it to.
-    fn fit(&mut self, width: f32) {
-        if self.fitted || width <= 0.0 {
-            return;
+    /// The Name and Value columns take a share of the table's `width` (see
+    /// [`name_width`] and [`value_width`]), so a narrow panel still shows the row's
+    /// buttons beside the value and a wide one the whole names, until the user drags a
+    /// column's edge. `true` when they were fitted anew.
+    fn fit(&mut self, width: f32) -> bool {
+        let Some(fitted_to) = self.fitted_to else {
+            return false;
+        };
+        if width <= 0.0 || (width - fitted_to).abs() < 1.0 {
+            return false;
         }
-        self.fitted = true;
+        self.fitted_to = Some(width);
         if let Some(value) = self.widths.get_mut(VALUE) {
-            *value = (width * 0.22).clamp(110.0, 220.0);
+            *value = value_width(width);
         }
+        true
+    }
+
+    /// The Name column is `width` wide now: resized by the user when the fitting did not
+    /// change it.
+    fn name_drawn(&mut self, width: f32, refitted: bool) {
+        if !refitted && self.name_seen > 0.0 && (width - self.name_seen).abs() > 0.5 {
+            self.fitted_to = None;
+        }
+        self.name_seen = width;
     }
 
     /// Each column's left and right edge from the scrolled window's left, unscrolled.
@@ -163,7 +182,7 @@ pub(super) fn table_ui(
     let rows: Vec<Entry> = b.rows().into_iter().cloned().collect();
     let area = ui.available_rect_before_wrap();
     let mut columns = b.columns.clone();
-    columns.fit(area.width());
+    let refitted = columns.fit(area.width());
     sideways_wheel(ui, area, &mut columns);
     let (key_action, scroll_to) = keys;
     let mut actions: Vec<(Address, RowAction)> = key_action.into_iter().collect();
@@ -173,19 +192,26 @@ pub(super) fn table_ui(
         // Labels take no clicks: a click anywhere on a row picks it.
         ui.style_mut().interaction.selectable_labels = false;
         let mut builder = with_columns(TableBuilder::new(ui), area.width());
+        if refitted {
+            // The Name column starts again from its share of the new width.
+            builder.reset();
+        }
         if let Some(row) = scroll_to {
             builder = builder.scroll_to_row(row, None);
         }
         let mut window = Rect::NOTHING;
+        let mut name = 0.0;
         let mut table = builder.header(ROW, |mut header| {
             header.col(|ui| {
                 ui.strong("Object");
             });
             header.col(|ui| {
+                name = ui.max_rect().width();
                 ui.strong("Name");
             });
             header.col(|ui| window = ui.max_rect());
         });
+        columns.name_drawn(name, refitted);
         columns.clamp(window.width());
         let bar = Rect::from_x_y_ranges(window.x_range(), (table_rect.max.y + 2.0)..=area.max.y);
         sideways_bar_ui(table.ui_mut(), bar, &mut columns);
@@ -214,12 +240,20 @@ pub(super) fn table_ui(
     }
 }
 
-/// The table's look and its columns: Object and Name, then the window onto the rest. The
-/// Name column starts at a fifth of the table's `width` (within 130 to 260 points), so a
-/// narrow panel still shows the value and the row's buttons beside it; then it keeps the
-/// width the user drags it to.
+/// The Name column's width in a table `width` wide: a fifth (130 to 300 points).
+fn name_width(width: f32) -> f32 {
+    (width * 0.2).clamp(130.0, 300.0)
+}
+
+/// The Value column's width in a table `width` wide: a little more than a fifth (110 to
+/// 220 points).
+fn value_width(width: f32) -> f32 {
+    (width * 0.22).clamp(110.0, 220.0)
+}
+
+/// The table's look and its columns: Object and Name, then the window onto the rest.
 fn with_columns(table: TableBuilder<'_>, width: f32) -> TableBuilder<'_> {
-    let name = (width * 0.2).clamp(130.0, 260.0);
+    let name = name_width(width);
     table
         .id_salt("od_table")
         .striped(true)
@@ -311,6 +345,7 @@ fn scrolled_header_ui(ui: &mut Ui, window: Rect, columns: &mut Columns) {
             && let Some(width) = columns.widths.get_mut(i)
         {
             *width = (*width + handle.drag_delta().x).max(30.0);
+            columns.fitted_to = None;
         }
     }
 }
@@ -576,5 +611,44 @@ fn apply_row_action(
                 edit.focus = false;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn name_and_value_follow_the_table_width_until_sized_by_hand() {
+        let mut columns = Columns::default();
+        assert!(columns.fit(500.0));
+        assert_eq!(columns.widths[VALUE], 110.0);
+        assert!(!columns.fit(500.0), "the same width: nothing to do");
+        assert!(columns.fit(800.0));
+        assert_eq!(columns.widths[VALUE], 176.0);
+        assert!(columns.fit(2000.0));
+        assert_eq!(columns.widths[VALUE], 220.0);
+        assert_eq!(name_width(2000.0), 300.0);
+        assert_eq!(name_width(500.0), 130.0);
+        // The Name column as fitted, then dragged by the user: the fitting stops.
+        columns.name_drawn(300.0, true);
+        columns.name_drawn(300.0, false);
+        assert!(columns.fitted_to.is_some());
+        columns.name_drawn(340.0, false);
+        assert_eq!(columns.fitted_to, None);
+        columns.widths[VALUE] = 300.0;
+        assert!(!columns.fit(500.0));
+        assert_eq!(columns.widths[VALUE], 300.0, "the user's width stays");
+    }
+
+    #[test]
+    fn the_sideways_offset_stays_within_what_there_is_to_scroll() {
+        let mut columns = Columns::default();
+        let all = columns.width();
+        columns.scroll = 10_000.0;
+        columns.clamp(300.0);
+        assert_eq!(columns.scroll, all - 300.0);
+        columns.clamp(all + 50.0);
+        assert_eq!(columns.scroll, 0.0, "everything fits: nothing to scroll");
     }
 }
