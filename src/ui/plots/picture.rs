@@ -156,14 +156,7 @@ pub fn cut(
 
 /// The picture, once taken: the save dialog asks where it goes.
 pub fn poll(ctx: &egui::Context, state: &mut AppState) {
-    let taken = state
-        .plot
-        .picture
-        .result
-        .lock()
-        .ok()
-        .and_then(|mut slot| slot.take());
-    match taken {
+    match super::files::take(&state.plot.picture.result) {
         Some(Ok(image)) => ask(ctx, state, Job::Png(Arc::new(image))),
         Some(Err(e)) => state.plot.message = Some(Err(e)),
         None => {}

@@ -12,6 +12,7 @@ use super::super::state::AppState;
 use super::super::widgets::AMBER;
 use super::PlotView;
 use super::capture::{Job, ask};
+use super::files::take;
 use crate::telemetry::{Recording, Scope};
 
 /// One recording on screen.
@@ -112,11 +113,7 @@ pub fn load(ctx: &egui::Context, state: &mut AppState, path: PathBuf, overlay: b
 
 /// A recording read: on screen (or over the one there), or why not.
 pub fn poll(state: &mut AppState) {
-    let read = match &state.plot.loading {
-        Some((_, slot)) => slot.lock().ok().and_then(|mut s| s.take()),
-        None => None,
-    };
-    let Some(read) = read else {
+    let Some(read) = state.plot.loading.as_ref().and_then(|(_, slot)| take(slot)) else {
         return;
     };
     let Some((overlay, _)) = state.plot.loading.take() else {

@@ -20,8 +20,10 @@ const LANE_HEIGHT: f32 = 26.0;
 const LANE_HEIGHT_MIN: f32 = 18.0;
 /// Width of every plot's y axis, so the time axes line up.
 const Y_AXIS_WIDTH: f32 = 56.0;
-/// The lowest an analog plot gets.
-const PLOT_HEIGHT_MIN: f32 = 60.0;
+/// The lowest an analog plot gets (only when many share a low window).
+const PLOT_HEIGHT_MIN: f32 = 28.0;
+/// The space egui leaves between two plots, in points.
+const PLOT_SPACING: f32 = 4.0;
 /// Marker labels drawn per plot at most (all markers get their line).
 const MARKER_LABELS: usize = 24;
 /// The PDI-Status lanes drawn even when low throughout.
@@ -276,17 +278,20 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
 /// The height of each analog plot and of the lanes' plot: the lanes take what they need
 /// (up to 45 % while analog plots share the panel), the analog plots share the rest.
 fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
+    // Between plots egui puts its item spacing; below them a little air.
+    let spacing = PLOT_SPACING * (analog + usize::from(lanes > 0)) as f32 + 8.0;
+    let room = (available - spacing).max(0.0);
     let lanes_height = if lanes == 0 {
         0.0
     } else {
         let share = if analog == 0 { 1.0 } else { 0.45 };
-        let lane = ((available * share - 40.0) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
+        let lane = ((room * share - 40.0) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
         lanes as f32 * lane + 40.0
     };
     let plot_height = if analog == 0 {
         0.0
     } else {
-        ((available - lanes_height - 8.0) / analog as f32).max(PLOT_HEIGHT_MIN)
+        ((room - lanes_height) / analog as f32).max(PLOT_HEIGHT_MIN)
     };
     (plot_height, lanes_height)
 }
@@ -870,6 +875,23 @@ mod tests {
                 "colour {i} used twice: {analog:?}"
             );
         }
+    }
+
+    #[test]
+    fn the_plots_and_lanes_fit_the_height_there_is() {
+        for (available, analog, lanes) in [(320.0, 5, 3), (320.0, 3, 6), (700.0, 3, 5), (400.0, 0, 11), (250.0, 4, 4)] {
+            let (plot, lane_plot) = heights(available, analog, lanes);
+            let used = plot * analog as f32 + lane_plot + PLOT_SPACING * (analog + 1) as f32;
+            assert!(used <= available, "{available} {analog} {lanes}: {plot} {lane_plot}");
+            assert!(plot >= PLOT_HEIGHT_MIN || analog == 0);
+            if lanes > 0 {
+                assert!((lane_plot - 40.0) / lanes as f32 >= LANE_HEIGHT_MIN);
+            }
+        }
+        // Room to spare: lanes at their full height, the analog plots share the rest.
+        let (plot, lanes) = heights(700.0, 3, 5);
+        assert_eq!(lanes, 5.0 * LANE_HEIGHT + 40.0);
+        assert!(plot > 150.0, "{plot}");
     }
 
     #[test]
