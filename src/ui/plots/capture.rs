@@ -320,6 +320,15 @@ fn export_ui(ui: &mut Ui, state: &mut AppState) {
     }
 }
 
+/// A dialog's title, the file's part of the proposed name, its extension, and the kinds
+/// of file listed (description, extensions).
+type Dialog = (
+    &'static str,
+    &'static str,
+    &'static str,
+    Vec<(String, Vec<String>)>,
+);
+
 /// What a file dialog's answer is for.
 #[derive(Clone, Debug)]
 pub enum Job {
@@ -352,14 +361,7 @@ impl Job {
 
     /// The dialog's title, the file's part of the proposed name, its extension and the
     /// kinds of file listed.
-    fn dialog(
-        &self,
-    ) -> (
-        &'static str,
-        &'static str,
-        &'static str,
-        Vec<(String, Vec<String>)>,
-    ) {
+    fn dialog(&self) -> Dialog {
         let recordings = || {
             vec![
                 ("CSV recording".to_owned(), vec!["csv".to_owned()]),

@@ -79,16 +79,17 @@ impl Review {
     }
 }
 
-/// A recording being read, for the base or the overlay: its file, then what came of it.
-pub type Loading = (
-    bool,
-    Arc<Mutex<Option<Result<(PathBuf, Recording), String>>>>,
-);
+/// What reading a recording's file came to: the file and the recording, or why not.
+pub type Read = Result<(PathBuf, Recording), String>;
+
+/// A recording being read, for the overlay (true) or on its own, and where the reading
+/// thread leaves it.
+pub type Loading = (bool, Arc<Mutex<Option<Read>>>);
 
 /// Read `path` on a thread of its own (a large file does not stall the window); `poll`
 /// puts it on screen.
 pub fn load(ctx: &egui::Context, state: &mut AppState, path: PathBuf, overlay: bool) {
-    let slot: Arc<Mutex<Option<Result<(PathBuf, Recording), String>>>> = Arc::default();
+    let slot: Arc<Mutex<Option<Read>>> = Arc::default();
     let reply = slot.clone();
     let repaint = ctx.clone();
     let spawned = std::thread::Builder::new()

@@ -594,8 +594,8 @@ fn time_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
     if !span.is_finite() || span <= 0.0 || input.base_step_size <= 0.0 {
         return Vec::new();
     }
-    // base_step_size is about a pixel's worth of time.
-    let step = nice_step(input.base_step_size * 90.0);
+    // base_step_size is the time of egui_plot's smallest grid spacing (8 points).
+    let step = nice_step(input.base_step_size / 8.0 * 90.0);
     steps_between(min, max, &[(step, 200), (step / 5.0, 1000)])
 }
 
@@ -836,7 +836,7 @@ mod tests {
         // A 2 ms window 1000 points wide: a label every 0.2 ms, each one different.
         let marks = time_steps(egui_plot::GridInput {
             bounds: (100.0, 100.002),
-            base_step_size: 0.002 / 1000.0,
+            base_step_size: 0.002 / 1000.0 * 8.0,
         });
         let labelled: Vec<String> = marks
             .iter()
@@ -879,10 +879,19 @@ mod tests {
 
     #[test]
     fn the_plots_and_lanes_fit_the_height_there_is() {
-        for (available, analog, lanes) in [(320.0, 5, 3), (320.0, 3, 6), (700.0, 3, 5), (400.0, 0, 11), (250.0, 4, 4)] {
+        for (available, analog, lanes) in [
+            (320.0, 5, 3),
+            (320.0, 3, 6),
+            (700.0, 3, 5),
+            (400.0, 0, 11),
+            (250.0, 4, 4),
+        ] {
             let (plot, lane_plot) = heights(available, analog, lanes);
             let used = plot * analog as f32 + lane_plot + PLOT_SPACING * (analog + 1) as f32;
-            assert!(used <= available, "{available} {analog} {lanes}: {plot} {lane_plot}");
+            assert!(
+                used <= available,
+                "{available} {analog} {lanes}: {plot} {lane_plot}"
+            );
             assert!(plot >= PLOT_HEIGHT_MIN || analog == 0);
             if lanes > 0 {
                 assert!((lane_plot - 40.0) / lanes as f32 >= LANE_HEIGHT_MIN);
