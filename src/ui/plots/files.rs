@@ -101,6 +101,26 @@ fn put(answer: &Answer, picked: Picked) {
     }
 }
 
+/// The environment variable that answers the window's file dialogs from a script: the
+/// paths the dialogs pick, in order, separated as in `PATH` (headless runs, demos, and
+/// under Xvfb where no desktop portal runs).
+pub const ANSWERS_VARIABLE: &str = "DRIVEDECK_FILE_ANSWERS";
+
+/// The dialogs the window uses: the system's, or those answered by
+/// [`ANSWERS_VARIABLE`] when it is set.
+pub fn picker() -> Arc<dyn FilePicker> {
+    match std::env::var_os(ANSWERS_VARIABLE) {
+        Some(paths) => {
+            let scripted = ScriptedPicker::new();
+            for path in std::env::split_paths(&paths) {
+                scripted.answer(Some(path));
+            }
+            scripted
+        }
+        None => Arc::new(NativePicker),
+    }
+}
+
 /// Dialogs answered from a script (for tests, and for scripts driving the window): each
 /// `pick` takes the next answer queued (none left: cancelled) and remembers what it was
 /// asked.

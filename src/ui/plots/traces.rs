@@ -98,11 +98,10 @@ struct Lane {
     name: String,
 }
 
-/// Where the lanes are and what they say, for their labels.
+/// What the lanes say, for their labels: each lane's name, the value of its middle on
+/// the plot's y axis, its colour, and whether it is high at the right edge.
 struct LaneLabels {
-    rect: egui::Rect,
-    /// Each lane's name and the screen height of its middle.
-    rows: Vec<(String, f32, Color32, bool)>,
+    rows: Vec<(String, f64, Color32, bool)>,
 }
 
 /// A stretch without samples in view (a lost link, a disconnect): shaded, labelled, and
@@ -263,7 +262,7 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
     if !lanes.is_empty() {
         let response = lanes_plot_ui(ui, &view, &lanes, lanes_height);
         interaction.absorb(ui, &response.response, response.inner.0);
-        lane_labels_ui(ui, &response.inner.1);
+        lane_labels_ui(ui, &response.inner.1, &response.transform);
     }
 
     let bottom = ui.cursor().min;
@@ -369,9 +368,10 @@ fn analog_plot_ui(
                 );
             }
             if !other.is_empty() {
-                let name = format!("{label} (overlay)");
+                // Unnamed: the row above the plots says which file is dashed; a legend
+                // entry per plot would cover the traces.
                 plot_ui.line(
-                    Line::new(name, std::mem::take(&mut other))
+                    Line::new("", std::mem::take(&mut other))
                         .color(color.gamma_multiply(0.75))
                         .style(LineStyle::dashed_loose())
                         .width(1.5),
@@ -394,12 +394,13 @@ fn scale_values(points: &mut [[f64; 2]], scale: f64, offset: f64) {
 /// The trigger's moment and level, and the moment marked from the timeline.
 fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<f64>) {
     if let Some(at) = view.trigger_at {
-        plot_ui.add(VLine::new("trigger", at).color(RED).width(1.5));
+        // Unnamed: a name would put it in every plot's legend.
+        plot_ui.add(VLine::new("", at).color(RED).width(1.5).allow_hover(false));
     }
     for (k, at) in view.cursors.iter().enumerate() {
         if let Some(at) = at {
             plot_ui.add(
-                VLine::new(["cursor A", "cursor B"][k], *at)
+                VLine::new("", *at)
                     .color(CURSOR_COLORS[k])
                     .width(1.5)
                     .allow_hover(false),
@@ -471,7 +472,6 @@ fn draw_lanes(
     to: f64,
 ) -> LaneLabels {
     let columns = plot_ui.transform().frame().width().max(1.0) as usize;
-    let transform = *plot_ui.transform();
     let mut last_column = None;
     let mut spans: Vec<BitSpan> = Vec::new();
     let mut rows = Vec::new();
@@ -495,31 +495,32 @@ fn draw_lanes(
             plot_ui.line(Line::new("", run.to_vec()).color(color).width(1.5));
         }
         let high_now = spans.last().is_some_and(|s| s.all & (1 << lane.bit) != 0);
-        let middle = transform
-            .position_from_point(&egui_plot::PlotPoint::new(from, base + 0.5))
-            .y;
-        rows.push((lane.name.clone(), middle, color, high_now));
+        rows.push((lane.name.clone(), base + 0.5, color, high_now));
     }
-    LaneLabels {
-        rect: *transform.frame(),
-        rows,
-    }
+    LaneLabels { rows }
 }
 
 /// The lanes' names at the left edge of the lanes, legible over any trace: on a dark
 /// plate, in the lane's colour, "= 1" after the name of a bit that is high at the right
 /// edge.
-fn lane_labels_ui(ui: &Ui, labels: &LaneLabels) {
-    let painter = ui.painter_at(labels.rect);
+///
+/// Placed with the plot's final transform of this frame (the one inside the plot may be
+/// the last frame's when the plot's size changed).
+fn lane_labels_ui(ui: &Ui, labels: &LaneLabels, transform: &egui_plot::PlotTransform) {
+    let rect = *transform.frame();
+    let painter = ui.painter_at(rect);
     let font = egui::FontId::proportional(LANE_LABEL_SIZE);
-    for (name, y, color, high) in &labels.rows {
+    for (name, middle, color, high) in &labels.rows {
+        let y = transform
+            .position_from_point(&egui_plot::PlotPoint::new(0.0, *middle))
+            .y;
         let text = if *high {
             format!("{name} = 1")
         } else {
             name.clone()
         };
         let galley = painter.layout_no_wrap(text, font.clone(), *color);
-        let at = egui::pos2(labels.rect.left() + 4.0, y - galley.size().y / 2.0);
+        let at = egui::pos2(rect.left() + 4.0, y - galley.size().y / 2.0);
         let plate = egui::Rect::from_min_size(at, galley.size()).expand2(egui::vec2(3.0, 1.0));
         painter.rect_filled(plate, 3.0, Color32::from_black_alpha(200));
         painter.galley(at, galley, *color);
@@ -565,7 +566,7 @@ fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
     vec![
         egui_plot::AxisHints::new_x()
             .label("time [s]")
-            .label_spacing(30.0..=60.0)
+            .label_spacing(40.0..=60.0)
             .formatter(|mark, _| time_label(mark.value, mark.step_size)),
     ]
 }
