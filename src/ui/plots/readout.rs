@@ -41,8 +41,9 @@ pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
             };
             ui.monospace(format!("| {}: {}", signal.info.id, text.trim_end()));
         }
+        // On the same line: a line of its own would come off the plots' height.
+        ui.weak("· click a plot: cursor A, right-click: cursor B");
     });
-    ui.weak("Click a plot to place cursor A, right-click to place cursor B.");
 }
 
 /// The cursors: "A 1.200 s  B 1.700 s  Δt 0.500 s", then per analog signal the change

@@ -15,9 +15,9 @@ use crate::telemetry::{
 };
 
 /// Height of one digital lane, in points: at most, and at least (the lanes take up to
-/// 45 % of the panel between the two).
+/// 40 % of the panel between the two).
 const LANE_HEIGHT: f32 = 26.0;
-const LANE_HEIGHT_MIN: f32 = 18.0;
+const LANE_HEIGHT_MIN: f32 = 16.0;
 /// Width of every plot's y axis, so the time axes line up.
 const Y_AXIS_WIDTH: f32 = 56.0;
 /// The lowest an analog plot gets (only when many share a low window).
@@ -275,7 +275,7 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
 }
 
 /// The height of each analog plot and of the lanes' plot: the lanes take what they need
-/// (up to 45 % while analog plots share the panel), the analog plots share the rest.
+/// (up to 40 % while analog plots share the panel), the analog plots share the rest.
 fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
     // Between plots egui puts its item spacing; below them a little air.
     let spacing = PLOT_SPACING * (analog + usize::from(lanes > 0)) as f32 + 8.0;
@@ -283,7 +283,7 @@ fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
     let lanes_height = if lanes == 0 {
         0.0
     } else {
-        let share = if analog == 0 { 1.0 } else { 0.45 };
+        let share = if analog == 0 { 1.0 } else { 0.4 };
         let lane = ((room * share - 40.0) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
         lanes as f32 * lane + 40.0
     };
