@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::super::state::AppState;
 use super::super::widgets::{choice_ui, message_ui};
-use super::files::{Answer, Ask, default_name, open_folder};
+use super::files::{Answer, Ask, Picked, default_name, open_folder, take};
 use crate::telemetry::{
     Builtin, CaptureState, Condition, Edge, Kind, Recording, Trigger, bit_name,
 };
@@ -320,6 +320,15 @@ fn export_ui(ui: &mut Ui, state: &mut AppState) {
     }
 }
 
+/// A dialog's title, the file's part of the proposed name, its extension, and the kinds
+/// of file listed (description, extensions).
+type Dialog = (
+    &'static str,
+    &'static str,
+    &'static str,
+    Vec<(String, Vec<String>)>,
+);
+
 /// What a file dialog's answer is for.
 #[derive(Clone, Debug)]
 pub enum Job {
@@ -352,14 +361,7 @@ impl Job {
 
     /// The dialog's title, the file's part of the proposed name, its extension and the
     /// kinds of file listed.
-    fn dialog(
-        &self,
-    ) -> (
-        &'static str,
-        &'static str,
-        &'static str,
-        Vec<(String, Vec<String>)>,
-    ) {
+    fn dialog(&self) -> Dialog {
         let recordings = || {
             vec![
                 ("CSV recording".to_owned(), vec!["csv".to_owned()]),
@@ -447,22 +449,25 @@ pub fn ask(ctx: &egui::Context, state: &mut AppState, job: Job) {
 /// The dialog's answer, once there: a file to write (a file that exists waits for the
 /// user's word), a recording to open, or nothing (cancelled).
 pub fn poll(ctx: &egui::Context, state: &mut AppState) {
-    let picked = match &state.plot.asking {
-        Some((_, answer)) => answer.lock().ok().and_then(|mut a| a.take()),
-        None => None,
-    };
-    let Some(picked) = picked else {
+    let Some(picked) = state.plot.asking.as_ref().and_then(|(_, a)| take(a)) else {
         return;
     };
     let Some((job, _)) = state.plot.asking.take() else {
         return;
     };
-    let Some(path) = picked else {
-        state.plot.message = Some(Ok(match job {
-            Job::Open { .. } => "no recording opened".into(),
-            _ => "cancelled: nothing written".into(),
-        }));
-        return;
+    let path = match picked {
+        Picked::File(path) => path,
+        Picked::Cancelled => {
+            state.plot.message = Some(Ok(match job {
+                Job::Open { .. } => "no recording opened".into(),
+                _ => "cancelled: nothing written".into(),
+            }));
+            return;
+        }
+        Picked::NoDialog(why) => {
+            state.plot.message = Some(Err(format!("{why}; nothing was written or opened")));
+            return;
+        }
     };
     let path = std::path::absolute(&path).unwrap_or(path);
     if let Some(dir) = path.parent() {

@@ -23,8 +23,21 @@ pub struct Ask {
     pub filters: Vec<(String, Vec<String>)>,
 }
 
-/// Where a dialog's answer goes: the file picked, or `None` when cancelled.
-pub type Answer = Arc<Mutex<Option<Option<PathBuf>>>>;
+/// What a dialog answered.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Picked {
+    File(PathBuf),
+    Cancelled,
+    /// No dialog could be shown (no desktop portal, no zenity): why, in words.
+    NoDialog(String),
+}
+
+/// Where a dialog's answer goes.
+pub type Answer = Arc<Mutex<Option<Picked>>>;
+
+/// A native dialog that comes back empty sooner than this was never on screen: nobody
+/// cancels a dialog in a fifth of a second.
+const NO_DIALOG_WITHIN: std::time::Duration = std::time::Duration::from_millis(200);
 
 /// Shows the open and save dialogs. `pick` must not block the window: the answer comes
 /// later through `answer`, and `ctx` is asked to repaint when it is there.
@@ -43,6 +56,7 @@ impl FilePicker for NativePicker {
         let spawned = std::thread::Builder::new()
             .name("file dialog".into())
             .spawn(move || {
+                let asked = std::time::Instant::now();
                 let mut dialog = rfd::FileDialog::new().set_title(&ask.title);
                 if let Some(dir) = &ask.directory {
                     dialog = dialog.set_directory(dir);
@@ -55,19 +69,55 @@ impl FilePicker for NativePicker {
                 } else {
                     dialog.pick_file()
                 };
+                let picked = match picked {
+                    Some(path) => Picked::File(path),
+                    None if asked.elapsed() < NO_DIALOG_WITHIN => Picked::NoDialog(
+                        "no file dialog could be shown: it needs the XDG desktop portal \
+                         (xdg-desktop-portal with a GTK, GNOME or KDE back end) or zenity"
+                            .into(),
+                    ),
+                    None => Picked::Cancelled,
+                };
                 put(&answer, picked);
                 ctx.request_repaint();
             });
-        if spawned.is_err() {
-            // No thread, no dialog: said as a cancelled one.
-            put(&reply, None);
+        if let Err(e) = spawned {
+            put(
+                &reply,
+                Picked::NoDialog(format!("no thread for the file dialog: {e}")),
+            );
         }
     }
 }
 
-fn put(answer: &Answer, picked: Option<PathBuf>) {
+/// What a thread left in `slot` for the window, taken out (once).
+pub fn take<T>(slot: &Mutex<Option<T>>) -> Option<T> {
+    slot.lock().ok().and_then(|mut s| s.take())
+}
+
+fn put(answer: &Answer, picked: Picked) {
     if let Ok(mut slot) = answer.lock() {
         *slot = Some(picked);
+    }
+}
+
+/// The environment variable that answers the window's file dialogs from a script: the
+/// paths the dialogs pick, in order, separated as in `PATH` (headless runs, demos, and
+/// under Xvfb where no desktop portal runs).
+pub const ANSWERS_VARIABLE: &str = "DRIVEDECK_FILE_ANSWERS";
+
+/// The dialogs the window uses: the system's, or those answered by
+/// [`ANSWERS_VARIABLE`] when it is set.
+pub fn picker() -> Arc<dyn FilePicker> {
+    match std::env::var_os(ANSWERS_VARIABLE) {
+        Some(paths) => {
+            let scripted = ScriptedPicker::new();
+            for path in std::env::split_paths(&paths) {
+                scripted.answer(Some(path));
+            }
+            scripted
+        }
+        None => Arc::new(NativePicker),
     }
 }
 
@@ -109,7 +159,7 @@ impl FilePicker for ScriptedPicker {
         if let Ok(mut asked) = self.asked.lock() {
             asked.push(ask);
         }
-        put(&answer, next);
+        put(&answer, next.map_or(Picked::Cancelled, Picked::File));
         ctx.request_repaint();
     }
 }
@@ -201,12 +251,12 @@ mod tests {
         let first: Answer = Arc::default();
         picker.pick(ask.clone(), first.clone(), ctx.clone());
         assert_eq!(
-            first.lock().ok().and_then(|a| a.clone()),
-            Some(Some(PathBuf::from("/tmp/a.csv")))
+            take(&first),
+            Some(Picked::File(PathBuf::from("/tmp/a.csv")))
         );
         let second: Answer = Arc::default();
         picker.pick(ask.clone(), second.clone(), ctx);
-        assert_eq!(second.lock().ok().and_then(|a| a.clone()), Some(None));
+        assert_eq!(take(&second), Some(Picked::Cancelled));
         assert_eq!(picker.asked(), [ask.clone(), ask]);
     }
 }

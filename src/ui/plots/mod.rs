@@ -180,7 +180,7 @@ impl Default for PlotView {
             picture: picture::Picture::default(),
             written: Vec::new(),
             saved: None,
-            files: Arc::new(NativePicker),
+            files: files::picker(),
             asking: None,
             confirm: None,
             review: None,

@@ -17,14 +17,20 @@ pub type PngResult = Arc<Mutex<Option<Result<egui::ColorImage, String>>>>;
 /// A picture being taken.
 #[derive(Clone, Debug, Default)]
 pub struct Picture {
-    /// This frame draws the title band and asks for the screenshot.
+    /// The title band is drawn (from the frame that asks for the screenshot until it
+    /// comes: the screenshot is of a frame after the one that asked).
     pub due: bool,
+    /// The screenshot was asked for.
+    pub sent: bool,
     /// The cut picture, from the screenshot callback.
     pub result: PngResult,
 }
 
 /// Take a picture of the plots in the next frame.
 pub fn request(ctx: &egui::Context, state: &mut AppState) {
+    if state.plot.picture.due {
+        return;
+    }
     state.plot.picture.due = true;
     state.plot.message = Some(Ok("taking a picture of the plots…".into()));
     ctx.request_repaint();
@@ -110,15 +116,16 @@ pub fn title_lines(state: &AppState, now: std::time::SystemTime) -> (String, Str
 /// After the plots are drawn in the picture's frame: ask for its screenshot, cut to the
 /// title band and the plots.
 pub fn taken(ctx: &egui::Context, state: &mut AppState, band: Option<Rect>, plots: Option<Rect>) {
-    if !state.plot.picture.due {
+    if !state.plot.picture.due || state.plot.picture.sent {
         return;
     }
-    state.plot.picture.due = false;
+    state.plot.picture.sent = true;
     let area = match (band, plots) {
         (Some(band), Some(plots)) => Some(band.union(plots)),
         (band, plots) => band.or(plots),
     };
     let Some(area) = area else {
+        state.plot.picture = Picture::default();
         state.plot.message = Some(Err("no plots to take a picture of".into()));
         return;
     };
@@ -156,13 +163,11 @@ pub fn cut(
 
 /// The picture, once taken: the save dialog asks where it goes.
 pub fn poll(ctx: &egui::Context, state: &mut AppState) {
-    let taken = state
-        .plot
-        .picture
-        .result
-        .lock()
-        .ok()
-        .and_then(|mut slot| slot.take());
+    let taken = super::files::take(&state.plot.picture.result);
+    if taken.is_some() {
+        state.plot.picture.due = false;
+        state.plot.picture.sent = false;
+    }
     match taken {
         Some(Ok(image)) => ask(ctx, state, Job::Png(Arc::new(image))),
         Some(Err(e)) => state.plot.message = Some(Err(e)),

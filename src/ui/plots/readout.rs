@@ -8,8 +8,12 @@ use super::{shown_scope, with_turns};
 use crate::telemetry::{Kind, Ring, Scope, format_number};
 
 /// The values under the pointer (or the newest ones) of every signal drawn; the cursors'
-/// table when one is placed.
+/// read-out instead while one is placed.
 pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
+    if state.plot.cursors.iter().any(Option::is_some) {
+        cursors_ui(ui, state);
+        return;
+    }
     let scope = shown_scope(state);
     let ring = scope.ring();
     let at = state.plot.cursor.or(ring.last_time());
@@ -37,18 +41,16 @@ pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
             };
             ui.monospace(format!("| {}: {}", signal.info.id, text.trim_end()));
         }
+        // On the same line: a line of its own would come off the plots' height.
+        ui.weak("· click a plot: cursor A, right-click: cursor B");
     });
-    cursors_ui(ui, state);
 }
 
-/// The cursors: "A 1.200 s  B 1.700 s  Δt 0.500 s", then per analog signal its value at
-/// A and B and the difference (positions also in degrees and revolutions).
+/// The cursors: "A 1.200 s  B 1.700 s  Δt 0.500 s", then per analog signal the change
+/// from A to B (positions also in degrees and revolutions), its values at A and B on
+/// hover.
 fn cursors_ui(ui: &mut Ui, state: &mut AppState) {
     let [a, b] = state.plot.cursors;
-    if a.is_none() && b.is_none() {
-        ui.weak("Click a plot to place cursor A, right-click to place cursor B.");
-        return;
-    }
     let scope = shown_scope(state);
     let rows = cursor_rows(scope, a, b);
     let mut clear = false;
@@ -58,7 +60,8 @@ fn cursors_ui(ui: &mut Ui, state: &mut AppState) {
         ui.strong(cursor_times(a, b));
         clear = ui.small_button("Clear cursors").clicked();
         for [name, at_a, at_b, delta] in rows {
-            ui.monospace(format!("| {name}: A {at_a} · B {at_b} · Δ {delta}"));
+            ui.monospace(format!("| {name}: Δ {delta}"))
+                .on_hover_text(format!("at A {at_a}\nat B {at_b}"));
         }
     });
     if clear {

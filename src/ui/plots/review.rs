@@ -12,6 +12,7 @@ use super::super::state::AppState;
 use super::super::widgets::AMBER;
 use super::PlotView;
 use super::capture::{Job, ask};
+use super::files::take;
 use crate::telemetry::{Recording, Scope};
 
 /// One recording on screen.
@@ -78,16 +79,17 @@ impl Review {
     }
 }
 
-/// A recording being read, for the base or the overlay: its file, then what came of it.
-pub type Loading = (
-    bool,
-    Arc<Mutex<Option<Result<(PathBuf, Recording), String>>>>,
-);
+/// What reading a recording's file came to: the file and the recording, or why not.
+pub type Read = Result<(PathBuf, Recording), String>;
+
+/// A recording being read, for the overlay (true) or on its own, and where the reading
+/// thread leaves it.
+pub type Loading = (bool, Arc<Mutex<Option<Read>>>);
 
 /// Read `path` on a thread of its own (a large file does not stall the window); `poll`
 /// puts it on screen.
 pub fn load(ctx: &egui::Context, state: &mut AppState, path: PathBuf, overlay: bool) {
-    let slot: Arc<Mutex<Option<Result<(PathBuf, Recording), String>>>> = Arc::default();
+    let slot: Arc<Mutex<Option<Read>>> = Arc::default();
     let reply = slot.clone();
     let repaint = ctx.clone();
     let spawned = std::thread::Builder::new()
@@ -112,11 +114,7 @@ pub fn load(ctx: &egui::Context, state: &mut AppState, path: PathBuf, overlay: b
 
 /// A recording read: on screen (or over the one there), or why not.
 pub fn poll(state: &mut AppState) {
-    let read = match &state.plot.loading {
-        Some((_, slot)) => slot.lock().ok().and_then(|mut s| s.take()),
-        None => None,
-    };
-    let Some(read) = read else {
+    let Some(read) = state.plot.loading.as_ref().and_then(|(_, slot)| take(slot)) else {
         return;
     };
     let Some((overlay, _)) = state.plot.loading.take() else {

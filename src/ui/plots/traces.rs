@@ -15,13 +15,15 @@ use crate::telemetry::{
 };
 
 /// Height of one digital lane, in points: at most, and at least (the lanes take up to
-/// 45 % of the panel between the two).
+/// 40 % of the panel between the two).
 const LANE_HEIGHT: f32 = 26.0;
-const LANE_HEIGHT_MIN: f32 = 18.0;
+const LANE_HEIGHT_MIN: f32 = 16.0;
 /// Width of every plot's y axis, so the time axes line up.
 const Y_AXIS_WIDTH: f32 = 56.0;
-/// The lowest an analog plot gets.
-const PLOT_HEIGHT_MIN: f32 = 60.0;
+/// The lowest an analog plot gets (only when many share a low window).
+const PLOT_HEIGHT_MIN: f32 = 28.0;
+/// The space egui leaves between two plots, in points.
+const PLOT_SPACING: f32 = 4.0;
 /// Marker labels drawn per plot at most (all markers get their line).
 const MARKER_LABELS: usize = 24;
 /// The PDI-Status lanes drawn even when low throughout.
@@ -96,11 +98,10 @@ struct Lane {
     name: String,
 }
 
-/// Where the lanes are and what they say, for their labels.
+/// What the lanes say, for their labels: each lane's name, the value of its middle on
+/// the plot's y axis, its colour, and whether it is high at the right edge.
 struct LaneLabels {
-    rect: egui::Rect,
-    /// Each lane's name and the screen height of its middle.
-    rows: Vec<(String, f32, Color32, bool)>,
+    rows: Vec<(String, f64, Color32, bool)>,
 }
 
 /// A stretch without samples in view (a lost link, a disconnect): shaded, labelled, and
@@ -261,7 +262,7 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
     if !lanes.is_empty() {
         let response = lanes_plot_ui(ui, &view, &lanes, lanes_height);
         interaction.absorb(ui, &response.response, response.inner.0);
-        lane_labels_ui(ui, &response.inner.1);
+        lane_labels_ui(ui, &response.inner.1, &response.transform);
     }
 
     let bottom = ui.cursor().min;
@@ -274,19 +275,22 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
 }
 
 /// The height of each analog plot and of the lanes' plot: the lanes take what they need
-/// (up to 45 % while analog plots share the panel), the analog plots share the rest.
+/// (up to 40 % while analog plots share the panel), the analog plots share the rest.
 fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
+    // Between plots egui puts its item spacing; below them a little air.
+    let spacing = PLOT_SPACING * (analog + usize::from(lanes > 0)) as f32 + 8.0;
+    let room = (available - spacing).max(0.0);
     let lanes_height = if lanes == 0 {
         0.0
     } else {
-        let share = if analog == 0 { 1.0 } else { 0.45 };
-        let lane = ((available * share - 40.0) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
+        let share = if analog == 0 { 1.0 } else { 0.4 };
+        let lane = ((room * share - 40.0) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
         lanes as f32 * lane + 40.0
     };
     let plot_height = if analog == 0 {
         0.0
     } else {
-        ((available - lanes_height - 8.0) / analog as f32).max(PLOT_HEIGHT_MIN)
+        ((room - lanes_height) / analog as f32).max(PLOT_HEIGHT_MIN)
     };
     (plot_height, lanes_height)
 }
@@ -364,9 +368,10 @@ fn analog_plot_ui(
                 );
             }
             if !other.is_empty() {
-                let name = format!("{label} (overlay)");
+                // Unnamed: the row above the plots says which file is dashed; a legend
+                // entry per plot would cover the traces.
                 plot_ui.line(
-                    Line::new(name, std::mem::take(&mut other))
+                    Line::new("", std::mem::take(&mut other))
                         .color(color.gamma_multiply(0.75))
                         .style(LineStyle::dashed_loose())
                         .width(1.5),
@@ -389,12 +394,13 @@ fn scale_values(points: &mut [[f64; 2]], scale: f64, offset: f64) {
 /// The trigger's moment and level, and the moment marked from the timeline.
 fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<f64>) {
     if let Some(at) = view.trigger_at {
-        plot_ui.add(VLine::new("trigger", at).color(RED).width(1.5));
+        // Unnamed: a name would put it in every plot's legend.
+        plot_ui.add(VLine::new("", at).color(RED).width(1.5).allow_hover(false));
     }
     for (k, at) in view.cursors.iter().enumerate() {
         if let Some(at) = at {
             plot_ui.add(
-                VLine::new(["cursor A", "cursor B"][k], *at)
+                VLine::new("", *at)
                     .color(CURSOR_COLORS[k])
                     .width(1.5)
                     .allow_hover(false),
@@ -466,7 +472,6 @@ fn draw_lanes(
     to: f64,
 ) -> LaneLabels {
     let columns = plot_ui.transform().frame().width().max(1.0) as usize;
-    let transform = *plot_ui.transform();
     let mut last_column = None;
     let mut spans: Vec<BitSpan> = Vec::new();
     let mut rows = Vec::new();
@@ -490,31 +495,32 @@ fn draw_lanes(
             plot_ui.line(Line::new("", run.to_vec()).color(color).width(1.5));
         }
         let high_now = spans.last().is_some_and(|s| s.all & (1 << lane.bit) != 0);
-        let middle = transform
-            .position_from_point(&egui_plot::PlotPoint::new(from, base + 0.5))
-            .y;
-        rows.push((lane.name.clone(), middle, color, high_now));
+        rows.push((lane.name.clone(), base + 0.5, color, high_now));
     }
-    LaneLabels {
-        rect: *transform.frame(),
-        rows,
-    }
+    LaneLabels { rows }
 }
 
 /// The lanes' names at the left edge of the lanes, legible over any trace: on a dark
 /// plate, in the lane's colour, "= 1" after the name of a bit that is high at the right
 /// edge.
-fn lane_labels_ui(ui: &Ui, labels: &LaneLabels) {
-    let painter = ui.painter_at(labels.rect);
+///
+/// Placed with the plot's final transform of this frame (the one inside the plot may be
+/// the last frame's when the plot's size changed).
+fn lane_labels_ui(ui: &Ui, labels: &LaneLabels, transform: &egui_plot::PlotTransform) {
+    let rect = *transform.frame();
+    let painter = ui.painter_at(rect);
     let font = egui::FontId::proportional(LANE_LABEL_SIZE);
-    for (name, y, color, high) in &labels.rows {
+    for (name, middle, color, high) in &labels.rows {
+        let y = transform
+            .position_from_point(&egui_plot::PlotPoint::new(0.0, *middle))
+            .y;
         let text = if *high {
             format!("{name} = 1")
         } else {
             name.clone()
         };
         let galley = painter.layout_no_wrap(text, font.clone(), *color);
-        let at = egui::pos2(labels.rect.left() + 4.0, y - galley.size().y / 2.0);
+        let at = egui::pos2(rect.left() + 4.0, y - galley.size().y / 2.0);
         let plate = egui::Rect::from_min_size(at, galley.size()).expand2(egui::vec2(3.0, 1.0));
         painter.rect_filled(plate, 3.0, Color32::from_black_alpha(200));
         painter.galley(at, galley, *color);
@@ -560,7 +566,7 @@ fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
     vec![
         egui_plot::AxisHints::new_x()
             .label("time [s]")
-            .label_spacing(30.0..=60.0)
+            .label_spacing(40.0..=60.0)
             .formatter(|mark, _| time_label(mark.value, mark.step_size)),
     ]
 }
@@ -589,8 +595,8 @@ fn time_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
     if !span.is_finite() || span <= 0.0 || input.base_step_size <= 0.0 {
         return Vec::new();
     }
-    // base_step_size is about a pixel's worth of time.
-    let step = nice_step(input.base_step_size * 90.0);
+    // base_step_size is the time of egui_plot's smallest grid spacing (8 points).
+    let step = nice_step(input.base_step_size / 8.0 * 90.0);
     steps_between(min, max, &[(step, 200), (step / 5.0, 1000)])
 }
 
@@ -831,7 +837,7 @@ mod tests {
         // A 2 ms window 1000 points wide: a label every 0.2 ms, each one different.
         let marks = time_steps(egui_plot::GridInput {
             bounds: (100.0, 100.002),
-            base_step_size: 0.002 / 1000.0,
+            base_step_size: 0.002 / 1000.0 * 8.0,
         });
         let labelled: Vec<String> = marks
             .iter()
@@ -870,6 +876,32 @@ mod tests {
                 "colour {i} used twice: {analog:?}"
             );
         }
+    }
+
+    #[test]
+    fn the_plots_and_lanes_fit_the_height_there_is() {
+        for (available, analog, lanes) in [
+            (320.0, 5, 3),
+            (320.0, 3, 6),
+            (700.0, 3, 5),
+            (400.0, 0, 11),
+            (250.0, 4, 4),
+        ] {
+            let (plot, lane_plot) = heights(available, analog, lanes);
+            let used = plot * analog as f32 + lane_plot + PLOT_SPACING * (analog + 1) as f32;
+            assert!(
+                used <= available,
+                "{available} {analog} {lanes}: {plot} {lane_plot}"
+            );
+            assert!(plot >= PLOT_HEIGHT_MIN || analog == 0);
+            if lanes > 0 {
+                assert!((lane_plot - 40.0) / lanes as f32 >= LANE_HEIGHT_MIN);
+            }
+        }
+        // Room to spare: lanes at their full height, the analog plots share the rest.
+        let (plot, lanes) = heights(700.0, 3, 5);
+        assert_eq!(lanes, 5.0 * LANE_HEIGHT + 40.0);
+        assert!(plot > 150.0, "{plot}");
     }
 
     #[test]
