@@ -6,9 +6,11 @@
 //!   three move at once with SDO reads interleaved between their PDOs;
 //! * `drivedeck sim --modbus-rtu A --slave 5 --slave 6`: two drives on one pty line (socat),
 //!   our RTU client talks to slave 5, then to slave 6, then to 5 again;
-//! * python-canopen masters `drivedeck sim --slcan A --node 5 --node 6` on one slcan pty.
+//! * python-canopen masters `drivedeck sim --slcan A --node 5 --node 6` on one slcan pty;
+//! * two `--modbus-tcp` ports and two `--enip` adapters are two drives each, and
+//!   `--verbose` names each drive's line by its port.
 //!
-//! Without socat or the Python peer the last two pass without running and say `SKIPPED …`
+//! Without socat or the Python peer the pty tests pass without running and say `SKIPPED …`
 //! in the output; with `DRIVEDECK_REQUIRE_PEERS=1` (CI, `.ci/run`) they fail.
 
 mod common;
@@ -231,4 +233,75 @@ fn python_canopen_masters_two_simulated_nodes_on_one_slcan_pty() {
         six,
         json!({"position": -600, "on_the_way": true, "node_5_seen_at": [1200]})
     );
+}
+
+/// The address in a "serving the simulated drive on Modbus TCP ADDR (…)" line.
+fn tcp_address(banner: &str) -> String {
+    banner
+        .split("Modbus TCP ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no address in {banner:?}"))
+        .to_owned()
+}
+
+#[test]
+fn two_modbus_tcp_ports_are_two_drives_and_verbose_names_each() {
+    let (mut sim, first) = Sim::tcp(&["--modbus-tcp", "127.0.0.1:0", "--verbose"]);
+    let second = sim
+        .process
+        .expect_line("the second port's banner", Duration::from_secs(10));
+    let second = tcp_address(&second);
+    common::runtime().block_on(async {
+        let spec =
+            |addr: &str| -> LinkSpec { format!("modbus-tcp://{addr}").parse().expect("spec") };
+        let mut one = connect::open(&spec(&first.to_string()))
+            .await
+            .expect("the first drive");
+        move_alone(&mut one, 1000, false).await;
+        let mut two = connect::open(&spec(&second))
+            .await
+            .expect("the second drive");
+        assert_eq!(position(&mut two).await, 0);
+    });
+    // --verbose: a line per drive a second, each starting with the port it is served on.
+    let deadline = Instant::now() + PATIENCE;
+    let (mut moved, mut stood) = (false, false);
+    while !(moved && stood) {
+        assert!(Instant::now() < deadline, "{}", sim.process.report());
+        let Some(line) = sim.process.line(Duration::from_secs(2)) else {
+            continue;
+        };
+        moved |=
+            line.starts_with(&format!("Modbus TCP {first}:")) && line.contains("position 1000 ");
+        stood |= line.starts_with(&format!("Modbus TCP {second}:")) && line.contains("position 0 ");
+    }
+}
+
+#[test]
+fn two_enip_adapters_are_two_drives() {
+    let (mut sim, first) = Sim::enip(&["--enip", "127.0.0.1:0"]);
+    let second = sim
+        .process
+        .expect_line("the second adapter's banner", Duration::from_secs(10));
+    let second = second
+        .split("EtherNet/IP ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no address in {second:?}"))
+        .to_owned();
+    common::runtime().block_on(async {
+        let spec = |addr: &str| -> LinkSpec {
+            format!("enip://{addr}?io=explicit").parse().expect("spec")
+        };
+        let mut one = connect::open(&spec(&first.to_string()))
+            .await
+            .expect("the first adapter");
+        let mut two = connect::open(&spec(&second))
+            .await
+            .expect("the second adapter");
+        move_alone(&mut one, -400, false).await;
+        assert_eq!(position(&mut one).await, -400);
+        assert_eq!(position(&mut two).await, 0);
+    });
 }

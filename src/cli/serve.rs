@@ -291,15 +291,17 @@ fn serve_canopen(
 /// `--verbose`: each drive's state once a second, until the program stops; with several
 /// drives each line starts with what the drive is served as.
 async fn print_every_second(served: Vec<Served>) {
+    let names: Vec<String> = served.iter().map(|s| s.names.join(", ") + ":").collect();
+    let width = names.iter().map(String::len).max().unwrap_or(0);
     let mut ticker = tokio::time::interval(Duration::from_secs(1));
     loop {
         ticker.tick().await;
-        for one in &served {
+        for (one, name) in served.iter().zip(&names) {
             let line = state_line(&one.drive);
             if served.len() == 1 {
                 outln!("{line}");
             } else {
-                outln!("{}:  {line}", one.names.join(", "));
+                outln!("{name:<width$}{line}");
             }
         }
     }
