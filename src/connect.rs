@@ -77,10 +77,11 @@ impl From<SimLink> for AnyLink {
 pub async fn scan(spec: &LinkSpec) -> Result<Vec<super_link::FoundDevice>, Error> {
     match spec {
         LinkSpec::CanopenSim { can } => {
-            let mut bus = SimCanBus::start(can.node);
-            // Let the simulated node boot.
+            // Every simulated node open in the process, and the spec's own.
+            let (mut port, _guest) = SimCanBus::scanner(can.node);
+            // Let a node put there for the scan boot.
             tokio::time::sleep(std::time::Duration::from_millis(20)).await;
-            crate::link::canopen::scan::scan(&mut bus).await
+            crate::link::canopen::scan::scan(&mut port).await
         }
         LinkSpec::CanopenSlcan { path, bitrate, .. } => {
             let mut bus = SlcanBus::open(path, *bitrate).await?;

@@ -254,7 +254,10 @@ fn e35_a_real_drives_eds() {
     assert_eq!(warnings_containing(&eds, "names 6505h with no"), vec![6670]);
     // The statusword's bits are the profile's: named as in the built-in catalog.
     let statusword = entry(&eds, 0x6041, 0);
-    assert_eq!(statusword.bits.get(2), Some(&(2, "operation enabled".into())));
+    assert_eq!(
+        statusword.bits.get(2),
+        Some(&(2, "operation enabled".into()))
+    );
 }
 
 #[test]

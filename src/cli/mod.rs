@@ -120,7 +120,8 @@ pub enum Command {
     Scan,
     /// Find EtherNet/IP adapters by ListIdentity broadcast (no --link needed).
     Discover(DiscoverArgs),
-    /// Serve the simulated drive on real sockets for any client (PLCs, pymodbus, …).
+    /// Serve the simulated drive on real sockets for any client (PLCs, pymodbus, …); give
+    /// --node, --slave, --modbus-tcp or --enip again for more drives.
     Sim(SimArgs),
     /// Record signals to CSV or JSON: `record --signals position,velocity --rate 500
     /// --duration 5s --out run.csv`, optionally around a trigger.
@@ -410,8 +411,9 @@ pub struct HomeHereArgs {
 #[derive(Args, Debug, Clone)]
 pub struct SimArgs {
     /// Serve Modbus TCP on ADDR:PORT (e.g. 127.0.0.1:1502; 0.0.0.0:502 for the network).
+    /// Give it again for another drive on another port.
     #[arg(long, value_name = "ADDR:PORT")]
-    pub modbus_tcp: Option<std::net::SocketAddr>,
+    pub modbus_tcp: Vec<std::net::SocketAddr>,
     /// Modbus TCP clients at a time; a Nanotec drive allows one.
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub max_clients: usize,
@@ -427,9 +429,9 @@ pub struct SimArgs {
     /// RTU stop bits (factory: 1).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
     pub stop_bits: u8,
-    /// RTU slave address (factory: 5).
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(1..=247))]
-    pub slave: u8,
+    /// RTU slave address (factory: 5). Give it again for another drive on the same line.
+    #[arg(long, default_values_t = [5u8], value_parser = clap::value_parser!(u8).range(1..=247))]
+    pub slave: Vec<u8>,
     /// Word order of 32-bit register pairs: high (Nanotec) or low.
     #[arg(long, value_enum, default_value_t = CliWords::High)]
     pub words: CliWords,
@@ -440,14 +442,17 @@ pub struct SimArgs {
     /// a pty pair: the other end is the host's slcan device).
     #[arg(long, value_name = "PATH")]
     pub slcan: Option<String>,
-    /// The simulated node's CANopen node id.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=127))]
-    pub node: u8,
+    /// The simulated node's CANopen node id. Give it again for another drive on the same
+    /// bus (--node 5 --node 6).
+    #[arg(long, default_values_t = [1u8], value_parser = clap::value_parser!(u8).range(1..=127))]
+    pub node: Vec<u8>,
     /// Serve EtherNet/IP on ADDR:PORT (e.g. 127.0.0.1:44818; 0.0.0.0:44818 for the network,
-    /// where ListIdentity also answers broadcasts). IPv4 only.
+    /// where ListIdentity also answers broadcasts). IPv4 only. Give it again for another
+    /// drive (an adapter on another address).
     #[arg(long, value_name = "ADDR:PORT")]
-    pub enip: Option<std::net::SocketAddr>,
-    /// The UDP port of class 1 I/O on the --enip address (0: any free port).
+    pub enip: Vec<std::net::SocketAddr>,
+    /// The UDP port of class 1 I/O on each --enip address (0: any free port; give 0 for
+    /// several adapters on one IP address).
     #[arg(long, default_value_t = 2222, value_name = "PORT")]
     pub enip_io_port: u16,
     /// EtherNet/IP sessions at a time (RegisterSession beyond them gets status 0002h).
@@ -456,7 +461,7 @@ pub struct SimArgs {
     /// Leave out function codes, to simulate a gateway or device without them.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "FC,...")]
     pub without: Vec<Missing>,
-    /// Print the drive's state once a second.
+    /// Print each drive's state once a second.
     #[arg(long)]
     pub verbose: bool,
 }

@@ -425,7 +425,7 @@ impl Sim {
         let mut process = Process::spawn("drivedeck sim", &mut command);
         let banner = process.expect_line(what, Duration::from_secs(10));
         assert!(
-            banner.starts_with("serving the simulated drive "),
+            banner.starts_with("serving the simulated drive"),
             "{banner}; {}",
             process.report()
         );
@@ -489,15 +489,27 @@ impl Sim {
     /// `drivedeck sim --slcan PATH --node NODE ARGS…`: a CANopen node behind an emulated
     /// slcan adapter on one end of a pty pair.
     pub fn slcan(path: &Path, node: u8, args: &[&str]) -> Sim {
+        Sim::slcan_nodes(path, &[node], args)
+    }
+
+    /// `drivedeck sim --slcan PATH --node N1 --node N2… ARGS…`: CANopen nodes, each a
+    /// drive of its own, on one bus behind an emulated slcan adapter.
+    pub fn slcan_nodes(path: &Path, nodes: &[u8], args: &[&str]) -> Sim {
         let path = path.to_str().expect("utf-8 path");
-        let node = node.to_string();
-        let mut all = vec!["--slcan", path, "--node", &node];
+        let ids: Vec<String> = nodes.iter().map(u8::to_string).collect();
+        let mut all = vec!["--slcan", path];
+        for id in &ids {
+            all.extend(["--node", id.as_str()]);
+        }
         all.extend_from_slice(args);
         let sim = Sim::start(&all, "slcan banner", |_| {});
+        let named = match ids.as_slice() {
+            [one] => format!("CANopen node {one} behind"),
+            many => format!("CANopen nodes {} behind", many.join(", ")),
+        };
         assert!(
-            sim.banner.contains(&format!(
-                "CANopen node {node} behind an emulated slcan adapter"
-            )),
+            sim.banner
+                .contains(&format!("{named} an emulated slcan adapter")),
             "{}",
             sim.banner
         );

@@ -370,37 +370,94 @@ impl Node {
 
 /// Serve the shared drive as node `id` on `bus` until the bus fails.
 pub async fn run<B: CanBus>(bus: B, id: u8, shared: SharedDrive) -> Result<(), crate::link::Error> {
-    let node = {
-        let mut drive = shared.lock();
-        Node::new(id, &mut drive)
-    };
-    run_node(bus, node, shared).await
+    run_many(bus, vec![(id, shared)]).await
+}
+
+/// Serve several drives on one `bus`, each as its own node id (`drivedeck sim --node 5
+/// --node 6`).
+pub async fn run_many<B: CanBus>(
+    bus: B,
+    drives: Vec<(u8, SharedDrive)>,
+) -> Result<(), crate::link::Error> {
+    let nodes = drives
+        .into_iter()
+        .map(|(id, shared)| {
+            let node = {
+                let mut drive = shared.lock();
+                Node::new(id, &mut drive)
+            };
+            (node, shared)
+        })
+        .collect();
+    run_nodes(bus, nodes).await
 }
 
 /// Serve `node` (built by the caller, e.g. with a fixed mapping) on `bus`.
 pub async fn run_node<B: CanBus>(
-    mut bus: B,
-    mut node: Node,
+    bus: B,
+    node: Node,
     shared: SharedDrive,
+) -> Result<(), crate::link::Error> {
+    run_nodes(bus, vec![(node, shared)]).await
+}
+
+/// Serve `nodes`, each in front of its own drive, on one `bus` until the bus fails. One
+/// reader of the bus hands every frame to every node, and each takes what its COB-IDs say
+/// is for it (NMT to it or to all, its SDO requests, SYNC, its RPDOs); what one node sends,
+/// the others hear too, as they would on the wire.
+pub async fn run_nodes<B: CanBus>(
+    mut bus: B,
+    mut nodes: Vec<(Node, SharedDrive)>,
 ) -> Result<(), crate::link::Error> {
     let mut ticker = tokio::time::interval(Duration::from_millis(1));
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     loop {
         let out = tokio::select! {
-            frame = bus.recv() => {
-                let frame = frame?;
-                let mut drive = shared.lock();
-                node.on_frame(&frame, &mut drive, Instant::now())
-            }
+            frame = bus.recv() => deliver(&mut nodes, &frame?, None),
             _ = ticker.tick() => {
-                let mut drive = shared.lock();
-                node.tick(&mut drive, Instant::now())
+                let now = Instant::now();
+                let mut out = vec![];
+                for (from, (node, shared)) in nodes.iter_mut().enumerate() {
+                    let mut drive = shared.lock();
+                    out.extend(node.tick(&mut drive, now).into_iter().map(|f| (from, f)));
+                }
+                out
             }
         };
-        for frame in out {
+        for (from, frame) in out {
             bus.send(&frame).await?;
+            if nodes.len() > 1 {
+                // The node's neighbours hear it; what they answer goes on the bus (and is
+                // not handed round again: nodes answer masters, not each other).
+                for (_, answer) in deliver(&mut nodes, &frame, Some(from)) {
+                    bus.send(&answer).await?;
+                }
+            }
         }
     }
+}
+
+/// Hand `frame` to every node but `except` (the one that sent it); the frames they answer
+/// with, each with the index of the node that sends it.
+fn deliver(
+    nodes: &mut [(Node, SharedDrive)],
+    frame: &CanFrame,
+    except: Option<usize>,
+) -> Vec<(usize, CanFrame)> {
+    let now = Instant::now();
+    let mut out = vec![];
+    for (index, (node, shared)) in nodes.iter_mut().enumerate() {
+        if Some(index) == except {
+            continue;
+        }
+        let mut drive = shared.lock();
+        out.extend(
+            node.on_frame(frame, &mut drive, now)
+                .into_iter()
+                .map(|f| (index, f)),
+        );
+    }
+    out
 }
 
 #[cfg(test)]
@@ -417,5 +474,43 @@ mod tests {
         assert_eq!(out, vec![nmt::boot_up_frame(5)], "boot-up first");
         node.tick(&mut drive, now);
         assert_eq!(node.state(), NmtState::Operational);
+    }
+
+    #[test]
+    fn nodes_on_one_bus_take_only_what_is_for_them() {
+        let nodes = [5u8, 6].map(|id| {
+            let mut drive = Drive::new();
+            let node = Node::new(id, &mut drive);
+            (node, SharedDrive::new(drive))
+        });
+        let mut nodes = Vec::from(nodes);
+        // An NMT command to all reaches both; one to node 6 only node 6.
+        let out = deliver(&mut nodes, &nmt::command_frame(NmtCommand::Start, 0), None);
+        assert_eq!(
+            out,
+            vec![(0, nmt::boot_up_frame(5)), (1, nmt::boot_up_frame(6))]
+        );
+        deliver(&mut nodes, &nmt::command_frame(NmtCommand::Stop, 6), None);
+        assert_eq!(nodes[0].0.state(), NmtState::Operational);
+        assert_eq!(nodes[1].0.state(), NmtState::Stopped);
+        deliver(&mut nodes, &nmt::command_frame(NmtCommand::Start, 6), None);
+        // An SDO request to node 6 is answered by node 6 alone, on its own COB-ID.
+        let mut client = crate::proto::canopen::sdo::SdoClient::new(6);
+        let out = deliver(&mut nodes, &client.upload(0x1014, 0), None);
+        assert_eq!(out.len(), 1, "{out:?}");
+        assert_eq!(out[0].0, 1);
+        assert_eq!(out[0].1.cob_id(), Some(0x586));
+        assert_eq!(
+            client.on_frame(&out[0].1),
+            crate::proto::canopen::sdo::SdoEvent::Uploaded(0x86u32.to_le_bytes().to_vec())
+        );
+        // A frame a node sends is not handed back to it.
+        let heard = deliver(
+            &mut nodes,
+            &nmt::command_frame(NmtCommand::ResetNode, 5),
+            Some(0),
+        );
+        assert!(heard.is_empty(), "{heard:?}");
+        assert_eq!(nodes[0].0.state(), NmtState::Operational);
     }
 }

@@ -1,11 +1,13 @@
 //! The simulated drive on real sockets, for any client: ours, a PLC, pymodbus.
 //!
-//! One drive, shared by every server task of the process and advanced on real time by a
-//! ticker, so a client sees the motor move whether it polls or not.
+//! Each drive is shared by the server tasks that serve it (one drive on every bus, or
+//! several drives each behind its own node id, slave address or port) and advanced on real
+//! time by a ticker, so a client sees the motor move whether it polls or not.
 
 pub mod canopen;
 pub mod enip;
 pub mod modbus;
+pub mod modbus_rtu;
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -51,11 +53,19 @@ impl SharedDrive {
 
     /// Advance the drive on real time until the returned future is dropped.
     pub async fn run_clock(self) {
-        let mut ticker = tokio::time::interval(TICK);
-        ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-        loop {
-            ticker.tick().await;
-            drop(self.lock());
+        run_clocks(vec![self]).await
+    }
+}
+
+/// Advance every one of `drives` on real time, each on its own, until the returned future
+/// is dropped.
+pub async fn run_clocks(drives: Vec<SharedDrive>) {
+    let mut ticker = tokio::time::interval(TICK);
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    loop {
+        ticker.tick().await;
+        for drive in &drives {
+            drop(drive.lock());
         }
     }
 }

@@ -12,7 +12,7 @@
 //!
 //! FC 43 / MEI 0Dh reads and writes any object, with abort codes in the extended exception;
 //! FC 101 streams the whole dictionary. Anything else: exception 01; addresses outside the
-//! map: 02; bad values: 03. FC 23 writes before it reads.
+//! map: 02; bad values: 03. FC 23 writes before it reads. The RTU line is in `modbus_rtu`.
 
 use std::io;
 use std::net::SocketAddr;
@@ -21,13 +21,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
-use tokio_serial::{SerialPortBuilderExt, SerialStream};
 
 use super::SharedDrive;
 use crate::cia::AbortCode;
-use crate::link::Parity;
 use crate::od::{Address, DataType, Value};
-use crate::proto::modbus::frame::{self, Direction};
+use crate::proto::modbus::frame;
 use crate::proto::modbus::pdu::{
     CanopenRequest, CanopenResponse, DictionaryFrame, Exception, MAX_PDU, Request, Response,
     exception,
@@ -466,86 +464,5 @@ async fn serve_connection(
             return Ok(());
         }
         buffer.extend_from_slice(&chunk[..n]);
-    }
-}
-
-/// RTU serial settings of the simulated drive (Nanotec factory: slave 5, 19200 8E1).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct RtuOptions {
-    pub path: String,
-    pub baud: u32,
-    pub parity: Parity,
-    pub stop_bits: u8,
-    pub slave: u8,
-}
-
-/// Open the serial port for the RTU server.
-pub fn open_serial(options: &RtuOptions) -> io::Result<SerialStream> {
-    tokio_serial::new(options.path.as_str(), options.baud)
-        .data_bits(tokio_serial::DataBits::Eight)
-        .parity(match options.parity {
-            Parity::None => tokio_serial::Parity::None,
-            Parity::Even => tokio_serial::Parity::Even,
-            Parity::Odd => tokio_serial::Parity::Odd,
-        })
-        .stop_bits(if options.stop_bits == 2 {
-            tokio_serial::StopBits::Two
-        } else {
-            tokio_serial::StopBits::One
-        })
-        .open_native_async()
-        .map_err(|e| io::Error::other(format!("opening {}: {e}", options.path)))
-}
-
-/// Serve Modbus RTU on an open serial port until the task is dropped.
-pub async fn serve_rtu<S>(
-    mut port: S,
-    slave: u8,
-    shared: SharedDrive,
-    options: ServerOptions,
-) -> io::Result<()>
-where
-    S: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin,
-{
-    let mut session = Session::default();
-    let mut buffer = Vec::with_capacity(512);
-    let mut chunk = [0u8; 256];
-    loop {
-        // A frame that never completes is dropped after a silence (the RTU frame gap).
-        let read =
-            tokio::time::timeout(std::time::Duration::from_millis(50), port.read(&mut chunk)).await;
-        match read {
-            Err(_) => {
-                buffer.clear();
-                continue;
-            }
-            Ok(Ok(0)) => return Ok(()),
-            Ok(Ok(n)) => buffer.extend_from_slice(&chunk[..n]),
-            Ok(Err(e)) => return Err(e),
-        }
-        loop {
-            match frame::decode_rtu(&buffer, Direction::Request) {
-                Ok(Some((frame, used))) => {
-                    buffer.drain(..used);
-                    if frame.slave != slave && frame.slave != 0 {
-                        continue;
-                    }
-                    let answer = answer_pdu(&shared, &mut session, &frame.pdu, &options);
-                    if frame.slave == 0 {
-                        continue; // broadcast: no reply
-                    }
-                    if let Some(pdu) = answer {
-                        port.write_all(&frame::encode_rtu(slave, &pdu)).await?;
-                        port.flush().await?;
-                    }
-                }
-                Ok(None) => break,
-                Err(_) => {
-                    // Bad CRC or garbage: wait for the gap and start afresh.
-                    buffer.clear();
-                    break;
-                }
-            }
-        }
     }
 }
