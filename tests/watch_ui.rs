@@ -13,8 +13,10 @@ use drivedeck::ui::Settings;
 use drivedeck::ui::watch::Format;
 use eframe::egui;
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
-use window::{app_harness, connected, fill, harness_with, start_turning, step_until};
+use egui_kittest::kittest::{NodeT, Queryable};
+use window::{
+    app_harness, connected, fill, harness_with, start_turning, step_until, step_until_shown,
+};
 
 const POSITION: Address = Address::new(0x6064, 0);
 const STATUSWORD: Address = Address::new(0x6041, 0);
@@ -172,4 +174,64 @@ fn the_pins_are_saved_with_the_layout() {
     }
     let older: Settings = serde_json::from_value(value).expect("loads without watch");
     assert!(older.watch.pins.is_empty());
+}
+
+#[test]
+fn objects_are_pinned_from_the_dictionary_and_from_the_plots() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    // From the dictionary: the row's Watch button pins the object and opens the panel.
+    harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Dictionary;
+    harness.step();
+    harness
+        .get_by_label("Object filter")
+        .set_text_value_accesskit("6064");
+    step_until_shown(&mut harness, "Watch 6064h:00h");
+    harness.get_by_label("Watch 6064h:00h").click();
+    harness.step();
+    harness.step();
+    assert!(harness.state().state.settings.watch.is_pinned(POSITION));
+    assert!(harness.state().state.settings.watch.open, "the panel opens");
+    assert!(
+        harness
+            .query_by_label_contains("watching 6064h:00h")
+            .is_some(),
+        "the dictionary says so"
+    );
+    step_until(&mut harness, "6064h read", Duration::from_secs(5), |h| {
+        reading(h, POSITION).is_some()
+    });
+    // Pinned once: the button is disabled now, so a second pin cannot be asked from it,
+    // and asked anyway it is refused in words.
+    assert!(
+        harness
+            .get_by_label("Watch 6064h:00h")
+            .accesskit_node()
+            .is_disabled()
+    );
+    assert_eq!(
+        harness.state_mut().state.pin_to_watch(POSITION),
+        Err("6064h:00h is pinned already".to_owned())
+    );
+
+    // From the plots: an object plotted from the dictionary can be watched in numbers.
+    harness.state_mut().state.watch_object("6044");
+    harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Plots;
+    harness.step();
+    harness.get_by_label("Signals").click();
+    step_until_shown(&mut harness, "Watch 6044h:00h");
+    harness.get_by_label("Watch 6044h:00h").click();
+    harness.step();
+    harness.step();
+    let velocity = Address::new(0x6044, 0);
+    assert!(harness.state().state.settings.watch.is_pinned(velocity));
+    assert!(
+        matches!(&harness.state().state.plot.message, Some(Ok(t)) if t.contains("watching 6044h:00h")),
+        "{:?}",
+        harness.state().state.plot.message
+    );
+    step_until(&mut harness, "6044h read", Duration::from_secs(5), |h| {
+        reading(h, velocity).is_some()
+    });
+    assert!(harness.query_by_label("Watch (2)").is_some());
 }

@@ -160,6 +160,8 @@ pub struct Browser {
     pub eds_path: String,
     /// An object the user asked to plot (the app takes it after the panel is drawn).
     pub plot_request: Option<Address>,
+    /// An object the user asked to pin to the watch panel (taken like `plot_request`).
+    pub watch_request: Option<Address>,
     /// The connection string, for backup files and to know whose values are shown ("" when
     /// not connected).
     pub link_text: String,

@@ -40,6 +40,13 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
         .link_info()
         .map(|i| i.spec.to_string())
         .unwrap_or_default();
+    let watched: Vec<Address> = state
+        .settings
+        .watch
+        .pins
+        .iter()
+        .map(|p| p.address)
+        .collect();
     let b = &mut state.browser;
     // "" while not connected; a new connection is `Browser::on_connected`'s.
     b.link_text = link;
@@ -82,7 +89,7 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
     comparison_ui(ui, b);
     restore_ui(ui, b, outbox, connected);
     edit::confirm_ui(ui, b, outbox);
-    table_ui(ui, b, outbox, connected, keys);
+    table_ui(ui, b, outbox, (connected, &watched), keys);
     b.refresh_visible(outbox, connected, *rate);
     if let Some(address) = state.browser.plot_request.take() {
         state.watch_object(&address.to_string());
@@ -93,6 +100,13 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
         if let Some((tone, text)) = said {
             state.browser.say(tone, text);
         }
+    }
+    if let Some(address) = state.browser.watch_request.take() {
+        let (tone, text) = match state.pin_to_watch(address) {
+            Ok(text) => (Tone::Done, text),
+            Err(text) => (Tone::Failed, text),
+        };
+        state.browser.say(tone, text);
     }
 }
 

@@ -21,7 +21,7 @@ use egui_extras::TableRow;
 /// The scrolled columns, left to right: title and first width.
 const SCROLLED: [(&str, f32); 8] = [
     ("Value", 150.0),
-    ("", 160.0),
+    ("", 210.0),
     ("Hex", 96.0),
     ("Type", 50.0),
     ("Access", 50.0),
@@ -124,6 +124,7 @@ pub(super) enum RowAction {
     Select,
     Read,
     Plot,
+    Watch,
     Edit,
     Typed(String),
     Submit,
@@ -176,7 +177,7 @@ pub(super) fn table_ui(
     ui: &mut Ui,
     b: &mut Browser,
     outbox: &mut Vec<Request>,
-    connected: bool,
+    (connected, watched): (bool, &[Address]),
     keys: (Option<(Address, RowAction)>, Option<usize>),
 ) {
     let rows: Vec<Entry> = b.rows().into_iter().cloned().collect();
@@ -220,6 +221,7 @@ pub(super) fn table_ui(
             b,
             columns: &columns,
             connected,
+            watched,
         };
         let heights: Vec<f32> = rows.iter().map(|e| view.height(e)).collect();
         table.body(|body| {
@@ -367,6 +369,8 @@ struct TableView<'a> {
     b: &'a Browser,
     columns: &'a Columns,
     connected: bool,
+    /// What the watch panel holds already.
+    watched: &'a [Address],
 }
 
 impl TableView<'_> {
@@ -543,7 +547,7 @@ pub(super) fn row_button_ui(
     button
 }
 
-/// Read, Plot (what can be sampled) and Edit; "written" after a write went through.
+/// Read, Plot (what can be sampled), Watch (pin to the watch panel) and Edit; "written" after a write went through.
 fn row_buttons_ui(
     ui: &mut Ui,
     view: &TableView<'_>,
@@ -567,6 +571,20 @@ fn row_buttons_ui(
             .clicked()
     {
         actions.push((address, RowAction::Plot));
+    }
+    if readable
+        && row_button_ui(
+            ui,
+            !view.watched.contains(&address),
+            "Watch",
+            "Watch",
+            address,
+        )
+        .on_hover_text("Pin it to the watch panel: read again at the panel's rate")
+        .on_disabled_hover_text("in the watch panel already")
+        .clicked()
+    {
+        actions.push((address, RowAction::Watch));
     }
     let writable = entry.access.writable();
     let edit = row_button_ui(ui, view.connected && writable, "Edit", "Edit", address)
@@ -597,6 +615,7 @@ fn apply_row_action(
         RowAction::Select => b.selected = Some(address),
         RowAction::Read => b.read_one(outbox, address, entry.dtype),
         RowAction::Plot => b.plot_request = Some(address),
+        RowAction::Watch => b.watch_request = Some(address),
         RowAction::Edit => {
             let connected = !b.link_text.is_empty();
             if connected && entry.access.writable() {

@@ -17,6 +17,7 @@ use eframe::egui::{self, Ui};
 use serde::{Deserialize, Serialize};
 
 use super::state::AppState;
+use crate::od::Address;
 use crate::od::backup::DeviceIdentity;
 use crate::telemetry::{DEFAULT_HISTORY_ROWS, Scope, WatchedObject};
 
@@ -429,20 +430,30 @@ fn signals_menu_body(ui: &mut Ui, state: &mut AppState) {
                 state.watch_object(&text);
             }
         });
-        let watched: Vec<String> = state
-            .plot
-            .watched
-            .iter()
-            .map(|(w, _)| w.address.to_string())
-            .collect();
-        for address in watched {
-            if ui
-                .button(format!("Remove {address}"))
-                .on_hover_text("Stop sampling it (its history is kept until cleared)")
-                .clicked()
-            {
-                state.unwatch_object(&address);
-            }
+        let plotted: Vec<Address> = state.plot.watched.iter().map(|(w, _)| w.address).collect();
+        for address in plotted {
+            ui.horizontal(|ui| {
+                if ui
+                    .button(format!("Remove {address}"))
+                    .on_hover_text("Stop sampling it (its history is kept until cleared)")
+                    .clicked()
+                {
+                    state.unwatch_object(&address.to_string());
+                }
+                let pinned = state.settings.watch.is_pinned(address);
+                let pin = ui
+                    .add_enabled(!pinned, egui::Button::new("Watch"))
+                    .on_hover_text("Pin it to the watch panel too: its value in numbers")
+                    .on_disabled_hover_text("in the watch panel already");
+                crate::ui::widgets::name_widget(
+                    &pin,
+                    egui::accesskit::Role::Button,
+                    &format!("Watch {address}"),
+                );
+                if pin.clicked() {
+                    state.plot.message = Some(state.pin_to_watch(address));
+                }
+            });
         }
     }
 }

@@ -484,6 +484,21 @@ impl AppState {
         }
     }
 
+    /// Pin an object to the watch panel (from the dictionary or the plots) and open the
+    /// panel; the words say what happened, for the panel the request came from.
+    pub fn pin_to_watch(&mut self, address: Address) -> Result<String, String> {
+        let catalog = self.browser.catalog();
+        let name = catalog
+            .get(address)
+            .map(|e| e.name.clone())
+            .unwrap_or_default();
+        self.settings
+            .watch
+            .pin(address, catalog)
+            .map(|()| format!("watching {address} {name}: see the watch panel"))
+            .map_err(|e| e.to_string())
+    }
+
     /// Stop plotting an object (`address` as `Address` displays it).
     pub fn unwatch_object(&mut self, address: &str) {
         self.plot
