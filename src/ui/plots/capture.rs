@@ -103,12 +103,13 @@ impl TriggerForm {
 }
 
 pub fn capture_ui(ui: &mut Ui, state: &mut AppState) {
-    if state.plot.review.as_ref().is_none_or(|r| r.capture) {
-        ui.horizontal_wrapped(|ui| {
-            trigger_ui(ui, state);
-        });
-    }
+    // The trigger and the files on one wrapped line: every row of controls comes off
+    // the plots' height, which is what a 1366x768 screen has least of.
     ui.horizontal_wrapped(|ui| {
+        if state.plot.review.as_ref().is_none_or(|r| r.capture) {
+            trigger_ui(ui, state);
+            ui.separator();
+        }
         export_ui(ui, state);
     });
     ui.horizontal_wrapped(|ui| {

@@ -30,7 +30,8 @@ pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
         } else {
             "latest"
         };
-        ui.monospace(format!("{what} t = {:.3} s", ring.time(row).unwrap_or(at)));
+        ui.monospace(format!("{what} t = {:.3} s", ring.time(row).unwrap_or(at)))
+            .on_hover_text("Click a plot to place cursor A, right-click for cursor B");
         for signal in scope.signals().iter().filter(|s| scope.is_drawn(s)) {
             let Some(v) = value_near(ring, row, signal.column) else {
                 continue;
@@ -41,8 +42,8 @@ pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
             };
             ui.monospace(format!("| {}: {}", signal.info.id, text.trim_end()));
         }
-        // On the same line: a line of its own would come off the plots' height.
-        ui.weak("· click a plot: cursor A, right-click: cursor B");
+        // How to place the cursors is said on the time's hover: a line of its own, or a
+        // wrapped tail, would come off the plots' height.
     });
 }
 
