@@ -284,3 +284,66 @@ fn clear_error_button_ui(ui: &mut Ui, state: &mut AppState) {
         state.request(Request::Command(Action::ClearError));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pdi::{Status, TxImage};
+    use crate::signal::{Signal, Signals};
+
+    /// A sample with Limit reached as given and the digital inputs 60FDh if read.
+    fn sample(limit_reached: bool, inputs: Option<u32>) -> Sample {
+        let mut signals = Signals::default();
+        if let Some(di) = inputs {
+            signals.set(Signal::DigitalInputs, f64::from(di));
+        }
+        let status = if limit_reached {
+            StatusBit::LimitReached.mask()
+        } else {
+            0
+        };
+        Sample {
+            tx: TxImage {
+                status: Status(status),
+                error_code: 0,
+                return_value: 0,
+            },
+            signals,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn each_limit_switch_is_named_with_the_direction_it_blocks() {
+        let words = |reached, inputs| limit_words(&sample(reached, inputs));
+        let negative = words(true, Some(0b01)).expect("named");
+        assert!(
+            negative.starts_with("Negative limit switch active (60FDh bit 0)")
+                && negative.contains("negative (-) direction is blocked; move + to leave it"),
+            "{negative}"
+        );
+        let positive = words(true, Some(0b10)).expect("named");
+        assert!(
+            positive.starts_with("Positive limit switch active (60FDh bit 1)")
+                && positive.contains("move - to leave it"),
+            "{positive}"
+        );
+        // Other inputs (bit 2 homing switch and up) do not count as limit switches.
+        let both = words(true, Some(0b111)).expect("named");
+        assert!(both.starts_with("Both limit switches active"), "{both}");
+        // A switch pressed while nothing is moving is still worth a line.
+        assert!(words(false, Some(0b01)).is_some());
+        assert_eq!(words(false, Some(0b100)), None, "no switch, no limit");
+        assert_eq!(words(false, None), None);
+        let software = words(true, Some(0)).expect("said");
+        assert!(
+            software.contains("software position limit (607Dh)"),
+            "{software}"
+        );
+        let unknown = words(true, None).expect("said");
+        assert!(
+            unknown.contains("60FDh is not read on this link"),
+            "{unknown}"
+        );
+    }
+}
