@@ -16,6 +16,7 @@ pub mod link;
 pub mod number;
 pub mod od;
 pub mod pdi;
+pub mod project;
 pub mod proto;
 pub mod signal;
 pub mod sim;
