@@ -285,7 +285,10 @@ fn drive_status(drive: &Drive, timeout: Duration, trace: bool) -> DriveStatus {
     row.moving = status.velocity.map(|v| v.abs() >= AT_REST_RPM);
     row.device = Some(verdict_words(&check));
     if let Verdict::Changed(_) = check.verdict {
-        status.warnings.push(check.to_string());
+        status.warnings.push(format!(
+            "not the device the project saw: {}",
+            verdict_words(&check)
+        ));
     }
     row.status = Some(status);
     row

@@ -75,10 +75,11 @@ mod tests {
 
     #[test]
     fn the_first_drive_and_the_plot_layout_reach_the_settings_and_the_others_are_named() {
-        let (settings, notes) = settings_for_project(Settings::default(), &project(), None);
+        let project = project();
+        let (settings, notes) = settings_for_project(Settings::default(), &project, None);
         assert_eq!(
-            settings.connection.spec().expect("a spec").to_string(),
-            "modbus-tcp://10.0.0.5:502?"
+            settings.connection.spec().expect("a spec"),
+            project.drives[0].link
         );
         assert_eq!(settings.poll_rate, 250.0);
         assert_eq!(settings.on_link_loss, LinkLossAction::SwitchOff);
@@ -97,8 +98,8 @@ mod tests {
         let before = Settings::default();
         let (settings, notes) = settings_for_project(before.clone(), &project, Some("Y axis"));
         assert_eq!(
-            settings.connection.spec().expect("a spec").to_string(),
-            "canopen+sim://?node=2"
+            settings.connection.spec().expect("a spec"),
+            project.drives[1].link
         );
         assert_eq!(settings.plot, before.plot);
         assert!(
