@@ -348,3 +348,27 @@ fn wrong_names_missing_drives_and_broken_files_are_refused() {
     let stderr = fails(&[path_str(&dir.path().join("nowhere.json"))], 2);
     assert!(stderr.contains("cannot read"), "{stderr}");
 }
+
+#[test]
+fn a_project_named_first_goes_to_the_window_and_is_remembered() {
+    let dir = common::temp_dir("project-window");
+    let file = new_project(dir.path(), "sim", "canopen+sim://?node=2", false);
+    let data = dir.path().join("data");
+    // No display: the project is opened and checked, remembered, and handed to the
+    // window, which cannot open here and says why.
+    let out = common::cli::command()
+        .arg(&file)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .env("XDG_DATA_HOME", &data)
+        .output()
+        .expect("the binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("the window could not open"), "{stderr}");
+    assert_eq!(
+        project::recent::last_project_in(&data.join(project::recent::APP_ID)),
+        Some(file)
+    );
+}

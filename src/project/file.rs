@@ -40,14 +40,11 @@ struct DriveText {
     backup: Option<Value>,
 }
 
-/// The whole file as read: the drives one by one after, so that an error names its drive.
+/// The whole file as read, once its format and version are checked (and taken out): the
+/// drives one by one after, so that an error names its drive.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ProjectText {
-    #[allow(dead_code)]
-    format: String,
-    #[allow(dead_code)]
-    version: u64,
     drives: Vec<Value>,
     #[serde(default)]
     plot: Option<Value>,
@@ -98,7 +95,7 @@ impl Project {
     pub fn from_json(text: &str) -> Result<Project, ProjectError> {
         let value: Value =
             serde_json::from_str(text).map_err(|e| ProjectError::NotJson(e.to_string()))?;
-        let Value::Object(top) = &value else {
+        let Value::Object(mut top) = value else {
             return Err(ProjectError::NotProject(format!(
                 "it is a JSON {}, not an object",
                 kind(&value)
@@ -134,8 +131,10 @@ impl Project {
                 ));
             }
         }
-        let text: ProjectText =
-            serde_json::from_value(value).map_err(|e| ProjectError::Top(e.to_string()))?;
+        top.remove("format");
+        top.remove("version");
+        let text: ProjectText = serde_json::from_value(Value::Object(top))
+            .map_err(|e| ProjectError::Top(e.to_string()))?;
         let drives = text
             .drives
             .into_iter()
