@@ -304,6 +304,11 @@ fn wrong_names_missing_drives_and_broken_files_are_refused() {
         stderr.contains("move-abs talks to one drive: give --drive NAME"),
         "{stderr}"
     );
+    let stderr = fails(&["--project", file, "od", "dump"], 2);
+    assert!(
+        stderr.contains("od dump on a project: give a folder for one backup per drive"),
+        "{stderr}"
+    );
     let stderr = fails(&["--project", file, "--link", "sim", "status"], 2);
     assert!(stderr.contains("cannot be used with"), "{stderr}");
     let stderr = fails(&["--drive", "X axis", "status"], 2);

@@ -130,6 +130,15 @@ pub(super) fn target(cli: &Cli) -> Result<Target, Failure> {
         })),
         (_, Some(drive)) => Ok(Target::Drive(drive)),
         (_, None) if every => Ok(Target::Every(project)),
+        (
+            Command::Od(OdArgs {
+                command: OdCommand::Dump(_),
+            }),
+            None,
+        ) => Err(usage(format!(
+            "od dump on a project: give a folder for one backup per drive (od dump DIR), or --drive NAME and --out FILE.json (the project's drives: {})",
+            project.names()
+        ))),
         (_, None) => Err(usage(format!(
             "{} talks to one drive: give --drive NAME (the project's drives: {})",
             command_name(command),
