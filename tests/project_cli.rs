@@ -233,6 +233,17 @@ fn project_check_names_a_changed_device_and_a_silent_one() {
         "{stderr}"
     );
 
+    // A one-shot command on that drive says so before it acts.
+    let (_, stderr) = ok(&["--project", path_str(&file), "--drive", "Y axis", "status"]);
+    assert!(
+        stderr.contains(&format!(
+            "warning: not the device the project saw: Y axis: serial number changed 0x{:08X} -> 0x{seen:08X}",
+            seen ^ 0xFF
+        )),
+        "{stderr}"
+    );
+    let (_, stderr) = ok(&["--project", path_str(&file), "--drive", "X axis", "status"]);
+    assert!(!stderr.contains("not the device"), "{stderr}");
     // --update stores what is seen now (the exit code still says what was found).
     let (code, text, _) = run(&["project", "check", path_str(&file), "--update"]);
     assert_eq!(code, 1, "{text}");

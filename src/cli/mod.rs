@@ -650,6 +650,7 @@ pub fn main() -> ExitCode {
             if !given("lost_after") {
                 policy.lost_after = drive.options.lost_after;
             }
+            project_cmd::expect_device(&drive);
             cli.link = Some(drive.link);
             None
         }

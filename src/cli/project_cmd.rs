@@ -28,6 +28,35 @@ use crate::project::check::{self, DriveCheck, Verdict};
 use crate::project::{self, Drive, Project, ProjectError};
 use crate::signal::AT_REST_RPM;
 
+/// The project's drive a one-shot command talks to (`--drive NAME`), when the project
+/// stores its identity: checked once connected ([`check_device`]).
+static EXPECTED: std::sync::OnceLock<Drive> = std::sync::OnceLock::new();
+
+/// Check the device the command connects to against `drive`'s stored identity.
+pub(super) fn expect_device(drive: &Drive) {
+    if drive.identity.is_some() {
+        let _ = EXPECTED.set(drive.clone());
+    }
+}
+
+/// Once connected: the device against the identity the project stores for the drive of
+/// `--drive`. Another device (a replaced drive, a wrong address) is said on stderr, never
+/// passed over; it is not refused, since a replacement of the same product is a normal
+/// case (`project check --update` stores the new identity).
+pub(super) fn check_device(session: &mut Session, timeout: Duration) {
+    let Some(drive) = EXPECTED.get() else {
+        return;
+    };
+    let (reads, failure) = session.read_many(IDENTITY[..4].to_vec(), timeout, |_, _| {});
+    let found = match failure {
+        Some(f) => check::check(drive, Err(&f.message)),
+        None => check::check(drive, Ok(&DeviceIdentity::from_reads(&reads))),
+    };
+    if !found.is_same() {
+        eprintln!("warning: not the device the project saw: {found}");
+    }
+}
+
 /// What `--project` (or `drivedeck PROJECT.json`) asks for.
 pub(super) enum Target {
     /// No project: `--link` as before.
