@@ -172,6 +172,10 @@ pub enum ProjectCommand {
     /// List the project's drives: name, connection string, options, watched objects, and
     /// the identity and backup it keeps.
     Show(ProjectFileArg),
+    /// Back every drive's settings up into the project (as `od dump` does to a file),
+    /// with the identity each reports now. A drive that cannot be read keeps the backup it
+    /// had, and says why (exit code 1).
+    Backup(ProjectFileArg),
 }
 
 #[derive(Args, Debug, Clone)]

@@ -543,6 +543,7 @@ pub(super) fn run(args: &ProjectArgs, cli: &Cli) -> ExitCode {
             show_project(&p, cli.json);
             true
         }),
+        ProjectCommand::Backup(backup) => back_up(&backup.file, cli.json, timeout, cli.trace),
     };
     match outcome {
         Ok(true) => ExitCode::SUCCESS,
@@ -552,6 +553,69 @@ pub(super) fn run(args: &ProjectArgs, cli: &Cli) -> ExitCode {
             ExitCode::from(f.code)
         }
     }
+}
+
+/// One drive's part of `project backup`.
+#[derive(Serialize)]
+struct DriveBackup {
+    name: String,
+    /// Settings saved; null when the drive could not be read.
+    objects: Option<usize>,
+    /// Settings that could not be read, with the reason.
+    unreadable: Vec<(String, String)>,
+    error: Option<String>,
+}
+
+/// `project backup FILE`: every drive's settings into the project, one drive after the
+/// other (each with its progress bar); written once, after the last.
+fn back_up(file: &Path, json: bool, timeout: Duration, trace: bool) -> Result<bool, Failure> {
+    let mut project = load(file)?;
+    let catalog = crate::od::builtin().clone();
+    let mut rows = vec![];
+    for drive in &mut project.drives {
+        let row = match backup_cmd::read_backup(&drive.link, &catalog, timeout, trace) {
+            Ok((backup, _, notes)) => {
+                let name = |line: &String| format!("{}: {line}", drive.name);
+                print_lines(&notes.iter().map(name).collect::<Vec<_>>(), &[]);
+                let row = DriveBackup {
+                    name: drive.name.clone(),
+                    objects: Some(backup.objects.len()),
+                    unreadable: backup.unreadable.clone(),
+                    error: None,
+                };
+                drive.identity = Some(backup.identity.clone());
+                drive.backup = Some(backup);
+                row
+            }
+            Err(f) => DriveBackup {
+                name: drive.name.clone(),
+                objects: None,
+                unreadable: vec![],
+                error: Some(f.message),
+            },
+        };
+        rows.push(row);
+    }
+    if rows.iter().any(|r| r.objects.is_some()) {
+        project::save(&project, file).map_err(|e| failed(e.to_string()))?;
+    }
+    if json {
+        print_json(&rows, "backup");
+    } else {
+        for row in &rows {
+            match (&row.objects, &row.error) {
+                (Some(n), _) => outln!("{}: {n} settings saved in {}", row.name, file.display()),
+                (None, Some(e)) => outln!("{}: not backed up, the old backup stays: {e}", row.name),
+                (None, None) => outln!("{}: not backed up", row.name),
+            }
+            for (address, reason) in &row.unreadable {
+                outln!("{}: not saved: {address}: {reason}", row.name);
+            }
+        }
+    }
+    Ok(rows
+        .iter()
+        .all(|r| r.objects.is_some() && r.unreadable.is_empty()))
 }
 
 /// `NAME=CONNECTION` as a drive.

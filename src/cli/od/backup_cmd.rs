@@ -151,6 +151,27 @@ pub(in crate::cli) fn dump_to(
     timeout: Duration,
     trace: bool,
 ) -> Result<DumpReport, Failure> {
+    let (file, seconds, notes) = read_backup(link, catalog, timeout, trace)?;
+    crate::file::write_whole(out, file.to_json())
+        .map_err(|e| failed(format!("cannot write {}: {e}", out.display())))?;
+    Ok(DumpReport {
+        file: out.display().to_string(),
+        identity: file.identity.clone(),
+        objects: file.objects.len(),
+        unreadable: file.unreadable.clone(),
+        seconds,
+        notes,
+    })
+}
+
+/// A backup of the settings `catalog` names, read from the drive at `link`: the backup,
+/// the seconds the reading took, and the notes on the way.
+pub(in crate::cli) fn read_backup(
+    link: &LinkSpec,
+    catalog: &Catalog,
+    timeout: Duration,
+    trace: bool,
+) -> Result<(Backup, f64, Vec<String>), Failure> {
     let mut notes = vec![];
     let mut session = Session::open(link, timeout, trace)?;
     let started = Instant::now();
@@ -164,16 +185,7 @@ pub(in crate::cli) fn dump_to(
     let seconds = started.elapsed().as_secs_f64();
     notes.extend(session.take_notes());
     let file = Backup::new(&link.to_string(), catalog, &reads, seconds_since_epoch());
-    crate::file::write_whole(out, file.to_json())
-        .map_err(|e| failed(format!("cannot write {}: {e}", out.display())))?;
-    Ok(DumpReport {
-        file: out.display().to_string(),
-        identity: file.identity.clone(),
-        objects: file.objects.len(),
-        unreadable: file.unreadable.clone(),
-        seconds,
-        notes,
-    })
+    Ok((file, seconds, notes))
 }
 
 fn print_dump(report: &DumpReport) {
