@@ -4,7 +4,8 @@
 //! may import which; a test keeps it): the vocabulary (`number`, `file`, `cia`, `pdi`, `od`), the
 //! shared facts (`signal`, `injection`, `proto`: the sans-IO codecs), the buses (`link`),
 //! the simulated drive (`sim`), opening any link (`connect`), the loop (`worker`,
-//! `telemetry`, `diagnostics`) and the faces (`ui`, `cli`).
+//! `telemetry`, `diagnostics`), the machine's project file (`project`) and the faces
+//! (`ui`, `cli`).
 
 pub mod cia;
 pub mod cli;
@@ -16,6 +17,7 @@ pub mod link;
 pub mod number;
 pub mod od;
 pub mod pdi;
+pub mod project;
 pub mod proto;
 pub mod signal;
 pub mod sim;

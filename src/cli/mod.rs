@@ -1,5 +1,8 @@
-//! The command line: `drivedeck` opens the window; `drivedeck --link URL COMMAND` runs one
-//! action and exits; `drivedeck sim …` serves the simulated drive on real sockets.
+//! The command line: `drivedeck` opens the window (`drivedeck PROJECT.json` on a project);
+//! `drivedeck --link URL COMMAND` runs one action and exits, as does
+//! `drivedeck --project FILE --drive NAME COMMAND` on a project's drive;
+//! `drivedeck --project FILE status` and `od dump DIR` cover every drive of the project;
+//! `drivedeck sim …` serves the simulated drive on real sockets.
 
 /// `println!` that does not panic when stdout is a closed pipe (`drivedeck … | head`):
 /// what the reader no longer takes is dropped.
@@ -17,6 +20,7 @@ mod od;
 mod oneshot;
 mod policy;
 mod progress;
+mod project_cmd;
 mod record;
 mod report;
 mod serve;
@@ -26,7 +30,8 @@ mod stop;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::parser::ValueSource;
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 
 use crate::link::{LinkSpec, spec::FORMS};
 use crate::od::{Address, DataType};
@@ -42,13 +47,26 @@ pub const EXIT_INTERRUPTED: u8 = 130;
     name = "drivedeck",
     version,
     about = "Commissioning tool for Nanotec motor controllers",
-    long_about = "Without a command, opens the window (on the simulated drive unless --link or the saved settings say otherwise). With a command, runs that one action against --link and exits: 0 on success, 1 when the drive refuses or the command fails, 2 for bad usage or no link.",
+    long_about = "Without a command, opens the window (on the simulated drive unless --link or the saved settings say otherwise; `drivedeck PROJECT.json` opens a project). With a command, runs that one action against --link (or --project FILE --drive NAME) and exits: 0 on success, 1 when the drive refuses or the command fails, 2 for bad usage or no link. `--project FILE status` and `--project FILE od dump DIR` cover every drive of the project: 1 when any drive failed.",
     after_help = format!("Connection strings: {FORMS}")
 )]
 pub struct Cli {
     /// The drive to talk to, e.g. `sim` or `modbus-tcp://192.168.2.100:502`.
     #[arg(long, global = true, value_name = "URL")]
     pub link: Option<LinkSpec>,
+
+    /// A project file (`drivedeck project new`): its drives instead of --link, by name
+    /// with --drive; `status` and `od dump DIR` without --drive cover every drive.
+    #[arg(long, global = true, value_name = "FILE.json", conflicts_with = "link")]
+    pub project: Option<std::path::PathBuf>,
+
+    /// The project's drive a command talks to, by its name, e.g. --drive "X axis".
+    #[arg(long, global = true, value_name = "NAME", requires = "project")]
+    pub drive: Option<String>,
+
+    /// Open the window on this project (`drivedeck machine.json`).
+    #[arg(value_name = "PROJECT.json", value_parser = project_path)]
+    pub open: Option<std::path::PathBuf>,
 
     /// Print JSON instead of text.
     #[arg(long, global = true)]
@@ -131,6 +149,66 @@ pub enum Command {
     /// The object dictionary: `od list` shows the built-in catalog or an EDS, with the
     /// values read from the drive when --link is given.
     Od(OdArgs),
+    /// Projects: `project new FILE "X axis=modbus-tcp://…" …` makes one, `project check
+    /// FILE` says per drive whether it is still the device the project saw.
+    Project(ProjectArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ProjectArgs {
+    #[command(subcommand)]
+    pub command: ProjectCommand,
+}
+
+#[derive(Subcommand, Debug, Clone)]
+pub enum ProjectCommand {
+    /// Make a project of drives, each `NAME=CONNECTION`, e.g. `"X axis=modbus-tcp://
+    /// 192.168.2.100:502"` `"Y axis=canopen+socketcan://can0?node=2"`.
+    New(ProjectNewArgs),
+    /// Ask every drive of the project for its identity (1018h:01 to 04) and say per drive
+    /// whether it is the device the project saw: same device, what changed, or why it did
+    /// not answer. Exit code 0 when every drive is the same, 1 otherwise.
+    Check(ProjectCheckArgs),
+    /// List the project's drives: name, connection string, options, watched objects, and
+    /// the identity and backup it keeps.
+    Show(ProjectFileArg),
+    /// Back every drive's settings up into the project (as `od dump` does to a file),
+    /// with the identity each reports now. A drive that cannot be read keeps the backup it
+    /// had, and says why (exit code 1).
+    Backup(ProjectFileArg),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ProjectNewArgs {
+    /// The project file to write.
+    #[arg(value_name = "FILE.json")]
+    pub file: std::path::PathBuf,
+    /// The drives, each `NAME=CONNECTION` (see the connection strings below).
+    #[arg(value_name = "NAME=URL", required = true)]
+    pub drives: Vec<String>,
+    /// Ask each drive for its identity now and store it (every drive must answer).
+    #[arg(long)]
+    pub identify: bool,
+    /// Replace the file if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ProjectCheckArgs {
+    /// The project file.
+    #[arg(value_name = "FILE.json")]
+    pub file: std::path::PathBuf,
+    /// Store the identity each answering drive reports now as the one last seen.
+    #[arg(long)]
+    pub update: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ProjectFileArg {
+    /// The project file.
+    #[arg(value_name = "FILE.json")]
+    pub file: std::path::PathBuf,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -190,7 +268,11 @@ pub enum OdCommand {
 pub struct OdDumpArgs {
     /// The backup file to write.
     #[arg(long, value_name = "FILE.json")]
-    pub out: std::path::PathBuf,
+    pub out: Option<std::path::PathBuf>,
+    /// With --project: the folder that gets one backup per drive, named after the drive
+    /// (`X axis` → `X_axis.json`).
+    #[arg(value_name = "DIR", conflicts_with = "out")]
+    pub dir: Option<std::path::PathBuf>,
     /// Which objects to save: this EDS's instead of the built-in catalog's.
     #[arg(long, value_name = "FILE")]
     pub eds: Option<std::path::PathBuf>,
@@ -525,16 +607,65 @@ fn parse_type(text: &str) -> Result<DataType, String> {
     })
 }
 
+/// The positional `drivedeck PROJECT.json`: a file name ending in `.json`, so that a
+/// mistyped command is not taken for a project.
+fn project_path(text: &str) -> Result<std::path::PathBuf, String> {
+    let path = std::path::PathBuf::from(text);
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+    {
+        Ok(path)
+    } else {
+        Err(format!(
+            "'{text}' is no command, and no project file (a project's name ends in .json); see --help for the commands"
+        ))
+    }
+}
+
 /// Run the command line. Without a command, the window opens.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     init_tracing();
-    policy::set_policy(policy::Policy {
+    let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
+    let mut policy = policy::Policy {
         on_exit: cli.on_exit.action(),
         lost_after: cli.lost_after,
-    });
+    };
+    let target = match project_cmd::target(&cli) {
+        Ok(target) => target,
+        Err(f) => {
+            report::print_error(&f.message, cli.json);
+            return ExitCode::from(f.code);
+        }
+    };
+    let window_project = match target {
+        project_cmd::Target::None => None,
+        project_cmd::Target::Window { project, drive } => {
+            cli.link = drive.map(|d| d.link);
+            Some(project)
+        }
+        project_cmd::Target::Drive(drive) => {
+            // The drive's own options, unless the command line gives its own.
+            if !given("on_exit") {
+                policy.on_exit = drive.options.on_link_loss;
+            }
+            if !given("lost_after") {
+                policy.lost_after = drive.options.lost_after;
+            }
+            project_cmd::expect_device(&drive);
+            cli.link = Some(drive.link);
+            None
+        }
+        project_cmd::Target::Every(project) => {
+            policy::set_policy(policy);
+            return project_cmd::every_drive(&project, &cli);
+        }
+    };
+    policy::set_policy(policy);
     match cli.command.clone() {
-        None => match crate::ui::run_window(cli.link.clone()) {
+        None => match crate::ui::run_window(cli.link.clone(), window_project) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("drivedeck: the window could not open: {e}");
@@ -544,24 +675,32 @@ pub fn main() -> ExitCode {
                 ExitCode::from(EXIT_USAGE)
             }
         },
+        Some(Command::Project(args)) => project_cmd::run(&args, &cli),
         Some(Command::Sim(args)) => serve::run(&args),
         Some(Command::Bench(args)) => bench::run(cli.link.clone(), &args, cli.json),
         Some(Command::Discover(args)) => oneshot::discover(&args, cli.json),
         Some(Command::Record(args)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
-            let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));
-            record::run(&link, &args, cli.json, timeout, cli.trace)
+            record::run(&link, &args, cli.json, timeout(&cli), cli.trace)
         }
         Some(Command::Od(args)) => {
-            let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));
-            od::run(cli.link.as_ref(), &args, cli.json, timeout, cli.trace)
+            od::run(cli.link.as_ref(), &args, cli.json, timeout(&cli), cli.trace)
         }
         Some(command) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
-            let timeout = Duration::from_secs_f64(cli.timeout.clamp(0.1, 86_400.0));
-            oneshot::run(&link, &command, cli.json, timeout, cli.trace)
+            oneshot::run(&link, &command, cli.json, timeout(&cli), cli.trace)
         }
     }
+}
+
+/// `--timeout`, kept to 0.1 s to a day.
+fn timeout(cli: &Cli) -> Duration {
+    let seconds = if cli.timeout.is_nan() {
+        30.0
+    } else {
+        cli.timeout
+    };
+    Duration::from_secs_f64(seconds.clamp(0.1, 86_400.0))
 }
 
 /// Colour codes in the log only on a terminal, and never when `NO_COLOR` is set to

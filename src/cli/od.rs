@@ -19,7 +19,7 @@ use crate::link::LinkSpec;
 use crate::od::eds::{DeviceInfo, Eds, EdsError};
 use crate::od::{self, Catalog, Entry, Value};
 
-mod backup_cmd;
+pub(super) mod backup_cmd;
 
 /// Names wider than this push their line's later columns right instead of widening all.
 const NAME_WIDTH: usize = 48;

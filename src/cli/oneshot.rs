@@ -88,7 +88,8 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Sim(_)
         | Command::Bench(_)
         | Command::Record(_)
-        | Command::Od(_) => None,
+        | Command::Od(_)
+        | Command::Project(_) => None,
     })
 }
 

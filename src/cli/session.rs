@@ -121,6 +121,7 @@ impl Session {
         while session.latest.is_none() {
             session.next(deadline)?;
         }
+        super::project_cmd::check_device(&mut session, timeout);
         Ok(session)
     }
 

@@ -12,6 +12,7 @@ pub mod glance;
 pub mod jog;
 pub mod leave;
 pub mod log;
+pub mod opened_project;
 pub mod plots;
 pub mod power_state;
 pub mod scan;
@@ -297,8 +298,12 @@ impl eframe::App for App {
     }
 }
 
-/// Open the window. Blocks until it is closed.
-pub fn run_window(connect_to: Option<crate::link::LinkSpec>) -> Result<(), eframe::Error> {
+/// Open the window, on `project` when one is given (see `opened_project`: the window
+/// shows one of its drives, `connect_to`'s if it names one). Blocks until it is closed.
+pub fn run_window(
+    connect_to: Option<crate::link::LinkSpec>,
+    project: Option<crate::project::Project>,
+) -> Result<(), eframe::Error> {
     let options = eframe::NativeOptions {
         // The first time, the whole screen: eframe clamps the size to the monitor, and a
         // window manager maximises it. Later, the size and place it had (eframe keeps
@@ -318,6 +323,20 @@ pub fn run_window(connect_to: Option<crate::link::LinkSpec>) -> Result<(), efram
                 .storage
                 .and_then(|s| eframe::get_value(s, SETTINGS_KEY))
                 .unwrap_or_default();
+            if let Some(project) = &project {
+                let drive = connect_to.as_ref().and_then(|spec| {
+                    project
+                        .drives
+                        .iter()
+                        .find(|d| &d.link == spec)
+                        .map(|d| d.name.as_str())
+                });
+                let notes;
+                (settings, notes) = opened_project::settings_for_project(settings, project, drive);
+                for note in notes {
+                    eprintln!("note: {note}");
+                }
+            }
             if let Some(spec) = &connect_to {
                 settings.connection = state::ConnectionForm::from_spec(spec, settings.connection);
             }

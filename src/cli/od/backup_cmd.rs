@@ -79,7 +79,7 @@ fn read_all(
 
 /// The dictionary a command works with: an EDS's (with the catalog's descriptions), or the
 /// built-in catalog. The EDS's warnings go to `warnings`.
-fn dictionary(
+pub(in crate::cli) fn dictionary(
     eds: Option<&Path>,
     node: Option<u8>,
     warnings: &mut Vec<String>,
@@ -105,13 +105,13 @@ fn load_backup(path: &Path) -> Result<Backup, Failure> {
 }
 
 #[derive(Serialize)]
-struct DumpReport {
-    file: String,
-    identity: DeviceIdentity,
-    objects: usize,
-    unreadable: Vec<(String, String)>,
-    seconds: f64,
-    notes: Vec<String>,
+pub(in crate::cli) struct DumpReport {
+    pub(in crate::cli) file: String,
+    pub(in crate::cli) identity: DeviceIdentity,
+    pub(in crate::cli) objects: usize,
+    pub(in crate::cli) unreadable: Vec<(String, String)>,
+    pub(in crate::cli) seconds: f64,
+    pub(in crate::cli) notes: Vec<String>,
 }
 
 /// `od dump --out FILE`: true when every object could be read.
@@ -122,33 +122,70 @@ pub fn dump(
     timeout: Duration,
     trace: bool,
 ) -> Result<bool, Failure> {
+    let out = match (&args.out, &args.dir) {
+        (Some(out), _) => out,
+        (None, Some(dir)) => {
+            return Err(usage(format!(
+                "od dump {}: a folder is for --project (one backup per drive); for one drive give --out FILE.json",
+                dir.display()
+            )));
+        }
+        (None, None) => {
+            return Err(usage(
+                "od dump needs --out FILE.json (or, with --project, a folder: `od dump DIR`)",
+            ));
+        }
+    };
     let mut warnings = vec![];
     let catalog = dictionary(args.eds.as_deref(), args.node, &mut warnings)?;
+    let report = dump_to(link, &catalog, out, timeout, trace)?;
+    print_report(&report, &report.notes, &warnings, json, print_dump);
+    Ok(report.unreadable.is_empty())
+}
+
+/// Read the settings `catalog` names from the drive at `link` and write them to `out`.
+pub(in crate::cli) fn dump_to(
+    link: &LinkSpec,
+    catalog: &Catalog,
+    out: &Path,
+    timeout: Duration,
+    trace: bool,
+) -> Result<DumpReport, Failure> {
+    let (file, seconds, notes) = read_backup(link, catalog, timeout, trace)?;
+    crate::file::write_whole(out, file.to_json())
+        .map_err(|e| failed(format!("cannot write {}: {e}", out.display())))?;
+    Ok(DumpReport {
+        file: out.display().to_string(),
+        identity: file.identity.clone(),
+        objects: file.objects.len(),
+        unreadable: file.unreadable.clone(),
+        seconds,
+        notes,
+    })
+}
+
+/// A backup of the settings `catalog` names, read from the drive at `link`: the backup,
+/// the seconds the reading took, and the notes on the way.
+pub(in crate::cli) fn read_backup(
+    link: &LinkSpec,
+    catalog: &Catalog,
+    timeout: Duration,
+    trace: bool,
+) -> Result<(Backup, f64, Vec<String>), Failure> {
     let mut notes = vec![];
     let mut session = Session::open(link, timeout, trace)?;
     let started = Instant::now();
     let reads = read_all(
         &mut session,
-        backup::objects_to_read(&catalog),
+        backup::objects_to_read(catalog),
         "reading",
         timeout,
         &mut notes,
     )?;
     let seconds = started.elapsed().as_secs_f64();
     notes.extend(session.take_notes());
-    let file = Backup::new(&link.to_string(), &catalog, &reads, seconds_since_epoch());
-    crate::file::write_whole(&args.out, file.to_json())
-        .map_err(|e| failed(format!("cannot write {}: {e}", args.out.display())))?;
-    let report = DumpReport {
-        file: args.out.display().to_string(),
-        identity: file.identity.clone(),
-        objects: file.objects.len(),
-        unreadable: file.unreadable.clone(),
-        seconds,
-        notes: notes.clone(),
-    };
-    print_report(&report, &notes, &warnings, json, print_dump);
-    Ok(report.unreadable.is_empty())
+    let file = Backup::new(&link.to_string(), catalog, &reads, seconds_since_epoch());
+    Ok((file, seconds, notes))
 }
 
 fn print_dump(report: &DumpReport) {

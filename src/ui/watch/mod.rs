@@ -15,51 +15,20 @@ use std::collections::{BTreeMap, VecDeque};
 use serde::{Deserialize, Serialize};
 
 use crate::od::{Address, Catalog, DataType, Entry, Value};
+// The pins are plain data a project stores per drive: they live in `project`.
+pub use crate::project::watch::{Format, MAX_PINS, Pin};
 use crate::worker::{ObjectError, ObjectPath, Rejection, Request, RequestId};
 
 pub use panel::watch_ui;
 
 /// The refresh rates offered, Hz.
 pub const RATES: [f64; 6] = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0];
-/// At most this many objects pinned (one `ReadMany` of them must fit a refresh period).
-pub const MAX_PINS: usize = 32;
 /// A read that has not come back after this long counts as lost and is asked again.
 pub const LOST_AFTER_S: f64 = 5.0;
 /// A value that changed is marked for this long.
 pub const CHANGED_FOR_S: f64 = 1.0;
 /// How many of its last requests the panel remembers (answers to older ones are dropped).
 const REMEMBERED: usize = 8;
-
-/// How a pinned value is shown.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Format {
-    /// Decimal with the unit.
-    #[default]
-    Decimal,
-    /// Hex, as wide as the type.
-    Hex,
-    /// Hex, and every bit the catalog names, set or clear.
-    Bits,
-}
-
-impl Format {
-    pub const ALL: [Format; 3] = [Format::Decimal, Format::Hex, Format::Bits];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Format::Decimal => "dec",
-            Format::Hex => "hex",
-            Format::Bits => "bits",
-        }
-    }
-}
-
-/// One pinned object.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Pin {
-    pub address: Address,
-    pub format: Format,
-}
 
 /// What of the watch panel is saved with the layout.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
