@@ -20,6 +20,11 @@ pub trait CanBus {
     fn take_troubles(&mut self) -> Vec<String> {
         Vec::new()
     }
+    /// Where several links share the bus: a further port on it that hears every frame (a
+    /// scan while nodes are open). `None` where this port hears every frame already.
+    async fn listener(&self) -> Option<Result<super::SharedCanPort, Error>> {
+        None
+    }
 }
 
 /// An in-memory CAN bus: every port receives what every other port sends. Cheap to clone

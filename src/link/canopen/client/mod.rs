@@ -536,7 +536,10 @@ impl<B: CanBus> Link for CanopenLink<B> {
     }
 
     async fn scan(&mut self) -> Result<Vec<crate::link::FoundDevice>, Error> {
-        super::scan::scan(&mut self.bus).await
+        match self.bus.listener().await {
+            Some(port) => super::scan::scan(&mut port?).await,
+            None => super::scan::scan(&mut self.bus).await,
+        }
     }
 
     async fn close(&mut self) -> Result<(), Error> {
