@@ -261,6 +261,10 @@ impl CanBus for SimCanBus {
     async fn listener(&self) -> Option<Result<SharedCanPort, Error>> {
         Some(self.port.listen_all().await)
     }
+
+    fn take_trace(&mut self) -> Option<Vec<crate::link::TraceRecord>> {
+        self.port.take_trace()
+    }
 }
 
 /// A simulated node's cable: plugged, or pulled until some time.

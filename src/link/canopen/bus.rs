@@ -25,6 +25,11 @@ pub trait CanBus {
     async fn listener(&self) -> Option<Result<super::SharedCanPort, Error>> {
         None
     }
+    /// Where the bus keeps the frame log itself (shared by several links): every frame on
+    /// it since the last call, in wire order. `None`: the link keeps its own.
+    fn take_trace(&mut self) -> Option<Vec<crate::link::TraceRecord>> {
+        None
+    }
 }
 
 /// An in-memory CAN bus: every port receives what every other port sends. Cheap to clone

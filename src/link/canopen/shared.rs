@@ -12,8 +12,9 @@
 //!   own drive's frames and SDO transfers to different nodes run side by side; frames of no
 //!   node (SYNC, TIME, LSS, extended ids) go to every port;
 //! * a port opened without a node (a scan) hears every frame;
-//! * one ring keeps every frame sent and received on the bus in wire order
-//!   ([`SharedCanPort::take_bus_trace`]), besides each link's own trace of its node;
+//! * every frame sent and received on the bus goes, in wire order, into the trace of
+//!   every port ([`CanBus::take_trace`]): each drive's frame log is the bus's one log,
+//!   every node's frames in it, as candump on the adapter shows them;
 //! * NMT commands stay per node: a link starts its own node only. A command to every node
 //!   (node id 0) from one port would stop or reset the other drives' nodes as well, so the
 //!   owner refuses it while other nodes share the bus, and sends it (once) when the port
@@ -23,7 +24,6 @@
 //!   every port its error and ends; the next link to name the adapter opens it afresh.
 
 use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use tokio::sync::{mpsc, oneshot};
@@ -77,7 +77,13 @@ struct Listener {
     id: u64,
     node: Option<u8>,
     frames: mpsc::Sender<Delivery>,
-    lost: Arc<AtomicU64>,
+}
+
+/// What a port has not taken yet: the bus's frames, and how many frames it lost.
+#[derive(Debug, Default)]
+struct Unread {
+    trace: TraceRing,
+    lost: u64,
 }
 
 /// What the owner and its ports share.
@@ -88,12 +94,10 @@ struct Shared {
     settings: String,
     /// The bus's own words (`slcan /dev/ttyACM0 at 1 Mbit/s`), once open.
     describe: OnceLock<String>,
-    /// Every frame on the bus, sent and received, in order.
-    trace: Mutex<TraceRing>,
+    /// What each port (by id) has not taken yet.
+    unread: Mutex<BTreeMap<u64, Unread>>,
     /// Troubles the bus got over, for whichever port asks first.
     troubles: Mutex<Vec<String>>,
-    /// Frames dropped per port id because it read too slowly.
-    lost: Mutex<BTreeMap<u64, Arc<AtomicU64>>>,
     /// The CAN interface name candump logs use.
     interface: String,
 }
@@ -114,7 +118,9 @@ impl Shared {
             text: crate::proto::canopen::describe::describe(frame),
             can: Some((*frame, self.interface.clone())),
         };
-        lock(&self.trace).push(record);
+        for unread in lock(&self.unread).values_mut() {
+            unread.trace.push(record.clone());
+        }
     }
 }
 
@@ -124,7 +130,10 @@ fn lock<T>(mutex: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 /// The buses open in this process, by key. The entries hold weak senders: a bus lives as
 /// long as a port holds it.
-type Registry = BTreeMap<String, (mpsc::WeakSender<Command>, Arc<Shared>)>;
+/// A bus opened again waits for its last owner to let go of the adapter.
+type Registry = BTreeMap<String, (mpsc::WeakSender<Command>, Arc<Shared>, Thread)>;
+
+type Thread = Option<std::thread::JoinHandle<()>>;
 
 fn registry() -> std::sync::MutexGuard<'static, Registry> {
     static BUSES: Mutex<Registry> = Mutex::new(BTreeMap::new());
@@ -135,7 +144,7 @@ fn registry() -> std::sync::MutexGuard<'static, Registry> {
 pub fn open_buses() -> Vec<String> {
     registry()
         .iter()
-        .filter(|(_, (sender, _))| sender.upgrade().is_some_and(|s| !s.is_closed()))
+        .filter(|(_, (sender, _, _))| sender.upgrade().is_some_and(|s| !s.is_closed()))
         .map(|(key, _)| key.clone())
         .collect()
 }
@@ -176,7 +185,7 @@ where
 {
     let (owner, shared, opened) = {
         let mut buses = registry();
-        let running = buses.get(key).and_then(|(weak, shared)| {
+        let running = buses.get(key).and_then(|(weak, shared, _)| {
             let owner = weak.upgrade().filter(|s| !s.is_closed())?;
             Some((owner, shared.clone()))
         });
@@ -196,15 +205,18 @@ where
                     key: key.to_owned(),
                     settings: settings.to_owned(),
                     describe: OnceLock::new(),
-                    trace: Mutex::new(TraceRing::new()),
+                    unread: Mutex::new(BTreeMap::new()),
                     troubles: Mutex::new(Vec::new()),
-                    lost: Mutex::new(BTreeMap::new()),
                     interface: interface.to_owned(),
                 });
                 let (owner, commands) = mpsc::channel(COMMAND_QUEUE);
                 let (opened_tx, opened_rx) = oneshot::channel();
-                spawn_owner(shared.clone(), commands, open, opened_tx)?;
-                buses.insert(key.to_owned(), (owner.downgrade(), shared.clone()));
+                let last = buses.remove(key).and_then(|(_, _, thread)| thread);
+                let thread = spawn_owner(shared.clone(), commands, open, opened_tx, last)?;
+                buses.insert(
+                    key.to_owned(),
+                    (owner.downgrade(), shared.clone(), Some(thread)),
+                );
                 (owner, shared, Some(opened_rx))
             }
         }
@@ -241,14 +253,16 @@ where
     })
 }
 
-/// Start the owner thread of a bus: it opens the bus with `open` (a serial port or a socket
-/// belongs to the runtime that opened it), says how that went on `opened`, then serves.
+/// Start the owner thread of a bus: it waits for the `last` owner of the adapter to close
+/// it, opens the bus with `open` (a serial port or a socket belongs to the runtime that
+/// opened it), says how that went on `opened`, then serves.
 fn spawn_owner<B, F, Fut>(
     shared: Arc<Shared>,
     commands: mpsc::Receiver<Command>,
     open: F,
     opened: oneshot::Sender<Result<(), Error>>,
-) -> Result<(), Error>
+    last: Thread,
+) -> Result<std::thread::JoinHandle<()>, Error>
 where
     B: CanBus + 'static,
     F: FnOnce() -> Fut + Send + 'static,
@@ -258,6 +272,9 @@ where
     std::thread::Builder::new()
         .name(name)
         .spawn(move || {
+            if let Some(last) = last {
+                let _ = last.join();
+            }
             let runtime = match tokio::runtime::Builder::new_current_thread()
                 .enable_all()
                 .build()
@@ -284,7 +301,6 @@ where
                 }
             });
         })
-        .map(|_| ())
         .map_err(|e| Error::Io {
             context: "starting the thread that owns the CAN bus".into(),
             source: e,
@@ -315,13 +331,13 @@ async fn serve<B: CanBus>(mut bus: B, mut commands: mpsc::Receiver<Command>, sha
                 }
                 Some(Command::Leave { id }) => {
                     listeners.retain(|l| l.id != id);
-                    lock(&shared.lost).remove(&id);
+                    lock(&shared.unread).remove(&id);
                 }
             },
             frame = bus.recv() => match frame {
                 Ok(frame) => {
                     shared.record(false, &frame);
-                    dispatch(&mut listeners, frame);
+                    dispatch(&mut listeners, frame, shared);
                 }
                 Err(error) => {
                     let fatal = matches!(error, Error::Disconnected(_) | Error::Io { .. });
@@ -359,14 +375,8 @@ fn admit(
     let id = *next_id;
     *next_id += 1;
     let (frames, receiver) = mpsc::channel(PORT_QUEUE);
-    let lost = Arc::new(AtomicU64::new(0));
-    lock(&shared.lost).insert(id, lost.clone());
-    listeners.push(Listener {
-        id,
-        node,
-        frames,
-        lost,
-    });
+    lock(&shared.unread).insert(id, Unread::default());
+    listeners.push(Listener { id, node, frames });
     Ok(Member {
         id,
         frames: receiver,
@@ -400,7 +410,7 @@ fn refuse_broadcast(
 }
 
 /// Hand a received frame to the port of its node, and to every port that hears all.
-fn dispatch(listeners: &mut Vec<Listener>, frame: CanFrame) {
+fn dispatch(listeners: &mut Vec<Listener>, frame: CanFrame, shared: &Shared) {
     let node = node_of(&frame);
     listeners.retain(|l| {
         let wanted = l.node.is_none() || node.is_none() || l.node == node;
@@ -410,10 +420,15 @@ fn dispatch(listeners: &mut Vec<Listener>, frame: CanFrame) {
         match l.frames.try_send(Ok(frame)) {
             Ok(()) => true,
             Err(mpsc::error::TrySendError::Full(_)) => {
-                l.lost.fetch_add(1, Ordering::Relaxed);
+                if let Some(unread) = lock(&shared.unread).get_mut(&l.id) {
+                    unread.lost += 1;
+                }
                 true
             }
-            Err(mpsc::error::TrySendError::Closed(_)) => false,
+            Err(mpsc::error::TrySendError::Closed(_)) => {
+                lock(&shared.unread).remove(&l.id);
+                false
+            }
         }
     });
 }
@@ -447,12 +462,6 @@ fn copy(error: &Error) -> Error {
 }
 
 impl SharedCanPort {
-    /// Every frame sent and received on the bus by any of its ports since the last call,
-    /// in order: the bus's one frame log.
-    pub fn take_bus_trace(&self) -> Vec<TraceRecord> {
-        lock(&self.shared.trace).take()
-    }
-
     /// The node this port is for (`None`: it hears every frame).
     pub fn node(&self) -> Option<u8> {
         self.node
@@ -511,11 +520,22 @@ impl CanBus for SharedCanPort {
         Some(self.listen_all().await)
     }
 
+    /// Every frame on the bus since the last call, whichever link sent it or node it came
+    /// from, in wire order.
+    fn take_trace(&mut self) -> Option<Vec<TraceRecord>> {
+        Some(
+            lock(&self.shared.unread)
+                .get_mut(&self.id)
+                .map(|u| u.trace.take())
+                .unwrap_or_default(),
+        )
+    }
+
     fn take_troubles(&mut self) -> Vec<String> {
         let mut troubles = std::mem::take(&mut *lock(&self.shared.troubles));
-        let lost = lock(&self.shared.lost)
-            .get(&self.id)
-            .map_or(0, |l| l.swap(0, Ordering::Relaxed));
+        let lost = lock(&self.shared.unread)
+            .get_mut(&self.id)
+            .map_or(0, |u| std::mem::take(&mut u.lost));
         if lost > 0 {
             troubles.push(format!(
                 "{}: {lost} frame(s) lost, this link read too slowly",
@@ -591,11 +611,18 @@ mod tests {
         assert!(e.to_string().contains("node(s) 6"), "{e}");
         five.send(&frame(0x605, &[1])).await.expect("send");
         assert_eq!(far.recv().await.expect("far").cob_id(), Some(0x605));
-        // One log holds every node's frames.
-        let trace: Vec<String> = five.take_bus_trace().into_iter().map(|r| r.raw).collect();
+        // One log holds every node's frames, for each port.
+        let trace: Vec<String> = five
+            .take_trace()
+            .unwrap_or_default()
+            .into_iter()
+            .map(|r| r.raw)
+            .collect();
         assert_eq!(trace.len(), 4, "{trace:?}");
         assert!(trace[0].starts_with("586"), "{trace:?}");
         assert!(trace[3].starts_with("605"), "{trace:?}");
+        let six_saw = six.take_trace().unwrap_or_default();
+        assert_eq!(six_saw.len(), 4, "{six_saw:?}");
         // The last port closes the bus; alone, a start of every node goes out.
         drop(six);
         five.send(&all).await.expect("alone");

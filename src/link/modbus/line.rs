@@ -66,7 +66,11 @@ impl std::fmt::Display for Settings {
     }
 }
 
-type Registry = BTreeMap<String, (mpsc::WeakSender<Try>, Settings)>;
+/// Each line's owner (while a link holds it), its settings, and its thread: a line
+/// opened again waits for the last owner to let go of the port.
+type Registry = BTreeMap<String, (mpsc::WeakSender<Try>, Settings, Thread)>;
+
+type Thread = Option<std::thread::JoinHandle<()>>;
 
 fn registry() -> std::sync::MutexGuard<'static, Registry> {
     static LINES: Mutex<Registry> = Mutex::new(BTreeMap::new());
@@ -77,7 +81,7 @@ fn registry() -> std::sync::MutexGuard<'static, Registry> {
 pub fn open_lines() -> Vec<String> {
     registry()
         .iter()
-        .filter(|(_, (sender, _))| sender.upgrade().is_some_and(|s| !s.is_closed()))
+        .filter(|(_, (sender, _, _))| sender.upgrade().is_some_and(|s| !s.is_closed()))
         .map(|(key, _)| key.clone())
         .collect()
 }
@@ -114,7 +118,7 @@ impl RtuLine {
         let key = format!("rtu:{}", crate::link::same_file(path));
         let (owner, opened) = {
             let mut lines = registry();
-            let running = lines.get(&key).and_then(|(weak, open_with)| {
+            let running = lines.get(&key).and_then(|(weak, open_with, _)| {
                 Some((weak.upgrade().filter(|s| !s.is_closed())?, open_with))
             });
             match running {
@@ -129,8 +133,9 @@ impl RtuLine {
                 None => {
                     let (owner, tries) = mpsc::channel(QUEUE);
                     let (opened_tx, opened_rx) = oneshot::channel();
-                    spawn_owner(settings.clone(), tries, opened_tx)?;
-                    lines.insert(key, (owner.downgrade(), settings.clone()));
+                    let last = lines.remove(&key).and_then(|(_, _, thread)| thread);
+                    let thread = spawn_owner(settings.clone(), tries, opened_tx, last)?;
+                    lines.insert(key, (owner.downgrade(), settings.clone(), Some(thread)));
                     (owner, Some(opened_rx))
                 }
             }
@@ -192,14 +197,21 @@ pub(super) fn rtu_gap(baud: u32) -> Duration {
     chars.max(Duration::from_millis(3))
 }
 
+/// Start the owner thread of a line: it waits for the `last` owner of the port to close it,
+/// opens the port (it belongs to the runtime that opened it), says how that went on
+/// `opened`, then serves.
 fn spawn_owner(
     settings: Settings,
     tries: mpsc::Receiver<Try>,
     opened: oneshot::Sender<Result<(), Error>>,
-) -> Result<(), Error> {
+    last: Thread,
+) -> Result<std::thread::JoinHandle<()>, Error> {
     std::thread::Builder::new()
         .name(format!("drivedeck-rtu {}", settings.path))
         .spawn(move || {
+            if let Some(last) = last {
+                let _ = last.join();
+            }
             let runtime = match tokio::runtime::Builder::new_current_thread()
                 .enable_all()
                 .build()
@@ -233,7 +245,6 @@ fn spawn_owner(
                 }
             });
         })
-        .map(|_| ())
         .map_err(|e| Error::Io {
             context: "starting the thread that owns the serial line".into(),
             source: e,
