@@ -35,6 +35,9 @@ const QUEUE: usize = 64;
 /// A frame as the owner saw it, for the link's trace: when, sent or received, its bytes.
 pub type LineFrame = (SystemTime, bool, Vec<u8>);
 
+/// How a try ended, and the frames seen on the way.
+pub(super) type TryOutcome = (Result<Vec<u8>, Trouble>, Vec<LineFrame>);
+
 /// One try of a request, for the owner.
 struct Try {
     slave: u8,
@@ -43,7 +46,7 @@ struct Try {
     window: Duration,
     what: String,
     timeout: Duration,
-    reply: oneshot::Sender<(Result<Vec<u8>, Trouble>, Vec<LineFrame>)>,
+    reply: oneshot::Sender<TryOutcome>,
 }
 
 /// The serial settings a second link must agree with, and the port's path.
@@ -157,7 +160,7 @@ impl RtuLine {
         window: Duration,
         what: &str,
         timeout: Duration,
-    ) -> (Result<Vec<u8>, Trouble>, Vec<LineFrame>) {
+    ) -> TryOutcome {
         let (reply, answer) = oneshot::channel();
         let gone = || {
             Trouble::Fatal(Error::Disconnected(format!(
