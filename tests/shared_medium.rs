@@ -5,7 +5,8 @@
 //!   three links: all three moved at once with SDO reads of each in between, each ends
 //!   at its own target;
 //! * two nodes of `drivedeck sim --slcan A --node 5 --node 6` through one slcan adapter
-//!   (a pty pair from socat): the second link joins the first's port, both move;
+//!   (a pty pair from socat): the second link joins the first's port, both move, a scan
+//!   while they run finds both;
 //! * two slaves of `drivedeck sim --modbus-rtu A --slave 1 --slave 2` on one pty line,
 //!   the port opened once for both, both move;
 //! * a drive lost mid-run (a node's cable pulled, a slave that stops answering) is
@@ -182,6 +183,19 @@ fn two_workers_share_one_slcan_adapter_and_both_move() {
         .collect();
     assert_eq!(slcan.len(), 1, "{slcan:?}");
     move_all_at_once(&mut probes, &[2500, -1500]);
+    // A scan through a connected link, and one from a worker with no link, both hear every
+    // node on the adapter they share.
+    let adapter = spec(&format!("canopen+slcan://{b}?node=5"));
+    for scanner in [&mut probes[1], &mut Probe::new()] {
+        let found = scanner
+            .scan(Request::Scan(adapter.clone()), Duration::from_secs(10))
+            .expect("the scan");
+        let nodes: Vec<u8> = found.iter().filter_map(|d| d.node).collect();
+        assert_eq!(nodes, [5, 6], "{found:?}");
+    }
+    for probe in probes.iter_mut() {
+        probe.never_dropped();
+    }
     // A second link for a node already open on the adapter is refused, naming it.
     let mut again = Probe::new();
     match again.connect(spec(&format!("canopen+slcan://{b}?node=5"))) {
