@@ -3,6 +3,7 @@
 //! simulated drive and its in-process link and CAN bus), so neither imports the other.
 
 use crate::injection::Injection;
+use crate::link::canopen::SharedCanPort;
 use crate::link::canopen::client::CanopenLink;
 use crate::link::canopen::slcan::SlcanBus;
 use crate::link::enip::client::EnipLink;
@@ -19,9 +20,9 @@ pub enum AnyLink {
     Modbus(Box<ModbusLink>),
     Enip(Box<EnipLink>),
     CanopenSim(Box<CanopenLink<SimCanBus>>),
-    CanopenSlcan(Box<CanopenLink<SlcanBus<tokio_serial::SerialStream>>>),
+    CanopenSlcan(Box<CanopenLink<SharedCanPort>>),
     #[cfg(target_os = "linux")]
-    CanopenSocketcan(Box<CanopenLink<crate::link::canopen::socketcan::SocketCanBus>>),
+    CanopenSocketcan(Box<CanopenLink<SharedCanPort>>),
 }
 
 /// Open the link a connection string names.
@@ -38,20 +39,22 @@ pub async fn open_traced(spec: &LinkSpec) -> Traced<AnyLink> {
             ModbusLink::connect_traced(spec, DEFAULT_TIMEOUT).await?,
         ))),
         LinkSpec::CanopenSim { can } => {
-            let bus = SimCanBus::start(can.node);
+            let bus = SimCanBus::start(can.node).await.map_err(bare)?;
             Ok(AnyLink::CanopenSim(Box::new(
                 CanopenLink::connect_traced(spec.clone(), bus, *can).await?,
             )))
         }
         LinkSpec::CanopenSlcan { path, bitrate, can } => {
-            let bus = SlcanBus::open(path, *bitrate).await.map_err(bare)?;
+            let bus = join_slcan(path, *bitrate, Some(can.node))
+                .await
+                .map_err(bare)?;
             Ok(AnyLink::CanopenSlcan(Box::new(
                 CanopenLink::connect_traced(spec.clone(), bus, *can).await?,
             )))
         }
         #[cfg(target_os = "linux")]
         LinkSpec::CanopenSocketcan { iface, can } => {
-            let bus = crate::link::canopen::socketcan::SocketCanBus::open(iface).map_err(bare)?;
+            let bus = join_socketcan(iface, Some(can.node)).await.map_err(bare)?;
             Ok(AnyLink::CanopenSocketcan(Box::new(
                 CanopenLink::connect_traced(spec.clone(), bus, *can).await?,
             )))
@@ -67,6 +70,30 @@ pub async fn open_traced(spec: &LinkSpec) -> Traced<AnyLink> {
     }
 }
 
+/// A port for `node` (`None`: every frame, for a scan) on the slcan adapter at `path`,
+/// shared with every other link on it: the adapter is opened by the first.
+async fn join_slcan(path: &str, bitrate: u32, node: Option<u8>) -> Result<SharedCanPort, Error> {
+    let owned = path.to_owned();
+    let key = format!("slcan:{}", super_link::same_file(path));
+    let settings = format!("{bitrate} bit/s");
+    crate::link::canopen::shared::join(&key, &settings, "slcan0", node, move || async move {
+        SlcanBus::open(&owned, bitrate).await
+    })
+    .await
+}
+
+/// A port for `node` (`None`: every frame) on the SocketCAN interface `iface`, shared with
+/// every other link on it.
+#[cfg(target_os = "linux")]
+async fn join_socketcan(iface: &str, node: Option<u8>) -> Result<SharedCanPort, Error> {
+    let owned = iface.to_owned();
+    let key = format!("socketcan:{iface}");
+    crate::link::canopen::shared::join(&key, "", iface, node, move || async move {
+        crate::link::canopen::socketcan::SocketCanBus::open(&owned)
+    })
+    .await
+}
+
 impl From<SimLink> for AnyLink {
     fn from(link: SimLink) -> Self {
         AnyLink::Sim(Box::new(link))
@@ -78,18 +105,18 @@ pub async fn scan(spec: &LinkSpec) -> Result<Vec<super_link::FoundDevice>, Error
     match spec {
         LinkSpec::CanopenSim { can } => {
             // Every simulated node open in the process, and the spec's own.
-            let (mut port, _guest) = SimCanBus::scanner(can.node);
+            let (mut port, _guest) = SimCanBus::scanner(can.node).await?;
             // Let a node put there for the scan boot.
             tokio::time::sleep(std::time::Duration::from_millis(20)).await;
             crate::link::canopen::scan::scan(&mut port).await
         }
         LinkSpec::CanopenSlcan { path, bitrate, .. } => {
-            let mut bus = SlcanBus::open(path, *bitrate).await?;
+            let mut bus = join_slcan(path, *bitrate, None).await?;
             crate::link::canopen::scan::scan(&mut bus).await
         }
         #[cfg(target_os = "linux")]
         LinkSpec::CanopenSocketcan { iface, .. } => {
-            let mut bus = crate::link::canopen::socketcan::SocketCanBus::open(iface)?;
+            let mut bus = join_socketcan(iface, None).await?;
             crate::link::canopen::scan::scan(&mut bus).await
         }
         LinkSpec::Enip { host, port, .. } => {

@@ -181,6 +181,14 @@ impl NetworkInterface {
     }
 }
 
+/// One name for one device file however it was written (`/dev/serial/by-id/…` and the
+/// `/dev/ttyACM0` it points to), so that two links to one port find each other.
+pub fn same_file(path: &str) -> String {
+    std::fs::canonicalize(path)
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|_| path.to_owned())
+}
+
 /// The serial ports this machine has (for Modbus RTU and slcan adapters), by name.
 pub fn serial_ports() -> Vec<String> {
     let mut ports: Vec<String> = tokio_serial::available_ports()

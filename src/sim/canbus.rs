@@ -9,12 +9,14 @@
 //! behaves as it always did.
 
 use std::collections::BTreeSet;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 use crate::link::Error;
-use crate::link::canopen::{CanBus, MemoryBus, MemoryPort};
+use crate::link::canopen::{CanBus, MemoryBus, MemoryPort, SharedCanPort};
 use crate::proto::canopen::CanFrame;
 use crate::sim::Drive;
+use crate::sim::link::LINK_LOSS_TIME;
 use crate::sim::server::SharedDrive;
 
 /// One in-memory bus and the node ids simulated on it.
@@ -86,7 +88,7 @@ impl SimBuses {
 
     /// The first bus (the one links opened side by side share), made if there is none,
     /// with a seat for `node` unless it is already there.
-    fn first(&'static self, node: u8) -> (MemoryBus, Option<Seat>) {
+    fn first(&'static self, node: u8) -> (MemoryBus, u64, Option<Seat>) {
         let mut buses = self.buses();
         if buses.is_empty() {
             self.new_bus(&mut buses);
@@ -97,7 +99,7 @@ impl SimBuses {
             bus: first.id,
             node,
         });
-        (first.bus.clone(), seat)
+        (first.bus.clone(), first.id, seat)
     }
 
     /// The node ids on each bus, in order (for tests and messages).
@@ -130,11 +132,16 @@ pub static SIM_BUSES: SimBuses = SimBuses::new();
 
 /// The master's port on the process's in-memory bus, with a simulated node on it. The node
 /// runs as a task on the caller's runtime and stops (leaving the bus) when this is dropped.
+/// The master side of the bus is shared like a real adapter's
+/// ([`crate::link::canopen::shared`]): one reader of the bus for every link on it, each
+/// link handed its own node's frames.
 #[derive(Debug)]
 pub struct SimCanBus {
-    port: MemoryPort,
+    port: SharedCanPort,
     node: tokio::task::AbortHandle,
     drive: SharedDrive,
+    /// The node's cable, pulled for [`LINK_LOSS_TIME`] by the link-loss injection.
+    cable: Cable,
     /// The node id on its bus, given back when this goes (after the task is stopped).
     _seat: Seat,
 }
@@ -142,54 +149,76 @@ pub struct SimCanBus {
 impl SimCanBus {
     /// A fresh simulated drive as node `node` on the process's bus (on a bus of its own if
     /// `node` is already there). Call inside a tokio runtime.
-    pub fn start(node: u8) -> SimCanBus {
-        SimCanBus::start_on(&SIM_BUSES, node)
+    pub async fn start(node: u8) -> Result<SimCanBus, Error> {
+        SimCanBus::start_on(&SIM_BUSES, node).await
     }
 
     /// [`SimCanBus::start`] among `buses`.
-    pub fn start_on(buses: &'static SimBuses, node: u8) -> SimCanBus {
+    pub async fn start_on(buses: &'static SimBuses, node: u8) -> Result<SimCanBus, Error> {
         let (bus, seat) = buses.seat(node);
-        SimCanBus::with_node(&bus, node, seat)
+        SimCanBus::with_node(&bus, Some(node), node, seat).await
     }
 
     /// A port on the process's first bus to scan it: every simulated node open in the
     /// process is found. If `node` is not among them, a fresh one is put there for as long
     /// as the returned guest lives, so a scan of a lone `canopen+sim` finds its node as it
     /// always did.
-    pub fn scanner(node: u8) -> (MemoryPort, Option<SimCanBus>) {
-        SimCanBus::scanner_on(&SIM_BUSES, node)
+    pub async fn scanner(node: u8) -> Result<(SharedCanPort, Option<SimCanBus>), Error> {
+        SimCanBus::scanner_on(&SIM_BUSES, node).await
     }
 
     /// [`SimCanBus::scanner`] among `buses`.
-    pub fn scanner_on(buses: &'static SimBuses, node: u8) -> (MemoryPort, Option<SimCanBus>) {
-        let (bus, seat) = buses.first(node);
-        let guest = seat.map(|seat| SimCanBus::with_node(&bus, node, seat));
-        (bus.port(), guest)
+    pub async fn scanner_on(
+        buses: &'static SimBuses,
+        node: u8,
+    ) -> Result<(SharedCanPort, Option<SimCanBus>), Error> {
+        let (bus, id, seat) = buses.first(node);
+        let guest = match seat {
+            Some(seat) => Some(SimCanBus::with_node(&bus, Some(node), node, seat).await?),
+            None => None,
+        };
+        let key = format!("memory:{:p}#{id}", buses);
+        let port = join_memory(&key, &bus, None).await?;
+        Ok((port, guest))
     }
 
-    fn with_node(bus: &MemoryBus, node: u8, seat: Seat) -> SimCanBus {
-        let port = bus.port();
+    /// A simulated drive as `node` on `bus`, and the master's port for `master` (the node
+    /// whose frames it hears; `None`: every frame).
+    async fn with_node(
+        bus: &MemoryBus,
+        master: Option<u8>,
+        node: u8,
+        seat: Seat,
+    ) -> Result<SimCanBus, Error> {
+        let key = format!("memory:{:p}#{}", seat.buses, seat.bus);
+        let port = join_memory(&key, bus, master).await?;
         let drive = SharedDrive::new(Drive::new());
         let served = drive.clone();
-        let node_port = bus.port();
+        let cable = Cable::default();
+        let node_port = CabledPort {
+            port: bus.port(),
+            cable: cable.clone(),
+        };
         let task = tokio::spawn(async move {
             let _ = crate::sim::server::canopen::run(node_port, node, served).await;
         });
-        SimCanBus {
+        Ok(SimCanBus {
             port,
             node: task.abort_handle(),
             drive,
+            cable,
             _seat: seat,
-        }
+        })
     }
 
-    /// Inject or withdraw a fault in the simulated node (a link loss is simulated on the
-    /// in-process link only).
+    /// Inject or withdraw a fault in the simulated node. A link loss pulls the node's
+    /// cable for [`LINK_LOSS_TIME`]: it neither hears nor sends, the other nodes on the bus
+    /// carry on.
     pub fn inject(&mut self, injection: crate::sim::Injection, active: bool) -> Result<(), Error> {
         if injection.is_link() {
-            return Err(Error::Unsupported(
-                "a link loss is simulated on the in-process simulator link (sim), not on the CAN bus".into(),
-            ));
+            self.cable
+                .pull(active.then(|| Instant::now() + LINK_LOSS_TIME));
+            return Ok(());
         }
         let mut drive = self.drive.lock();
         if active {
@@ -228,6 +257,77 @@ impl CanBus for SimCanBus {
     fn take_troubles(&mut self) -> Vec<String> {
         self.port.take_troubles()
     }
+
+    async fn listener(&self) -> Option<Result<SharedCanPort, Error>> {
+        Some(self.port.listen_all().await)
+    }
+
+    fn take_trace(&mut self) -> Option<Vec<crate::link::TraceRecord>> {
+        self.port.take_trace()
+    }
+}
+
+/// A simulated node's cable: plugged, or pulled until some time.
+#[derive(Clone, Debug, Default)]
+struct Cable {
+    pulled_until: Arc<Mutex<Option<Instant>>>,
+}
+
+impl Cable {
+    fn pull(&self, until: Option<Instant>) {
+        *self.pulled_until.lock().unwrap_or_else(|p| p.into_inner()) = until;
+    }
+
+    fn pulled(&self) -> bool {
+        self.pulled_until
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .is_some_and(|until| Instant::now() < until)
+    }
+}
+
+/// A simulated node's port behind its cable: while the cable is pulled, what it sends is
+/// lost and what comes is not heard.
+#[derive(Debug)]
+struct CabledPort {
+    port: MemoryPort,
+    cable: Cable,
+}
+
+impl CanBus for CabledPort {
+    async fn send(&mut self, frame: &CanFrame) -> Result<(), Error> {
+        if self.cable.pulled() {
+            return Ok(());
+        }
+        self.port.send(frame).await
+    }
+
+    async fn recv(&mut self) -> Result<CanFrame, Error> {
+        loop {
+            let frame = self.port.recv().await?;
+            if !self.cable.pulled() {
+                return Ok(frame);
+            }
+        }
+    }
+
+    fn describe(&self) -> String {
+        self.port.describe()
+    }
+}
+
+/// The master's port on the in-memory bus `key` names: the first link on it starts the
+/// bus's one reader ([`crate::link::canopen::shared`]).
+async fn join_memory(key: &str, bus: &MemoryBus, node: Option<u8>) -> Result<SharedCanPort, Error> {
+    let bus = bus.clone();
+    crate::link::canopen::shared::join(
+        key,
+        "",
+        "vcan0",
+        node,
+        move || async move { Ok(bus.port()) },
+    )
+    .await
 }
 
 #[cfg(test)]
@@ -244,8 +344,8 @@ mod tests {
     #[tokio::test(flavor = "current_thread")]
     async fn links_side_by_side_share_a_bus_and_a_node_id_opened_twice_gets_its_own() {
         static BUSES: SimBuses = SimBuses::new();
-        let one = SimCanBus::start_on(&BUSES, 1);
-        let two = SimCanBus::start_on(&BUSES, 2);
+        let one = SimCanBus::start_on(&BUSES, 1).await.expect("node");
+        let two = SimCanBus::start_on(&BUSES, 2).await.expect("node");
         assert_eq!(BUSES.nodes(), [vec![1, 2]]);
         // Two drives, not one.
         one.drive()
@@ -253,12 +353,12 @@ mod tests {
             .inject(crate::sim::Injection::OverCurrent);
         assert_eq!(error_code(&one), 0x2300);
         assert_eq!(error_code(&two), 0);
-        let again = SimCanBus::start_on(&BUSES, 1);
+        let again = SimCanBus::start_on(&BUSES, 1).await.expect("node");
         assert_eq!(BUSES.nodes(), [vec![1, 2], vec![1]]);
         // A scan looks at the first bus; a node not there is put there while it runs.
-        let (_, guest) = SimCanBus::scanner_on(&BUSES, 2);
+        let (_, guest) = SimCanBus::scanner_on(&BUSES, 2).await.expect("scanner");
         assert!(guest.is_none());
-        let (_, guest) = SimCanBus::scanner_on(&BUSES, 9);
+        let (_, guest) = SimCanBus::scanner_on(&BUSES, 9).await.expect("scanner");
         assert_eq!(BUSES.nodes(), [vec![1, 2, 9], vec![1]]);
         drop(guest);
         // A node leaves with its link; a bus with nobody on it goes.
@@ -267,7 +367,7 @@ mod tests {
         drop(again);
         assert_eq!(BUSES.nodes(), [vec![2]]);
         // The free id is taken on the first bus again, as a fresh drive.
-        let fresh = SimCanBus::start_on(&BUSES, 1);
+        let fresh = SimCanBus::start_on(&BUSES, 1).await.expect("node");
         assert_eq!(BUSES.nodes(), [vec![1, 2]]);
         assert_eq!(error_code(&fresh), 0);
         drop((two, fresh));

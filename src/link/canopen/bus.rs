@@ -20,6 +20,16 @@ pub trait CanBus {
     fn take_troubles(&mut self) -> Vec<String> {
         Vec::new()
     }
+    /// Where several links share the bus: a further port on it that hears every frame (a
+    /// scan while nodes are open). `None` where this port hears every frame already.
+    async fn listener(&self) -> Option<Result<super::SharedCanPort, Error>> {
+        None
+    }
+    /// Where the bus keeps the frame log itself (shared by several links): every frame on
+    /// it since the last call, in wire order. `None`: the link keeps its own.
+    fn take_trace(&mut self) -> Option<Vec<crate::link::TraceRecord>> {
+        None
+    }
 }
 
 /// An in-memory CAN bus: every port receives what every other port sends. Cheap to clone

@@ -7,11 +7,12 @@ use std::time::{Duration, Instant};
 
 use tokio::io::AsyncWriteExt;
 use tokio::net::TcpStream;
-use tokio_serial::{SerialPort, SerialPortBuilderExt, SerialStream};
 
-use crate::link::tries::{NO_ANSWER, TRIES, Trouble, gave_up, read_within, send_within, silence};
-use crate::link::{Error, LinkSpec, Parity, TraceRecord, TraceRing};
-use crate::proto::modbus::frame::{self, Direction};
+use super::line::RtuLine;
+
+use crate::link::tries::{TRIES, Trouble, gave_up, read_within, send_within, silence};
+use crate::link::{Error, LinkSpec, TraceRecord, TraceRing};
+use crate::proto::modbus::frame;
 use crate::proto::modbus::pdu::{Exception, Request, Response};
 
 /// Transaction ids remembered, so that a late answer to an earlier request is told from
@@ -20,7 +21,8 @@ const SENT_KEPT: usize = 64;
 
 enum Io {
     Tcp(TcpStream),
-    Rtu(Box<SerialStream>),
+    /// The slave's share of its serial line.
+    Rtu(RtuLine),
     /// Released before reopening, so that a serial port is free to open again and a
     /// drive that allows one TCP connection sees the old one go first.
     Closed,
@@ -36,7 +38,6 @@ pub struct Transport {
     /// The transaction ids sent lately (TCP), oldest first.
     sent: VecDeque<u16>,
     buffer: Vec<u8>,
-    last_answer: Option<Instant>,
     trace: TraceRing,
     /// Troubles got over by sending again, not yet reported.
     recovered: Vec<String>,
@@ -56,18 +57,6 @@ fn hex(bytes: &[u8]) -> String {
     crate::number::hex_cut(bytes, 32)
 }
 
-/// The silence a Modbus RTU master keeps between frames: 3.5 characters (11 bits each)
-/// above 19200 baud a fixed 1.75 ms, and at least the 3 ms Nanotec asks for after a
-/// response when several slaves share the bus (protocol notes §1.7).
-fn rtu_gap(baud: u32) -> Duration {
-    let chars = if baud > 19_200 {
-        Duration::from_micros(1750)
-    } else {
-        Duration::from_secs_f64(3.5 * 11.0 / f64::from(baud.max(1)))
-    };
-    chars.max(Duration::from_millis(3))
-}
-
 impl Transport {
     /// Open the connection `spec` names (Modbus TCP or RTU).
     pub async fn connect(spec: &LinkSpec, timeout: Duration) -> Result<Transport, Error> {
@@ -79,7 +68,6 @@ impl Transport {
             transaction: 0,
             sent: VecDeque::with_capacity(SENT_KEPT),
             buffer: Vec::with_capacity(512),
-            last_answer: None,
             trace: TraceRing::new(),
             recovered: Vec::new(),
         })
@@ -116,6 +104,10 @@ impl Transport {
     }
 
     fn record(&mut self, sent: bool, bytes: &[u8]) {
+        self.record_at(std::time::SystemTime::now(), sent, bytes);
+    }
+
+    fn record_at(&mut self, at: std::time::SystemTime, sent: bool, bytes: &[u8]) {
         let function = match self.io {
             Io::Tcp(_) => bytes.get(7),
             Io::Rtu(_) => bytes.get(1),
@@ -126,7 +118,13 @@ impl Transport {
             Some(f) => format!("FC {f} {}", if sent { "request" } else { "response" }),
             None => "short frame".into(),
         };
-        self.trace.record(sent, hex(bytes), text);
+        self.trace.push(TraceRecord {
+            at,
+            sent,
+            raw: hex(bytes),
+            text,
+            can: None,
+        });
     }
 
     /// Send a request and wait for its answer. A device's exception is data
@@ -276,125 +274,28 @@ impl Transport {
         }
     }
 
-    /// One try over RTU. Noise before the answer is skipped byte by byte until a frame
-    /// with a good CRC starts (resynchronising); a frame from another slave is skipped;
-    /// once something garbled came and the line has been quiet for a few character times,
-    /// the try ends so that the request goes out again.
+    /// One try over RTU, run by the line's owner (the port is shared by every slave on it,
+    /// see [`super::line`]). Its time counts from when it goes on the wire.
     async fn try_rtu(
         &mut self,
         pdu: &[u8],
         what: &str,
         deadline: Instant,
     ) -> Result<Vec<u8>, Trouble> {
-        let LinkSpec::ModbusRtu { slave, baud, .. } = self.spec else {
+        let LinkSpec::ModbusRtu { slave, .. } = self.spec else {
             return Err(not_rtu());
         };
-        // Keep the bus silent long enough between frames.
-        if let Some(last) = self.last_answer {
-            let quiet_until = last + rtu_gap(baud);
-            tokio::time::sleep_until(quiet_until.into()).await;
-        }
+        let Io::Rtu(line) = &self.io else {
+            return Err(not_rtu());
+        };
         let adu = frame::encode_rtu(slave, pdu);
-        self.record(true, &adu);
-        let port = rtu(&mut self.io)?;
-        // Whatever is still in the buffer belongs to nothing we asked.
-        let _ = port.clear(tokio_serial::ClearBuffer::Input);
-        self.buffer.clear();
-        send_within(port, &adu, deadline, what, self.timeout, io_error).await?;
-        let sent_at = Instant::now();
-        let mut skipped = Skipped::default();
-        loop {
-            if let Some(answer) = self.buffered_rtu(slave, &mut skipped) {
-                return Ok(answer);
-            }
-            // After something garbled, a quiet line means nothing good is coming.
-            let garbled = skipped.first_error.is_some() || skipped.other_slave.is_some();
-            let wait_until = if garbled {
-                (Instant::now() + rtu_gap(baud) * 4).min(deadline)
-            } else {
-                deadline
-            };
-            let port = rtu(&mut self.io)?;
-            let closed = "the serial port closed";
-            let read =
-                read_within::<_, 256>(port, &mut self.buffer, wait_until, what, closed, io_error);
-            if !read.await? {
-                return Err(Trouble::Retry(self.rtu_silence(slave, sent_at, skipped)));
-            }
+        let window = deadline.saturating_duration_since(Instant::now());
+        let (answer, frames) = line.transact(slave, adu, window, what, self.timeout).await;
+        for (at, sent, bytes) in frames {
+            self.record_at(at, sent, &bytes);
         }
+        answer
     }
-
-    /// The answer from `slave` among the bytes received: noise before it skipped byte by
-    /// byte, frames from other slaves skipped, both noted in `skipped`; `None` until a
-    /// whole frame from `slave` is there.
-    fn buffered_rtu(&mut self, slave: u8, skipped: &mut Skipped) -> Option<Vec<u8>> {
-        loop {
-            match frame::decode_rtu(&self.buffer, Direction::Response) {
-                Ok(Some((frame, used))) => {
-                    let raw = self.buffer[..used].to_vec();
-                    self.buffer.drain(..used);
-                    if !skipped.noise.is_empty() {
-                        let noise = std::mem::take(&mut skipped.noise);
-                        self.record(false, &noise);
-                    }
-                    self.record(false, &raw);
-                    self.last_answer = Some(Instant::now());
-                    if frame.slave != slave {
-                        skipped.other_slave = Some(frame.slave);
-                        continue;
-                    }
-                    return Some(frame.pdu);
-                }
-                Ok(None) => return None,
-                Err(e) => {
-                    // Not a frame from here: drop one byte and look again.
-                    skipped.first_error.get_or_insert_with(|| e.to_string());
-                    skipped.noise.push(self.buffer.remove(0));
-                }
-            }
-        }
-    }
-
-    /// The line went quiet without an answer from `slave`: what was heard instead, in words.
-    fn rtu_silence(&mut self, slave: u8, sent_at: Instant, skipped: Skipped) -> String {
-        self.last_answer = Some(Instant::now());
-        let Skipped {
-            noise: mut heard,
-            first_error,
-            other_slave,
-        } = skipped;
-        heard.append(&mut self.buffer);
-        if !heard.is_empty() {
-            self.record(false, &heard);
-        }
-        match (first_error, other_slave) {
-            (Some(e), _) => format!(
-                "a garbled answer ({e}; noise on the line, or a wrong baud rate or parity): {}",
-                hex(&heard)
-            ),
-            (None, Some(other)) => format!(
-                "an answer from slave {other} instead of {slave} (another device answers on this address?)"
-            ),
-            (None, None) if heard.is_empty() => format!(
-                "{NO_ANSWER} {} ms (check the slave address, baud rate and parity)",
-                sent_at.elapsed().as_millis()
-            ),
-            (None, None) => format!(
-                "{NO_ANSWER} {} ms but an incomplete one: {} (check baud rate and parity)",
-                sent_at.elapsed().as_millis(),
-                hex(&heard)
-            ),
-        }
-    }
-}
-
-/// What an RTU try heard besides its answer, for the message when none comes: the bytes
-/// skipped as noise and the first reason, and the last other slave that answered.
-#[derive(Default)]
-struct Skipped {
-    noise: Vec<u8>,
-    first_error: Option<String>,
-    other_slave: Option<u8>,
 }
 
 /// What the drive closing the TCP connection means.
@@ -416,15 +317,9 @@ fn tcp(io: &mut Io) -> Result<&mut TcpStream, Trouble> {
     }
 }
 
-/// The serial port of an RTU connection.
-fn rtu(io: &mut Io) -> Result<&mut SerialStream, Trouble> {
-    match io {
-        Io::Rtu(port) => Ok(port.as_mut()),
-        _ => Err(not_rtu()),
-    }
-}
-
-fn io_error(what: &str, e: std::io::Error) -> Error {
+/// A failed read or write: a connection lost where the stream says so, an I/O error
+/// otherwise.
+pub(super) fn io_error(what: &str, e: std::io::Error) -> Error {
     use std::io::ErrorKind::*;
     match e.kind() {
         ConnectionReset | ConnectionAborted | BrokenPipe | UnexpectedEof => {
@@ -466,34 +361,7 @@ async fn open(spec: &LinkSpec, timeout: Duration) -> Result<Io, Error> {
                 }
             }
         }
-        LinkSpec::ModbusRtu {
-            path,
-            baud,
-            parity,
-            stop_bits,
-            ..
-        } => {
-            let builder = tokio_serial::new(path.as_str(), *baud)
-                .data_bits(tokio_serial::DataBits::Eight)
-                .parity(match parity {
-                    Parity::None => tokio_serial::Parity::None,
-                    Parity::Even => tokio_serial::Parity::Even,
-                    Parity::Odd => tokio_serial::Parity::Odd,
-                })
-                .stop_bits(if *stop_bits == 2 {
-                    tokio_serial::StopBits::Two
-                } else {
-                    tokio_serial::StopBits::One
-                })
-                .timeout(timeout);
-            builder
-                .open_native_async()
-                .map(|port| Io::Rtu(Box::new(port)))
-                .map_err(|e| Error::Io {
-                    context: format!("opening serial port {path}"),
-                    source: std::io::Error::other(e.to_string()),
-                })
-        }
+        LinkSpec::ModbusRtu { .. } => Ok(Io::Rtu(RtuLine::join(spec).await?)),
         other => Err(Error::Unsupported(format!(
             "{other} is not a Modbus connection string"
         ))),

@@ -146,7 +146,7 @@ impl<B: CanBus> CanopenLink<B> {
         };
         match link.start().await {
             Ok(()) => Ok(link),
-            Err(error) => Err((error, link.trace.take())),
+            Err(error) => Err((error, link.take_trace())),
         }
     }
 
@@ -531,12 +531,18 @@ impl<B: CanBus> Link for CanopenLink<B> {
             .collect()
     }
 
+    /// The link's own frames, or where the bus is shared by several links, the bus's one
+    /// log (every node's frames, in wire order).
     fn take_trace(&mut self) -> Vec<TraceRecord> {
-        self.trace.take()
+        let own = self.trace.take();
+        self.bus.take_trace().unwrap_or(own)
     }
 
     async fn scan(&mut self) -> Result<Vec<crate::link::FoundDevice>, Error> {
-        super::scan::scan(&mut self.bus).await
+        match self.bus.listener().await {
+            Some(port) => super::scan::scan(&mut port?).await,
+            None => super::scan::scan(&mut self.bus).await,
+        }
     }
 
     async fn close(&mut self) -> Result<(), Error> {
