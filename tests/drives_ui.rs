@@ -1,0 +1,328 @@
+//! Several drives in one window, headless (egui_kittest), each a simulated drive of its
+//! own behind its own worker: the list shows every drive's state, selecting points the
+//! panels at a drive, names stay as given; Esc stops every drive ahead of what is queued
+//! on each; one drive's lost link leaves the others polled; closing asks once for all;
+//! the plots draw every drive's signals on one time axis.
+
+mod window;
+
+use std::time::{Duration, SystemTime};
+
+use drivedeck::cia::PowerState;
+use drivedeck::injection::Injection;
+use drivedeck::od::Address;
+use drivedeck::pdi::Action;
+use drivedeck::ui::App;
+use drivedeck::ui::state::{AppState, Connection};
+use drivedeck::worker::{ObjectPath, Request};
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use window::{app_harness, connected, start_turning, step_until, step_until_shown};
+
+/// The window on the built-in simulated drive ("X axis") and a second one ("Y axis"),
+/// both with their first sample in.
+fn two_drives() -> Harness<'static, App> {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    harness
+        .get_by_label("Drive name")
+        .set_text_value_accesskit("X axis");
+    harness.step();
+    let added = harness
+        .state_mut()
+        .add_drive("Y axis".into(), "sim://")
+        .expect("a second drive");
+    assert_eq!(added, 1);
+    step_until(
+        &mut harness,
+        "both drives sampled",
+        Duration::from_secs(5),
+        |h| (0..2).all(|i| h.state().drive_state(i).is_some_and(|s| s.latest.is_some())),
+    );
+    harness
+}
+
+fn drive<'a>(harness: &'a Harness<'_, App>, index: usize) -> &'a AppState {
+    harness.state().drive_state(index).expect("the drive")
+}
+
+fn power(state: &AppState) -> Option<PowerState> {
+    state
+        .latest
+        .and_then(|s| s.statusword())
+        .and_then(PowerState::from_statusword)
+}
+
+fn speed(state: &AppState) -> f64 {
+    state.latest.and_then(|s| s.velocity()).unwrap_or(f64::NAN)
+}
+
+/// Drive `index` (not the selected one) told to turn at 300 rpm; wait until it does.
+fn turn_other(harness: &mut Harness<'_, App>, index: usize) {
+    harness
+        .state_mut()
+        .drive_state_mut(index)
+        .expect("the drive")
+        .request(Request::Command(Action::Velocity { speed: 300 }));
+    step_until(
+        harness,
+        "the other motor to turn",
+        Duration::from_secs(5),
+        |h| speed(drive(h, index)) > 250.0,
+    );
+}
+
+#[test]
+fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() {
+    let mut harness = two_drives();
+    // X axis turns, Y axis stays as it was: the rows say so.
+    start_turning(&mut harness, 250.0);
+    step_until(
+        &mut harness,
+        "the rows to differ",
+        Duration::from_secs(3),
+        |h| {
+            let rows = h.state().drive_rows(SystemTime::now());
+            rows[0].motion.starts_with("moving +3") && rows[1].motion == "still"
+        },
+    );
+    let rows = harness.state().drive_rows(SystemTime::now());
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0].name, "X axis");
+    assert_eq!(rows[0].state, "Operation enabled");
+    assert_eq!(rows[1].name, "Y axis");
+    assert_ne!(rows[1].state, "Operation enabled", "{rows:?}");
+    assert!(
+        rows.iter().all(|r| r.link == "sim" && r.fault.is_none()),
+        "{rows:?}"
+    );
+    assert!(rows.iter().all(|r| r.position.is_some()), "{rows:?}");
+    // On screen: each row's state, named by its drive, and its details.
+    for row in &rows {
+        harness.get_by_label(&format!("{}: {}", row.name, row.state));
+    }
+    harness.get_by_label_contains("moving +3");
+    harness.get_by_label("QUICKSTOP ALL (Esc)");
+
+    // Selecting Y axis points the status panel (and every other) at it.
+    harness.get_by_label("Y axis").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().selected(), 1);
+    let shown = &harness.state().state;
+    assert!(
+        speed(shown) < 1.0,
+        "the panels show Y axis: {}",
+        speed(shown)
+    );
+    harness.get_by_label("DISABLED");
+    assert!(speed(drive(&harness, 0)) > 250.0, "X axis turns on");
+    // The window's own choices stay as they were; the selected row's name is the one
+    // to edit now.
+    assert_eq!(
+        harness.get_by_label("Drive name").value().as_deref(),
+        Some("Y axis")
+    );
+
+    // Renaming is kept across selecting another drive and back.
+    harness
+        .get_by_label("Drive name")
+        .set_text_value_accesskit("Y table");
+    harness.step();
+    harness.get_by_label("X axis").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().selected(), 0);
+    let names: Vec<String> = harness
+        .state()
+        .drives()
+        .map(|(n, _)| n.to_owned())
+        .collect();
+    assert_eq!(names, ["X axis", "Y table"]);
+    harness.get_by_label("Y table");
+    assert!(
+        speed(&harness.state().state) > 250.0,
+        "the panels show X axis again"
+    );
+    // A name given twice is refused, and the list says why.
+    assert!(harness.state_mut().rename(1, "X axis".into()).is_err());
+}
+
+#[test]
+fn esc_stops_every_drive_ahead_of_what_is_queued_on_each() {
+    let mut harness = two_drives();
+    start_turning(&mut harness, 250.0);
+    turn_other(&mut harness, 1);
+    // Something ordinary waits on each drive when Esc comes in the same frame.
+    let read = Request::ReadObject {
+        address: Address::new(0x1008, 0),
+        dtype: None,
+        path: ObjectPath::Auto,
+    };
+    for i in 0..2 {
+        let state = harness.state_mut().drive_state_mut(i).expect("drive");
+        state.request(read.clone());
+    }
+    harness.key_press(egui::Key::Escape);
+    harness.step();
+    for i in 0..2 {
+        let log = &drive(&harness, i).log;
+        let stop = log.iter().position(|e| e.what.contains("Quickstop"));
+        let ordinary = log.iter().position(|e| e.what.contains("1008"));
+        assert!(
+            matches!((stop, ordinary), (Some(s), Some(o)) if s < o),
+            "drive {i}: the quick stop goes first: {log:#?}"
+        );
+    }
+    step_until(
+        &mut harness,
+        "both drives to stop",
+        Duration::from_secs(5),
+        |h| {
+            (0..2).all(|i| {
+                let state = drive(h, i);
+                // The default quick stop option (605Ah = 2) ends in Switch on disabled.
+                power(state).is_some_and(|p| p != PowerState::OperationEnabled)
+                    && speed(state).abs() < 1.0
+            })
+        },
+    );
+    for i in 0..2 {
+        let why = drive(&harness, i).why.clone().unwrap_or_default();
+        assert!(why.starts_with("Quickstop sent from this window"), "{why}");
+    }
+}
+
+#[test]
+fn the_stop_all_button_stops_every_drive_with_switch_off() {
+    let mut harness = two_drives();
+    start_turning(&mut harness, 250.0);
+    turn_other(&mut harness, 1);
+    harness.get_by_label("Switch off all (Shift+Esc)").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "both power stages off",
+        Duration::from_secs(5),
+        |h| (0..2).all(|i| power(drive(h, i)).is_some_and(|p| !p.is_energised())),
+    );
+}
+
+#[test]
+fn a_drive_lost_mid_run_leaves_the_others_polled_and_is_reported() {
+    let mut harness = two_drives();
+    start_turning(&mut harness, 250.0);
+    harness
+        .state_mut()
+        .drive_state_mut(1)
+        .expect("drive")
+        .request(Request::Inject {
+            injection: Injection::LinkLoss,
+            active: true,
+        });
+    step_until(&mut harness, "Y axis lost", Duration::from_secs(8), |h| {
+        drive(h, 1).link_lost.is_some()
+    });
+    let lost_at = drive(&harness, 0).latest.map(|s| s.t).expect("a sample");
+    // While Y axis is without its link, X axis is polled on: newer samples keep coming.
+    step_until(
+        &mut harness,
+        "X axis polled on",
+        Duration::from_secs(3),
+        |h| {
+            drive(h, 0).latest.is_some_and(|s| s.t > lost_at + 0.3)
+                && drive(h, 1).link_lost.is_some()
+        },
+    );
+    let rows = harness.state().drive_rows(SystemTime::now());
+    assert_eq!(rows[0].state, "Operation enabled", "{rows:?}");
+    assert!(rows[0].motion.starts_with("moving +3"), "{rows:?}");
+    assert!(drive(&harness, 0).is_connected());
+    assert!(
+        rows[1].state.starts_with("NO LINK") || rows[1].link.contains("link lost"),
+        "the row reports the loss: {rows:?}"
+    );
+    let timeline: Vec<String> = drive(&harness, 1)
+        .timeline
+        .entries()
+        .map(|e| e.text.clone())
+        .collect();
+    assert!(
+        timeline.iter().any(|t| t.starts_with("link lost")),
+        "{timeline:?}"
+    );
+    assert!(
+        !drive(&harness, 0)
+            .timeline
+            .entries()
+            .any(|e| e.text.starts_with("link lost")),
+        "X axis lost nothing"
+    );
+}
+
+#[test]
+fn closing_asks_once_for_every_energised_drive_and_halts_each() {
+    let mut harness = two_drives();
+    start_turning(&mut harness, 250.0);
+    turn_other(&mut harness, 1);
+    harness
+        .input_mut()
+        .viewports
+        .entry(egui::ViewportId::ROOT)
+        .or_default()
+        .events
+        .push(egui::ViewportEvent::Close);
+    step_until_shown(&mut harness, "Halt each, then disconnect");
+    // One question, naming both drives and what their motors do.
+    harness.get_by_label_contains("X axis: The power stage is on: the motor is moving");
+    harness.get_by_label_contains("Y axis: The power stage is on: the motor is moving");
+    assert!((0..2).all(|i| drive(&harness, i).leaving.is_some()));
+    harness.get_by_label("Halt each, then disconnect").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "both drives left",
+        Duration::from_secs(8),
+        |h| (0..2).all(|i| matches!(drive(h, i).connection, Connection::Disconnected)),
+    );
+    for i in 0..2 {
+        let log = &drive(&harness, i).log;
+        assert!(
+            log.iter().any(|e| e.what == "Halt before disconnecting"),
+            "drive {i}: {log:#?}"
+        );
+    }
+}
+
+#[test]
+fn the_plots_draw_every_drive_on_one_time_axis() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    window::step_for(&mut harness, Duration::from_millis(300));
+    let before = harness
+        .state()
+        .state
+        .latest
+        .map(|s| s.t)
+        .expect("X sampled");
+    harness
+        .state_mut()
+        .add_drive("Y axis".into(), "sim://")
+        .expect("a second drive");
+    step_until(
+        &mut harness,
+        "Y axis sampled",
+        Duration::from_secs(5),
+        |h| drive(h, 1).connected_at.is_some(),
+    );
+    // Both workers count from the window's start: the drive added later starts later on
+    // the same axis (on a clock of its own it would start at 0).
+    let first = drive(&harness, 1).connected_at.expect("Y's first sample");
+    assert!(
+        first > before,
+        "one time base: Y starts at {first} s, X was at {before} s"
+    );
+    harness.step();
+    // Each plot's legend names the drive of each line.
+    harness.get_by_label_contains("Drive 1: Position");
+    harness.get_by_label_contains("Y axis: Position");
+}
