@@ -187,15 +187,21 @@ impl DriveRow {
         };
         let words = match (power, &sample) {
             (Some(power), _) => power.name().to_owned(),
-            (None, Some(_)) => headline.clone(),
+            (None, Some(_)) => headline.to_lowercase(),
             (None, None) => "unknown".to_owned(),
         };
+        // Lower case, unlike the state tile's headline: the list never repeats the
+        // tile's words.
         let (state_text, tone) = if live {
             (words, tone)
         } else {
-            let headline = state.glance(now).headline;
-            let word = headline.split(" (").next().unwrap_or(&headline).to_owned();
-            (word, Tone::Alarm)
+            let word = match &state.connection {
+                Connection::Connected(_) if !state.sampled_since_connect => "waiting for data",
+                Connection::Connected(_) => "no data",
+                Connection::Connecting(_) if sample.is_none() => "connecting",
+                _ => "no link",
+            };
+            (word.to_owned(), Tone::Alarm)
         };
         let unit = state.settings.plot.position_unit;
         let decimals = match unit {
@@ -216,7 +222,7 @@ impl DriveRow {
             link,
             state: state_text,
             tone,
-            fault: (fault && live).then_some(headline),
+            fault: (fault && live).then(|| fault_words(sample)),
             position,
             motion,
             connected: state.is_connected(),
@@ -229,6 +235,16 @@ impl DriveRow {
         parts.extend(self.position.clone());
         parts.push(self.motion.clone());
         parts.join(" · ")
+    }
+}
+
+/// The fault in a few words: "fault 2300h output current too large".
+fn fault_words(sample: Option<crate::worker::Sample>) -> String {
+    let code = crate::cia::ErrorCode(sample.map_or(0, |s| s.tx.error_code));
+    if code.0 == 0 {
+        "fault".to_owned()
+    } else {
+        format!("fault {:04X}h {}", code.0, code.meaning())
     }
 }
 
@@ -405,6 +421,7 @@ impl App {
             return;
         };
         carry_window_settings(&self.state.settings, &mut next.settings);
+        self.name_draft = None;
         let previous = std::mem::replace(&mut self.state, next);
         self.drives[self.selected].parked = Some(previous);
         self.selected = index;
@@ -554,10 +571,18 @@ fn row_ui(
 ) {
     ui.horizontal(|ui| {
         if chosen {
-            let mut name = row.name.clone();
+            // Typed into a draft: a name half typed may be empty or taken for a moment.
+            let mut name = app.name_draft.clone().unwrap_or_else(|| row.name.clone());
             let edit = named_text_edit(ui, &mut name, 110.0, "Drive name");
             if edit.changed() {
-                app.drive_message = app.rename(index, name).err().map(|e| e.to_string());
+                app.drive_message = app
+                    .rename(index, name.clone())
+                    .err()
+                    .map(|e| format!("{e}; the name stays '{}'", row.name));
+                app.name_draft = Some(name);
+            }
+            if !edit.has_focus() && app.name_draft.is_some() {
+                app.name_draft = None;
             }
             edit.on_hover_text("The drive's name, in the list and the plots' legend");
         } else {
@@ -571,14 +596,10 @@ fn row_ui(
                 *intent = Some(Intent::Select(index));
             }
         }
-        let state = ui.label(RichText::new(&row.state).strong().color(row.tone.color()));
-        name_widget(
-            &state,
-            egui::accesskit::Role::Label,
-            &format!("{}: {}", row.name, row.state),
-        );
-        if several {
-            ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+        // Right to left: the remove button at the edge, the state in what is left (cut
+        // short rather than widening the panel).
+        ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+            if several {
                 let remove = ui
                     .add_enabled(!row.connected, egui::Button::new("×").small())
                     .on_hover_text(format!("Take {} out of the list", row.name))
@@ -593,8 +614,19 @@ fn row_ui(
                 if remove.clicked() {
                     *intent = Some(Intent::Remove(index));
                 }
+            }
+            ui.with_layout(egui::Layout::left_to_right(egui::Align::Center), |ui| {
+                let state = ui.add(
+                    egui::Label::new(RichText::new(&row.state).strong().color(row.tone.color()))
+                        .truncate(),
+                );
+                name_widget(
+                    &state,
+                    egui::accesskit::Role::Label,
+                    &format!("{}: {}", row.name, row.state),
+                );
             });
-        }
+        });
     });
     ui.horizontal(|ui| {
         ui.add_space(4.0);

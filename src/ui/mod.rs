@@ -48,6 +48,8 @@ pub struct App {
     /// The "+ Add drive" menu's connection string, and what went wrong with the list.
     add_link: String,
     drive_message: Option<String>,
+    /// The selected drive's name as being typed.
+    name_draft: Option<String>,
     /// The window is to close once every drive has been left.
     closing: bool,
     /// Leaving is done: let the window close.
@@ -76,6 +78,7 @@ impl App {
             started,
             add_link: String::new(),
             drive_message: None,
+            name_draft: None,
             closing: false,
             may_close: false,
             fonts_set: false,
