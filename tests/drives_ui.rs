@@ -2,7 +2,8 @@
 //! own behind its own worker: the list shows every drive's state, selecting points the
 //! panels at a drive, names stay as given; Esc stops every drive ahead of what is queued
 //! on each; one drive's lost link leaves the others polled; closing asks once for all;
-//! the plots draw every drive's signals on one time axis.
+//! the plots draw every drive's signals on one time axis, and a trigger on another drive
+//! stops them on its capture.
 
 mod window;
 
@@ -18,7 +19,7 @@ use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use window::{app_harness, connected, start_turning, step_until, step_until_shown};
+use window::{app_harness, connected, step_until, step_until_shown};
 
 /// The window on the built-in simulated drive ("X axis") and a second one ("Y axis"),
 /// both with their first sample in.
@@ -58,33 +59,31 @@ fn speed(state: &AppState) -> f64 {
     state.latest.and_then(|s| s.velocity()).unwrap_or(f64::NAN)
 }
 
-/// Drive `index` (not the selected one) told to turn at 300 rpm; wait until it does.
-fn turn_other(harness: &mut Harness<'_, App>, index: usize) {
+/// Drive `index` told to turn at 30 rpm (slow: the simulated drive's limit switch at
+/// 3600.0° is 20 s away); wait until it does.
+fn turn(harness: &mut Harness<'_, App>, index: usize) {
     harness
         .state_mut()
         .drive_state_mut(index)
         .expect("the drive")
-        .request(Request::Command(Action::Velocity { speed: 300 }));
-    step_until(
-        harness,
-        "the other motor to turn",
-        Duration::from_secs(5),
-        |h| speed(drive(h, index)) > 250.0,
-    );
+        .request(Request::Command(Action::Velocity { speed: 30 }));
+    step_until(harness, "the motor to turn", Duration::from_secs(5), |h| {
+        speed(drive(h, index)) > 25.0
+    });
 }
 
 #[test]
 fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() {
     let mut harness = two_drives();
     // X axis turns, Y axis stays as it was: the rows say so.
-    start_turning(&mut harness, 250.0);
+    turn(&mut harness, 0);
     step_until(
         &mut harness,
         "the rows to differ",
         Duration::from_secs(3),
         |h| {
             let rows = h.state().drive_rows(SystemTime::now());
-            rows[0].motion.starts_with("moving +3") && rows[1].motion == "still"
+            rows[0].motion.starts_with("moving +30 rpm") && rows[1].motion == "still"
         },
     );
     let rows = harness.state().drive_rows(SystemTime::now());
@@ -102,7 +101,7 @@ fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() 
     for row in &rows {
         harness.get_by_label(&format!("{}: {}", row.name, row.state));
     }
-    harness.get_by_label_contains("moving +3");
+    harness.get_by_label_contains("moving +30 rpm");
     harness.get_by_label("QUICKSTOP ALL (Esc)");
 
     // Selecting Y axis points the status panel (and every other) at it.
@@ -116,7 +115,7 @@ fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() 
         speed(shown)
     );
     harness.get_by_label("DISABLED");
-    assert!(speed(drive(&harness, 0)) > 250.0, "X axis turns on");
+    assert!(speed(drive(&harness, 0)) > 25.0, "X axis turns on");
     // The window's own choices stay as they were; the selected row's name is the one
     // to edit now.
     assert_eq!(
@@ -140,7 +139,7 @@ fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() 
     assert_eq!(names, ["X axis", "Y table"]);
     harness.get_by_label("Y table");
     assert!(
-        speed(&harness.state().state) > 250.0,
+        speed(&harness.state().state) > 25.0,
         "the panels show X axis again"
     );
     // A name given twice is refused, and the list says why.
@@ -150,8 +149,8 @@ fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() 
 #[test]
 fn esc_stops_every_drive_ahead_of_what_is_queued_on_each() {
     let mut harness = two_drives();
-    start_turning(&mut harness, 250.0);
-    turn_other(&mut harness, 1);
+    turn(&mut harness, 0);
+    turn(&mut harness, 1);
     // Something ordinary waits on each drive when Esc comes in the same frame.
     let read = Request::ReadObject {
         address: Address::new(0x1008, 0),
@@ -195,8 +194,8 @@ fn esc_stops_every_drive_ahead_of_what_is_queued_on_each() {
 #[test]
 fn the_stop_all_button_stops_every_drive_with_switch_off() {
     let mut harness = two_drives();
-    start_turning(&mut harness, 250.0);
-    turn_other(&mut harness, 1);
+    turn(&mut harness, 0);
+    turn(&mut harness, 1);
     harness.get_by_label("Switch off all (Shift+Esc)").click();
     harness.step();
     step_until(
@@ -210,7 +209,7 @@ fn the_stop_all_button_stops_every_drive_with_switch_off() {
 #[test]
 fn a_drive_lost_mid_run_leaves_the_others_polled_and_is_reported() {
     let mut harness = two_drives();
-    start_turning(&mut harness, 250.0);
+    turn(&mut harness, 0);
     harness
         .state_mut()
         .drive_state_mut(1)
@@ -235,7 +234,7 @@ fn a_drive_lost_mid_run_leaves_the_others_polled_and_is_reported() {
     );
     let rows = harness.state().drive_rows(SystemTime::now());
     assert_eq!(rows[0].state, "Operation enabled", "{rows:?}");
-    assert!(rows[0].motion.starts_with("moving +3"), "{rows:?}");
+    assert!(rows[0].motion.starts_with("moving +30 rpm"), "{rows:?}");
     assert!(drive(&harness, 0).is_connected());
     assert!(
         rows[1].state == "no link" || rows[1].link.contains("link lost"),
@@ -262,8 +261,8 @@ fn a_drive_lost_mid_run_leaves_the_others_polled_and_is_reported() {
 #[test]
 fn closing_asks_once_for_every_energised_drive_and_halts_each() {
     let mut harness = two_drives();
-    start_turning(&mut harness, 250.0);
-    turn_other(&mut harness, 1);
+    turn(&mut harness, 0);
+    turn(&mut harness, 1);
     harness
         .input_mut()
         .viewports
@@ -276,7 +275,7 @@ fn closing_asks_once_for_every_energised_drive_and_halts_each() {
     // ("was on … was moving" when the machine is so busy that the last sample is old.)
     for name in ["X axis", "Y axis"] {
         let sentence = window::text_containing(&harness, &format!("{name}: The power stage "));
-        assert!(sentence.contains(" moving at 3"), "{sentence}");
+        assert!(sentence.contains(" moving at 30 rpm"), "{sentence}");
     }
     assert!((0..2).all(|i| drive(&harness, i).leaving.is_some()));
     harness.get_by_label("Halt each, then disconnect").click();
@@ -367,4 +366,60 @@ fn the_list_takes_no_room_from_the_plots_at_1366x768() {
             && (alone.height() - both.height()).abs() <= 1.0,
         "the list costs the plots room: {alone:?} alone, {both:?} with two drives"
     );
+}
+
+#[test]
+fn a_trigger_on_another_drive_stops_the_plots_on_its_capture() {
+    let mut harness = two_drives();
+    // Armed on Y axis: position rising through 1000 (0.1°).
+    harness.get_by_label("Y axis").click();
+    harness.run_steps(2);
+    {
+        let form = &mut harness.state_mut().state.settings.plot.trigger;
+        form.threshold = true;
+        form.signal = "position".into();
+        form.level = "1000".into();
+        form.edge = drivedeck::telemetry::Edge::Rising;
+        form.pre_s = "0.3".into();
+        form.post_s = "0.3".into();
+    }
+    harness.step();
+    harness.get_by_label("Arm").click();
+    harness.step();
+    assert_eq!(
+        drive(&harness, 1).scope.capture_state(),
+        drivedeck::telemetry::CaptureState::Armed
+    );
+    // X axis on screen; Y axis moves through the level.
+    harness.get_by_label("X axis").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().selected(), 0);
+    assert!(harness.state().state.plot.paused_at.is_none());
+    harness
+        .state_mut()
+        .drive_state_mut(1)
+        .expect("Y axis")
+        .request(Request::Command(Action::MoveAbsolute {
+            target: 2000,
+            speed: 200,
+        }));
+    step_until(
+        &mut harness,
+        "Y axis's capture",
+        Duration::from_secs(10),
+        |h| drive(h, 1).scope.recording().is_some() && h.state().state.plot.paused_at.is_some(),
+    );
+    let at = drive(&harness, 1)
+        .scope
+        .recording()
+        .and_then(|r| r.meta.trigger_time_s)
+        .expect("the trigger time");
+    let plot = &harness.state().state.plot;
+    assert_eq!(
+        plot.highlight,
+        Some(at),
+        "the trigger marked on X axis's plots"
+    );
+    let message = format!("{:?}", plot.message);
+    assert!(message.contains("Y axis's trigger fired at"), "{message}");
 }

@@ -248,6 +248,28 @@ fn fault_words(sample: Option<crate::worker::Sample>) -> String {
     }
 }
 
+/// The triggered capture a drive's plots show frozen: its trigger time and its span.
+fn captured(state: &AppState) -> Option<(f64, (f64, f64))> {
+    let review = state.plot.review.as_ref().filter(|r| r.capture)?;
+    Some((review.base.trigger.unwrap_or(f64::NAN), review.span()?))
+}
+
+/// Another drive's trigger fired (`name`, at `at`): the selected drive's plots pause at
+/// the end of that capture, the trigger marked, the other drives' signals drawn beside its
+/// own; "Resume plot" follows again. A capture or recording of its own on screen is left
+/// alone.
+fn frozen_by(state: &mut AppState, name: &str, at: f64, (from, to): (f64, f64)) {
+    if state.plot.review.is_some() {
+        return;
+    }
+    state.plot.paused_at = Some(to);
+    state.plot.follow = true;
+    state.plot.highlight = Some(at);
+    state.plot.message = Some(Ok(format!(
+        "{name}'s trigger fired at {at:.3} s: the plots pause at the end of its capture ({from:.3} to {to:.3} s) with every drive's signals; Resume plot follows again"
+    )));
+}
+
 /// Copy what belongs to the window, not to a drive, from one drive's settings to
 /// another's: what the middle shows, the plots' and the dictionary's choices, the panels'
 /// layout, where exports go. The rest (link, inputs, poll rate, link-loss policy, pinned
@@ -484,11 +506,24 @@ impl App {
         }
     }
 
-    /// Apply every drive's waiting events.
+    /// Apply every drive's waiting events. A trigger that fired on another drive than the
+    /// selected one freezes the selected drive's plots on its capture's span too, so the
+    /// capture shows every drive's signals (see `frozen_by`).
     pub(super) fn pump_drives(&mut self, clock: f64) {
-        for drive in self.each_drive() {
+        let selected = self.selected;
+        let mut fired = None;
+        for (i, drive) in self.each_drive().into_iter().enumerate() {
             drive.state.clock = clock;
+            let was = captured(drive.state);
             drive.channel.pump(drive.state);
+            if i != selected && was.is_none() {
+                if let Some((at, span)) = captured(drive.state) {
+                    fired = Some((drive.name.clone(), at, span));
+                }
+            }
+        }
+        if let Some((name, at, span)) = fired {
+            frozen_by(&mut self.state, &name, at, span);
         }
     }
 
