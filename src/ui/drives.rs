@@ -516,10 +516,11 @@ impl App {
             drive.state.clock = clock;
             let was = captured(drive.state);
             drive.channel.pump(drive.state);
-            if i != selected && was.is_none() {
-                if let Some((at, span)) = captured(drive.state) {
-                    fired = Some((drive.name.clone(), at, span));
-                }
+            if i != selected
+                && was.is_none()
+                && let Some((at, span)) = captured(drive.state)
+            {
+                fired = Some((drive.name.clone(), at, span));
             }
         }
         if let Some((name, at, span)) = fired {
@@ -676,6 +677,9 @@ fn row_ui(
     }
 }
 
+/// What "Another on the bar's bus" does.
+const BAR_LINK_HELP: &str = "The link the connection bar describes now, as a drive of its own (a bus scan's or a discovery's results have \"Add as drive\" too)";
+
 /// "+ Add drive": a simulated one, one by connection string, or the connection bar's.
 fn add_menu_ui(ui: &mut Ui, app: &mut App, intent: &mut Option<Intent>) {
     ui.menu_button("+ Add drive", |ui| {
@@ -688,20 +692,24 @@ fn add_menu_ui(ui: &mut Ui, app: &mut App, intent: &mut Option<Intent>) {
             *intent = Some(Intent::Add(LinkSpec::Sim.to_string()));
             ui.close();
         }
-        if let Ok(spec) = app.state.settings.connection.spec() {
-            if ui
+        if let Ok(spec) = app.state.settings.connection.spec()
+            && ui
                 .button(format!("Another on the bar's bus: {spec}"))
-                .on_hover_text("The link the connection bar describes now, as a drive of its own (a bus scan's or a discovery's results have \"Add as drive\" too)")
+                .on_hover_text(BAR_LINK_HELP)
                 .clicked()
-            {
-                *intent = Some(Intent::Add(spec.to_string()));
-                ui.close();
-            }
+        {
+            *intent = Some(Intent::Add(spec.to_string()));
+            ui.close();
         }
         ui.separator();
         ui.label("Connection string:");
         ui.horizontal(|ui| {
-            let edit = named_text_edit(ui, &mut app.add_link, 190.0, "New drive's connection string");
+            let edit = named_text_edit(
+                ui,
+                &mut app.add_link,
+                190.0,
+                "New drive's connection string",
+            );
             let enter = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
             if (ui.button("Add").clicked() || enter) && !app.add_link.trim().is_empty() {
                 *intent = Some(Intent::Add(app.add_link.trim().to_owned()));

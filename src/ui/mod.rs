@@ -372,7 +372,7 @@ pub fn run_window(connect_to: Option<crate::link::LinkSpec>) -> Result<(), efram
                 // The demo: two simulated drives, so the list shows what it is for.
                 let named = app.rename(0, "X axis".into());
                 let added = app.add_drive("Y axis".into(), "sim://");
-                if let Err(e) = named.map(|()| ()).and(added.map(|_| ())) {
+                if let Err(e) = named.and(added.map(|_| ())) {
                     app.state.info(format!("the demo's second drive: {e}"));
                 }
             }

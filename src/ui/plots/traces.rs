@@ -47,6 +47,9 @@ const GREY: Color32 = Color32::from_gray(150);
 const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
 /// The colours for traces that are no built-in signal, in order.
 const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY, SAND, GREEN, BLUE];
+/// Another drive's line in a plot: its legend name, its points, its gaps.
+type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band]);
+
 /// The other drives' lines in a plot, in the list's order (the selected drive's line
 /// keeps the signal's colour).
 const DRIVE_COLORS: [Color32; 4] = [ORANGE, PINK, SKY, LIME];
@@ -404,7 +407,7 @@ fn analog_plot_ui(
                 })
                 .unwrap_or_default();
             // The same signal of the other drives, on the same time axis.
-            let drives: Vec<(String, Vec<[f64; 2]>, &[Band])> = view
+            let drives: Vec<DriveLine<'_>> = view
                 .beside
                 .iter()
                 .filter_map(|(b, bands)| {
