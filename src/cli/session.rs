@@ -93,6 +93,7 @@ impl Session {
             on_link_loss: policy.on_exit,
             lost_after: policy.lost_after,
             simulated_time: false,
+            epoch: None,
         };
         let worker = Worker::spawn(config, Arc::new(|| {}))
             .map_err(|e| usage(format!("cannot start the worker thread: {e}")))?;

@@ -290,46 +290,79 @@ fn health_ui(ui: &mut Ui, health: &Health) {
 /// Quickstop and Switch Off, always visible; Esc and Shift+Esc reach them from anywhere.
 pub fn stop_strip_ui(ui: &mut Ui, state: &mut AppState) {
     let offline = state.offline_reason().unwrap_or_default();
-    let connected = state.is_connected();
+    if let Some(action) = stop_buttons_ui(ui, state.is_connected(), &offline, &[]) {
+        state.request(Request::Command(action));
+    }
+}
+
+/// The two stop buttons, for the drives named (with more than one they stop them all, and
+/// say so); which was pressed. `offline` says why they are disabled.
+pub fn stop_buttons_ui(
+    ui: &mut Ui,
+    enabled: bool,
+    offline: &str,
+    drives: &[&str],
+) -> Option<Action> {
+    let all = drives.len() > 1;
+    let every = if all {
+        format!(", on every connected drive ({})", drives.join(", "))
+    } else {
+        String::new()
+    };
+    let mut pressed = None;
     ui.horizontal(|ui| {
         let quickstop = egui::Button::new(
-            RichText::new("QUICKSTOP (Esc)")
-                .size(17.0)
-                .strong()
-                .color(Color32::WHITE),
+            RichText::new(if all {
+                "QUICKSTOP ALL (Esc)"
+            } else {
+                "QUICKSTOP (Esc)"
+            })
+            .size(17.0)
+            .strong()
+            .color(Color32::WHITE),
         )
         .fill(RED)
         .min_size(egui::vec2(170.0, 34.0));
         if ui
-            .add_enabled(connected, quickstop)
-            .on_hover_text("PDI-Cmd 3: brake with the quick stop reaction of 605Ah")
-            .on_disabled_hover_text(&offline)
+            .add_enabled(enabled, quickstop)
+            .on_hover_text(format!(
+                "PDI-Cmd 3: brake with the quick stop reaction of 605Ah{every}"
+            ))
+            .on_disabled_hover_text(offline)
             .clicked()
         {
-            state.request(Request::Command(Action::Quickstop));
+            pressed = Some(Action::Quickstop);
         }
         let switch_off = egui::Button::new(
-            RichText::new("Switch off (Shift+Esc)")
-                .size(15.0)
-                .color(Color32::BLACK),
+            RichText::new(if all {
+                "Switch off all (Shift+Esc)"
+            } else {
+                "Switch off (Shift+Esc)"
+            })
+            .size(15.0)
+            .color(Color32::BLACK),
         )
         .fill(AMBER)
         .min_size(egui::vec2(150.0, 34.0));
         if ui
-            .add_enabled(connected, switch_off)
-            .on_hover_text("PDI-Cmd 1: power stage off, motor de-energised (it coasts)")
-            .on_disabled_hover_text(&offline)
+            .add_enabled(enabled, switch_off)
+            .on_hover_text(format!(
+                "PDI-Cmd 1: power stage off, motor de-energised (it coasts){every}"
+            ))
+            .on_disabled_hover_text(offline)
             .clicked()
         {
-            state.request(Request::Command(Action::SwitchOff));
+            pressed = Some(Action::SwitchOff);
         }
     });
+    pressed
 }
 
-/// Esc = Quickstop, Shift+Esc = Switch Off, whatever has focus.
-pub fn stop_keys(ctx: &egui::Context, state: &mut AppState) {
-    if !state.is_connected() {
-        return;
+/// Esc = Quickstop, Shift+Esc = Switch Off, whatever has focus, while a drive is
+/// connected (`connected`): the stop pressed.
+pub fn stop_keys(ctx: &egui::Context, connected: bool) -> Option<Action> {
+    if !connected {
+        return None;
     }
     let (quickstop, switch_off) = ctx.input_mut(|i| {
         let switch_off = i.consume_key(egui::Modifiers::SHIFT, egui::Key::Escape);
@@ -337,8 +370,10 @@ pub fn stop_keys(ctx: &egui::Context, state: &mut AppState) {
         (quickstop, switch_off)
     });
     if switch_off {
-        state.request(Request::Command(Action::SwitchOff));
+        Some(Action::SwitchOff)
     } else if quickstop {
-        state.request(Request::Command(Action::Quickstop));
+        Some(Action::Quickstop)
+    } else {
+        None
     }
 }

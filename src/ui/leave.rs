@@ -112,11 +112,18 @@ impl AppState {
         }
     }
 
+    /// Whether leaving this drive needs the question: connected, and energised or with
+    /// objects changed that could be restored.
+    pub fn needs_leave_question(&self) -> bool {
+        let restorable = self.changes.iter().any(|c| c.before.is_some());
+        self.is_connected() && (self.power_stage_on() || restorable)
+    }
+
     /// The user wants to disconnect (or close the window): ask first when the drive is
     /// energised or objects were changed; otherwise go.
     pub fn ask_to_leave(&mut self, close_window: bool) {
         let restorable = self.changes.iter().any(|c| c.before.is_some());
-        if self.is_connected() && (self.power_stage_on() || restorable) {
+        if self.needs_leave_question() {
             self.leaving = Some(Leaving {
                 close_window,
                 stop: StopChoice::Halt,
@@ -131,6 +138,11 @@ impl AppState {
                 stage: Stage::Disconnecting,
             });
         }
+    }
+
+    /// Whether the question waits for this drive's answer.
+    pub fn is_asked_to_leave(&self) -> bool {
+        self.leaving.is_some_and(|l| l.stage == Stage::Asking)
     }
 
     /// The user chose: stop the motor now, then restore, then disconnect.
@@ -260,58 +272,116 @@ enum Answer {
     Cancel,
 }
 
-/// The question, while it is asked.
-pub fn leave_dialog(ctx: &egui::Context, state: &mut AppState) {
-    let Some(leaving) = state.leaving else {
-        return;
-    };
-    if leaving.stage != Stage::Asking {
-        return;
-    }
+/// How the question ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Answered {
+    /// A stop was chosen: every drive asked is on its way out.
+    Going,
+    Cancelled,
+}
+
+/// A drive the question may be about: its name and its state.
+pub struct Named<'a> {
+    pub name: &'a str,
+    pub state: &'a mut AppState,
+}
+
+/// The question, while it is asked, once for every drive that waits for it (closing the
+/// window with several drives energised asks once for all of them).
+pub fn leave_dialog(ctx: &egui::Context, drives: &mut [Named<'_>]) -> Option<Answered> {
+    let several = drives.len() > 1;
+    let asked: Vec<usize> = (0..drives.len())
+        .filter(|&i| drives[i].state.is_asked_to_leave())
+        .collect();
+    let first = drives.get(*asked.first()?)?;
+    let leaving = first.state.leaving?;
     let mut restore = leaving.restore;
-    let answer = egui::Modal::new(egui::Id::unique("leave_dialog"))
-        .show(ctx, |ui: &mut Ui| {
-            leave_question_ui(ui, state, leaving.close_window, &mut restore)
-        })
-        .inner;
-    if let Some(l) = state.leaving.as_mut() {
-        l.restore = restore;
+    let answer = {
+        let shown: Vec<(&str, &AppState)> = asked
+            .iter()
+            .map(|&i| (drives[i].name, &*drives[i].state))
+            .collect();
+        egui::Modal::new(egui::Id::unique("leave_dialog"))
+            .show(ctx, |ui: &mut Ui| {
+                leave_question_ui(ui, &shown, several, leaving.close_window, &mut restore)
+            })
+            .inner
+    };
+    for &i in &asked {
+        let state = &mut *drives[i].state;
+        if let Some(l) = state.leaving.as_mut() {
+            l.restore = restore;
+        }
+        match answer {
+            Some(Answer::Cancel) => state.leaving = None,
+            Some(Answer::Stop(stop)) => state.confirm_leave(stop, restore),
+            None => {}
+        }
     }
     match answer {
-        Some(Answer::Cancel) => state.leaving = None,
-        Some(Answer::Stop(stop)) => state.confirm_leave(stop, restore),
-        None => {}
+        Some(Answer::Cancel) => Some(Answered::Cancelled),
+        Some(Answer::Stop(_)) => Some(Answered::Going),
+        None => None,
     }
 }
 
-/// The dialog's content: what the motor does, restore or not, and the three ways to go.
+/// The dialog's content: what each motor asked about does, restore or not, and the three
+/// ways to go. With `several` drives in the window, each sentence names its drive.
 fn leave_question_ui(
     ui: &mut Ui,
-    state: &AppState,
+    drives: &[(&str, &AppState)],
+    several: bool,
     close_window: bool,
     restore: &mut bool,
 ) -> Option<Answer> {
     let mut answer = None;
     ui.set_max_width(460.0);
-    ui.heading(if close_window {
-        "Close drivedeck"
-    } else {
-        "Disconnect"
-    });
-    if let Some(sentence) = motor_sentence(state) {
-        ui.colored_label(AMBER, sentence);
+    let heading = match (close_window, drives) {
+        (true, _) => "Close drivedeck".to_owned(),
+        (false, [(name, _)]) if several => format!("Disconnect {name}"),
+        (false, _) => "Disconnect".to_owned(),
+    };
+    ui.heading(heading);
+    let mut energised = false;
+    for (name, state) in drives {
+        if let Some(sentence) = motor_sentence(state) {
+            energised = true;
+            ui.colored_label(
+                AMBER,
+                if several {
+                    format!("{name}: {sentence}")
+                } else {
+                    sentence
+                },
+            );
+        }
+    }
+    if energised {
         ui.label("What should stay behind?");
     }
-    let restorable = state.changes.iter().filter(|c| c.before.is_some()).count();
+    let restorable: usize = drives
+        .iter()
+        .map(|(_, state)| state.changes.iter().filter(|c| c.before.is_some()).count())
+        .sum();
+    let with_changes = drives
+        .iter()
+        .filter(|(_, state)| state.changes.iter().any(|c| c.before.is_some()))
+        .count();
     if restorable > 0 {
+        let on = if with_changes > 1 {
+            format!(" on {with_changes} drives")
+        } else {
+            String::new()
+        };
         ui.checkbox(
             restore,
-            format!("First restore what I changed ({restorable} objects, newest first)"),
+            format!("First restore what I changed ({restorable} objects{on}, newest first)"),
         );
     }
+    let each = if drives.len() > 1 { " each" } else { "" };
     ui.add_space(6.0);
     ui.horizontal(|ui| {
-        let halt = ui.button(RichText::new("Halt, then disconnect").strong());
+        let halt = ui.button(RichText::new(format!("Halt{each}, then disconnect")).strong());
         ui.weak("Enter presses this button");
         // Enter takes the default.
         if halt.clicked() || ui.input(|i| i.key_pressed(egui::Key::Enter)) {
@@ -319,7 +389,7 @@ fn leave_question_ui(
         }
     });
     if ui
-        .button(RichText::new("Switch off, then disconnect").color(RED))
+        .button(RichText::new(format!("Switch off{each}, then disconnect")).color(RED))
         .on_hover_text("Power stage off: the motor coasts and holds no torque")
         .clicked()
     {

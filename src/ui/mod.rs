@@ -6,6 +6,7 @@ pub mod changes;
 pub mod commands;
 pub mod connection;
 pub mod connection_form;
+pub mod drives;
 pub mod faults;
 pub mod fonts;
 pub mod glance;
@@ -28,20 +29,30 @@ use eframe::egui::{self, Ui};
 
 pub use state::{AppState, Settings};
 
-use crate::worker::{self, Request, Worker};
+use crate::worker::{self, Request};
 
 /// Where eframe keeps the settings between runs.
 pub const SETTINGS_KEY: &str = "drivedeck-settings";
 
-/// The application: the state, and the worker that owns the link.
+/// The application: the drives, each with its worker (which owns its link) and its state;
+/// `state` is the selected drive's, which the panels show.
 pub struct App {
+    /// The selected drive's state.
     pub state: AppState,
-    worker: Option<Worker>,
+    /// Every drive in the list's order; the selected one's state is `state`.
+    drives: Vec<drives::Drive>,
+    selected: usize,
+    /// Wakes the window when a worker has news.
+    notify: worker::Notify,
+    /// The window's start: time zero of every drive's samples (one time axis for all).
     started: Instant,
-    last_poll_rate: f64,
-    last_record_frames: bool,
-    last_link_loss: Option<worker::LinkLossAction>,
-    last_lost_after: Option<u32>,
+    /// The "+ Add drive" menu's connection string, and what went wrong with the list.
+    add_link: String,
+    drive_message: Option<String>,
+    /// The selected drive's name as being typed.
+    name_draft: Option<String>,
+    /// The window is to close once every drive has been left.
+    closing: bool,
     /// Leaving is done: let the window close.
     may_close: bool,
     /// The window's fonts are installed.
@@ -49,30 +60,27 @@ pub struct App {
 }
 
 impl App {
-    /// Start the worker and connect to the link of the saved settings (the simulator by
-    /// default). `notify` wakes the window when the worker has news.
+    /// Start the worker of the first drive and connect it to the link of the saved
+    /// settings (the simulator by default). `notify` wakes the window when a worker has
+    /// news.
     pub fn new(settings: Settings, notify: worker::Notify, connect: bool) -> Self {
-        let mut state = AppState::new(settings);
-        let config = worker::Config {
-            poll_rate: state.settings.poll_rate,
-            ..worker::Config::default()
-        };
-        let worker = match Worker::spawn(config, notify) {
-            Ok(worker) => Some(worker),
-            Err(e) => {
-                state.info(format!("the worker thread could not start: {e}"));
-                None
-            }
-        };
-        let last_poll_rate = state.settings.poll_rate;
+        let started = Instant::now();
+        let (drive, state) = drives::Drive::start(
+            "Drive 1".into(),
+            AppState::new(settings),
+            notify.clone(),
+            started,
+        );
         let mut app = Self {
             state,
-            worker,
-            started: Instant::now(),
-            last_poll_rate,
-            last_record_frames: false,
-            last_link_loss: None,
-            last_lost_after: None,
+            drives: vec![drive],
+            selected: 0,
+            notify,
+            started,
+            add_link: String::new(),
+            drive_message: None,
+            name_draft: None,
+            closing: false,
             may_close: false,
             fonts_set: false,
         };
@@ -86,57 +94,70 @@ impl App {
         app
     }
 
-    /// Apply every waiting worker event.
+    /// Apply every waiting worker event, of every drive.
     pub fn pump_events(&mut self) {
-        self.state.clock = self.started.elapsed().as_secs_f64();
-        if let Some(worker) = &self.worker {
-            for event in worker.drain() {
-                self.state.apply(event);
+        let clock = self.started.elapsed().as_secs_f64();
+        self.pump_drives(clock);
+    }
+
+    /// Hand the user's requests to the workers. A worker never blocks the window: a full
+    /// queue is reported, not waited for.
+    pub fn flush_outbox(&mut self) {
+        for spec in std::mem::take(&mut self.state.wanted_drives) {
+            let name = self.next_drive_name();
+            self.drive_message = self.add_drive_spec(name, spec).err().map(|e| e.to_string());
+        }
+        self.flush_drives();
+    }
+
+    /// Closing the window: ask once for every drive that needs it, or go.
+    fn start_closing(&mut self) {
+        self.closing = true;
+        let mut drives = self.each_drive();
+        let asking = drives
+            .iter()
+            .any(|d| d.state.leaving.is_none() && d.state.needs_leave_question());
+        for drive in drives.iter_mut() {
+            if drive.state.leaving.is_none() && (!asking || drive.state.needs_leave_question()) {
+                drive.state.ask_to_leave(true);
             }
         }
     }
 
-    /// Hand the user's requests to the worker. The worker never blocks the window: a full
-    /// queue is reported, not waited for.
-    pub fn flush_outbox(&mut self) {
-        if self.state.settings.record_frames != self.last_record_frames {
-            self.last_record_frames = self.state.settings.record_frames;
-            self.state
-                .outbox
-                .push(Request::SetTrace(self.last_record_frames));
-        }
-        if self.last_link_loss != Some(self.state.settings.on_link_loss) {
-            self.last_link_loss = Some(self.state.settings.on_link_loss);
-            self.state
-                .outbox
-                .push(Request::SetLinkLoss(self.state.settings.on_link_loss));
-        }
-        let lost_after = self
-            .state
-            .settings
-            .lost_after
-            .clamp(1, worker::MAX_LOST_AFTER);
-        if self.last_lost_after != Some(lost_after) {
-            self.last_lost_after = Some(lost_after);
-            self.state.outbox.push(Request::SetLostAfter(lost_after));
-        }
-        if self.state.settings.poll_rate != self.last_poll_rate {
-            self.last_poll_rate = self.state.settings.poll_rate;
-            self.state
-                .outbox
-                .push(Request::SetPollRate(self.last_poll_rate));
-        }
-        let requests = std::mem::take(&mut self.state.outbox);
-        for request in requests {
-            match &self.worker {
-                Some(worker) => match worker.send(request.clone()) {
-                    Ok(id) => self.state.note_queued(id, &request),
-                    Err(e) => self.state.note_unsent(&request, e.to_string()),
-                },
-                None => self
-                    .state
-                    .note_unsent(&request, "the worker is not running".into()),
+    /// The leave question, and every drive's step of leaving; the window closes once all
+    /// drives are left.
+    fn leave_steps(&mut self, ctx: &egui::Context) {
+        let answered = {
+            let mut named: Vec<leave::Named<'_>> = self
+                .each_drive()
+                .into_iter()
+                .map(|d| leave::Named {
+                    name: d.name.as_str(),
+                    state: d.state,
+                })
+                .collect();
+            leave::leave_dialog(ctx, &mut named)
+        };
+        match answered {
+            Some(leave::Answered::Cancelled) if self.closing => self.closing = false,
+            Some(leave::Answered::Going) if self.closing => {
+                // The drives that needed no question go too.
+                for drive in self.each_drive() {
+                    if drive.state.leaving.is_none() {
+                        drive.state.ask_to_leave(true);
+                    }
+                }
             }
+            _ => {}
+        }
+        let mut done = true;
+        for drive in self.each_drive() {
+            drive.state.leave_step();
+            done &= drive.state.leaving.is_none();
+        }
+        if self.closing && done {
+            self.may_close = true;
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
     }
 
@@ -147,25 +168,28 @@ impl App {
             ctx.set_fonts(fonts::definitions());
             self.fonts_set = true;
         }
-        connection::stop_keys(&ctx, &mut self.state);
-        // Closing the window with the drive energised asks first.
+        if let Some(stop) = connection::stop_keys(&ctx, self.any_connected()) {
+            self.stop_all(stop);
+        }
+        // Closing the window with a drive energised asks first.
         if ctx.input(|i| i.viewport().close_requested()) && !self.may_close {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
-            if self.state.leaving.is_none() {
-                self.state.ask_to_leave(true);
+            if !self.closing {
+                self.start_closing();
             }
         }
-        leave::leave_dialog(&ctx, &mut self.state);
-        if self.state.leave_step() {
-            self.may_close = true;
-            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
-        }
+        self.leave_steps(&ctx);
+        top_bar_ui(ui, self);
+        log_panel_ui(ui, &mut self.state);
+        status_panel_ui(ui, self);
+        let beside = drives::beside(&self.drives, self.selected);
+        let own = self
+            .drives
+            .get(self.selected)
+            .map_or("", |d| d.name.as_str());
         let state = &mut self.state;
-        top_bar_ui(ui, state);
-        log_panel_ui(ui, state);
-        status_panel_ui(ui, state);
         commands_panel_ui(ui, state);
-        egui::CentralPanel::default_margins().show(ui, |ui| central_ui(ui, state));
+        egui::CentralPanel::default_margins().show(ui, |ui| central_ui(ui, state, own, &beside));
     }
 
     /// One frame without eframe (UI tests): events in, draw, requests out.
@@ -174,22 +198,36 @@ impl App {
         self.draw(ui);
         self.flush_outbox();
     }
+
+    /// The settings kept between runs: the first drive's link and inputs, the window's
+    /// layout and choices as they are now.
+    pub fn settings_to_keep(&self) -> Settings {
+        let mut settings = self
+            .drive_state(0)
+            .map(|s| s.settings.clone())
+            .unwrap_or_else(|| self.state.settings.clone());
+        drives::carry_window_settings(&self.state.settings, &mut settings);
+        settings
+    }
 }
 
 /// The connection bar, the stop strip at its right, and a bus scan's results under them.
-fn top_bar_ui(ui: &mut Ui, state: &mut AppState) {
+fn top_bar_ui(ui: &mut Ui, app: &mut App) {
     egui::Panel::top("connection_bar").show(ui, |ui| {
         ui.add_space(4.0);
         ui.horizontal(|ui| {
             ui.heading("drivedeck");
             ui.separator();
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-                connection::stop_strip_ui(ui, state);
+                if let Some(stop) = drives::stop_all_strip_ui(ui, app) {
+                    app.stop_all(stop);
+                }
                 ui.with_layout(egui::Layout::left_to_right(egui::Align::Center), |ui| {
-                    connection::connection_ui(ui, state);
+                    connection::connection_ui(ui, &mut app.state);
                 });
             });
         });
+        let state = &mut app.state;
         if state.scan.is_some() {
             ui.separator();
             scan::scan_results_ui(ui, state);
@@ -210,13 +248,17 @@ fn log_panel_ui(ui: &mut Ui, state: &mut AppState) {
         .show(ui, |ui| log::log_ui(ui, state));
 }
 
-/// The status panel: the state tile as its fixed head, the details scrolling under it.
-fn status_panel_ui(ui: &mut Ui, state: &mut AppState) {
+/// The status panel: the list of drives and the selected one's state tile as its fixed
+/// head, the details scrolling under it.
+fn status_panel_ui(ui: &mut Ui, app: &mut App) {
     egui::Panel::left("status")
         .resizable(true)
         .default_size(290.0)
         .show(ui, |ui| {
             ui.add_space(4.0);
+            drives::drive_list_ui(ui, app);
+            ui.separator();
+            let state = &mut app.state;
             glance::state_tile_ui(ui, state);
             ui.add_space(2.0);
             egui::ScrollArea::vertical()
@@ -255,7 +297,7 @@ fn commands_panel_ui(ui: &mut Ui, state: &mut AppState) {
 }
 
 /// The middle: the plots or the object dictionary, in all the room the panels leave.
-fn central_ui(ui: &mut Ui, state: &mut AppState) {
+fn central_ui(ui: &mut Ui, state: &mut AppState, own: &str, beside: &[plots::Beside<'_>]) {
     ui.horizontal(|ui| {
         let central = &mut state.settings.central;
         ui.selectable_value(central, state::Central::Plots, "Plots");
@@ -273,7 +315,7 @@ fn central_ui(ui: &mut Ui, state: &mut AppState) {
             .show(ui, |ui| watch::watch_ui(ui, state));
     }
     match state.settings.central {
-        state::Central::Plots => plots::plots_ui(ui, state),
+        state::Central::Plots => plots::drives_plots_ui(ui, state, own, beside),
         state::Central::Dictionary => browser::browser_ui(ui, state),
     }
 }
@@ -290,7 +332,7 @@ impl eframe::App for App {
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
-        eframe::set_value(storage, SETTINGS_KEY, &self.state.settings);
+        eframe::set_value(storage, SETTINGS_KEY, &self.settings_to_keep());
     }
 
     fn auto_save_interval(&self) -> Duration {
@@ -343,7 +385,17 @@ pub fn run_window(
             let ctx = cc.egui_ctx.clone();
             let notify: worker::Notify =
                 Arc::new(move || ctx.request_repaint_after(Duration::from_millis(5)));
-            Ok(Box::new(App::new(settings, notify, true)))
+            let demo = connect_to.is_none() && settings.connection.bus == state::Bus::Sim;
+            let mut app = App::new(settings, notify, true);
+            if demo {
+                // The demo: two simulated drives, so the list shows what it is for.
+                let named = app.rename(0, "X axis".into());
+                let added = app.add_drive("Y axis".into(), "sim://");
+                if let Err(e) = named.and(added.map(|_| ())) {
+                    app.state.info(format!("the demo's second drive: {e}"));
+                }
+            }
+            Ok(Box::new(app))
         }),
     )
 }

@@ -150,24 +150,42 @@ fn device_row_ui(ui: &mut Ui, state: &mut AppState, device: &FoundDevice) {
     use_device_ui(ui, state, device);
 }
 
-/// "Use node 5" or "Use 192.168.2.100": the bar set to the device, and connected to it.
+/// "Use node 5" or "Use 192.168.2.100": the bar set to the device, and connected to it;
+/// "Add as drive": the device as another drive of the list, with its own link.
 fn use_device_ui(ui: &mut Ui, state: &mut AppState, device: &FoundDevice) {
-    if let Some(node) = device.node {
-        if ui.button(format!("Use node {node}")).clicked() {
-            state.settings.connection.node = node.to_string();
-            connect_to_form(state);
-        }
+    let mut form = state.settings.connection.clone();
+    let label = if let Some(node) = device.node {
+        form.node = node.to_string();
+        format!("Use node {node}")
     } else if let Ok(address) = device.address.parse::<std::net::SocketAddr>() {
-        if ui.button(format!("Use {}", address.ip())).clicked() {
-            let form = &mut state.settings.connection;
-            form.bus = Bus::Enip;
-            form.enip_host = address.ip().to_string();
-            form.enip_port = address.port().to_string();
-            connect_to_form(state);
-        }
+        form.bus = Bus::Enip;
+        form.enip_host = address.ip().to_string();
+        form.enip_port = address.port().to_string();
+        format!("Use {}", address.ip())
     } else {
         ui.label("");
-    }
+        return;
+    };
+    ui.horizontal(|ui| {
+        if ui.button(&label).clicked() {
+            state.settings.connection = form.clone();
+            connect_to_form(state);
+        }
+        let spec = form.spec();
+        let add = ui
+            .add_enabled(spec.is_ok(), egui::Button::new("Add as drive"))
+            .on_hover_text("Another drive in the list, with its own link to this device");
+        name_widget(
+            &add,
+            egui::accesskit::Role::Button,
+            &format!("Add {} as drive", device.address),
+        );
+        if add.clicked()
+            && let Ok(spec) = spec
+        {
+            state.wanted_drives.push(spec);
+        }
+    });
 }
 
 /// Connect to what the bar now describes, and close the scan.

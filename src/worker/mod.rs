@@ -61,6 +61,10 @@ pub struct Config {
     /// simulator (`LinkSpec::Sim`) may be opened so: a real link's timeouts would fire at
     /// once.
     pub simulated_time: bool,
+    /// Time zero of the samples' clock. `None`: the worker's first connection. A window
+    /// with several drives gives every worker its own start, so that the samples of all
+    /// its drives lie on one time axis.
+    pub epoch: Option<std::time::Instant>,
 }
 
 impl Default for Config {
@@ -73,6 +77,7 @@ impl Default for Config {
             on_link_loss: LinkLossAction::Halt,
             lost_after: LOST_AFTER,
             simulated_time: false,
+            epoch: None,
         }
     }
 }

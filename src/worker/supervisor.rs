@@ -58,7 +58,7 @@ pub async fn run(
         backoff: BACKOFF_FIRST,
         ticker: new_ticker(config.poll_rate),
         watch: Vec::new(),
-        epoch: None,
+        epoch: config.epoch,
     };
     loop {
         tokio::select! {

@@ -248,13 +248,27 @@ pub fn live_end(state: &AppState) -> Option<f64> {
     })
 }
 
+/// Another drive's signals, drawn with the selected drive's on the same time axis: its
+/// name (for the legend) and its history.
+pub struct Beside<'a> {
+    pub name: &'a str,
+    pub scope: &'a Scope,
+}
+
 pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
+    drives_plots_ui(ui, state, "", &[]);
+}
+
+/// The plots of the selected drive (`own` its name), with the same signals of the drives
+/// `beside` drawn in each plot: live, and over a triggered capture's span (a recording
+/// opened from a file has a time base of its own and is drawn alone).
+pub fn drives_plots_ui(ui: &mut Ui, state: &mut AppState, own: &str, beside: &[Beside<'_>]) {
     toolbar(ui, state);
     review::review_ui(ui, state);
     capture::capture_ui(ui, state);
     readout::readout_ui(ui, state);
     let band = picture::title_band_ui(ui, state);
-    let plots = traces::traces_ui(ui, state);
+    let plots = traces::traces_ui(ui, state, own, beside);
     state.plot.plots_rect = plots;
     picture::taken(ui.ctx(), state, band, plots);
     // The answers of this frame's dialogs (a scripted one answers at once) and of those

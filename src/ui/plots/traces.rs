@@ -9,7 +9,7 @@ use egui_plot::{FilledArea, Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, S
 
 use super::super::state::AppState;
 use super::super::widgets::{AMBER, BLUE, GREEN, RED};
-use super::{PositionUnit, shown_scope, time_range};
+use super::{Beside, PositionUnit, shown_scope, time_range};
 use crate::telemetry::{
     BitSpan, Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef, bit_name,
 };
@@ -47,6 +47,12 @@ const GREY: Color32 = Color32::from_gray(150);
 const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
 /// The colours for traces that are no built-in signal, in order.
 const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY, SAND, GREEN, BLUE];
+/// Another drive's line in a plot: its legend name, its points, its gaps.
+type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band]);
+
+/// The other drives' lines in a plot, in the list's order (the selected drive's line
+/// keeps the signal's colour).
+const DRIVE_COLORS: [Color32; 4] = [ORANGE, PINK, SKY, LIME];
 /// The cursors' colours (A, B).
 const CURSOR_COLORS: [Color32; 2] = [
     Color32::from_rgb(250, 230, 80),
@@ -144,10 +150,20 @@ struct View<'a> {
     trigger_at: Option<f64>,
     /// The threshold trigger's signal column and level.
     threshold: Option<(usize, f64)>,
+    /// The selected drive's name, when other drives are drawn beside it.
+    own: Option<&'a str>,
+    /// The other drives whose signals are drawn on the same time axis, and their gaps.
+    beside: Vec<(&'a Beside<'a>, Vec<Band>)>,
 }
 
 impl<'a> View<'a> {
-    fn new(state: &'a AppState, from: f64, to: f64) -> Self {
+    fn new(
+        state: &'a AppState,
+        from: f64,
+        to: f64,
+        own: &'a str,
+        beside: &'a [Beside<'a>],
+    ) -> Self {
         let scope = shown_scope(state);
         let markers = scope
             .markers()
@@ -185,8 +201,33 @@ impl<'a> View<'a> {
             highlight: state.plot.highlight,
             trigger_at,
             threshold,
+            own: (!beside.is_empty()).then_some(own),
+            // A recording opened from a file has a time base of its own: nothing beside.
+            beside: if review.is_none_or(|r| r.capture) {
+                beside
+                    .iter()
+                    .map(|b| (b, scope_bands(b.scope, from, to)))
+                    .collect()
+            } else {
+                Vec::new()
+            },
         }
     }
+}
+
+/// Another drive's gaps between `from` and `to` (one still open reaches to its newest
+/// sample): its lines are not drawn across them.
+fn scope_bands(scope: &Scope, from: f64, to: f64) -> Vec<Band> {
+    let last = scope.ring().last_time().unwrap_or(to);
+    scope
+        .gaps()
+        .map(|gap| Band {
+            from: gap.from,
+            to: gap.to.unwrap_or(last),
+            label: String::new(),
+        })
+        .filter(|band| band.to > band.from && band.to >= from && band.from <= to)
+        .collect()
 }
 
 /// The gaps between `from` and `to`; one still open reaches to now (while the link is
@@ -230,7 +271,12 @@ fn split_at_bands<'p>(points: &'p [[f64; 2]], bands: &[Band]) -> Vec<&'p [[f64; 
 type Seen = (Option<f64>, (f64, f64));
 
 /// The plots; where they were drawn (every axis included), for the picture.
-pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
+pub fn traces_ui(
+    ui: &mut Ui,
+    state: &mut AppState,
+    own: &str,
+    beside: &[Beside<'_>],
+) -> Option<egui::Rect> {
     let Some((from, to)) = time_range(state) else {
         ui.add_space(8.0);
         ui.weak(
@@ -249,7 +295,7 @@ pub fn traces_ui(ui: &mut Ui, state: &mut AppState) -> Option<egui::Rect> {
         .collect();
     let lanes = lanes(scope, from, to);
     let (plot_height, lanes_height) = heights(ui.available_height(), analog.len(), lanes.len());
-    let view = View::new(state, from, to);
+    let view = View::new(state, from, to, own, beside);
     let mut interaction = Interaction::default();
     let top = ui.cursor().min;
 
@@ -312,6 +358,11 @@ fn analog_plot_ui(
     } else {
         format!("{} [{unit}]", signal.info.name)
     };
+    // With other drives drawn beside it, each line says whose it is.
+    let label = match view.own {
+        Some(own) => format!("{own}: {label}"),
+        None => label,
+    };
     let column = signal.column;
     let level = view
         .threshold
@@ -355,7 +406,25 @@ fn analog_plot_ui(
                     points
                 })
                 .unwrap_or_default();
-            let fit = [points.as_slice(), other.as_slice()].concat();
+            // The same signal of the other drives, on the same time axis.
+            let drives: Vec<DriveLine<'_>> = view
+                .beside
+                .iter()
+                .filter_map(|(b, bands)| {
+                    let theirs = b.scope.signal(&signal.info.id)?;
+                    let mut points = b.scope.ring().decimate(theirs.column, from, to, columns);
+                    scale_values(&mut points, scale, 0.0);
+                    Some((
+                        format!("{}: {}", b.name, signal.info.name),
+                        points,
+                        bands.as_slice(),
+                    ))
+                })
+                .collect();
+            let mut fit = [points.as_slice(), other.as_slice()].concat();
+            for (_, theirs, _) in &drives {
+                fit.extend_from_slice(theirs);
+            }
             plot_ui.set_plot_bounds(fit_bounds(&fit, from, to, level));
             draw_bands(plot_ui, &view.bands, first);
             draw_markers(plot_ui, &view.markers, first);
@@ -366,6 +435,16 @@ fn analog_plot_ui(
                         .color(color)
                         .width(1.5),
                 );
+            }
+            for (k, (name, theirs, bands)) in drives.iter().enumerate() {
+                let color = DRIVE_COLORS[k % DRIVE_COLORS.len()];
+                for run in split_at_bands(theirs, bands) {
+                    plot_ui.line(
+                        Line::new(name.as_str(), run.to_vec())
+                            .color(color)
+                            .width(1.5),
+                    );
+                }
             }
             if !other.is_empty() {
                 // Unnamed: the row above the plots says which file is dashed; a legend

@@ -245,6 +245,8 @@ pub struct AppState {
     pub watch: super::watch::Watch,
     /// The last bus scan's result.
     pub scan: Option<Result<Vec<crate::link::FoundDevice>, LinkFailure>>,
+    /// Devices of a scan or discovery to add as drives of their own (the app takes them).
+    pub wanted_drives: Vec<LinkSpec>,
     /// Reads of 6087h the window asked for itself (not logged).
     slope_reads: Vec<RequestId>,
     /// The halt request still running.
@@ -318,6 +320,7 @@ impl AppState {
             clock: 0.0,
             serial_ports: None,
             scan: None,
+            wanted_drives: Vec::new(),
             browser: super::browser::Browser::new(),
             watch: super::watch::Watch::default(),
             interfaces: None,

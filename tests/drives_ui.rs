@@ -1,0 +1,425 @@
+//! Several drives in one window, headless (egui_kittest), each a simulated drive of its
+//! own behind its own worker: the list shows every drive's state, selecting points the
+//! panels at a drive, names stay as given; Esc stops every drive ahead of what is queued
+//! on each; one drive's lost link leaves the others polled; closing asks once for all;
+//! the plots draw every drive's signals on one time axis, and a trigger on another drive
+//! stops them on its capture.
+
+mod window;
+
+use std::time::{Duration, SystemTime};
+
+use drivedeck::cia::PowerState;
+use drivedeck::injection::Injection;
+use drivedeck::od::Address;
+use drivedeck::pdi::Action;
+use drivedeck::ui::App;
+use drivedeck::ui::state::{AppState, Connection};
+use drivedeck::worker::{ObjectPath, Request};
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use window::{app_harness, connected, step_until, step_until_shown};
+
+/// The window on the built-in simulated drive ("X axis") and a second one ("Y axis"),
+/// both with their first sample in.
+fn two_drives() -> Harness<'static, App> {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    harness
+        .get_by_label("Drive name")
+        .set_text_value_accesskit("X axis");
+    harness.step();
+    let added = harness
+        .state_mut()
+        .add_drive("Y axis".into(), "sim://")
+        .expect("a second drive");
+    assert_eq!(added, 1);
+    step_until(
+        &mut harness,
+        "both drives sampled",
+        Duration::from_secs(5),
+        |h| (0..2).all(|i| h.state().drive_state(i).is_some_and(|s| s.latest.is_some())),
+    );
+    harness
+}
+
+fn drive<'a>(harness: &'a Harness<'_, App>, index: usize) -> &'a AppState {
+    harness.state().drive_state(index).expect("the drive")
+}
+
+fn power(state: &AppState) -> Option<PowerState> {
+    state
+        .latest
+        .and_then(|s| s.statusword())
+        .and_then(PowerState::from_statusword)
+}
+
+fn speed(state: &AppState) -> f64 {
+    state.latest.and_then(|s| s.velocity()).unwrap_or(f64::NAN)
+}
+
+/// Drive `index` told to turn at 30 rpm (slow: the simulated drive's limit switch at
+/// 3600.0° is 20 s away); wait until it does.
+fn turn(harness: &mut Harness<'_, App>, index: usize) {
+    harness
+        .state_mut()
+        .drive_state_mut(index)
+        .expect("the drive")
+        .request(Request::Command(Action::Velocity { speed: 30 }));
+    step_until(harness, "the motor to turn", Duration::from_secs(5), |h| {
+        speed(drive(h, index)) > 25.0
+    });
+}
+
+#[test]
+fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() {
+    let mut harness = two_drives();
+    // X axis turns, Y axis stays as it was: the rows say so.
+    turn(&mut harness, 0);
+    step_until(
+        &mut harness,
+        "the rows to differ",
+        Duration::from_secs(3),
+        |h| {
+            let rows = h.state().drive_rows(SystemTime::now());
+            rows[0].motion.starts_with("moving +30 rpm") && rows[1].motion == "still"
+        },
+    );
+    let rows = harness.state().drive_rows(SystemTime::now());
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0].name, "X axis");
+    assert_eq!(rows[0].state, "Operation enabled");
+    assert_eq!(rows[1].name, "Y axis");
+    assert_ne!(rows[1].state, "Operation enabled", "{rows:?}");
+    assert!(
+        rows.iter().all(|r| r.link == "sim" && r.fault.is_none()),
+        "{rows:?}"
+    );
+    assert!(rows.iter().all(|r| r.position.is_some()), "{rows:?}");
+    // On screen: each row's state, named by its drive, and its details.
+    for row in &rows {
+        harness.get_by_label(&format!("{}: {}", row.name, row.state));
+    }
+    harness.get_by_label_contains("moving +30 rpm");
+    harness.get_by_label("QUICKSTOP ALL (Esc)");
+
+    // Selecting Y axis points the status panel (and every other) at it.
+    harness.get_by_label("Y axis").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().selected(), 1);
+    let shown = &harness.state().state;
+    assert!(
+        speed(shown) < 1.0,
+        "the panels show Y axis: {}",
+        speed(shown)
+    );
+    harness.get_by_label("DISABLED");
+    assert!(speed(drive(&harness, 0)) > 25.0, "X axis turns on");
+    // The window's own choices stay as they were; the selected row's name is the one
+    // to edit now.
+    assert_eq!(
+        harness.get_by_label("Drive name").value().as_deref(),
+        Some("Y axis")
+    );
+
+    // Renaming is kept across selecting another drive and back.
+    harness
+        .get_by_label("Drive name")
+        .set_text_value_accesskit("Y table");
+    harness.step();
+    harness.get_by_label("X axis").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().selected(), 0);
+    let names: Vec<String> = harness
+        .state()
+        .drives()
+        .map(|(n, _)| n.to_owned())
+        .collect();
+    assert_eq!(names, ["X axis", "Y table"]);
+    harness.get_by_label("Y table");
+    assert!(
+        speed(&harness.state().state) > 25.0,
+        "the panels show X axis again"
+    );
+    // A name given twice is refused, and the list says why.
+    assert!(harness.state_mut().rename(1, "X axis".into()).is_err());
+}
+
+#[test]
+fn esc_stops_every_drive_ahead_of_what_is_queued_on_each() {
+    let mut harness = two_drives();
+    turn(&mut harness, 0);
+    turn(&mut harness, 1);
+    // Something ordinary waits on each drive when Esc comes in the same frame.
+    let read = Request::ReadObject {
+        address: Address::new(0x1008, 0),
+        dtype: None,
+        path: ObjectPath::Auto,
+    };
+    for i in 0..2 {
+        let state = harness.state_mut().drive_state_mut(i).expect("drive");
+        state.request(read.clone());
+    }
+    harness.key_press(egui::Key::Escape);
+    harness.step();
+    for i in 0..2 {
+        let log = &drive(&harness, i).log;
+        let stop = log.iter().position(|e| e.what.contains("Quickstop"));
+        let ordinary = log.iter().position(|e| e.what.contains("1008"));
+        assert!(
+            matches!((stop, ordinary), (Some(s), Some(o)) if s < o),
+            "drive {i}: the quick stop goes first: {log:#?}"
+        );
+    }
+    step_until(
+        &mut harness,
+        "both drives to stop",
+        Duration::from_secs(5),
+        |h| {
+            (0..2).all(|i| {
+                let state = drive(h, i);
+                // The default quick stop option (605Ah = 2) ends in Switch on disabled.
+                power(state).is_some_and(|p| p != PowerState::OperationEnabled)
+                    && speed(state).abs() < 1.0
+            })
+        },
+    );
+    for i in 0..2 {
+        let why = drive(&harness, i).why.clone().unwrap_or_default();
+        assert!(why.starts_with("Quickstop sent from this window"), "{why}");
+    }
+}
+
+#[test]
+fn the_stop_all_button_stops_every_drive_with_switch_off() {
+    let mut harness = two_drives();
+    turn(&mut harness, 0);
+    turn(&mut harness, 1);
+    harness.get_by_label("Switch off all (Shift+Esc)").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "both power stages off",
+        Duration::from_secs(5),
+        |h| (0..2).all(|i| power(drive(h, i)).is_some_and(|p| !p.is_energised())),
+    );
+}
+
+#[test]
+fn a_drive_lost_mid_run_leaves_the_others_polled_and_is_reported() {
+    let mut harness = two_drives();
+    turn(&mut harness, 0);
+    harness
+        .state_mut()
+        .drive_state_mut(1)
+        .expect("drive")
+        .request(Request::Inject {
+            injection: Injection::LinkLoss,
+            active: true,
+        });
+    step_until(&mut harness, "Y axis lost", Duration::from_secs(8), |h| {
+        drive(h, 1).link_lost.is_some()
+    });
+    let lost_at = drive(&harness, 0).latest.map(|s| s.t).expect("a sample");
+    // While Y axis is without its link, X axis is polled on: newer samples keep coming.
+    step_until(
+        &mut harness,
+        "X axis polled on",
+        Duration::from_secs(3),
+        |h| {
+            drive(h, 0).latest.is_some_and(|s| s.t > lost_at + 0.3)
+                && drive(h, 1).link_lost.is_some()
+        },
+    );
+    let rows = harness.state().drive_rows(SystemTime::now());
+    assert_eq!(rows[0].state, "Operation enabled", "{rows:?}");
+    assert!(rows[0].motion.starts_with("moving +30 rpm"), "{rows:?}");
+    assert!(drive(&harness, 0).is_connected());
+    assert!(
+        rows[1].state == "no link" || rows[1].link.contains("link lost"),
+        "the row reports the loss: {rows:?}"
+    );
+    let timeline: Vec<String> = drive(&harness, 1)
+        .timeline
+        .entries()
+        .map(|e| e.text.clone())
+        .collect();
+    assert!(
+        timeline.iter().any(|t| t.starts_with("link lost")),
+        "{timeline:?}"
+    );
+    assert!(
+        !drive(&harness, 0)
+            .timeline
+            .entries()
+            .any(|e| e.text.starts_with("link lost")),
+        "X axis lost nothing"
+    );
+}
+
+#[test]
+fn closing_asks_once_for_every_energised_drive_and_halts_each() {
+    let mut harness = two_drives();
+    turn(&mut harness, 0);
+    turn(&mut harness, 1);
+    harness
+        .input_mut()
+        .viewports
+        .entry(egui::ViewportId::ROOT)
+        .or_default()
+        .events
+        .push(egui::ViewportEvent::Close);
+    step_until_shown(&mut harness, "Halt each, then disconnect");
+    // One question, naming both drives and what their motors do.
+    // ("was on … was moving" when the machine is so busy that the last sample is old.)
+    for name in ["X axis", "Y axis"] {
+        let sentence = window::text_containing(&harness, &format!("{name}: The power stage "));
+        assert!(sentence.contains(" moving at 30 rpm"), "{sentence}");
+    }
+    assert!((0..2).all(|i| drive(&harness, i).leaving.is_some()));
+    harness.get_by_label("Halt each, then disconnect").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "both drives left",
+        Duration::from_secs(8),
+        |h| (0..2).all(|i| matches!(drive(h, i).connection, Connection::Disconnected)),
+    );
+    for i in 0..2 {
+        let log = &drive(&harness, i).log;
+        assert!(
+            log.iter().any(|e| e.what == "Halt before disconnecting"),
+            "drive {i}: {log:#?}"
+        );
+    }
+}
+
+#[test]
+fn the_plots_draw_every_drive_on_one_time_axis() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    window::step_for(&mut harness, Duration::from_millis(300));
+    let before = harness
+        .state()
+        .state
+        .latest
+        .map(|s| s.t)
+        .expect("X sampled");
+    harness
+        .state_mut()
+        .add_drive("Y axis".into(), "sim://")
+        .expect("a second drive");
+    step_until(
+        &mut harness,
+        "Y axis sampled",
+        Duration::from_secs(5),
+        |h| drive(h, 1).connected_at.is_some(),
+    );
+    // Both workers count from the window's start: the drive added later starts later on
+    // the same axis (on a clock of its own it would start at 0).
+    let first = drive(&harness, 1).connected_at.expect("Y's first sample");
+    assert!(
+        first > before,
+        "one time base: Y starts at {first} s, X was at {before} s"
+    );
+    harness.step();
+    // Each plot's legend names the drive of each line.
+    harness.get_by_label_contains("Drive 1: Position");
+    harness.get_by_label_contains("Y axis: Position");
+}
+
+/// The plots' rectangle at 1366×768 once samples are drawn.
+fn plot_room(harness: &mut Harness<'_, App>) -> egui::Rect {
+    step_until(harness, "the plots drawn", Duration::from_secs(5), |h| {
+        h.state().state.plot.plots_rect.is_some()
+    });
+    harness.run_steps(3);
+    harness.state().state.plot.plots_rect.expect("drawn")
+}
+
+#[test]
+fn the_list_takes_no_room_from_the_plots_at_1366x768() {
+    let size = egui::vec2(1366.0, 768.0);
+    let mut one = window::harness_with(drivedeck::ui::Settings::default(), true, size);
+    connected(&mut one);
+    let alone = plot_room(&mut one);
+    drop(one);
+    let mut two = window::harness_with(drivedeck::ui::Settings::default(), true, size);
+    connected(&mut two);
+    two.state_mut()
+        .add_drive("Y axis".into(), "sim://")
+        .expect("a second drive");
+    step_until(&mut two, "Y axis sampled", Duration::from_secs(5), |h| {
+        drive(h, 1).latest.is_some()
+    });
+    let both = plot_room(&mut two);
+    println!(
+        "plots at 1366x768: one drive {:.0}x{:.0} px, two drives {:.0}x{:.0} px",
+        alone.width(),
+        alone.height(),
+        both.width(),
+        both.height()
+    );
+    assert!(
+        (alone.width() - both.width()).abs() <= 1.0
+            && (alone.height() - both.height()).abs() <= 1.0,
+        "the list costs the plots room: {alone:?} alone, {both:?} with two drives"
+    );
+}
+
+#[test]
+fn a_trigger_on_another_drive_stops_the_plots_on_its_capture() {
+    let mut harness = two_drives();
+    // Armed on Y axis: position rising through 1000 (0.1°).
+    harness.get_by_label("Y axis").click();
+    harness.run_steps(2);
+    {
+        let form = &mut harness.state_mut().state.settings.plot.trigger;
+        form.threshold = true;
+        form.signal = "position".into();
+        form.level = "1000".into();
+        form.edge = drivedeck::telemetry::Edge::Rising;
+        form.pre_s = "0.3".into();
+        form.post_s = "0.3".into();
+    }
+    harness.step();
+    harness.get_by_label("Arm").click();
+    harness.step();
+    assert_eq!(
+        drive(&harness, 1).scope.capture_state(),
+        drivedeck::telemetry::CaptureState::Armed
+    );
+    // X axis on screen; Y axis moves through the level.
+    harness.get_by_label("X axis").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().selected(), 0);
+    assert!(harness.state().state.plot.paused_at.is_none());
+    harness
+        .state_mut()
+        .drive_state_mut(1)
+        .expect("Y axis")
+        .request(Request::Command(Action::MoveAbsolute {
+            target: 2000,
+            speed: 200,
+        }));
+    step_until(
+        &mut harness,
+        "Y axis's capture",
+        Duration::from_secs(10),
+        |h| drive(h, 1).scope.recording().is_some() && h.state().state.plot.paused_at.is_some(),
+    );
+    let at = drive(&harness, 1)
+        .scope
+        .recording()
+        .and_then(|r| r.meta.trigger_time_s)
+        .expect("the trigger time");
+    let plot = &harness.state().state.plot;
+    assert_eq!(
+        plot.highlight,
+        Some(at),
+        "the trigger marked on X axis's plots"
+    );
+    let message = format!("{:?}", plot.message);
+    assert!(message.contains("Y axis's trigger fired at"), "{message}");
+}
