@@ -640,12 +640,20 @@ pub fn main() -> ExitCode {
             return ExitCode::from(f.code);
         }
     };
-    let window_project = match target {
-        project_cmd::Target::None => None,
-        project_cmd::Target::Window { project, drive } => {
-            cli.link = drive.map(|d| d.link);
-            Some(project)
-        }
+    let window = match target {
+        project_cmd::Target::None => match &cli.link {
+            Some(link) => crate::ui::Opening::Link(link.clone()),
+            None => crate::ui::Opening::Last,
+        },
+        project_cmd::Target::Window {
+            project,
+            path,
+            drive,
+        } => crate::ui::Opening::Project {
+            project,
+            path,
+            show: drive.map(|d| d.name),
+        },
         project_cmd::Target::Drive(drive) => {
             // The drive's own options, unless the command line gives its own.
             if !given("on_exit") {
@@ -655,8 +663,8 @@ pub fn main() -> ExitCode {
                 policy.lost_after = drive.options.lost_after;
             }
             project_cmd::expect_device(&drive);
-            cli.link = Some(drive.link);
-            None
+            cli.link = Some(drive.link.clone());
+            crate::ui::Opening::Link(drive.link)
         }
         project_cmd::Target::Every(project) => {
             policy::set_policy(policy);
@@ -665,7 +673,7 @@ pub fn main() -> ExitCode {
     };
     policy::set_policy(policy);
     match cli.command.clone() {
-        None => match crate::ui::run_window(cli.link.clone(), window_project) {
+        None => match crate::ui::run_window(window) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("drivedeck: the window could not open: {e}");

@@ -64,6 +64,7 @@ pub(super) enum Target {
     /// The window, on this project (and, with --drive, that drive).
     Window {
         project: Project,
+        path: std::path::PathBuf,
         drive: Option<Drive>,
     },
     /// A one-shot command on one drive of the project.
@@ -143,7 +144,11 @@ pub(super) fn target(cli: &Cli) -> Result<Target, Failure> {
         if let Err(e) = project::recent::remember(path) {
             eprintln!("warning: the project will not reopen by itself next time: {e}");
         }
-        return Ok(Target::Window { project, drive });
+        return Ok(Target::Window {
+            project,
+            path: path.clone(),
+            drive,
+        });
     };
     let every = matches!(command, Command::Status)
         || matches!(command, Command::Od(OdArgs { command: OdCommand::Dump(d) }) if d.dir.is_some());

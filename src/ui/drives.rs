@@ -155,6 +155,8 @@ pub struct DriveRow {
     /// "moving +300 rpm", "still", or nothing known.
     pub motion: String,
     pub connected: bool,
+    /// The drive is not the device its project saw, or did not answer the check.
+    pub check: Option<String>,
 }
 
 impl DriveRow {
@@ -226,6 +228,7 @@ impl DriveRow {
             position,
             motion,
             connected: state.is_connected(),
+            check: state.project_warning(),
         }
     }
 
@@ -413,6 +416,24 @@ impl App {
         let mut settings = self.state.settings.clone();
         settings.connection = ConnectionForm::from_spec(&spec, ConnectionForm::default());
         settings.watch.pins.clear();
+        self.add_drive_with(name, spec, settings)
+    }
+
+    /// Add a drive on `spec` with its own `settings` (a project's drive) and connect it.
+    pub(super) fn add_drive_with(
+        &mut self,
+        name: String,
+        spec: LinkSpec,
+        mut settings: Settings,
+    ) -> Result<usize, DriveError> {
+        let name = name.trim().to_owned();
+        if name.is_empty() {
+            return Err(DriveError::NoName);
+        }
+        if self.drives.iter().any(|d| d.name == name) {
+            return Err(DriveError::NameTaken { name });
+        }
+        carry_window_settings(&self.state.settings, &mut settings);
         let mut state = AppState::new(settings);
         state.clock = self.state.clock;
         let (mut drive, mut state) = Drive::start(name, state, self.notify.clone(), self.started);
@@ -557,7 +578,9 @@ pub fn drive_list_ui(ui: &mut Ui, app: &mut App) {
     ui.horizontal(|ui| {
         ui.strong(format!("Drives ({})", rows.len()));
         add_menu_ui(ui, app, &mut intent);
+        super::project_window::project_menu_ui(ui, app);
     });
+    super::project_window::project_line_ui(ui, app);
     if let Some(message) = &app.drive_message {
         ui.colored_label(RED, message);
     }
@@ -674,6 +697,10 @@ fn row_ui(
     });
     if let Some(fault) = &row.fault {
         ui.add(egui::Label::new(RichText::new(fault).small().color(RED)).truncate());
+    }
+    if let Some(check) = &row.check {
+        ui.add(egui::Label::new(RichText::new(check).small().color(RED)).truncate())
+            .on_hover_text(check);
     }
 }
 

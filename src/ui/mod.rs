@@ -13,9 +13,9 @@ pub mod glance;
 pub mod jog;
 pub mod leave;
 pub mod log;
-pub mod opened_project;
 pub mod plots;
 pub mod power_state;
+pub mod project_window;
 pub mod scan;
 pub mod state;
 pub mod status;
@@ -57,6 +57,8 @@ pub struct App {
     may_close: bool,
     /// The window's fonts are installed.
     fonts_set: bool,
+    /// The project file the drives were opened from or saved to.
+    project: project_window::ProjectFiles,
 }
 
 impl App {
@@ -83,6 +85,7 @@ impl App {
             closing: false,
             may_close: false,
             fonts_set: false,
+            project: project_window::ProjectFiles::default(),
         };
         if connect {
             match app.state.settings.connection.spec() {
@@ -179,6 +182,7 @@ impl App {
             }
         }
         self.leave_steps(&ctx);
+        self.project_steps(&ctx);
         top_bar_ui(ui, self);
         log_panel_ui(ui, &mut self.state);
         status_panel_ui(ui, self);
@@ -340,12 +344,24 @@ impl eframe::App for App {
     }
 }
 
-/// Open the window, on `project` when one is given (see `opened_project`: the window
-/// shows one of its drives, `connect_to`'s if it names one). Blocks until it is closed.
-pub fn run_window(
-    connect_to: Option<crate::link::LinkSpec>,
-    project: Option<crate::project::Project>,
-) -> Result<(), eframe::Error> {
+/// What the window opens on: a project (its file, and the drive to show first), or a
+/// link (`--link`), or what was open last time.
+pub enum Opening {
+    /// The last project when one was opened before and still opens, else the link of the
+    /// saved settings (the simulator the first time: the two-drive demo).
+    Last,
+    /// This link, as one drive.
+    Link(crate::link::LinkSpec),
+    /// This project, with the drive named shown first.
+    Project {
+        project: crate::project::Project,
+        path: std::path::PathBuf,
+        show: Option<String>,
+    },
+}
+
+/// Open the window. Blocks until it is closed.
+pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
     let options = eframe::NativeOptions {
         // The first time, the whole screen: eframe clamps the size to the monitor, and a
         // window manager maximises it. Later, the size and place it had (eframe keeps
@@ -365,37 +381,66 @@ pub fn run_window(
                 .storage
                 .and_then(|s| eframe::get_value(s, SETTINGS_KEY))
                 .unwrap_or_default();
-            if let Some(project) = &project {
-                let drive = connect_to.as_ref().and_then(|spec| {
-                    project
-                        .drives
-                        .iter()
-                        .find(|d| &d.link == spec)
-                        .map(|d| d.name.as_str())
-                });
-                let notes;
-                (settings, notes) = opened_project::settings_for_project(settings, project, drive);
-                for note in notes {
-                    eprintln!("note: {note}");
-                }
-            }
-            if let Some(spec) = &connect_to {
-                settings.connection = state::ConnectionForm::from_spec(spec, settings.connection);
-            }
             let ctx = cc.egui_ctx.clone();
             let notify: worker::Notify =
                 Arc::new(move || ctx.request_repaint_after(Duration::from_millis(5)));
-            let demo = connect_to.is_none() && settings.connection.bus == state::Bus::Sim;
-            let mut app = App::new(settings, notify, true);
-            if demo {
-                // The demo: two simulated drives, so the list shows what it is for.
-                let named = app.rename(0, "X axis".into());
-                let added = app.add_drive("Y axis".into(), "sim://");
-                if let Err(e) = named.and(added.map(|_| ())) {
-                    app.state.info(format!("the demo's second drive: {e}"));
+            let (opening, note) = match opening {
+                Opening::Last => last_project(),
+                other => (other, None),
+            };
+            let mut app = match opening {
+                Opening::Project {
+                    project,
+                    path,
+                    show,
+                } => App::with_project(settings, notify, &project, Some(path), show.as_deref()),
+                Opening::Link(spec) => {
+                    settings.connection =
+                        state::ConnectionForm::from_spec(&spec, settings.connection);
+                    App::new(settings, notify, true)
                 }
+                Opening::Last => {
+                    let demo = settings.connection.bus == state::Bus::Sim;
+                    let mut app = App::new(settings, notify, true);
+                    if demo {
+                        // The demo: two simulated drives, so the list shows what it is for.
+                        let named = app.rename(0, "X axis".into());
+                        let added = app.add_drive("Y axis".into(), "sim://");
+                        if let Err(e) = named.and(added.map(|_| ())) {
+                            app.state.info(format!("the demo's second drive: {e}"));
+                        }
+                    }
+                    app
+                }
+            };
+            if let Some(note) = note {
+                app.state.info(note);
             }
             Ok(Box::new(app))
         }),
     )
+}
+
+/// The last project opened, when there is one and it still opens; else what to say.
+fn last_project() -> (Opening, Option<String>) {
+    let Some(path) = crate::project::recent::last_project() else {
+        return (Opening::Last, None);
+    };
+    match crate::project::open(&path) {
+        Ok(project) => (
+            Opening::Project {
+                project,
+                path,
+                show: None,
+            },
+            None,
+        ),
+        Err(e) => (
+            Opening::Last,
+            Some(format!(
+                "the last project, {}, did not reopen: {e}",
+                path.display()
+            )),
+        ),
+    }
 }

@@ -157,6 +157,7 @@ impl AppState {
             .map(|d| format!("; retrying in {:.1} s", d.as_secs_f64()))
             .unwrap_or_default();
         self.info(format!("connection to {spec} failed: {error}{retry}"));
+        self.check_against_project(Err(&error.to_string()));
         self.connection = Connection::Failed {
             spec,
             error,
@@ -288,6 +289,7 @@ impl AppState {
                 let link = self.scope.meta.link.clone().unwrap_or_default();
                 self.describe_drive(Some(&identity), &link);
                 self.note_drive(&identity);
+                self.check_against_project(Ok(&identity));
                 self.plot.identity = Some(identity);
                 self.identity_request = None;
             }

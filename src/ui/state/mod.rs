@@ -194,6 +194,11 @@ pub struct AppState {
     /// The drive of the last connection whose identity was read, and its link: another
     /// one is marked on the plots and the timeline (see `note_drive`).
     drive: Option<(LinkSpec, DeviceIdentity)>,
+    /// The project's record of this drive (its identity to compare on connecting, its
+    /// backup kept when the project is saved again); `None` outside a project.
+    pub project_drive: Option<crate::project::Drive>,
+    /// What comparing the drive with the project's record found, once it did.
+    pub project_check: Option<crate::project::check::DriveCheck>,
     /// Why the link went, when it was lost rather than closed (cleared on connecting
     /// again and on the user's disconnect).
     pub link_lost: Option<String>,
@@ -305,6 +310,8 @@ impl AppState {
             sampled_since_connect: false,
             connected_at: None,
             drive: None,
+            project_drive: None,
+            project_check: None,
             link_lost: None,
             health: None,
             scope,
