@@ -138,7 +138,7 @@ fn a_project_opens_every_drive_and_says_per_drive_what_differs() {
     // The rows (and the selected drive's log) say it.
     for text in [
         "not the project's device: serial number changed",
-        "no identity stored in the project",
+        "identity not in the project yet",
     ] {
         assert!(
             harness.query_all_by_label_contains(text).count() >= 1,

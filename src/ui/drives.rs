@@ -10,7 +10,7 @@ use eframe::egui::{self, Color32, RichText, Ui};
 
 use super::glance::{Tone, doing};
 use super::state::{AppState, Connection, Settings};
-use super::widgets::{RED, name_widget, named_text_edit};
+use super::widgets::{AMBER, RED, name_widget, named_text_edit};
 use super::{App, connection_form::ConnectionForm};
 use crate::cia::PowerState;
 use crate::link::{LinkSpec, SpecError};
@@ -155,8 +155,9 @@ pub struct DriveRow {
     /// "moving +300 rpm", "still", or nothing known.
     pub motion: String,
     pub connected: bool,
-    /// The drive is not the device its project saw, or did not answer the check.
-    pub check: Option<String>,
+    /// The drive is not the device its project saw, or did not answer the check (`true`:
+    /// an alarm), or the project has no identity for it yet (`false`: a caution).
+    pub check: Option<(String, bool)>,
 }
 
 impl DriveRow {
@@ -698,8 +699,9 @@ fn row_ui(
     if let Some(fault) = &row.fault {
         ui.add(egui::Label::new(RichText::new(fault).small().color(RED)).truncate());
     }
-    if let Some(check) = &row.check {
-        ui.add(egui::Label::new(RichText::new(check).small().color(RED)).truncate())
+    if let Some((check, alarm)) = &row.check {
+        let color = if *alarm { RED } else { AMBER };
+        ui.add(egui::Label::new(RichText::new(check).small().color(color)).truncate())
             .on_hover_text(check);
     }
 }

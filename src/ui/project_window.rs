@@ -474,17 +474,23 @@ impl AppState {
         self.project_check = Some(check);
     }
 
-    /// What the list's row says of the project check: nothing while the drive is the
-    /// one the project saw (or not yet checked).
-    pub fn project_warning(&self) -> Option<String> {
+    /// What the list's row says of the project check, and whether it is an alarm (red)
+    /// or a caution (amber): nothing while the drive is the one the project saw (or not
+    /// yet checked, or answering now after a failed first try).
+    pub fn project_warning(&self) -> Option<(String, bool)> {
         let check = self.project_check.as_ref()?;
         match &check.verdict {
             Verdict::Same => None,
-            Verdict::Changed(_) => {
-                Some(format!("not the project's device: {}", verdict_text(check)))
-            }
+            Verdict::Changed(_) => Some((
+                format!("not the project's device: {}", verdict_text(check)),
+                true,
+            )),
             Verdict::NoAnswer(_) if matches!(self.connection, Connection::Connected(_)) => None,
-            Verdict::NoAnswer(_) | Verdict::NotRecorded(_) => Some(verdict_text(check)),
+            Verdict::NoAnswer(_) => Some((verdict_text(check), true)),
+            Verdict::NotRecorded(_) => Some((
+                "identity not in the project yet: Project > Save project keeps it".into(),
+                false,
+            )),
         }
     }
 }

@@ -341,6 +341,20 @@ fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
     (plot_height, lanes_height)
 }
 
+/// The legend, top left (the newest samples come in on the right). With other drives
+/// drawn beside, a line each: small and see-through, so that on a low plot the traces
+/// under it still show.
+fn legend(several: bool) -> Legend {
+    let legend = Legend::default().position(egui_plot::Corner::LeftTop);
+    if several {
+        legend
+            .text_style(egui::TextStyle::Small)
+            .background_alpha(0.45)
+    } else {
+        legend
+    }
+}
+
 /// One analog signal's plot, on the shared time axis; the first labels the markers, the
 /// lowest the time axis.
 fn analog_plot_ui(
@@ -379,8 +393,7 @@ fn analog_plot_ui(
         .height(height)
         .link_axis(view.group, [true, false])
         .link_cursor(view.group, [true, false])
-        // Top left: the newest samples come in on the right.
-        .legend(Legend::default().position(egui_plot::Corner::LeftTop))
+        .legend(legend(view.own.is_some()))
         .allow_double_click_reset(false)
         // The time axis zooms and pans; the value axis always fits what is in view.
         .allow_zoom([true, false])
