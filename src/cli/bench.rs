@@ -199,6 +199,9 @@ fn serve(bus: ServedBus, rpi: u32) -> std::io::Result<Target> {
 }
 
 pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
+    if let Some(runs) = args.startup {
+        return super::bench_start::run(runs);
+    }
     let runtime = match tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()

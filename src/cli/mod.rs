@@ -14,6 +14,7 @@ macro_rules! outln {
 }
 
 mod bench;
+mod bench_start;
 mod failure;
 mod interrupt;
 mod od;
@@ -362,6 +363,10 @@ pub struct BenchArgs {
     /// Leave the pymodbus comparison out.
     #[arg(long)]
     pub no_peer: bool,
+    /// Instead: start the window N times on the demo and on a served Modbus TCP drive
+    /// (needs a display, e.g. Xvfb) and time launch → first frame → first status.
+    #[arg(long, value_name = "N")]
+    pub startup: Option<u32>,
 }
 
 /// The buses `bench --serve-sim` can serve the simulated drive on.

@@ -19,6 +19,7 @@ pub mod project_window;
 pub mod scan;
 pub mod state;
 pub mod status;
+pub mod timings;
 pub mod watch;
 pub mod widgets;
 
@@ -59,6 +60,8 @@ pub struct App {
     fonts_set: bool,
     /// The project file the drives were opened from or saved to.
     project: project_window::ProjectFiles,
+    /// The start, timed (`DRIVEDECK_TIMINGS`).
+    timings: Option<timings::Timings>,
 }
 
 impl App {
@@ -86,6 +89,7 @@ impl App {
             may_close: false,
             fonts_set: false,
             project: project_window::ProjectFiles::default(),
+            timings: None,
         };
         if connect {
             match app.state.settings.connection.spec() {
@@ -333,6 +337,14 @@ impl eframe::App for App {
     fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
         self.draw(ui);
         self.flush_outbox();
+        let status = self.state.sampled_since_connect;
+        if let Some(timings) = &mut self.timings
+            && timings.frame_drawn(status)
+            && !self.closing
+        {
+            self.start_closing();
+            ui.ctx().request_repaint();
+        }
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
@@ -415,6 +427,13 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
             };
             if let Some(note) = note {
                 app.state.info(note);
+            }
+            // Installed before the first frame, so that it is not laid out twice.
+            cc.egui_ctx.set_fonts(fonts::definitions());
+            app.fonts_set = true;
+            app.timings = timings::Timings::from_env();
+            if let Some(timings) = &mut app.timings {
+                timings.connect_asked();
             }
             Ok(Box::new(app))
         }),
