@@ -423,3 +423,70 @@ fn a_trigger_on_another_drive_stops_the_plots_on_its_capture() {
     let message = format!("{:?}", plot.message);
     assert!(message.contains("Y axis's trigger fired at"), "{message}");
 }
+
+#[test]
+fn exports_write_every_drive_beside_the_selected_one_and_ask_before_replacing_any() {
+    use drivedeck::telemetry::load_recording;
+    use drivedeck::ui::plots::files::ScriptedPicker;
+    let mut harness = two_drives();
+    turn(&mut harness, 1);
+    window::step_for(&mut harness, Duration::from_millis(300));
+    let dir = tempfile::tempdir().expect("a folder");
+    let chosen = dir.path().join("visible.csv");
+    let picker = ScriptedPicker::new();
+    picker.answer(Some(chosen.clone()));
+    picker.answer(Some(chosen.clone()));
+    harness.state_mut().state.plot.files = picker.clone();
+    harness.get_by_label("Export visible…").click();
+    harness.run_steps(2);
+    // The selected drive's signals in the file chosen, Y axis's beside it, over one span.
+    let x = load_recording(&chosen, u64::MAX).expect("X axis's file");
+    let beside = dir.path().join("visible_Y_axis.csv");
+    let y = load_recording(&beside, u64::MAX).expect("Y axis's file beside it");
+    assert!(
+        x.len() > 10 && y.len() > 10,
+        "{} and {} rows",
+        x.len(),
+        y.len()
+    );
+    let span = |r: &drivedeck::telemetry::Recording| {
+        (
+            r.times.first().copied().unwrap_or(f64::NAN),
+            r.times.last().copied().unwrap_or(f64::NAN),
+        )
+    };
+    let ((x0, x1), (y0, y1)) = (span(&x), span(&y));
+    assert!(
+        y0 >= x0 - 0.02 && y1 <= x1 + 0.02,
+        "X {x0}..{x1}, Y {y0}..{y1}"
+    );
+    // Y axis turns at 30 rpm, X axis stands: each file holds its own drive.
+    let velocity = |r: &drivedeck::telemetry::Recording| {
+        let column = r
+            .channels
+            .iter()
+            .position(|c| c.id == "velocity")
+            .expect("a velocity column");
+        r.columns[column]
+            .iter()
+            .copied()
+            .rev()
+            .find(|v| v.is_finite())
+            .unwrap_or(f64::NAN)
+    };
+    assert!(velocity(&y) > 25.0 && velocity(&x).abs() < 1.0);
+    let said = match &harness.state().state.plot.message {
+        Some(Ok(text)) => text.clone(),
+        other => panic!("{other:?}"),
+    };
+    assert!(said.contains("Y axis's signals to"), "{said}");
+
+    // Again to the same name: both files exist, the question lists them; Cancel keeps them.
+    let before = std::fs::read(&beside).expect("Y's file");
+    harness.get_by_label("Export visible…").click();
+    harness.run_steps(2);
+    harness.get_by_label_contains("These exist already");
+    harness.get_by_label("Cancel").click();
+    harness.run_steps(2);
+    assert_eq!(std::fs::read(&beside).expect("Y's file"), before);
+}

@@ -57,7 +57,7 @@ pub fn load_recording(path: &Path, limit: u64) -> Result<Recording, String> {
     }
     let mut bytes = Vec::new();
     // `take`: a file that grows while it is read (or claims no size) stops at the limit.
-    file.take(limit + 1)
+    file.take(limit.saturating_add(1))
         .read_to_end(&mut bytes)
         .map_err(|e| format!("cannot read {shown}: {e}"))?;
     if bytes.len() as u64 > limit {

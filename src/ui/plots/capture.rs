@@ -4,7 +4,7 @@
 //! the file picked in the save dialog, a file that exists replaced only when the user
 //! says so.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use eframe::egui::{self, Ui};
@@ -102,7 +102,7 @@ impl TriggerForm {
     }
 }
 
-pub fn capture_ui(ui: &mut Ui, state: &mut AppState) {
+pub fn capture_ui(ui: &mut Ui, state: &mut AppState, beside: &[super::Beside<'_>]) {
     // The trigger and the files on one wrapped line: every row of controls comes off
     // the plots' height, which is what a 1366x768 screen has least of.
     ui.horizontal_wrapped(|ui| {
@@ -110,7 +110,7 @@ pub fn capture_ui(ui: &mut Ui, state: &mut AppState) {
             trigger_ui(ui, state);
             ui.separator();
         }
-        export_ui(ui, state);
+        export_ui(ui, state, beside);
     });
     ui.horizontal_wrapped(|ui| {
         message_ui(ui, state.plot.message.as_ref());
@@ -286,26 +286,47 @@ fn arm_ui(ui: &mut Ui, state: &mut AppState) {
 }
 
 /// The buttons that save and export, each through the save dialog.
-fn export_ui(ui: &mut Ui, state: &mut AppState) {
+fn export_ui(ui: &mut Ui, state: &mut AppState, beside: &[super::Beside<'_>]) {
+    // Other drives' signals are saved beside the selected drive's, over the same span,
+    // while they are drawn with it (live or over a capture; not over a file's recording).
+    let beside = if state.plot.review.as_ref().is_none_or(|r| r.capture) {
+        beside
+    } else {
+        &[]
+    };
     let has_recording = state.scope.recording().is_some();
     if ui
         .add_enabled(has_recording, egui::Button::new("Save recording…"))
-        .on_hover_text("The triggered recording, every signal, to CSV or JSON")
+        .on_hover_text(if beside.is_empty() {
+            "The triggered recording, every signal, to CSV or JSON"
+        } else {
+            "The triggered recording, every signal, to CSV or JSON; every other drive's over the same span, each to a file of its own beside it"
+        })
         .on_disabled_hover_text("Arm the trigger first: a recording comes when it fires")
         .clicked()
     {
         match triggered(state) {
-            Ok(recording) => ask(ui.ctx(), state, Job::save(Export::Recording, recording)),
+            Ok(recording) => {
+                let others = others_over(&recording, beside, false);
+                ask(ui.ctx(), state, Job::save(Export::Recording, recording).with(others));
+            }
             Err(e) => state.plot.message = Some(Err(e)),
         }
     }
     if ui
         .button("Export visible…")
-        .on_hover_text("The time span in view, the signals shown, to CSV or JSON")
+        .on_hover_text(if beside.is_empty() {
+            "The time span in view, the signals shown, to CSV or JSON"
+        } else {
+            "The time span in view, the signals shown, to CSV or JSON; every other drive's, each to a file of its own beside it"
+        })
         .clicked()
     {
         match visible(state) {
-            Ok(recording) => ask(ui.ctx(), state, Job::save(Export::Visible, recording)),
+            Ok(recording) => {
+                let others = others_over(&recording, beside, true);
+                ask(ui.ctx(), state, Job::save(Export::Visible, recording).with(others));
+            }
             Err(e) => state.plot.message = Some(Err(e)),
         }
     }
@@ -337,6 +358,9 @@ pub enum Job {
     Save {
         kind: Export,
         recording: Arc<Recording>,
+        /// The other drives' signals over the same span: each drive's name and its
+        /// recording, written beside the file chosen (see [`beside_path`]).
+        others: Vec<(String, Arc<Recording>)>,
     },
     /// Write this picture of the plots.
     Png(Arc<egui::ColorImage>),
@@ -349,7 +373,37 @@ impl Job {
         Job::Save {
             kind,
             recording: Arc::new(recording),
+            others: Vec::new(),
         }
+    }
+
+    /// This save with the other drives' recordings to write beside it.
+    fn with(self, more: Vec<(String, Recording)>) -> Job {
+        match self {
+            Job::Save {
+                kind,
+                recording,
+                mut others,
+            } => {
+                others.extend(more.into_iter().map(|(n, r)| (n, Arc::new(r))));
+                Job::Save {
+                    kind,
+                    recording,
+                    others,
+                }
+            }
+            job => job,
+        }
+    }
+
+    /// Every file this job writes at `path`: the chosen one first, then one per other
+    /// drive beside it.
+    pub fn paths(&self, path: &Path) -> Vec<PathBuf> {
+        let mut paths = vec![path.to_path_buf()];
+        if let Job::Save { others, .. } = self {
+            paths.extend(others.iter().map(|(name, _)| beside_path(path, name)));
+        }
+        paths
     }
 
     fn export(&self) -> Option<Export> {
@@ -476,7 +530,13 @@ pub fn poll(ctx: &egui::Context, state: &mut AppState) {
     }
     match job {
         Job::Open { overlay } => super::review::load(ctx, state, path, overlay),
-        job if std::fs::symlink_metadata(&path).is_ok() => state.plot.confirm = Some((path, job)),
+        job if job
+            .paths(&path)
+            .iter()
+            .any(|p| std::fs::symlink_metadata(p).is_ok()) =>
+        {
+            state.plot.confirm = Some((path, job))
+        }
         job => write(state, path, &job),
     }
 }
@@ -489,7 +549,10 @@ fn write(state: &mut AppState, path: PathBuf, job: &Job) {
     };
     let text = path.to_string_lossy().into_owned();
     let outcome = match job {
-        Job::Save { recording, .. } => crate::telemetry::save_recording(recording, &text),
+        Job::Save {
+            recording, others, ..
+        } => crate::telemetry::save_recording(recording, &text)
+            .map(|said| save_others(said, &path, others)),
         Job::Png(image) => super::picture::write_png(image, &text),
         Job::Open { .. } => return,
     }
@@ -520,7 +583,16 @@ pub fn confirm_ui(ctx: &egui::Context, state: &mut AppState) {
             )
         })
         .unwrap_or_default();
-    let text = format!("{} exists already.{holds}", path.display());
+    let existing: Vec<String> = job
+        .paths(path)
+        .into_iter()
+        .filter(|p| std::fs::symlink_metadata(p).is_ok())
+        .map(|p| p.display().to_string())
+        .collect();
+    let text = match existing.as_slice() {
+        [one] => format!("{one} exists already.{holds}"),
+        many => format!("These exist already: {}.{holds}", many.join(", ")),
+    };
     let what = job.export().map_or("it", Export::what);
     let mut choice = None;
     let modal = egui::Modal::new(egui::Id::unique("plots_replace_file")).show(ctx, |ui| {
@@ -623,6 +695,79 @@ fn triggered(state: &AppState) -> Result<Recording, String> {
     Ok(recording)
 }
 
+/// The other drives' signals over `recording`'s span (only the shown ones when
+/// `shown_only`), each with its drive's name; a drive with no sample in the span is left
+/// out (its file would be empty), and said so in the saved message by its absence.
+fn others_over(
+    recording: &Recording,
+    beside: &[super::Beside<'_>],
+    shown_only: bool,
+) -> Vec<(String, Recording)> {
+    let (Some(&from), Some(&to)) = (recording.times.first(), recording.times.last()) else {
+        return Vec::new();
+    };
+    beside
+        .iter()
+        .map(|other| {
+            let mut meta = other.scope.meta.clone();
+            meta.note = Some(format!(
+                "drive \"{}\", over the same span as the file beside it{}",
+                other.name,
+                meta.note
+                    .take()
+                    .map(|n| format!("; {n}"))
+                    .unwrap_or_default()
+            ));
+            (
+                other.name.to_owned(),
+                other.scope.export(from, to, meta, shown_only),
+            )
+        })
+        .filter(|(_, r)| !r.is_empty())
+        .collect()
+}
+
+/// Where another drive's recording goes beside `path`: the drive's name (letters, digits,
+/// `-` and `_`; the rest `_`) added to the file's stem — `…_capture.csv` beside
+/// `…_capture_Y_axis.csv`.
+pub fn beside_path(path: &Path, drive: &str) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name: String = drive
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let file = match path.extension() {
+        Some(ext) => format!("{stem}_{name}.{}", ext.to_string_lossy()),
+        None => format!("{stem}_{name}"),
+    };
+    path.with_file_name(file)
+}
+
+/// Write the other drives' recordings beside `path`, and say what was written after
+/// `said` (the selected drive's file); a file that cannot be written is said, and the
+/// others are still written.
+fn save_others(said: String, path: &Path, others: &[(String, Arc<Recording>)]) -> String {
+    let mut parts = vec![said];
+    for (name, recording) in others {
+        let at = beside_path(path, name);
+        let text = at.to_string_lossy().into_owned();
+        match crate::telemetry::save_recording(recording, &text) {
+            Ok(_) => parts.push(format!("{name}'s signals to {text}")),
+            Err(e) => parts.push(format!("{name}'s signals NOT saved: {e}")),
+        }
+    }
+    parts.join("; ")
+}
+
 /// The visible time span of the shown signals (of the recording on screen, or live).
 pub fn visible(state: &AppState) -> Result<Recording, String> {
     let (from, to) = super::time_range(state).ok_or("nothing recorded yet")?;
@@ -646,6 +791,20 @@ pub fn visible(state: &AppState) -> Result<Recording, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn another_drive_s_file_is_named_after_it_beside_the_one_chosen() {
+        let path = Path::new("/data/PD4_2026-12-03_0612_capture.csv");
+        assert_eq!(
+            beside_path(path, "Y axis"),
+            Path::new("/data/PD4_2026-12-03_0612_capture_Y_axis.csv")
+        );
+        assert_eq!(
+            beside_path(Path::new("run.json"), "Z/../../etc"),
+            Path::new("run_Z_______etc.json")
+        );
+        assert_eq!(beside_path(Path::new("bare"), "A"), Path::new("bare_A"));
+    }
 
     #[test]
     fn every_job_proposes_its_own_name_so_the_buttons_never_share_a_file() {

@@ -265,7 +265,7 @@ pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
 pub fn drives_plots_ui(ui: &mut Ui, state: &mut AppState, own: &str, beside: &[Beside<'_>]) {
     toolbar(ui, state);
     review::review_ui(ui, state);
-    capture::capture_ui(ui, state);
+    capture::capture_ui(ui, state, beside);
     readout::readout_ui(ui, state);
     let band = picture::title_band_ui(ui, state);
     let plots = traces::traces_ui(ui, state, own, beside);
