@@ -9,6 +9,8 @@
 //!   while they run finds both;
 //! * two slaves of `drivedeck sim --modbus-rtu A --slave 1 --slave 2` on one pty line,
 //!   the port opened once for both, both move;
+//! * two nodes of `drivedeck sim --can vcan0 --node 5 --node 6` through one SocketCAN
+//!   interface, where the machine has vcan0 (skipped, and said so, where it has not);
 //! * a drive lost mid-run (a node's cable pulled, a slave that stops answering) is
 //!   reported on its own link, naming the cause, while the others finish their moves.
 //!
@@ -203,6 +205,35 @@ fn two_workers_share_one_slcan_adapter_and_both_move() {
             assert!(error.text.contains("node 5"), "{error}");
         }
         other => panic!("a second link to node 5: {other:?}"),
+    }
+}
+
+#[test]
+fn two_workers_share_one_socketcan_interface_where_vcan0_exists() {
+    if !std::path::Path::new("/sys/class/net/vcan0").exists() {
+        common::skip(
+            "two drives on one SocketCAN interface: no vcan0 on this machine (modprobe vcan; ip link add vcan0 type vcan; ip link set vcan0 up)",
+        );
+        return;
+    }
+    let _sim = Sim::can_nodes("vcan0", &[5, 6]);
+    let mut probes: Vec<Probe> = [5, 6]
+        .into_iter()
+        .map(|node| {
+            probe_at(
+                spec(&format!("canopen+socketcan://vcan0?node={node}")),
+                100.0,
+            )
+        })
+        .collect();
+    let shared: Vec<String> = open_buses()
+        .into_iter()
+        .filter(|k| k.contains("vcan0"))
+        .collect();
+    assert_eq!(shared.len(), 1, "{shared:?}");
+    move_all_at_once(&mut probes, &[2000, -1000]);
+    for probe in probes.iter_mut() {
+        probe.never_dropped();
     }
 }
 

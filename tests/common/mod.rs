@@ -492,6 +492,17 @@ impl Sim {
         Sim::slcan_nodes(path, &[node], args)
     }
 
+    /// `drivedeck sim --can IFACE --node N1 --node N2…`: CANopen nodes on a SocketCAN
+    /// interface (vcan0 where the machine has one).
+    pub fn can_nodes(iface: &str, nodes: &[u8]) -> Sim {
+        let ids: Vec<String> = nodes.iter().map(u8::to_string).collect();
+        let mut all = vec!["--can", iface];
+        for id in &ids {
+            all.extend(["--node", id.as_str()]);
+        }
+        Sim::start(&all, "SocketCAN banner", |_| {})
+    }
+
     /// `drivedeck sim --slcan PATH --node N1 --node N2… ARGS…`: CANopen nodes, each a
     /// drive of its own, on one bus behind an emulated slcan adapter.
     pub fn slcan_nodes(path: &Path, nodes: &[u8], args: &[&str]) -> Sim {
