@@ -442,7 +442,12 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
 
 /// The last project opened, when there is one and it still opens; else what to say.
 fn last_project() -> (Opening, Option<String>) {
-    let Some(path) = crate::project::recent::last_project() else {
+    last_project_from(crate::project::recent::settings_dir().as_deref())
+}
+
+/// [`last_project`] with the settings folder `dir`.
+fn last_project_from(dir: Option<&std::path::Path>) -> (Opening, Option<String>) {
+    let Some(path) = dir.and_then(crate::project::recent::last_project_in) else {
         return (Opening::Last, None);
     };
     match crate::project::open(&path) {
@@ -461,5 +466,44 @@ fn last_project() -> (Opening, Option<String>) {
                 path.display()
             )),
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_last_project_reopens_and_one_that_no_longer_opens_is_said() {
+        let dir = tempfile::tempdir().expect("a folder");
+        assert!(matches!(
+            last_project_from(Some(dir.path())),
+            (Opening::Last, None)
+        ));
+        assert!(matches!(last_project_from(None), (Opening::Last, None)));
+        let file = dir.path().join("machine.json");
+        let drive = crate::project::Drive::new("X axis", crate::link::LinkSpec::Sim);
+        let project = crate::project::Project::new(vec![drive]).expect("a project");
+        crate::project::save(&project, &file).expect("saved");
+        crate::project::recent::remember_in(dir.path(), &file).expect("remembered");
+        match last_project_from(Some(dir.path())) {
+            (
+                Opening::Project {
+                    project: opened, ..
+                },
+                None,
+            ) => assert_eq!(opened, project),
+            _ => panic!("the last project did not reopen"),
+        }
+        std::fs::write(&file, "{ not a project").expect("spoilt");
+        match last_project_from(Some(dir.path())) {
+            (Opening::Last, Some(note)) => {
+                assert!(
+                    note.contains("did not reopen") && note.contains("machine.json"),
+                    "{note}"
+                )
+            }
+            _ => panic!("a spoilt last project must be said"),
+        }
     }
 }
