@@ -14,6 +14,7 @@ macro_rules! outln {
 }
 
 mod bench;
+mod bench_io;
 mod failure;
 mod interrupt;
 mod od;

@@ -5,4 +5,5 @@
 pub mod client;
 pub mod discovery;
 mod implicit;
+pub use implicit::{IoTiming, KEPT_WITHIN, STARTUP_SPAN};
 pub mod session;
