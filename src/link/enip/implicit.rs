@@ -223,6 +223,10 @@ fn verdict(spread: &Spread, rpi: Duration) -> Option<String> {
 struct Threads {
     producer: Option<JoinHandle<()>>,
     consumer: Option<JoinHandle<()>>,
+    /// A task on the runtime that opened the connection, holding what the producer
+    /// watches: when that runtime ends (the worker is gone, whatever became of the link),
+    /// production stops, so the adapter times out as it would on a scanner that died.
+    tie: Option<tokio::task::JoinHandle<()>>,
 }
 
 /// A running I/O connection.
@@ -253,6 +257,14 @@ impl IoHandle {
         }));
         let notify = Arc::new(Notify::new());
         let stop = Arc::new(AtomicBool::new(false));
+        let alive = Arc::new(());
+        let owner = Arc::downgrade(&alive);
+        let tie = tokio::runtime::Handle::try_current().ok().map(|runtime| {
+            runtime.spawn(async move {
+                let _alive = alive;
+                std::future::pending::<()>().await
+            })
+        });
         let consumer = Consumer {
             socket: socket.try_clone()?,
             config: config.clone(),
@@ -271,6 +283,7 @@ impl IoHandle {
             shared: shared.clone(),
             notify: notify.clone(),
             stop: stop.clone(),
+            owner: tie.as_ref().map(|_| owner),
             sequence: 0,
             count: 0,
             last_sent: None,
@@ -284,6 +297,9 @@ impl IoHandle {
                 stop.store(true, Ordering::Release);
                 wake_consumer(local);
                 let _ = consumer.join();
+                if let Some(tie) = tie {
+                    tie.abort();
+                }
                 return Err(e);
             }
         };
@@ -294,6 +310,7 @@ impl IoHandle {
             threads: Mutex::new(Threads {
                 producer: Some(producer),
                 consumer: Some(consumer),
+                tie,
             }),
             local,
             config,
@@ -392,6 +409,9 @@ impl IoHandle {
     pub fn stop(&self) {
         self.stop.store(true, Ordering::Release);
         let mut threads = self.threads.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(tie) = threads.tie.take() {
+            tie.abort();
+        }
         if let Some(producer) = threads.producer.take() {
             producer.thread().unpark();
             let _ = producer.join();
@@ -454,6 +474,8 @@ struct Producer {
     shared: Arc<Mutex<Shared>>,
     notify: Arc<Notify>,
     stop: Arc<AtomicBool>,
+    /// Gone when the runtime that opened the connection ended (see [`Threads::tie`]).
+    owner: Option<std::sync::Weak<()>>,
     opened: Instant,
     /// The first packet may take a little longer than the steady-state timeout.
     first_grace: Duration,
@@ -476,6 +498,11 @@ impl Producer {
                     break;
                 }
                 std::thread::park_timeout(schedule.due() - now);
+            }
+            if self.owner.as_ref().is_some_and(|o| o.strong_count() == 0) {
+                // Nobody is left to take the inputs or change the outputs.
+                let _ = self.fail("the runtime that owned the link ended".into());
+                return;
             }
             if self.on_tick().is_break() {
                 return;
