@@ -8,9 +8,17 @@
 //! * **idle**: PDI exchanges only;
 //! * **dictionary**: the worker's "Read all": each cycle one PDI exchange, then object
 //!   reads through the whole built-in catalog for up to half an RPI (at least one);
-//! * **blocked**: the thread spins for 20 ms at a stretch between exchanges (a slow task
-//!   that never yields), which the producer of a runtime task could not get past.
+//! * **held**: the thread sleeps 20 ms at a stretch between exchanges (a slow task that
+//!   blocks and never yields), which a producer running as a task on that runtime could
+//!   not get past;
+//! * **busy**: the same, spinning (a slow task that burns a core while it holds the
+//!   thread): on a machine of two cores this also takes CPU from the I/O threads;
+//! * **plotting**: another thread draws the plot panel, as the window does, 60 frames a
+//!   second through a headless egui context with ten minutes of 1 kHz samples (about 5 ms
+//!   a frame, BENCHMARKS.md), while the link's thread exchanges the PDI.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
@@ -83,17 +91,131 @@ impl std::fmt::Display for Intervals {
 enum Load {
     Idle,
     Dictionary,
-    Blocked,
+    Held,
+    Busy,
+    Plotting,
 }
 
 impl Load {
-    const ALL: [Load; 3] = [Load::Idle, Load::Dictionary, Load::Blocked];
+    const ALL: [Load; 5] = [
+        Load::Idle,
+        Load::Dictionary,
+        Load::Held,
+        Load::Busy,
+        Load::Plotting,
+    ];
 
     fn name(self) -> &'static str {
         match self {
             Load::Idle => "idle",
-            Load::Dictionary => "reading the dictionary",
-            Load::Blocked => "thread blocked 20 ms at a time",
+            Load::Dictionary => "dictionary read",
+            Load::Held => "thread held 20 ms",
+            Load::Busy => "thread busy 20 ms",
+            Load::Plotting => "window plotting",
+        }
+    }
+}
+
+/// Samples in the plot history of the plotting load: the window's default, ten minutes
+/// at 1 kHz.
+const PLOT_ROWS: usize = 600_000;
+const FRAME: Duration = Duration::from_micros(16_667);
+
+/// A thread that draws the plot panel at 60 frames a second while `active`, until `stop`.
+struct Plotter {
+    /// The history is built: frames cost what a running window's do.
+    ready: Arc<AtomicBool>,
+    active: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Plotter {
+    fn start() -> std::io::Result<Plotter> {
+        let ready = Arc::new(AtomicBool::new(false));
+        let active = Arc::new(AtomicBool::new(false));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (r, a, s) = (ready.clone(), active.clone(), stop.clone());
+        let thread = std::thread::Builder::new()
+            .name("bench-plotting".into())
+            .spawn(move || plot_frames(&r, &a, &s))?;
+        Ok(Plotter {
+            ready,
+            active,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// The history is built (or the thread ended: nothing to wait for).
+    fn ready(&self) -> bool {
+        self.ready.load(Ordering::Acquire) || self.thread.as_ref().is_none_or(|t| t.is_finished())
+    }
+
+    fn set_active(&self, on: bool) {
+        self.active.store(on, Ordering::Release);
+    }
+}
+
+impl Drop for Plotter {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(thread) = self.thread.take() {
+            thread.thread().unpark();
+            let _ = thread.join();
+        }
+    }
+}
+
+fn plot_frames(ready: &AtomicBool, active: &AtomicBool, stop: &AtomicBool) {
+    use crate::pdi::{Status, TxImage};
+    use crate::signal::{Signal, Signals};
+    use eframe::egui;
+    let mut settings = crate::ui::Settings::default();
+    settings.plot.history_rows = PLOT_ROWS;
+    let mut state = crate::ui::AppState::new(settings);
+    for i in 0..PLOT_ROWS {
+        let t = i as f64 * 0.001;
+        let noise = ((i * 7919) % 101) as f64 - 50.0;
+        state.scope.push(&crate::worker::Sample {
+            t,
+            signals: Signals::default()
+                .with(Signal::Position, (t * 0.7).sin() * 36_000.0 + noise)
+                .with(Signal::Velocity, (t * 0.7).cos() * 2_500.0 + noise)
+                .with(Signal::Torque, (t * 3.0).sin() * 400.0 + noise)
+                .with(Signal::FollowingError, noise),
+            tx: TxImage {
+                status: Status(if (i / 1500) % 2 == 0 { 0x0009 } else { 0x0001 }),
+                error_code: 0,
+                return_value: i as i32,
+            },
+            ..crate::worker::Sample::default()
+        });
+    }
+    let ctx = egui::Context::default();
+    ready.store(true, Ordering::Release);
+    let mut next = Instant::now();
+    while !stop.load(Ordering::Acquire) {
+        if !active.load(Ordering::Acquire) {
+            std::thread::park_timeout(Duration::from_millis(5));
+            next = Instant::now();
+            continue;
+        }
+        let input = egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(
+                egui::Pos2::ZERO,
+                egui::vec2(1600.0, 1000.0),
+            )),
+            ..Default::default()
+        };
+        let output = ctx.run_ui(input, |ui| crate::ui::plots::plots_ui(ui, &mut state));
+        std::hint::black_box(ctx.tessellate(output.shapes, output.pixels_per_point));
+        next += FRAME;
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        } else {
+            next = now;
         }
     }
 }
@@ -103,7 +225,8 @@ pub fn applies(spec: &LinkSpec) -> bool {
     matches!(spec, LinkSpec::Enip { enip, .. } if !matches!(enip.io, crate::link::spec::EnipIo::Explicit))
 }
 
-/// The intervals under each load, `span` per load in all; empty when the link opened
+/// The intervals under each load, `span` per load in all (the plotting thread first builds
+/// its history, a second or so); empty when the link opened
 /// without I/O (the adapter refused it).
 pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, link::Error> {
     let mut link = EnipLink::connect(spec).await?;
@@ -123,14 +246,27 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
         .map(|l| (*l, IoTiming::default()))
         .collect();
     let slice = span / ROUNDS;
+    let plotter = Plotter::start().map_err(|e| link::Error::Io {
+        context: "starting the plotting thread".into(),
+        source: e,
+    })?;
+    while !plotter.ready() {
+        link.exchange(rx.as_ref()).await?;
+    }
     for _ in 0..ROUNDS {
         for (load, timing) in gathered.iter_mut() {
+            plotter.set_active(*load == Load::Plotting);
+            if *load == Load::Plotting {
+                // The first frames lay out and cache fonts: not what a running window costs.
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
             link.record_io_timing(true);
             let start = Instant::now();
             while start.elapsed() < slice {
                 link.exchange(rx.as_ref()).await?;
                 match load {
-                    Load::Idle => {}
+                    Load::Idle | Load::Plotting => {}
+                    Load::Held => std::thread::sleep(BLOCK),
                     Load::Dictionary => {
                         let cycle = Instant::now();
                         loop {
@@ -144,7 +280,7 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
                             }
                         }
                     }
-                    Load::Blocked => {
+                    Load::Busy => {
                         let spin = Instant::now();
                         while spin.elapsed() < BLOCK {
                             std::hint::spin_loop();
@@ -159,6 +295,8 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
             link.record_io_timing(false);
         }
     }
+    plotter.set_active(false);
+    drop(plotter);
     let _ = link.close().await;
     let mut out = vec![];
     for (load, timing) in &gathered {
