@@ -46,10 +46,12 @@ pub struct Intervals {
     pub max_ms: f64,
     /// The 99th percentile within [`KEPT_WITHIN`] of the RPI.
     pub kept: bool,
+    /// What the scanner's producer thread got from the OS.
+    pub producer_priority: String,
 }
 
 impl Intervals {
-    fn from(what: String, rpi: Duration, intervals: &[Duration]) -> Intervals {
+    fn from(what: String, rpi: Duration, intervals: &[Duration], priority: &str) -> Intervals {
         let spread = Spread::of(intervals);
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
         let total: Duration = intervals.iter().sum();
@@ -62,6 +64,7 @@ impl Intervals {
             p99_ms: ms(spread.p99),
             max_ms: ms(spread.max),
             kept: ms(spread.p99) <= ms(rpi) * (1.0 + KEPT_WITHIN),
+            producer_priority: priority.to_owned(),
         }
     }
 }
@@ -297,6 +300,9 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
     }
     plotter.set_active(false);
     drop(plotter);
+    let priority = link
+        .io_priority()
+        .map_or_else(|| "unknown".to_owned(), |p| p.to_string());
     let _ = link.close().await;
     let mut out = vec![];
     for (load, timing) in &gathered {
@@ -304,6 +310,7 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
             format!("O→T sent, {}", load.name()),
             rpi,
             &timing.ot,
+            &priority,
         ));
     }
     for (load, timing) in &gathered {
@@ -311,6 +318,7 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
             format!("T→O taken, {}", load.name()),
             rpi,
             &timing.to,
+            &priority,
         ));
     }
     Ok(out)
@@ -328,6 +336,13 @@ pub fn run(
         return Ok(vec![]);
     }
     let intervals = runtime.block_on(measure(spec, span))?;
+    if let (false, Some(first)) = (json, intervals.first()) {
+        outln!(
+            "  class 1 producer thread: {} priority (${}=normal for ordinary)",
+            first.producer_priority,
+            crate::link::enip::priority::PRIORITY_ENV
+        );
+    }
     if !json {
         for i in &intervals {
             outln!("  {i}");

@@ -590,6 +590,11 @@ impl EnipLink {
         self.io.as_ref().map(|o| o.handle.take_timing())
     }
 
+    /// The priority the I/O producer thread runs at, once it started.
+    pub fn io_priority(&self) -> Option<super::priority::Priority> {
+        self.io.as_ref().and_then(|o| o.handle.priority())
+    }
+
     /// The RPI of the open I/O connection.
     pub fn io_rpi(&self) -> Option<Duration> {
         self.io.as_ref().map(|o| o.handle.config.ot_rpi)

@@ -7,7 +7,8 @@
 //! dictionary read or anything else that holds the worker's thread cannot delay an O→T
 //! packet (which the adapter times out on) nor the taking of a T→O one. The producer
 //! sleeps to absolute deadlines (start + k × RPI, [`Schedule`]) on the OS's
-//! high-resolution timer rather than tokio's millisecond wheel. The worker and the
+//! high-resolution timer rather than tokio's millisecond wheel, at real-time priority where
+//! the OS grants it ([`priority`]). The worker and the
 //! threads share the outputs, the newest input and the counters under one mutex held for
 //! a copy at a time.
 //!
@@ -25,6 +26,7 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::Notify;
 
+use super::priority::{self, Priority};
 use crate::link::{TraceRecord, TraceRing};
 use crate::proto::enip::io::{Arrival, IoPacket, Newest, Schedule, Spread};
 use crate::proto::enip::wire::hex;
@@ -144,6 +146,8 @@ struct Timing {
     verdict: Option<Option<String>>,
     recording: bool,
     recorded: IoTiming,
+    /// What the producer thread got from the OS.
+    priority: Option<Priority>,
 }
 
 #[derive(Debug, Default)]
@@ -182,7 +186,7 @@ impl Shared {
                 t.startup.push(interval);
                 let first = *t.first_sent.get_or_insert(last);
                 if now - first >= STARTUP_SPAN && t.startup.len() >= STARTUP_MIN {
-                    t.verdict = Some(verdict(&Spread::of(&t.startup), rpi));
+                    t.verdict = Some(verdict(&Spread::of(&t.startup), rpi, t.priority));
                     t.startup = vec![];
                 }
             }
@@ -203,13 +207,20 @@ impl Shared {
 
 /// What the first intervals of a connection say: a warning with the figures when this
 /// computer did not keep the RPI, `None` when it did.
-fn verdict(spread: &Spread, rpi: Duration) -> Option<String> {
+fn verdict(spread: &Spread, rpi: Duration, priority: Option<Priority>) -> Option<String> {
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     if ms(spread.p99) <= ms(rpi) * (1.0 + KEPT_WITHIN) {
         return None;
     }
+    let hint = match priority {
+        Some(Priority::Realtime(_)) | None => String::new(),
+        Some(Priority::Normal) => format!(
+            "; the I/O thread runs at ordinary priority (real-time needs CAP_SYS_NICE or an RLIMIT_RTPRIO of at least 1, e.g. `ulimit -r {}`)",
+            priority::REALTIME_PRIORITY
+        ),
+    };
     Some(format!(
-        "class 1 I/O: this computer does not keep the RPI of {} ms: over the first {} O→T packets the interval was {:.2} ms at the median, {:.2} ms at the 99th percentile, {:.2} ms at most; the adapter sees the outputs that much later (a larger RPI, or a less loaded computer, keeps time)",
+        "class 1 I/O: this computer does not keep the RPI of {} ms: over the first {} O→T packets the interval was {:.2} ms at the median, {:.2} ms at the 99th percentile, {:.2} ms at most; the adapter sees the outputs that much later (a larger RPI, or a less loaded computer, keeps time){hint}",
         rpi.as_millis(),
         spread.count + 1,
         ms(spread.p50),
@@ -346,6 +357,11 @@ impl IoHandle {
     /// The intervals recorded since [`IoHandle::record_timing`], taken.
     pub fn take_timing(&self) -> IoTiming {
         std::mem::take(&mut lock(&self.shared).timing.recorded)
+    }
+
+    /// The priority the producer thread got from the OS, once it started.
+    pub fn priority(&self) -> Option<Priority> {
+        lock(&self.shared).timing.priority
     }
 
     /// Once the first second of production was measured: a warning with the figures if
@@ -486,6 +502,8 @@ struct Producer {
 
 impl Producer {
     fn run(mut self) {
+        let got = priority::raise_current_thread();
+        lock(&self.shared).timing.priority = Some(got);
         let mut schedule = Schedule::new(Instant::now(), self.config.ot_rpi);
         loop {
             // Park to the deadline: the OS's high-resolution timer, and `stop` unparks.
@@ -694,5 +712,69 @@ impl Consumer {
         });
         drop(s);
         self.notify.notify_waiters();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_startup_verdict_warns_with_the_figures_only_when_the_rpi_is_not_kept() {
+        let ms = Duration::from_millis;
+        let kept = Spread {
+            count: 100,
+            p50: ms(2),
+            p99: Duration::from_micros(2_300),
+            max: ms(3),
+        };
+        assert_eq!(verdict(&kept, ms(2), Some(Priority::Normal)), None);
+        let late = Spread {
+            p99: Duration::from_micros(2_500),
+            ..kept
+        };
+        let warning = verdict(&late, ms(2), Some(Priority::Normal)).expect("a warning");
+        for said in [
+            "RPI of 2 ms",
+            "first 101 O→T packets",
+            "2.00 ms at the median",
+            "2.50 ms at the 99th percentile",
+            "3.00 ms at most",
+            "ordinary priority",
+        ] {
+            assert!(warning.contains(said), "{said:?} in {warning}");
+        }
+        let warning = verdict(&late, ms(2), Some(Priority::Realtime(10))).expect("a warning");
+        assert!(!warning.contains("ordinary"), "{warning}");
+    }
+
+    #[test]
+    fn the_verdict_comes_once_after_the_first_second_of_production() {
+        let rpi = Duration::from_millis(100);
+        let t0 = Instant::now();
+        let mut kept = Shared::default();
+        for k in 0..10 {
+            kept.on_sent(t0 + rpi * k, rpi);
+        }
+        assert_eq!(kept.timing.verdict, None, "0.9 s: not yet");
+        kept.on_sent(t0 + rpi * 10, rpi);
+        assert_eq!(kept.timing.verdict, Some(None), "1 s, the RPI kept");
+        assert!(kept.timing.startup.is_empty());
+
+        let mut late = Shared::default();
+        let mut at = t0;
+        for k in 0..=10 {
+            late.on_sent(at, rpi);
+            at += if k == 4 { rpi * 3 / 2 } else { rpi };
+        }
+        let Some(Some(warning)) = &late.timing.verdict else {
+            panic!("a warning: {:?}", late.timing.verdict);
+        };
+        assert!(
+            warning.contains("150.00 ms at the 99th percentile"),
+            "{warning}"
+        );
+        // Recording is off unless asked: nothing kept beyond the startup window.
+        assert!(late.timing.recorded.ot.is_empty());
     }
 }

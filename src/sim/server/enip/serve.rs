@@ -315,6 +315,8 @@ fn produce(
     stop: &std::sync::atomic::AtomicBool,
 ) {
     use std::sync::atomic::Ordering;
+    let got = crate::link::enip::priority::raise_current_thread();
+    tracing::debug!("simulated adapter's class 1 producer: {got} priority");
     while !stop.load(Ordering::Acquire) {
         let (datagrams, due) = {
             let mut adapter = lock(adapter);
