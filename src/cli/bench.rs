@@ -69,6 +69,9 @@ impl std::fmt::Display for Figures {
 struct LinkReport {
     link: String,
     results: Vec<Figures>,
+    /// Class 1 I/O: the production and arrival intervals under load (bench_io.rs).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    io_intervals: Vec<super::bench_io::Intervals>,
 }
 
 /// A whole run: one or more links, and the independent client on the same server.
@@ -238,9 +241,17 @@ pub fn run(link: Option<LinkSpec>, args: &BenchArgs, json: bool) -> ExitCode {
                 outln!("  {figures}");
             }
         }
+        let io_intervals = match super::bench_io::run(&runtime, &target.spec, seconds, json) {
+            Ok(intervals) => intervals,
+            Err(e) => {
+                eprintln!("drivedeck bench: {} (class 1 intervals): {e}", target.spec);
+                return ExitCode::from(EXIT_FAILED);
+            }
+        };
         report.links.push(LinkReport {
             link: target.spec.to_string(),
             results,
+            io_intervals,
         });
         // The independent client on the same Modbus TCP server, after ours let go of
         // it (the server, like the drive, takes one client at a time).

@@ -14,6 +14,7 @@ macro_rules! outln {
 }
 
 mod bench;
+mod bench_io;
 mod bench_start;
 mod failure;
 mod interrupt;

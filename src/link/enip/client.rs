@@ -4,7 +4,7 @@
 //!   and GetOD Rockwell (34h) where the type is not known beforehand.
 //! * The PDI runs through a class 1 I/O connection (the PDI set 105/104, or the Common set
 //!   101/100 with position, velocity, inputs, torque, analog input and following error
-//!   along), opened with Forward_Open and produced at the RPI by a task of its own; and
+//!   along), opened with Forward_Open and produced at the RPI by threads of their own (nothing on the worker delays them); and
 //!   through explicit 2291h/2292h access when the user asks for that or the drive refuses
 //!   the I/O connection (the link says why).
 //! * Connecting replays nothing: the first O→T assembly is what the drive holds already.
@@ -13,9 +13,9 @@ use std::net::{IpAddr, Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::sync::atomic::{AtomicU16, Ordering};
 use std::time::{Duration, SystemTime};
 
-use tokio::net::UdpSocket;
+use std::net::UdpSocket;
 
-use super::implicit::{IoConfig, IoHandle};
+use super::implicit::{IoConfig, IoHandle, IoTiming};
 use super::session::Session;
 use crate::link::spec::{EnipIo, EnipOptions};
 use crate::link::{
@@ -276,7 +276,8 @@ impl EnipLink {
     }
 
     /// The local UDP socket for T→O packets, and the sockaddr item to announce it with.
-    async fn bind_udp(&mut self) -> Result<(UdpSocket, Option<Item>), Error> {
+    /// A plain socket: the I/O threads own it, not the worker's runtime.
+    fn bind_udp(&mut self) -> Result<(UdpSocket, Option<Item>), Error> {
         let any = |port| SocketAddr::from((Ipv4Addr::UNSPECIFIED, port));
         let announce = |socket: &UdpSocket| {
             socket.local_addr().ok().map(|a| {
@@ -292,20 +293,18 @@ impl EnipLink {
         };
         match self.options.udp {
             Some(0) => {
-                let socket = UdpSocket::bind(any(0)).await.map_err(|e| io_error(0, e))?;
+                let socket = UdpSocket::bind(any(0)).map_err(|e| io_error(0, e))?;
                 let item = announce(&socket);
                 Ok((socket, item))
             }
             Some(port) => {
-                let socket = UdpSocket::bind(any(port))
-                    .await
-                    .map_err(|e| io_error(port, e))?;
+                let socket = UdpSocket::bind(any(port)).map_err(|e| io_error(port, e))?;
                 Ok((socket, None))
             }
-            None => match UdpSocket::bind(any(UDP_IO_PORT)).await {
+            None => match UdpSocket::bind(any(UDP_IO_PORT)) {
                 Ok(socket) => Ok((socket, None)),
                 Err(_) => {
-                    let socket = UdpSocket::bind(any(0)).await.map_err(|e| io_error(0, e))?;
+                    let socket = UdpSocket::bind(any(0)).map_err(|e| io_error(0, e))?;
                     let item = announce(&socket);
                     if let Ok(local) = socket.local_addr() {
                         self.notices.push(format!(
@@ -330,7 +329,7 @@ impl EnipLink {
             AssemblySet::Pdi => assembly::encode_pdi_ot(&common_out.rx, cmd),
             AssemblySet::Common => common_out.encode().to_vec(),
         };
-        let (socket, announce) = self.bind_udp().await?;
+        let (socket, announce) = self.bind_udp()?;
         let open = self.forward_open(set, output.len());
         let request = cip::Request::new(
             service::FORWARD_OPEN,
@@ -361,7 +360,7 @@ impl EnipLink {
             input_len: set.to_len(),
         };
         let handle = IoHandle::start(socket, config).map_err(|e| Error::Io {
-            context: "starting the I/O task".into(),
+            context: "starting the I/O threads".into(),
             source: e,
         })?;
         let opened = Opened {
@@ -575,6 +574,31 @@ impl EnipLink {
     pub fn io_counts(&self) -> Option<(u64, u64, u64)> {
         self.io.as_ref().map(|o| o.handle.counts())
     }
+
+    /// Start (afresh) or stop recording the I/O connection's production and arrival
+    /// intervals; false when no I/O connection is open.
+    pub fn record_io_timing(&self, on: bool) -> bool {
+        self.io
+            .as_ref()
+            .map(|o| o.handle.record_timing(on))
+            .is_some()
+    }
+
+    /// The intervals recorded since [`EnipLink::record_io_timing`], when an I/O
+    /// connection is open.
+    pub fn take_io_timing(&self) -> Option<IoTiming> {
+        self.io.as_ref().map(|o| o.handle.take_timing())
+    }
+
+    /// The priority the I/O producer thread runs at, once it started.
+    pub fn io_priority(&self) -> Option<super::priority::Priority> {
+        self.io.as_ref().and_then(|o| o.handle.priority())
+    }
+
+    /// The RPI of the open I/O connection.
+    pub fn io_rpi(&self) -> Option<Duration> {
+        self.io.as_ref().map(|o| o.handle.config.ot_rpi)
+    }
 }
 
 /// A value from the bytes GetOD returned, strictly sized.
@@ -722,6 +746,9 @@ impl Link for EnipLink {
     }
 
     fn take_notices(&mut self) -> Vec<crate::link::Notice> {
+        if let Some(warning) = self.io.as_ref().and_then(|o| o.handle.take_timing_notice()) {
+            self.notices.push(warning);
+        }
         std::mem::take(&mut self.notices)
             .into_iter()
             .map(crate::link::Notice::info)

@@ -5,4 +5,6 @@
 pub mod client;
 pub mod discovery;
 mod implicit;
+pub mod priority;
+pub use implicit::{IoTiming, KEPT_WITHIN, STARTUP_SPAN};
 pub mod session;

@@ -3,6 +3,8 @@
 //! sequence count, the 32-bit run/idle header where the direction has one, the assembly).
 
 use super::cpf::{self, Item};
+use std::time::{Duration, Instant};
+
 use super::wire::{DecodeError, Put, Reader};
 
 /// Bytes a class 1 packet adds to the assembly: the 16-bit sequence count.
@@ -141,9 +143,112 @@ impl Newest {
     }
 }
 
+/// The production schedule of one direction of a class 1 connection: absolute deadlines
+/// `start + k × RPI`, so a late wake-up shortens the next wait instead of pushing every
+/// later packet back (no drift), and a wake-up later than a whole RPI skips the slots it
+/// missed instead of sending a burst to catch up. Sans-IO: the caller reads the clock.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Schedule {
+    next: Instant,
+    period: Duration,
+}
+
+impl Schedule {
+    /// The first packet is due at `start`. A zero period is taken as 1 µs.
+    pub fn new(start: Instant, period: Duration) -> Schedule {
+        Schedule {
+            next: start,
+            period: period.max(Duration::from_micros(1)),
+        }
+    }
+
+    /// When the next packet is due.
+    pub fn due(&self) -> Instant {
+        self.next
+    }
+
+    pub fn period(&self) -> Duration {
+        self.period
+    }
+
+    /// A packet was sent at `now` (at or after [`Schedule::due`]): the next one is due one
+    /// period after the slot just served, or at the first slot still ahead of `now` when
+    /// whole periods were missed. Returns how many slots were skipped.
+    pub fn sent(&mut self, now: Instant) -> u32 {
+        self.next += self.period;
+        if self.next > now {
+            return 0;
+        }
+        let behind = now - self.next;
+        let skipped = (behind.as_nanos() / self.period.as_nanos()) as u32 + 1;
+        self.next += self.period * skipped;
+        skipped
+    }
+}
+
+/// Percentiles of a set of intervals (nearest rank on the sorted values): p50, p99, max.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Spread {
+    pub count: usize,
+    pub p50: Duration,
+    pub p99: Duration,
+    pub max: Duration,
+}
+
+impl Spread {
+    pub fn of(intervals: &[Duration]) -> Spread {
+        let mut sorted = intervals.to_vec();
+        sorted.sort_unstable();
+        let at = |q: f64| {
+            sorted
+                .get(((sorted.len() as f64 - 1.0) * q).round() as usize)
+                .copied()
+                .unwrap_or_default()
+        };
+        Spread {
+            count: sorted.len(),
+            p50: at(0.5),
+            p99: at(0.99),
+            max: at(1.0),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_schedule_keeps_absolute_deadlines_and_skips_what_it_missed() {
+        let t0 = Instant::now();
+        let ms = Duration::from_millis;
+        let mut s = Schedule::new(t0, ms(2));
+        assert_eq!(s.due(), t0);
+        // Woken 0.5 ms late: the next slot stays at 2 ms, not 2.5.
+        assert_eq!(s.sent(t0 + Duration::from_micros(500)), 0);
+        assert_eq!(s.due(), t0 + ms(2));
+        assert_eq!(s.sent(t0 + ms(2)), 0);
+        assert_eq!(s.due(), t0 + ms(4));
+        // The packet due at 4 went at 7: slot 6 is skipped, the next is 8 (no burst).
+        assert_eq!(s.sent(t0 + ms(7)), 1);
+        assert_eq!(s.due(), t0 + ms(8));
+        // Exactly on a slot boundary: that slot is gone, the next one is ahead.
+        assert_eq!(s.sent(t0 + ms(10)), 1);
+        assert_eq!(s.due(), t0 + ms(12));
+        assert!(s.due() > t0 + ms(10));
+    }
+
+    #[test]
+    fn the_spread_of_intervals() {
+        let ms = Duration::from_millis;
+        let mut v: Vec<Duration> = (0..100).map(|_| ms(1)).collect();
+        v[37] = ms(9);
+        let s = Spread::of(&v);
+        assert_eq!((s.count, s.p50, s.p99, s.max), (100, ms(1), ms(1), ms(9)));
+        v[38] = ms(5);
+        assert_eq!(Spread::of(&v).p99, ms(5));
+        assert_eq!(Spread::of(&[]), Spread::default());
+    }
 
     #[test]
     fn the_newest_datagram_by_sequence_number_wrapping_included() {

@@ -5,7 +5,8 @@
 //!
 //! [`Adapter`] is sans-IO: TCP bytes in per stream, replies out; I/O datagrams in;
 //! [`Adapter::poll`] gives the T→O datagrams that are due and ends a connection whose
-//! originator went silent. [`serve`] is the thin tokio glue around it.
+//! originator went silent. [`serve`] is the thin glue around it (tokio for TCP and
+//! discovery, two threads of their own for class 1 I/O).
 //!
 //! # Encapsulation
 //!
@@ -108,7 +109,6 @@ use std::time::{Duration, Instant};
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream, UdpSocket};
-use tokio::sync::Notify;
 
 use super::SharedDrive;
 use crate::cia::AbortCode;

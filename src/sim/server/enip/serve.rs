@@ -1,4 +1,7 @@
-//! The tokio glue: the adapter's three sockets, its accept loop, I/O producer and consumer, discovery.
+//! The glue: the adapter's three sockets, its accept loop and discovery on tokio, and the
+//! class 1 I/O producer and consumer on threads of their own, so that the T→O packets keep
+//! the RPI (the OS's high-resolution timer, not tokio's millisecond wheel) whatever the
+//! runtime is busy with.
 
 use super::*;
 
@@ -86,7 +89,7 @@ fn lock(adapter: &Shared) -> MutexGuard<'_, Adapter> {
 }
 
 /// Serve the adapter on `sockets` until the future is dropped (which closes every
-/// connection) or the listener fails.
+/// connection and stops the I/O threads) or the listener fails.
 pub async fn serve(
     sockets: Sockets,
     shared: SharedDrive,
@@ -94,19 +97,99 @@ pub async fn serve(
 ) -> io::Result<()> {
     let listener = TcpListener::from_std(sockets.tcp)?;
     let discovery = UdpSocket::from_std(sockets.discovery)?;
-    let io = UdpSocket::from_std(sockets.io)?;
-    let io_port = io.local_addr()?.port();
+    let io_port = sockets.io.local_addr()?.port();
     let discovery_local = ipv4(discovery.local_addr()?)?;
     let adapter: Shared = Arc::new(Mutex::new(Adapter::new(options.max_sessions, io_port)));
-    let wake = Arc::new(Notify::new());
+    let class1 = Class1::start(sockets.io, adapter.clone(), shared.clone())?;
+    let wake = class1.waker();
     // TCP connections beyond the sessions (unregistered, or refused with 0002h) are
     // bounded too, so a flood of idle connections cannot exhaust the process.
     let max_streams = options.max_sessions.saturating_add(8);
     tokio::select! {
-        r = accept(listener, adapter.clone(), shared.clone(), wake.clone(), max_streams) => r,
-        r = consume(&io, adapter.clone(), shared.clone()) => r,
-        r = produce(&io, adapter.clone(), shared.clone(), wake.clone()) => r,
+        r = accept(listener, adapter.clone(), shared.clone(), wake, max_streams) => r,
         r = answer_discovery(discovery, discovery_local, adapter.clone(), shared.clone()) => r,
+    }
+}
+
+/// Wakes the producer thread: a Forward_Open may have started production.
+#[derive(Clone, Debug)]
+struct Wake(std::thread::Thread);
+
+impl Wake {
+    fn notify_one(&self) {
+        self.0.unpark();
+    }
+}
+
+/// How long the producer sleeps when no connection is open (a Forward_Open wakes it).
+const IDLE_WAIT: Duration = Duration::from_millis(100);
+
+/// The class 1 threads; dropping this stops them and waits for them.
+struct Class1 {
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    local: SocketAddr,
+    producer: Option<std::thread::JoinHandle<()>>,
+    consumer: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Class1 {
+    fn start(io: std::net::UdpSocket, adapter: Shared, shared: SharedDrive) -> io::Result<Class1> {
+        use std::sync::atomic::AtomicBool;
+        io.set_nonblocking(false)?;
+        // Only so that the consumer notices a stop even if the wake-up datagram is lost.
+        io.set_read_timeout(Some(IDLE_WAIT))?;
+        let local = io.local_addr()?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut class1 = Class1 {
+            stop: stop.clone(),
+            local,
+            producer: None,
+            consumer: None,
+        };
+        let socket = io.try_clone()?;
+        let (a, d, s) = (adapter.clone(), shared.clone(), stop.clone());
+        class1.consumer = Some(
+            std::thread::Builder::new()
+                .name("sim-enip-io-consumer".into())
+                .spawn(move || consume(&socket, &a, &d, &s))?,
+        );
+        class1.producer = Some(
+            std::thread::Builder::new()
+                .name("sim-enip-io-producer".into())
+                .spawn(move || produce(&io, &adapter, &shared, &stop))?,
+        );
+        Ok(class1)
+    }
+
+    fn waker(&self) -> Wake {
+        match &self.producer {
+            Some(producer) => Wake(producer.thread().clone()),
+            None => Wake(std::thread::current()),
+        }
+    }
+}
+
+impl Drop for Class1 {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Release);
+        if let Some(producer) = self.producer.take() {
+            producer.thread().unpark();
+            let _ = producer.join();
+        }
+        if let Some(consumer) = self.consumer.take() {
+            // An empty datagram ends the consumer's blocking receive.
+            let to = if self.local.ip().is_unspecified() {
+                SocketAddr::new(Ipv4Addr::LOCALHOST.into(), self.local.port())
+            } else {
+                self.local
+            };
+            if let Ok(socket) =
+                std::net::UdpSocket::bind(SocketAddrV4::new(Ipv4Addr::UNSPECIFIED, 0))
+            {
+                let _ = socket.send_to(&[], to);
+            }
+            let _ = consumer.join();
+        }
     }
 }
 
@@ -114,7 +197,7 @@ async fn accept(
     listener: TcpListener,
     adapter: Shared,
     shared: SharedDrive,
-    wake: Arc<Notify>,
+    wake: Wake,
     max_streams: usize,
 ) -> io::Result<()> {
     let mut connections = tokio::task::JoinSet::new();
@@ -157,7 +240,7 @@ async fn serve_stream(
     id: StreamId,
     adapter: Shared,
     shared: SharedDrive,
-    wake: Arc<Notify>,
+    wake: Wake,
 ) {
     let _ = stream.set_nodelay(true);
     let mut chunk = vec![0u8; 4096];
@@ -190,50 +273,65 @@ async fn serve_stream(
     lock(&adapter).disconnect(id);
 }
 
-async fn consume(io: &UdpSocket, adapter: Shared, shared: SharedDrive) -> io::Result<()> {
+fn consume(
+    io: &std::net::UdpSocket,
+    adapter: &Shared,
+    shared: &SharedDrive,
+    stop: &std::sync::atomic::AtomicBool,
+) {
+    use std::sync::atomic::Ordering;
     let mut buffer = vec![0u8; 2048];
-    loop {
-        let (n, from) = match io.recv_from(&mut buffer).await {
+    while !stop.load(Ordering::Acquire) {
+        let (n, from) = match io.recv_from(&mut buffer) {
             Ok(received) => received,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                ) =>
+            {
+                continue;
+            }
             Err(_) => {
                 // e.g. an ICMP error reported on some platforms: keep serving.
-                tokio::time::sleep(Duration::from_millis(1)).await;
+                std::thread::sleep(Duration::from_millis(1));
                 continue;
             }
         };
         let Ok(from) = ipv4(from) else {
             continue;
         };
-        let mut adapter = lock(&adapter);
+        let mut adapter = lock(adapter);
         let mut drive = shared.lock();
         adapter.io_datagram(from, &buffer[..n], &mut drive, Instant::now());
     }
 }
 
-async fn produce(
-    io: &UdpSocket,
-    adapter: Shared,
-    shared: SharedDrive,
-    wake: Arc<Notify>,
-) -> io::Result<()> {
-    loop {
+/// The T→O datagrams when due, sleeping to the next one in between.
+fn produce(
+    io: &std::net::UdpSocket,
+    adapter: &Shared,
+    shared: &SharedDrive,
+    stop: &std::sync::atomic::AtomicBool,
+) {
+    use std::sync::atomic::Ordering;
+    let got = crate::link::enip::priority::raise_current_thread();
+    tracing::debug!("simulated adapter's class 1 producer: {got} priority");
+    while !stop.load(Ordering::Acquire) {
         let (datagrams, due) = {
-            let mut adapter = lock(&adapter);
+            let mut adapter = lock(adapter);
             let mut drive = shared.lock();
             let datagrams = adapter.poll(&mut drive, Instant::now());
             (datagrams, adapter.next_due())
         };
         for datagram in datagrams {
-            let _ = io.send_to(&datagram.bytes, datagram.to).await;
+            let _ = io.send_to(&datagram.bytes, datagram.to);
         }
-        match due {
-            Some(due) => {
-                tokio::select! {
-                    _ = tokio::time::sleep_until(tokio::time::Instant::from_std(due)) => {}
-                    _ = wake.notified() => {}
-                }
-            }
-            None => wake.notified().await,
+        // Unparked early by a Forward_Open or a stop: look again.
+        let now = Instant::now();
+        let until = due.unwrap_or(now + IDLE_WAIT);
+        if until > now {
+            std::thread::park_timeout(until - now);
         }
     }
 }

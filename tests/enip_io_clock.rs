@@ -1,0 +1,102 @@
+//! EtherNet/IP class 1 I/O keeps producing whatever holds the thread that owns the link:
+//! the O→T producer and T→O consumer run on threads of their own, not as tasks on the
+//! worker's runtime. Behaviour, not speed: only a generous lower bound on the packets.
+
+use std::time::{Duration, Instant};
+
+use drivedeck::link::enip::client::EnipLink;
+use drivedeck::link::{Link, LinkSpec};
+use drivedeck::proto::enip::io::IoPacket;
+use drivedeck::sim::server::ServerThread;
+use drivedeck::sim::server::enip::AdapterOptions;
+
+const RPI_MS: u64 = 2;
+const BLOCK: Duration = Duration::from_millis(200);
+
+fn bytes_of(raw: &str) -> Vec<u8> {
+    let digits: Vec<u8> = raw
+        .bytes()
+        .filter(u8::is_ascii_hexdigit)
+        .map(|c| (c as char).to_digit(16).unwrap_or(0) as u8)
+        .collect();
+    digits
+        .chunks(2)
+        .map(|p| p[0] << 4 | p.get(1).copied().unwrap_or(0))
+        .collect()
+}
+
+#[test]
+fn class_1_io_keeps_producing_and_consuming_while_the_links_thread_is_blocked() {
+    let server = ServerThread::enip(
+        ([127, 0, 0, 1], 0).into(),
+        AdapterOptions {
+            io_port: 0,
+            ..AdapterOptions::default()
+        },
+    )
+    .expect("the simulated adapter");
+    let spec: LinkSpec = format!("enip://{}?io=pdi&rpi={RPI_MS}&udp=0", server.addr)
+        .parse()
+        .expect("spec");
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime");
+    runtime.block_on(async {
+        let mut link = EnipLink::connect(&spec).await.expect("connected");
+        let rx = link.read_rx().await.expect("the RX image");
+        link.exchange(rx.as_ref()).await.expect("an exchange");
+        let _ = link.take_trace();
+        let (sent_before, received_before, _) = link.io_counts().expect("class 1 I/O open");
+        // A slow task: it holds the runtime's only thread without yielding.
+        let blocked = Instant::now();
+        tokio::spawn(async { std::thread::sleep(BLOCK) })
+            .await
+            .expect("the slow task");
+        let held = blocked.elapsed();
+        let (sent_after, received_after, _) = link.io_counts().expect("class 1 I/O open");
+        let trace = link.take_trace();
+
+        let slots = held.as_millis() as u64 / RPI_MS;
+        let (sent, received) = (sent_after - sent_before, received_after - received_before);
+        assert!(
+            sent >= slots / 2,
+            "{sent} O→T packets while the thread was held {held:?} at RPI {RPI_MS} ms"
+        );
+        assert!(
+            received >= slots / 2,
+            "{received} T→O packets taken while the thread was held {held:?}"
+        );
+
+        // What went out meanwhile: one connection, consecutive sequence numbers, RUN.
+        let packets: Vec<IoPacket> = trace
+            .iter()
+            .filter(|r| r.sent && r.text.starts_with("class 1 O→T"))
+            .map(|r| IoPacket::decode(&bytes_of(&r.raw), true).expect("an O→T packet"))
+            .collect();
+        assert!(
+            packets.len() as u64 >= slots / 2,
+            "{} traced",
+            packets.len()
+        );
+        for pair in packets.windows(2) {
+            assert_eq!(pair[1].connection, pair[0].connection);
+            assert_eq!(
+                pair[1].sequence,
+                pair[0].sequence.wrapping_add(1),
+                "sequence numbers +1 per packet"
+            );
+            assert_eq!(pair[1].count, pair[0].count, "the outputs did not change");
+        }
+        assert!(
+            packets.iter().all(|p| p.run == Some(true)),
+            "RUN throughout"
+        );
+
+        // And the link goes on as before.
+        link.exchange(rx.as_ref()).await.expect("an exchange after");
+        link.close().await.expect("closed");
+        let (sent_closed, _, _) = link.io_counts().unwrap_or_default();
+        assert_eq!(sent_closed, 0, "no I/O connection after close");
+    });
+}
