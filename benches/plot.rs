@@ -6,7 +6,7 @@
 
 use std::hint::black_box;
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, criterion_group};
 use drivedeck::pdi::{Status, TxImage};
 use drivedeck::signal::{Signal, Signals};
 use drivedeck::ui::{AppState, Settings};
@@ -88,5 +88,62 @@ fn plot_frames(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, plot_frames);
-criterion_main!(benches);
+/// Frames of the plot panel with the history still (the same view every frame, so the
+/// decimations are reused) and with one new sample per frame (the view moves, every
+/// decimation is made again: a live frame).
+fn live_frames(c: &mut Criterion) {
+    let mut g = c.benchmark_group("plot frame, one new sample per frame (no reuse)");
+    g.sample_size(20);
+    for rows in [10_000, 600_000] {
+        let mut state = state_with(rows);
+        let ctx = egui::Context::default();
+        frame(&ctx, &mut state);
+        frame(&ctx, &mut state);
+        let mut t = rows as f64 * 0.001;
+        g.bench_function(format!("{rows} samples"), |b| {
+            b.iter(|| {
+                t += 0.001;
+                state.scope.push(&Sample {
+                    t,
+                    signals: Signals::default().with(Signal::Position, t.sin() * 36_000.0),
+                    ..Sample::default()
+                });
+                black_box(frame(&ctx, &mut state))
+            })
+        });
+    }
+    g.finish();
+}
+
+/// `PLOT_PROFILE_ROWS=10000 PLOT_PROFILE_FRAMES=50`: only that many frames with that many
+/// samples, no criterion (for `valgrind --tool=callgrind`).
+fn profile() -> bool {
+    let rows = std::env::var("PLOT_PROFILE_ROWS")
+        .ok()
+        .and_then(|r| r.parse().ok());
+    let Some(rows) = rows else {
+        return false;
+    };
+    let frames: usize = std::env::var("PLOT_PROFILE_FRAMES")
+        .ok()
+        .and_then(|f| f.parse().ok())
+        .unwrap_or(50);
+    let mut state = state_with(rows);
+    let ctx = egui::Context::default();
+    let mut n = 0;
+    for _ in 0..frames {
+        n += frame(&ctx, &mut state);
+    }
+    println!("{frames} frames, {n} primitives");
+    true
+}
+
+criterion_group!(benches, plot_frames, live_frames);
+
+fn main() {
+    if profile() {
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

@@ -4,12 +4,15 @@
 //! fit what is in view (zoom and pan move the time axis only, no trace is clipped); a
 //! recording overlaid is drawn dashed over the one it is compared with.
 
+use std::cell::RefCell;
+
 use eframe::egui::{self, Color32, Ui};
 use egui_plot::{FilledArea, Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
 
 use super::super::state::AppState;
 use super::super::widgets::{AMBER, BLUE, GREEN, RED};
 use super::{Beside, PositionUnit, shown_scope, time_range};
+use crate::telemetry::ring::Decimations;
 use crate::telemetry::{
     BitSpan, Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef, bit_name,
 };
@@ -154,6 +157,8 @@ struct View<'a> {
     own: Option<&'a str>,
     /// The other drives whose signals are drawn on the same time axis, and their gaps.
     beside: Vec<(&'a Beside<'a>, Vec<Band>)>,
+    /// The last frames' decimations, reused where the plots have not moved.
+    decimations: RefCell<Decimations>,
 }
 
 impl<'a> View<'a> {
@@ -163,6 +168,7 @@ impl<'a> View<'a> {
         to: f64,
         own: &'a str,
         beside: &'a [Beside<'a>],
+        decimations: Decimations,
     ) -> Self {
         let scope = shown_scope(state);
         let markers = scope
@@ -211,8 +217,61 @@ impl<'a> View<'a> {
             } else {
                 Vec::new()
             },
+            decimations: RefCell::new(decimations),
         }
     }
+
+    /// [`Ring::decimate`] of `ring` (reused from the last frame when it still holds),
+    /// thinned to what a line shows of each pixel column.
+    fn points(
+        &self,
+        ring: &Ring,
+        column: usize,
+        from: f64,
+        to: f64,
+        columns: usize,
+    ) -> Vec<[f64; 2]> {
+        let points = self
+            .decimations
+            .borrow_mut()
+            .points(ring, column, from, to, columns);
+        extremes_per_column(points, from, to, columns)
+    }
+}
+
+/// Per pixel column, only its lowest and highest point, in time order: a line through a
+/// column's first, lowest, highest and last samples covers the same pixels as one through
+/// its lowest and highest (the first and last lie between them), at half the points to
+/// draw. Points outside `from..=to` (the neighbours that carry the line to the edges) are
+/// kept. A line with no more than two points per column is left as it is.
+fn extremes_per_column(points: Vec<[f64; 2]>, from: f64, to: f64, columns: usize) -> Vec<[f64; 2]> {
+    let width = to - from;
+    if points.len() <= 2 * columns + 2 || width.is_nan() || width <= 0.0 {
+        return points;
+    }
+    let n = columns as f64;
+    let column = |t: f64| ((t - from) / width * n).floor().clamp(-1.0, n);
+    let mut out = Vec::with_capacity(2 * columns + 2);
+    let mut i = 0;
+    while i < points.len() {
+        let k = column(points[i][0]);
+        let (mut low, mut high, mut j) = (i, i, i + 1);
+        while j < points.len() && column(points[j][0]) == k {
+            if points[j][1] < points[low][1] {
+                low = j;
+            }
+            if points[j][1] > points[high][1] {
+                high = j;
+            }
+            j += 1;
+        }
+        out.push(points[low.min(high)]);
+        if low != high {
+            out.push(points[low.max(high)]);
+        }
+        i = j;
+    }
+    out
 }
 
 /// Another drive's gaps between `from` and `to` (one still open reaches to its newest
@@ -285,6 +344,7 @@ pub fn traces_ui(
         );
         return None;
     };
+    let mut decimations = std::mem::take(&mut state.plot.decimations);
     let scope = shown_scope(state);
     let colors = colors(scope.signals());
     let analog: Vec<(&SignalDef, Color32)> = scope
@@ -293,9 +353,9 @@ pub fn traces_ui(
         .zip(colors)
         .filter(|(s, _)| scope.is_drawn(s) && s.kind == Kind::Analog)
         .collect();
-    let lanes = lanes(scope, from, to);
+    let lanes = lanes(scope, from, to, &mut decimations);
     let (plot_height, lanes_height) = heights(ui.available_height(), analog.len(), lanes.len());
-    let view = View::new(state, from, to, own, beside);
+    let view = View::new(state, from, to, own, beside, decimations);
     let mut interaction = Interaction::default();
     let top = ui.cursor().min;
 
@@ -316,6 +376,9 @@ pub fn traces_ui(
         top,
         egui::pos2(interaction.right.max(top.x + 1.0), bottom.y),
     );
+    let mut decimations = view.decimations.into_inner();
+    decimations.end_frame();
+    state.plot.decimations = decimations;
     remember_view(state, &interaction, (from, to));
     Some(plots)
 }
@@ -397,11 +460,11 @@ fn analog_plot_ui(
         .show(ui, |plot_ui| {
             let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
             let columns = plot_ui.transform().frame().width().max(1.0) as usize;
-            let mut points = view.ring.decimate(column, from, to, columns);
+            let mut points = view.points(view.ring, column, from, to, columns);
             scale_values(&mut points, scale, 0.0);
             let mut other = overlay
                 .map(|(ring, column, offset)| {
-                    let mut points = ring.decimate(column, from - offset, to - offset, columns);
+                    let mut points = view.points(ring, column, from - offset, to - offset, columns);
                     scale_values(&mut points, scale, offset);
                     points
                 })
@@ -412,7 +475,7 @@ fn analog_plot_ui(
                 .iter()
                 .filter_map(|(b, bands)| {
                     let theirs = b.scope.signal(&signal.info.id)?;
-                    let mut points = b.scope.ring().decimate(theirs.column, from, to, columns);
+                    let mut points = view.points(b.scope.ring(), theirs.column, from, to, columns);
                     scale_values(&mut points, scale, 0.0);
                     Some((
                         format!("{}: {}", b.name, signal.info.name),
@@ -556,12 +619,15 @@ fn draw_lanes(
     let mut rows = Vec::new();
     for (k, lane) in lanes.iter().enumerate() {
         if last_column != Some(lane.column) {
-            spans = view.ring.decimate_bits(lane.column, from, to, columns);
+            spans = view
+                .decimations
+                .borrow_mut()
+                .bits(view.ring, lane.column, from, to, columns);
             last_column = Some(lane.column);
         }
         let base = (lanes.len() - 1 - k) as f64 * 1.5;
         let color = lane_color(k);
-        let points = lane_points(&spans, lane.bit, base);
+        let points = lane_points(&spans, lane.bit, base, &view.bands);
         for run in split_at_bands(&points, &view.bands) {
             let xs: Vec<f64> = run.iter().map(|p| p[0]).collect();
             let lows = vec![base; run.len()];
@@ -833,7 +899,7 @@ fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
 /// The lanes to draw: the PDI-Status bits that were high somewhere in view (and always
 /// operation enabled, target reached and fault), and the digital inputs that were on
 /// somewhere in view (the limit and home switches when none was).
-fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
+fn lanes(scope: &Scope, from: f64, to: f64, decimations: &mut Decimations) -> Vec<Lane> {
     let ring = scope.ring();
     let mut lanes = Vec::new();
     for signal in scope.signals() {
@@ -848,8 +914,8 @@ fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
             // The bits that were high somewhere in view, and always whether the drive is
             // on, at its target, faulted: a bit low throughout says nothing new.
             Some(Builtin::PdiStatus) => {
-                let any = ring
-                    .decimate_bits(signal.column, from, to, 1)
+                let any = decimations
+                    .bits(ring, signal.column, from, to, 1)
                     .iter()
                     .fold(0, |acc, s| acc | s.any);
                 crate::pdi::StatusBit::ALL
@@ -859,8 +925,8 @@ fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
                     .collect()
             }
             _ => {
-                let any = ring
-                    .decimate_bits(signal.column, from, to, 1)
+                let any = decimations
+                    .bits(ring, signal.column, from, to, 1)
                     .iter()
                     .fold(0, |acc, s| acc | s.any);
                 let on: Vec<u8> = (0..32).filter(|b| any & (1 << b) != 0).collect();
@@ -877,26 +943,43 @@ fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
 }
 
 /// One lane's line: low (base) where the bit was 0 throughout a pixel column, high where
-/// it was 1 throughout, a filled-looking zigzag where it changed inside the column.
-fn lane_points(spans: &[BitSpan], bit: u8, base: f64) -> Vec<[f64; 2]> {
+/// it was 1 throughout, a filled-looking zigzag where it changed inside the column. A run
+/// of columns at one level is one segment (a bit that seldom changes costs two points per
+/// change, not per column), except across a band, where the line breaks.
+fn lane_points(spans: &[BitSpan], bit: u8, base: f64, bands: &[Band]) -> Vec<[f64; 2]> {
     let mask = 1u32 << bit;
     let high = base + 1.0;
-    let mut out = Vec::with_capacity(spans.len() * 2);
+    let mut out = Vec::new();
+    // The level of the segment the last point ends, while it may be lengthened.
+    let mut level_run: Option<f64> = None;
+    let mut previous_end = f64::NEG_INFINITY;
     for span in spans {
         let any = span.any & mask != 0;
         let all = span.all & mask != 0;
-        if all {
-            out.push([span.t0, high]);
-            out.push([span.t1, high]);
+        let across_band = bands
+            .iter()
+            .any(|band| previous_end <= band.from && span.t0 >= band.to);
+        previous_end = span.t1;
+        let level = if all {
+            high
         } else if !any {
-            out.push([span.t0, base]);
-            out.push([span.t1, base]);
+            base
         } else {
             out.push([span.t0, base]);
             out.push([span.t0, high]);
             out.push([span.t1, base]);
             out.push([span.t1, high]);
+            level_run = None;
+            continue;
+        };
+        match out.last_mut() {
+            Some(last) if level_run == Some(level) && !across_band => last[0] = span.t1,
+            _ => {
+                out.push([span.t0, level]);
+                out.push([span.t1, level]);
+            }
         }
+        level_run = Some(level);
     }
     out
 }
@@ -981,6 +1064,79 @@ mod tests {
         let (plot, lanes) = heights(700.0, 3, 5);
         assert_eq!(lanes, 5.0 * LANE_HEIGHT + 40.0);
         assert!(plot > 150.0, "{plot}");
+    }
+
+    #[test]
+    fn a_column_keeps_its_lowest_and_highest_point_in_time_order() {
+        // Two columns of 1 s between 0 and 2, four points each, and the neighbours.
+        let points = vec![
+            [-0.5, 7.0],
+            [0.1, 1.0],
+            [0.2, 9.0],
+            [0.3, -3.0],
+            [0.4, 2.0],
+            [1.1, 5.0],
+            [1.2, 4.0],
+            [1.3, 6.0],
+            [1.4, 5.5],
+            [2.5, 0.0],
+        ];
+        let thinned = extremes_per_column(points.clone(), 0.0, 2.0, 2);
+        assert_eq!(
+            thinned,
+            [
+                [-0.5, 7.0],
+                [0.2, 9.0],
+                [0.3, -3.0],
+                [1.2, 4.0],
+                [1.3, 6.0],
+                [2.5, 0.0]
+            ]
+        );
+        // Few points per column: as they are.
+        assert_eq!(extremes_per_column(points.clone(), 0.0, 2.0, 4), points);
+    }
+
+    #[test]
+    fn a_lane_that_seldom_changes_is_a_few_segments() {
+        let span = |t: f64, any: u32, all: u32| BitSpan {
+            t0: t,
+            t1: t + 0.5,
+            any,
+            all,
+        };
+        // High, high, changing, low, low, [gap], low.
+        let spans = [
+            span(0.0, 1, 1),
+            span(1.0, 1, 1),
+            span(2.0, 1, 0),
+            span(3.0, 0, 0),
+            span(4.0, 0, 0),
+            span(9.0, 0, 0),
+        ];
+        let gap = Band {
+            from: 4.5,
+            to: 9.0,
+            label: String::new(),
+        };
+        let points = lane_points(&spans, 0, 0.0, std::slice::from_ref(&gap));
+        assert_eq!(
+            points,
+            [
+                [0.0, 1.0],
+                [1.5, 1.0],
+                [2.0, 0.0],
+                [2.0, 1.0],
+                [2.5, 0.0],
+                [2.5, 1.0],
+                [3.0, 0.0],
+                [4.5, 0.0],
+                [9.0, 0.0],
+                [9.5, 0.0]
+            ]
+        );
+        let runs = split_at_bands(&points, &[gap]);
+        assert_eq!(runs.len(), 2);
     }
 
     #[test]
