@@ -139,7 +139,7 @@ fn run(scenario: &Scenario, warm_up: Duration, seconds: Duration) -> Figures {
         }
     }
     let started = Instant::now();
-    let mut frame = |app: &mut App| {
+    let frame = |app: &mut App| {
         let input = egui::RawInput {
             screen_rect: Some(egui::Rect::from_min_size(
                 egui::Pos2::ZERO,

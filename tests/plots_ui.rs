@@ -820,8 +820,10 @@ fn asked_after_samples(
 fn samples_wake_the_window_at_the_redraw_rate_and_paused_plots_once_a_second() {
     use drivedeck::ui::pace::Pace;
     let pace = Arc::new(Pace::default());
-    let mut settings = Settings::default();
-    settings.poll_rate = 1000.0;
+    let settings = Settings {
+        poll_rate: 1000.0,
+        ..Settings::default()
+    };
     let mut app = App::new(settings, pace.notify(), true);
     app.set_pace(Arc::clone(&pace));
     let mut harness = Harness::builder()

@@ -19,7 +19,9 @@ struct Key {
 
 #[derive(Debug, Clone)]
 enum Made {
-    Points(Vec<[f64; 2]>),
+    /// The points as kept (maybe thinned for drawing), and the times of the first and
+    /// last point the decimation made.
+    Points(Vec<[f64; 2]>, Option<(f64, f64)>),
     Bits(Vec<BitSpan>),
 }
 
@@ -54,10 +56,9 @@ impl Entry {
         match &self.made {
             // The last point must be the sample after the span: one appended later could
             // otherwise become it.
-            Made::Points(points) => match (points.first(), points.last()) {
-                (Some(head), Some(tail)) => head[0] > first && tail[0] > self.key.to,
-                _ => false,
-            },
+            Made::Points(_, ends) => {
+                ends.is_some_and(|(head, tail)| head > first && tail > self.key.to)
+            }
             Made::Bits(spans) => spans.first().is_none_or(|s| s.t0 > first),
         }
     }
@@ -82,6 +83,20 @@ impl Decimations {
         to: f64,
         columns: usize,
     ) -> Vec<[f64; 2]> {
+        self.points_with(ring, channel, from, to, columns, |points| points)
+    }
+
+    /// [`Ring::decimate`] as `finish` leaves it (thinned for drawing, say), both kept and
+    /// reused while the decimation still holds.
+    pub fn points_with(
+        &mut self,
+        ring: &Ring,
+        channel: usize,
+        from: f64,
+        to: f64,
+        columns: usize,
+        finish: impl FnOnce(Vec<[f64; 2]>) -> Vec<[f64; 2]>,
+    ) -> Vec<[f64; 2]> {
         let key = Key {
             ring: ring.version().id,
             channel,
@@ -90,11 +105,13 @@ impl Decimations {
             to,
             columns,
         };
-        if let Some(Made::Points(points)) = self.find(ring, key) {
+        if let Some(Made::Points(points, _)) = self.find(ring, key) {
             return points.clone();
         }
         let points = ring.decimate(channel, from, to, columns);
-        self.keep(ring, key, Made::Points(points.clone()));
+        let ends = points.first().zip(points.last()).map(|(a, b)| (a[0], b[0]));
+        let points = finish(points);
+        self.keep(ring, key, Made::Points(points.clone(), ends));
         points
     }
 

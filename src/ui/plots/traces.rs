@@ -231,11 +231,11 @@ impl<'a> View<'a> {
         to: f64,
         columns: usize,
     ) -> Vec<[f64; 2]> {
-        let points = self
-            .decimations
+        self.decimations
             .borrow_mut()
-            .points(ring, column, from, to, columns);
-        extremes_per_column(points, from, to, columns)
+            .points_with(ring, column, from, to, columns, |points| {
+                extremes_per_column(points, from, to, columns)
+            })
     }
 }
 
@@ -249,8 +249,16 @@ fn extremes_per_column(points: Vec<[f64; 2]>, from: f64, to: f64, columns: usize
     if points.len() <= 2 * columns + 2 || width.is_nan() || width <= 0.0 {
         return points;
     }
-    let n = columns as f64;
-    let column = |t: f64| ((t - from) / width * n).floor().clamp(-1.0, n);
+    let scale = columns as f64 / width;
+    // The column of a time: -1 before the span, `columns` at its end and after.
+    let column = |t: f64| {
+        let x = (t - from) * scale;
+        if x < 0.0 {
+            -1
+        } else {
+            (x as i64).min(columns as i64)
+        }
+    };
     let mut out = Vec::with_capacity(2 * columns + 2);
     let mut i = 0;
     while i < points.len() {
@@ -484,30 +492,16 @@ fn analog_plot_ui(
                     ))
                 })
                 .collect();
-            let mut fit = [points.as_slice(), other.as_slice()].concat();
-            for (_, theirs, _) in &drives {
-                fit.extend_from_slice(theirs);
-            }
+            let mut fit = vec![points.as_slice(), other.as_slice()];
+            fit.extend(drives.iter().map(|(_, theirs, _)| theirs.as_slice()));
             plot_ui.set_plot_bounds(fit_bounds(&fit, from, to, level));
             draw_bands(plot_ui, &view.bands, first);
             draw_markers(plot_ui, &view.markers, first);
             draw_moments(plot_ui, view, level);
-            for run in split_at_bands(&points, &view.bands) {
-                plot_ui.line(
-                    Line::new(label.as_str(), run.to_vec())
-                        .color(color)
-                        .width(1.5),
-                );
-            }
-            for (k, (name, theirs, bands)) in drives.iter().enumerate() {
+            draw_runs(plot_ui, &label, color, points, &view.bands);
+            for (k, (name, theirs, bands)) in drives.into_iter().enumerate() {
                 let color = DRIVE_COLORS[k % DRIVE_COLORS.len()];
-                for run in split_at_bands(theirs, bands) {
-                    plot_ui.line(
-                        Line::new(name.as_str(), run.to_vec())
-                            .color(color)
-                            .width(1.5),
-                    );
-                }
+                draw_runs(plot_ui, &name, color, theirs, bands);
             }
             if !other.is_empty() {
                 // Unnamed: the row above the plots says which file is dashed; a legend
@@ -521,6 +515,25 @@ fn analog_plot_ui(
             }
             (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
         })
+}
+
+/// A signal's line, broken where a band (a stretch without samples) cuts it; the points
+/// handed over as they are when nothing cuts them.
+fn draw_runs(
+    plot_ui: &mut PlotUi,
+    name: &str,
+    color: Color32,
+    points: Vec<[f64; 2]>,
+    bands: &[Band],
+) {
+    let runs = split_at_bands(&points, bands);
+    if runs.len() == 1 {
+        plot_ui.line(Line::new(name, points).color(color).width(1.5));
+        return;
+    }
+    for run in runs {
+        plot_ui.line(Line::new(name, run.to_vec()).color(color).width(1.5));
+    }
 }
 
 /// Values times `scale` (positions in degrees or revolutions), times moved by `offset`.
@@ -822,9 +835,10 @@ fn visible(plot_ui: &PlotUi, follow: bool, from: f64, to: f64) -> (f64, f64) {
 
 /// The time span on x, the data's range with a margin on y (a flat line is not squeezed
 /// into nothing); a trigger level stays in view.
-fn fit_bounds(points: &[[f64; 2]], from: f64, to: f64, level: Option<f64>) -> PlotBounds {
-    let (mut low, mut high) = points
+fn fit_bounds(lines: &[&[[f64; 2]]], from: f64, to: f64, level: Option<f64>) -> PlotBounds {
+    let (mut low, mut high) = lines
         .iter()
+        .flat_map(|points| points.iter())
         .filter(|p| p[0] >= from && p[0] <= to)
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(p[1]), hi.max(p[1]))
