@@ -22,25 +22,30 @@ fn state_with(rows: usize) -> AppState {
     settings.plot.window_s = 0.0;
     let mut state = AppState::new(settings);
     for i in 0..rows {
-        let t = i as f64 * 0.001;
-        let noise = ((i * 7919) % 101) as f64 - 50.0;
-        let spike = if i % 100_003 == 0 { 5000.0 } else { 0.0 };
-        state.scope.push(&Sample {
-            t,
-            signals: Signals::default()
-                .with(Signal::Position, (t * 0.7).sin() * 36_000.0 + noise + spike)
-                .with(Signal::Velocity, (t * 0.7).cos() * 2_500.0 + noise)
-                .with(Signal::Torque, (t * 3.0).sin() * 400.0 + noise)
-                .with(Signal::FollowingError, noise),
-            tx: TxImage {
-                status: Status(if (i / 1500) % 2 == 0 { 0x0009 } else { 0x0001 }),
-                error_code: 0,
-                return_value: i as i32,
-            },
-            ..Sample::default()
-        });
+        state.scope.push(&sample(i));
     }
     state
+}
+
+/// Sample `i` of the history (1 kHz).
+fn sample(i: usize) -> Sample {
+    let t = i as f64 * 0.001;
+    let noise = ((i * 7919) % 101) as f64 - 50.0;
+    let spike = if i % 100_003 == 0 { 5000.0 } else { 0.0 };
+    Sample {
+        t,
+        signals: Signals::default()
+            .with(Signal::Position, (t * 0.7).sin() * 36_000.0 + noise + spike)
+            .with(Signal::Velocity, (t * 0.7).cos() * 2_500.0 + noise)
+            .with(Signal::Torque, (t * 3.0).sin() * 400.0 + noise)
+            .with(Signal::FollowingError, noise),
+        tx: TxImage {
+            status: Status(if (i / 1500) % 2 == 0 { 0x0009 } else { 0x0001 }),
+            error_code: 0,
+            return_value: i as i32,
+        },
+        ..Sample::default()
+    }
 }
 
 fn frame(ctx: &egui::Context, state: &mut AppState) -> usize {
@@ -99,15 +104,11 @@ fn live_frames(c: &mut Criterion) {
         let ctx = egui::Context::default();
         frame(&ctx, &mut state);
         frame(&ctx, &mut state);
-        let mut t = rows as f64 * 0.001;
+        let mut i = rows;
         g.bench_function(format!("{rows} samples"), |b| {
             b.iter(|| {
-                t += 0.001;
-                state.scope.push(&Sample {
-                    t,
-                    signals: Signals::default().with(Signal::Position, t.sin() * 36_000.0),
-                    ..Sample::default()
-                });
+                state.scope.push(&sample(i));
+                i += 1;
                 black_box(frame(&ctx, &mut state))
             })
         });
@@ -116,7 +117,8 @@ fn live_frames(c: &mut Criterion) {
 }
 
 /// `PLOT_PROFILE_ROWS=10000 PLOT_PROFILE_FRAMES=50`: only that many frames with that many
-/// samples, no criterion (for `valgrind --tool=callgrind`).
+/// samples, no criterion (for `valgrind --tool=callgrind`); with `PLOT_PROFILE_LIVE=1` a new
+/// sample comes before each frame.
 fn profile() -> bool {
     let rows = std::env::var("PLOT_PROFILE_ROWS")
         .ok()
@@ -128,10 +130,15 @@ fn profile() -> bool {
         .ok()
         .and_then(|f| f.parse().ok())
         .unwrap_or(50);
+    // PLOT_PROFILE_LIVE: a new sample before every frame (the view moves).
+    let live = std::env::var_os("PLOT_PROFILE_LIVE").is_some();
     let mut state = state_with(rows);
     let ctx = egui::Context::default();
     let mut n = 0;
-    for _ in 0..frames {
+    for k in 0..frames {
+        if live {
+            state.scope.push(&sample(rows + k));
+        }
         n += frame(&ctx, &mut state);
     }
     println!("{frames} frames, {n} primitives");
