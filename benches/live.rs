@@ -246,7 +246,7 @@ fn main() {
         println!(
             "| {} | {drives} × {poll_hz:.0} Hz | {} | {:.1} | {:.0} | {:.0} ({}) | {:.0} |",
             match policy {
-                Policy::EveryWake => "every wake (before)",
+                Policy::EveryWake => "every wake, new frame code",
                 Policy::Paced => "paced, 30 Hz (after)",
             },
             if paused { "paused" } else { "live" },

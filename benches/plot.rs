@@ -31,7 +31,11 @@ fn state_with(rows: usize) -> AppState {
 fn sample(i: usize) -> Sample {
     let t = i as f64 * 0.001;
     let noise = ((i * 7919) % 101) as f64 - 50.0;
-    let spike = if i % 100_003 == 0 { 5000.0 } else { 0.0 };
+    let spike = if i.is_multiple_of(100_003) {
+        5000.0
+    } else {
+        0.0
+    };
     Sample {
         t,
         signals: Signals::default()
@@ -40,7 +44,11 @@ fn sample(i: usize) -> Sample {
             .with(Signal::Torque, (t * 3.0).sin() * 400.0 + noise)
             .with(Signal::FollowingError, noise),
         tx: TxImage {
-            status: Status(if (i / 1500) % 2 == 0 { 0x0009 } else { 0x0001 }),
+            status: Status(if (i / 1500).is_multiple_of(2) {
+                0x0009
+            } else {
+                0x0001
+            }),
             error_code: 0,
             return_value: i as i32,
         },
