@@ -20,6 +20,9 @@ pub const REDRAW_HZ_MIN: f64 = 1.0;
 pub const REDRAW_HZ_MAX: f64 = 240.0;
 /// How often samples wake the window while the plots stand still.
 pub const STILL_REDRAW_HZ: f64 = 1.0;
+/// A frame asked for that has not begun this long after it fell due (at least a period)
+/// is asked for again: egui drops a request made in a pass it then ran again.
+const OVERDUE: Duration = Duration::from_millis(250);
 
 /// The redraw rate as asked, within the accepted range (a bad value in a settings file
 /// gives the default).
@@ -92,13 +95,17 @@ impl Pace {
     }
 
     /// News waits: ask for a frame one period after the last began, unless one was asked
-    /// for already. What was asked, if anything.
+    /// for already (and is not overdue). What was asked, if anything.
     pub fn wake(&self, now: Instant) -> Option<Duration> {
+        let since = now.saturating_duration_since(self.epoch);
         if self.asked.swap(true, Ordering::AcqRel) {
-            return None;
+            let due = Duration::from_nanos(self.last_due_ns.load(Ordering::Acquire));
+            if since < due + OVERDUE.max(self.period()) {
+                return None;
+            }
         }
         let delay = self.delay(now);
-        let due = now.saturating_duration_since(self.epoch) + delay;
+        let due = since + delay;
         self.last_due_ns
             .store(due.as_nanos() as u64, Ordering::Release);
         self.asks.fetch_add(1, Ordering::Relaxed);
@@ -240,6 +247,10 @@ mod tests {
         // Late news (the period is over): at once.
         pace.frame_began(next, 30.0, false);
         assert_eq!(pace.wake(next + period * 2), Some(Duration::ZERO));
+        // A frame asked for that never began (the request lost) is asked for again.
+        assert_eq!(pace.wake(next + period * 2 + OVERDUE / 2), None);
+        assert_eq!(pace.wake(next + period * 2 + OVERDUE), Some(Duration::ZERO));
+        assert_eq!(pace.asked().0, 4);
     }
 
     #[test]
