@@ -6,7 +6,7 @@
 
 use std::hint::black_box;
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, criterion_group};
 use drivedeck::pdi::{Status, TxImage};
 use drivedeck::signal::{Signal, Signals};
 use drivedeck::ui::{AppState, Settings};
@@ -22,25 +22,38 @@ fn state_with(rows: usize) -> AppState {
     settings.plot.window_s = 0.0;
     let mut state = AppState::new(settings);
     for i in 0..rows {
-        let t = i as f64 * 0.001;
-        let noise = ((i * 7919) % 101) as f64 - 50.0;
-        let spike = if i % 100_003 == 0 { 5000.0 } else { 0.0 };
-        state.scope.push(&Sample {
-            t,
-            signals: Signals::default()
-                .with(Signal::Position, (t * 0.7).sin() * 36_000.0 + noise + spike)
-                .with(Signal::Velocity, (t * 0.7).cos() * 2_500.0 + noise)
-                .with(Signal::Torque, (t * 3.0).sin() * 400.0 + noise)
-                .with(Signal::FollowingError, noise),
-            tx: TxImage {
-                status: Status(if (i / 1500) % 2 == 0 { 0x0009 } else { 0x0001 }),
-                error_code: 0,
-                return_value: i as i32,
-            },
-            ..Sample::default()
-        });
+        state.scope.push(&sample(i));
     }
     state
+}
+
+/// Sample `i` of the history (1 kHz).
+fn sample(i: usize) -> Sample {
+    let t = i as f64 * 0.001;
+    let noise = ((i * 7919) % 101) as f64 - 50.0;
+    let spike = if i.is_multiple_of(100_003) {
+        5000.0
+    } else {
+        0.0
+    };
+    Sample {
+        t,
+        signals: Signals::default()
+            .with(Signal::Position, (t * 0.7).sin() * 36_000.0 + noise + spike)
+            .with(Signal::Velocity, (t * 0.7).cos() * 2_500.0 + noise)
+            .with(Signal::Torque, (t * 3.0).sin() * 400.0 + noise)
+            .with(Signal::FollowingError, noise),
+        tx: TxImage {
+            status: Status(if (i / 1500).is_multiple_of(2) {
+                0x0009
+            } else {
+                0x0001
+            }),
+            error_code: 0,
+            return_value: i as i32,
+        },
+        ..Sample::default()
+    }
 }
 
 fn frame(ctx: &egui::Context, state: &mut AppState) -> usize {
@@ -88,5 +101,64 @@ fn plot_frames(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, plot_frames);
-criterion_main!(benches);
+/// Frames of the plot panel with the history still (the same view every frame, so the
+/// decimations are reused) and with one new sample per frame (the view moves, every
+/// decimation is made again: a live frame).
+fn live_frames(c: &mut Criterion) {
+    let mut g = c.benchmark_group("plot frame, one new sample per frame (no reuse)");
+    g.sample_size(20);
+    for rows in [10_000, 600_000] {
+        let mut state = state_with(rows);
+        let ctx = egui::Context::default();
+        frame(&ctx, &mut state);
+        frame(&ctx, &mut state);
+        let mut i = rows;
+        g.bench_function(format!("{rows} samples"), |b| {
+            b.iter(|| {
+                state.scope.push(&sample(i));
+                i += 1;
+                black_box(frame(&ctx, &mut state))
+            })
+        });
+    }
+    g.finish();
+}
+
+/// `PLOT_PROFILE_ROWS=10000 PLOT_PROFILE_FRAMES=50`: only that many frames with that many
+/// samples, no criterion (for `valgrind --tool=callgrind`); with `PLOT_PROFILE_LIVE=1` a new
+/// sample comes before each frame.
+fn profile() -> bool {
+    let rows = std::env::var("PLOT_PROFILE_ROWS")
+        .ok()
+        .and_then(|r| r.parse().ok());
+    let Some(rows) = rows else {
+        return false;
+    };
+    let frames: usize = std::env::var("PLOT_PROFILE_FRAMES")
+        .ok()
+        .and_then(|f| f.parse().ok())
+        .unwrap_or(50);
+    // PLOT_PROFILE_LIVE: a new sample before every frame (the view moves).
+    let live = std::env::var_os("PLOT_PROFILE_LIVE").is_some();
+    let mut state = state_with(rows);
+    let ctx = egui::Context::default();
+    let mut n = 0;
+    for k in 0..frames {
+        if live {
+            state.scope.push(&sample(rows + k));
+        }
+        n += frame(&ctx, &mut state);
+    }
+    println!("{frames} frames, {n} primitives");
+    true
+}
+
+criterion_group!(benches, plot_frames, live_frames);
+
+fn main() {
+    if profile() {
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

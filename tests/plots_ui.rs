@@ -797,3 +797,71 @@ fn an_outage_keeps_the_plots_markers_and_timeline_on_one_axis_with_a_gap() {
     let (from, to) = drivedeck::ui::plots::time_range(&harness.state().state).expect("range");
     assert!(from <= gap.from && to > back, "{from}..{to} around {gap:?}");
 }
+
+/// Step once and wait `wait` for samples: the frames the pace asked for from the step on
+/// (how many, and when the last falls due), and when the step began.
+fn asked_after_samples(
+    harness: &mut Harness<'_, App>,
+    pace: &drivedeck::ui::pace::Pace,
+    wait: Duration,
+) -> (u64, Option<Instant>, Instant) {
+    // Samples came since the last frame, so a frame is asked for already and nothing
+    // asks again until the step's frame begins.
+    std::thread::sleep(Duration::from_millis(20));
+    let (before, _) = pace.asked();
+    let began = Instant::now();
+    harness.step();
+    std::thread::sleep(wait);
+    let (after, due) = pace.asked();
+    (after - before, due, began)
+}
+
+#[test]
+fn samples_wake_the_window_at_the_redraw_rate_and_paused_plots_once_a_second() {
+    use drivedeck::ui::pace::Pace;
+    let pace = Arc::new(Pace::default());
+    let settings = Settings {
+        poll_rate: 1000.0,
+        ..Settings::default()
+    };
+    let mut app = App::new(settings, pace.notify(), true);
+    app.set_pace(Arc::clone(&pace));
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+    window::connected(&mut harness);
+    step_for(&mut harness, Duration::from_millis(100));
+
+    // Following live samples at 1 kHz: a hundred wakes ask for one frame, not before a
+    // period of the default 30 Hz after the last frame began.
+    let period = Duration::from_secs_f64(1.0 / 30.0);
+    let (asks, due, began) = asked_after_samples(&mut harness, &pace, Duration::from_millis(100));
+    assert_eq!(asks, 1, "one frame asked for a burst of samples");
+    assert!(due.is_some_and(|due| due >= began + period - Duration::from_micros(1)));
+
+    // A slower rate from the settings.
+    harness.state_mut().state.settings.plot.redraw_hz = 10.0;
+    let (asks, due, began) = asked_after_samples(&mut harness, &pace, Duration::from_millis(150));
+    assert_eq!(asks, 1);
+    assert!(due.is_some_and(|due| due >= began + Duration::from_millis(100)));
+
+    // Paused: samples keep coming (and are recorded) but ask for a frame once a second,
+    // for the status panel's figures.
+    harness.get_by_label("Pause plot").click();
+    harness.step();
+    assert!(harness.state().state.plot.is_paused());
+    assert!(harness.state().plots_still());
+    let recorded = harness.state().state.scope.ring().len();
+    let (asks, due, began) = asked_after_samples(&mut harness, &pace, Duration::from_millis(300));
+    assert_eq!(asks, 1);
+    assert!(due.is_some_and(|due| due >= began + Duration::from_secs(1)));
+    harness.step();
+    assert!(harness.state().state.scope.ring().len() > recorded);
+
+    // Resumed: the redraw rate again (from the frame after the click).
+    harness.get_by_label("Resume plot").click();
+    harness.step();
+    assert!(!harness.state().plots_still());
+    harness.step();
+    assert_eq!(pace.period(), Duration::from_millis(100));
+}

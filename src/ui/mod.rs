@@ -13,6 +13,7 @@ pub mod glance;
 pub mod jog;
 pub mod leave;
 pub mod log;
+pub mod pace;
 pub mod plots;
 pub mod power_state;
 pub mod project_window;
@@ -62,6 +63,10 @@ pub struct App {
     project: project_window::ProjectFiles,
     /// The start, timed (`DRIVEDECK_TIMINGS`).
     timings: Option<timings::Timings>,
+    /// How often the workers' news may wake the window.
+    pace: Arc<pace::Pace>,
+    /// Frames per second on stderr (`DRIVEDECK_FRAME_STATS`).
+    stats: Option<pace::FrameStats>,
 }
 
 impl App {
@@ -90,6 +95,8 @@ impl App {
             fonts_set: false,
             project: project_window::ProjectFiles::default(),
             timings: None,
+            pace: Arc::new(pace::Pace::default()),
+            stats: pace::FrameStats::from_env(),
         };
         if connect {
             match app.state.settings.connection.spec() {
@@ -101,8 +108,46 @@ impl App {
         app
     }
 
-    /// Apply every waiting worker event, of every drive.
+    /// The pace the workers' wake-up call (`notify`) keeps: the window sets its rate
+    /// and tells it when each frame begins.
+    pub fn set_pace(&mut self, pace: Arc<pace::Pace>) {
+        self.pace = pace;
+    }
+
+    pub fn pace(&self) -> &Arc<pace::Pace> {
+        &self.pace
+    }
+
+    /// The plots stand still: paused, a recording under review, or moved away from the
+    /// newest samples; new samples change nothing in them.
+    pub fn plots_still(&self) -> bool {
+        let state = &self.state;
+        if state.settings.central != state::Central::Plots {
+            return false;
+        }
+        let plot = &state.plot;
+        if plot.is_paused() || plot.review.is_some() {
+            return true;
+        }
+        let newest = state.scope.ring().last_time();
+        !plot.follow
+            && plot
+                .shown_range
+                .zip(newest)
+                .is_some_and(|((_, to), newest)| to < newest)
+    }
+
+    /// Apply every waiting worker event, of every drive. A frame begins: the news from
+    /// here on asks for the next one at the redraw rate's pace.
     pub fn pump_events(&mut self) {
+        self.pace.frame_began(
+            Instant::now(),
+            pace::redraw_hz(self.state.settings.plot.redraw_hz),
+            self.plots_still(),
+        );
+        if let Some(stats) = &mut self.stats {
+            stats.frame();
+        }
         let clock = self.started.elapsed().as_secs_f64();
         self.pump_drives(clock);
     }
@@ -393,9 +438,9 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
                 .storage
                 .and_then(|s| eframe::get_value(s, SETTINGS_KEY))
                 .unwrap_or_default();
-            let ctx = cc.egui_ctx.clone();
-            let notify: worker::Notify =
-                Arc::new(move || ctx.request_repaint_after(Duration::from_millis(5)));
+            // The workers' news wakes the window at the redraw rate, not at every burst.
+            let pace = pace::Pace::new(cc.egui_ctx.clone());
+            let notify: worker::Notify = pace.notify();
             let (opening, note) = match opening {
                 Opening::Last => last_project(),
                 other => (other, None),
@@ -435,6 +480,7 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
             if let Some(timings) = &mut app.timings {
                 timings.connect_asked();
             }
+            app.set_pace(pace);
             Ok(Box::new(app))
         }),
     )

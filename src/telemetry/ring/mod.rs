@@ -26,6 +26,8 @@ pub use fold::*;
 mod scan;
 #[allow(unused_imports)]
 pub use scan::*;
+mod cache;
+pub use cache::Decimations;
 #[cfg(test)]
 mod tests;
 
@@ -60,8 +62,25 @@ pub struct BitSpan {
     pub all: u32,
 }
 
+/// Which ring, and which of its contents: rows are only ever appended between two changes
+/// of `epoch` (a clear, a new capacity, a new channel), and `end` counts the rows appended.
+/// Equal versions, equal contents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Version {
+    /// The ring (a clone is another ring).
+    pub id: u64,
+    pub epoch: u64,
+    pub end: u64,
+}
+
+/// The source of the rings' ids.
+static NEXT_RING: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+fn ring_id() -> u64 {
+    NEXT_RING.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
 /// The bounded sample history: a shared time column and one value column per channel.
-#[derive(Clone)]
 pub struct Ring {
     capacity: usize,
     times: Vec<f64>,
@@ -71,6 +90,25 @@ pub struct Ring {
     len: usize,
     /// Absolute number of the oldest row; block summaries are keyed by it.
     start: u64,
+    /// This ring's id, and the changes other than appending so far (see [`Version`]).
+    id: u64,
+    epoch: u64,
+}
+
+impl Clone for Ring {
+    /// The same rows in another ring (with an id of its own).
+    fn clone(&self) -> Self {
+        Ring {
+            capacity: self.capacity,
+            times: self.times.clone(),
+            columns: self.columns.clone(),
+            head: self.head,
+            len: self.len,
+            start: self.start,
+            id: ring_id(),
+            epoch: 0,
+        }
+    }
 }
 
 impl fmt::Debug for Ring {
@@ -98,6 +136,17 @@ impl Ring {
             head: 0,
             len: 0,
             start: 0,
+            id: ring_id(),
+            epoch: 0,
+        }
+    }
+
+    /// Which ring and which of its contents (see [`Version`]).
+    pub fn version(&self) -> Version {
+        Version {
+            id: self.id,
+            epoch: self.epoch,
+            end: self.end(),
         }
     }
 
@@ -128,6 +177,7 @@ impl Ring {
         self.head = 0;
         self.len = 0;
         self.start = 0;
+        self.epoch += 1;
     }
 
     /// Change the capacity (at least 1), keeping the newest rows that fit.
@@ -156,6 +206,7 @@ impl Ring {
         self.head = 0;
         self.len = keep;
         self.start = 0;
+        self.epoch += 1;
         for block in 0..keep as u64 / BLOCK {
             self.summarize_small(block);
         }
@@ -166,6 +217,7 @@ impl Ring {
 
     /// Add a channel; existing rows hold NaN in it. Returns its index.
     pub fn add_channel(&mut self) -> usize {
+        self.epoch += 1;
         self.columns.push(Column::new(
             self.times.len(),
             self.times.capacity(),

@@ -104,6 +104,9 @@ pub struct PlotSettings {
     pub shown: Vec<String>,
     /// How positions in the factory unit are drawn.
     pub position_unit: PositionUnit,
+    /// Frames per second at most while the live plots move (new samples wake the window
+    /// no more often).
+    pub redraw_hz: f64,
 }
 
 impl Default for PlotSettings {
@@ -115,6 +118,7 @@ impl Default for PlotSettings {
             trigger: TriggerForm::default(),
             shown: Vec::new(),
             position_unit: PositionUnit::default(),
+            redraw_hz: crate::ui::pace::DEFAULT_REDRAW_HZ,
         }
     }
 }
@@ -162,6 +166,8 @@ pub struct PlotView {
     pub loading: Option<review::Loading>,
     /// The two cursors (A, B) placed on the time axis: a click places A, a right click B.
     pub cursors: [Option<f64>; 2],
+    /// The last frames' decimations, drawn again while the plots have not moved.
+    pub decimations: crate::telemetry::ring::Decimations,
 }
 
 impl Default for PlotView {
@@ -187,6 +193,7 @@ impl Default for PlotView {
             review: None,
             loading: None,
             cursors: [None; 2],
+            decimations: Default::default(),
         }
     }
 }
@@ -472,6 +479,28 @@ fn signals_menu_body(ui: &mut Ui, state: &mut AppState) {
     }
 }
 
+/// The live plots' redraw rate: a box in frames per second.
+fn redraw_ui(ui: &mut Ui, redraw_hz: &mut f64) {
+    use crate::ui::pace::{REDRAW_HZ_MAX, REDRAW_HZ_MIN, redraw_hz as accepted};
+    ui.horizontal(|ui| {
+        ui.label("Redraw live plots at");
+        *redraw_hz = accepted(*redraw_hz);
+        let field = ui
+            .add(
+                egui::DragValue::new(redraw_hz)
+                    .range(REDRAW_HZ_MIN..=REDRAW_HZ_MAX)
+                    .speed(1.0)
+                    .max_decimals(0)
+                    .suffix(" Hz"),
+            )
+            .on_hover_text(
+                "Frames per second at most while the plots follow new samples; fewer cost \
+                 less CPU. Paused or moved plots redraw once a second.",
+            );
+        crate::ui::widgets::name_widget(&field, egui::accesskit::Role::SpinButton, "Redraw rate");
+    });
+}
+
 fn history_menu(ui: &mut Ui, state: &mut AppState) {
     let ring = state.scope.ring();
     let rate = state.settings.poll_rate.max(1.0);
@@ -511,5 +540,7 @@ fn history_menu(ui: &mut Ui, state: &mut AppState) {
             }
         });
         ui.weak("The default, 600 000, is 10 minutes at 1 kHz. The oldest samples go first.");
+        ui.separator();
+        redraw_ui(ui, &mut state.settings.plot.redraw_hz);
     });
 }

@@ -4,12 +4,15 @@
 //! fit what is in view (zoom and pan move the time axis only, no trace is clipped); a
 //! recording overlaid is drawn dashed over the one it is compared with.
 
+use std::cell::RefCell;
+
 use eframe::egui::{self, Color32, Ui};
 use egui_plot::{FilledArea, Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
 
 use super::super::state::AppState;
 use super::super::widgets::{AMBER, BLUE, GREEN, RED};
 use super::{Beside, PositionUnit, shown_scope, time_range};
+use crate::telemetry::ring::Decimations;
 use crate::telemetry::{
     BitSpan, Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef, bit_name,
 };
@@ -154,6 +157,8 @@ struct View<'a> {
     own: Option<&'a str>,
     /// The other drives whose signals are drawn on the same time axis, and their gaps.
     beside: Vec<(&'a Beside<'a>, Vec<Band>)>,
+    /// The last frames' decimations, reused where the plots have not moved.
+    decimations: RefCell<Decimations>,
 }
 
 impl<'a> View<'a> {
@@ -163,6 +168,7 @@ impl<'a> View<'a> {
         to: f64,
         own: &'a str,
         beside: &'a [Beside<'a>],
+        decimations: Decimations,
     ) -> Self {
         let scope = shown_scope(state);
         let markers = scope
@@ -211,8 +217,69 @@ impl<'a> View<'a> {
             } else {
                 Vec::new()
             },
+            decimations: RefCell::new(decimations),
         }
     }
+
+    /// [`Ring::decimate`] of `ring` (reused from the last frame when it still holds),
+    /// thinned to what a line shows of each pixel column.
+    fn points(
+        &self,
+        ring: &Ring,
+        column: usize,
+        from: f64,
+        to: f64,
+        columns: usize,
+    ) -> Vec<[f64; 2]> {
+        self.decimations
+            .borrow_mut()
+            .points_with(ring, column, from, to, columns, |points| {
+                extremes_per_column(points, from, to, columns)
+            })
+    }
+}
+
+/// Per pixel column, only its lowest and highest point, in time order: a line through a
+/// column's first, lowest, highest and last samples covers the same pixels as one through
+/// its lowest and highest (the first and last lie between them), at half the points to
+/// draw. Points outside `from..=to` (the neighbours that carry the line to the edges) are
+/// kept. A line with no more than two points per column is left as it is.
+fn extremes_per_column(points: Vec<[f64; 2]>, from: f64, to: f64, columns: usize) -> Vec<[f64; 2]> {
+    let width = to - from;
+    if points.len() <= 2 * columns + 2 || width.is_nan() || width <= 0.0 {
+        return points;
+    }
+    let scale = columns as f64 / width;
+    // The column of a time: -1 before the span, `columns` at its end and after.
+    let column = |t: f64| {
+        let x = (t - from) * scale;
+        if x < 0.0 {
+            -1
+        } else {
+            (x as i64).min(columns as i64)
+        }
+    };
+    let mut out = Vec::with_capacity(2 * columns + 2);
+    let mut i = 0;
+    while i < points.len() {
+        let k = column(points[i][0]);
+        let (mut low, mut high, mut j) = (i, i, i + 1);
+        while j < points.len() && column(points[j][0]) == k {
+            if points[j][1] < points[low][1] {
+                low = j;
+            }
+            if points[j][1] > points[high][1] {
+                high = j;
+            }
+            j += 1;
+        }
+        out.push(points[low.min(high)]);
+        if low != high {
+            out.push(points[low.max(high)]);
+        }
+        i = j;
+    }
+    out
 }
 
 /// Another drive's gaps between `from` and `to` (one still open reaches to its newest
@@ -285,6 +352,7 @@ pub fn traces_ui(
         );
         return None;
     };
+    let mut decimations = std::mem::take(&mut state.plot.decimations);
     let scope = shown_scope(state);
     let colors = colors(scope.signals());
     let analog: Vec<(&SignalDef, Color32)> = scope
@@ -293,9 +361,9 @@ pub fn traces_ui(
         .zip(colors)
         .filter(|(s, _)| scope.is_drawn(s) && s.kind == Kind::Analog)
         .collect();
-    let lanes = lanes(scope, from, to);
+    let lanes = lanes(scope, from, to, &mut decimations);
     let (plot_height, lanes_height) = heights(ui.available_height(), analog.len(), lanes.len());
-    let view = View::new(state, from, to, own, beside);
+    let view = View::new(state, from, to, own, beside, decimations);
     let mut interaction = Interaction::default();
     let top = ui.cursor().min;
 
@@ -316,6 +384,9 @@ pub fn traces_ui(
         top,
         egui::pos2(interaction.right.max(top.x + 1.0), bottom.y),
     );
+    let mut decimations = view.decimations.into_inner();
+    decimations.end_frame();
+    state.plot.decimations = decimations;
     remember_view(state, &interaction, (from, to));
     Some(plots)
 }
@@ -410,11 +481,11 @@ fn analog_plot_ui(
         .show(ui, |plot_ui| {
             let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
             let columns = plot_ui.transform().frame().width().max(1.0) as usize;
-            let mut points = view.ring.decimate(column, from, to, columns);
+            let mut points = view.points(view.ring, column, from, to, columns);
             scale_values(&mut points, scale, 0.0);
             let mut other = overlay
                 .map(|(ring, column, offset)| {
-                    let mut points = ring.decimate(column, from - offset, to - offset, columns);
+                    let mut points = view.points(ring, column, from - offset, to - offset, columns);
                     scale_values(&mut points, scale, offset);
                     points
                 })
@@ -425,7 +496,7 @@ fn analog_plot_ui(
                 .iter()
                 .filter_map(|(b, bands)| {
                     let theirs = b.scope.signal(&signal.info.id)?;
-                    let mut points = b.scope.ring().decimate(theirs.column, from, to, columns);
+                    let mut points = view.points(b.scope.ring(), theirs.column, from, to, columns);
                     scale_values(&mut points, scale, 0.0);
                     Some((
                         format!("{}: {}", b.name, signal.info.name),
@@ -434,30 +505,16 @@ fn analog_plot_ui(
                     ))
                 })
                 .collect();
-            let mut fit = [points.as_slice(), other.as_slice()].concat();
-            for (_, theirs, _) in &drives {
-                fit.extend_from_slice(theirs);
-            }
+            let mut fit = vec![points.as_slice(), other.as_slice()];
+            fit.extend(drives.iter().map(|(_, theirs, _)| theirs.as_slice()));
             plot_ui.set_plot_bounds(fit_bounds(&fit, from, to, level));
             draw_bands(plot_ui, &view.bands, first);
             draw_markers(plot_ui, &view.markers, first);
             draw_moments(plot_ui, view, level);
-            for run in split_at_bands(&points, &view.bands) {
-                plot_ui.line(
-                    Line::new(label.as_str(), run.to_vec())
-                        .color(color)
-                        .width(1.5),
-                );
-            }
-            for (k, (name, theirs, bands)) in drives.iter().enumerate() {
+            draw_runs(plot_ui, &label, color, points, &view.bands);
+            for (k, (name, theirs, bands)) in drives.into_iter().enumerate() {
                 let color = DRIVE_COLORS[k % DRIVE_COLORS.len()];
-                for run in split_at_bands(theirs, bands) {
-                    plot_ui.line(
-                        Line::new(name.as_str(), run.to_vec())
-                            .color(color)
-                            .width(1.5),
-                    );
-                }
+                draw_runs(plot_ui, &name, color, theirs, bands);
             }
             if !other.is_empty() {
                 // Unnamed: the row above the plots says which file is dashed; a legend
@@ -471,6 +528,25 @@ fn analog_plot_ui(
             }
             (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
         })
+}
+
+/// A signal's line, broken where a band (a stretch without samples) cuts it; the points
+/// handed over as they are when nothing cuts them.
+fn draw_runs(
+    plot_ui: &mut PlotUi,
+    name: &str,
+    color: Color32,
+    points: Vec<[f64; 2]>,
+    bands: &[Band],
+) {
+    let runs = split_at_bands(&points, bands);
+    if runs.len() == 1 {
+        plot_ui.line(Line::new(name, points).color(color).width(1.5));
+        return;
+    }
+    for run in runs {
+        plot_ui.line(Line::new(name, run.to_vec()).color(color).width(1.5));
+    }
 }
 
 /// Values times `scale` (positions in degrees or revolutions), times moved by `offset`.
@@ -569,12 +645,15 @@ fn draw_lanes(
     let mut rows = Vec::new();
     for (k, lane) in lanes.iter().enumerate() {
         if last_column != Some(lane.column) {
-            spans = view.ring.decimate_bits(lane.column, from, to, columns);
+            spans = view
+                .decimations
+                .borrow_mut()
+                .bits(view.ring, lane.column, from, to, columns);
             last_column = Some(lane.column);
         }
         let base = (lanes.len() - 1 - k) as f64 * 1.5;
         let color = lane_color(k);
-        let points = lane_points(&spans, lane.bit, base);
+        let points = lane_points(&spans, lane.bit, base, &view.bands);
         for run in split_at_bands(&points, &view.bands) {
             let xs: Vec<f64> = run.iter().map(|p| p[0]).collect();
             let lows = vec![base; run.len()];
@@ -769,9 +848,10 @@ fn visible(plot_ui: &PlotUi, follow: bool, from: f64, to: f64) -> (f64, f64) {
 
 /// The time span on x, the data's range with a margin on y (a flat line is not squeezed
 /// into nothing); a trigger level stays in view.
-fn fit_bounds(points: &[[f64; 2]], from: f64, to: f64, level: Option<f64>) -> PlotBounds {
-    let (mut low, mut high) = points
+fn fit_bounds(lines: &[&[[f64; 2]]], from: f64, to: f64, level: Option<f64>) -> PlotBounds {
+    let (mut low, mut high) = lines
         .iter()
+        .flat_map(|points| points.iter())
         .filter(|p| p[0] >= from && p[0] <= to)
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(p[1]), hi.max(p[1]))
@@ -846,7 +926,7 @@ fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
 /// The lanes to draw: the PDI-Status bits that were high somewhere in view (and always
 /// operation enabled, target reached and fault), and the digital inputs that were on
 /// somewhere in view (the limit and home switches when none was).
-fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
+fn lanes(scope: &Scope, from: f64, to: f64, decimations: &mut Decimations) -> Vec<Lane> {
     let ring = scope.ring();
     let mut lanes = Vec::new();
     for signal in scope.signals() {
@@ -861,8 +941,8 @@ fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
             // The bits that were high somewhere in view, and always whether the drive is
             // on, at its target, faulted: a bit low throughout says nothing new.
             Some(Builtin::PdiStatus) => {
-                let any = ring
-                    .decimate_bits(signal.column, from, to, 1)
+                let any = decimations
+                    .bits(ring, signal.column, from, to, 1)
                     .iter()
                     .fold(0, |acc, s| acc | s.any);
                 crate::pdi::StatusBit::ALL
@@ -872,8 +952,8 @@ fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
                     .collect()
             }
             _ => {
-                let any = ring
-                    .decimate_bits(signal.column, from, to, 1)
+                let any = decimations
+                    .bits(ring, signal.column, from, to, 1)
                     .iter()
                     .fold(0, |acc, s| acc | s.any);
                 let on: Vec<u8> = (0..32).filter(|b| any & (1 << b) != 0).collect();
@@ -890,26 +970,43 @@ fn lanes(scope: &Scope, from: f64, to: f64) -> Vec<Lane> {
 }
 
 /// One lane's line: low (base) where the bit was 0 throughout a pixel column, high where
-/// it was 1 throughout, a filled-looking zigzag where it changed inside the column.
-fn lane_points(spans: &[BitSpan], bit: u8, base: f64) -> Vec<[f64; 2]> {
+/// it was 1 throughout, a filled-looking zigzag where it changed inside the column. A run
+/// of columns at one level is one segment (a bit that seldom changes costs two points per
+/// change, not per column), except across a band, where the line breaks.
+fn lane_points(spans: &[BitSpan], bit: u8, base: f64, bands: &[Band]) -> Vec<[f64; 2]> {
     let mask = 1u32 << bit;
     let high = base + 1.0;
-    let mut out = Vec::with_capacity(spans.len() * 2);
+    let mut out = Vec::new();
+    // The level of the segment the last point ends, while it may be lengthened.
+    let mut level_run: Option<f64> = None;
+    let mut previous_end = f64::NEG_INFINITY;
     for span in spans {
         let any = span.any & mask != 0;
         let all = span.all & mask != 0;
-        if all {
-            out.push([span.t0, high]);
-            out.push([span.t1, high]);
+        let across_band = bands
+            .iter()
+            .any(|band| previous_end <= band.from && span.t0 >= band.to);
+        previous_end = span.t1;
+        let level = if all {
+            high
         } else if !any {
-            out.push([span.t0, base]);
-            out.push([span.t1, base]);
+            base
         } else {
             out.push([span.t0, base]);
             out.push([span.t0, high]);
             out.push([span.t1, base]);
             out.push([span.t1, high]);
+            level_run = None;
+            continue;
+        };
+        match out.last_mut() {
+            Some(last) if level_run == Some(level) && !across_band => last[0] = span.t1,
+            _ => {
+                out.push([span.t0, level]);
+                out.push([span.t1, level]);
+            }
         }
+        level_run = Some(level);
     }
     out
 }
@@ -994,6 +1091,79 @@ mod tests {
         let (plot, lanes) = heights(700.0, 3, 5);
         assert_eq!(lanes, 5.0 * LANE_HEIGHT + 40.0);
         assert!(plot > 150.0, "{plot}");
+    }
+
+    #[test]
+    fn a_column_keeps_its_lowest_and_highest_point_in_time_order() {
+        // Two columns of 1 s between 0 and 2, four points each, and the neighbours.
+        let points = vec![
+            [-0.5, 7.0],
+            [0.1, 1.0],
+            [0.2, 9.0],
+            [0.3, -3.0],
+            [0.4, 2.0],
+            [1.1, 5.0],
+            [1.2, 4.0],
+            [1.3, 6.0],
+            [1.4, 5.5],
+            [2.5, 0.0],
+        ];
+        let thinned = extremes_per_column(points.clone(), 0.0, 2.0, 2);
+        assert_eq!(
+            thinned,
+            [
+                [-0.5, 7.0],
+                [0.2, 9.0],
+                [0.3, -3.0],
+                [1.2, 4.0],
+                [1.3, 6.0],
+                [2.5, 0.0]
+            ]
+        );
+        // Few points per column: as they are.
+        assert_eq!(extremes_per_column(points.clone(), 0.0, 2.0, 4), points);
+    }
+
+    #[test]
+    fn a_lane_that_seldom_changes_is_a_few_segments() {
+        let span = |t: f64, any: u32, all: u32| BitSpan {
+            t0: t,
+            t1: t + 0.5,
+            any,
+            all,
+        };
+        // High, high, changing, low, low, [gap], low.
+        let spans = [
+            span(0.0, 1, 1),
+            span(1.0, 1, 1),
+            span(2.0, 1, 0),
+            span(3.0, 0, 0),
+            span(4.0, 0, 0),
+            span(9.0, 0, 0),
+        ];
+        let gap = Band {
+            from: 4.5,
+            to: 9.0,
+            label: String::new(),
+        };
+        let points = lane_points(&spans, 0, 0.0, std::slice::from_ref(&gap));
+        assert_eq!(
+            points,
+            [
+                [0.0, 1.0],
+                [1.5, 1.0],
+                [2.0, 0.0],
+                [2.0, 1.0],
+                [2.5, 0.0],
+                [2.5, 1.0],
+                [3.0, 0.0],
+                [4.5, 0.0],
+                [9.0, 0.0],
+                [9.5, 0.0]
+            ]
+        );
+        let runs = split_at_bands(&points, &[gap]);
+        assert_eq!(runs.len(), 2);
     }
 
     #[test]
