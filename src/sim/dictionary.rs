@@ -27,6 +27,8 @@ pub struct Dictionary {
     slots: Vec<Slot>,
     /// Where each address is in `slots`.
     at: HashMap<Address, usize, BuildHasherDefault<AddressHasher>>,
+    /// How many values were set from outside the drive's own cycle (see `changes`).
+    changes: u64,
 }
 
 /// A hasher for the 24 bits of an address: a multiply whose high half is folded into the
@@ -82,7 +84,18 @@ impl Dictionary {
             .enumerate()
             .map(|(i, slot)| (slot.entry.address, i))
             .collect();
-        Self { slots, at }
+        Self {
+            slots,
+            at,
+            changes: 0,
+        }
+    }
+
+    /// Counts every `set` (a master's write, a server configuring an object), not the
+    /// drive's own `set_int` of its state: while it stands still, no mapping or setting
+    /// changed, so a server may keep what it built from them (a process image's layout).
+    pub fn changes(&self) -> u64 {
+        self.changes
     }
 
     fn slot(&self, address: Address) -> Option<&Slot> {
@@ -165,6 +178,7 @@ impl Dictionary {
     /// The drive's own write: no access check. Integers are wrapped into the entry's type;
     /// an address the dictionary lacks is ignored (the catalog decides what exists).
     pub fn set(&mut self, address: Address, value: Value) {
+        self.changes = self.changes.wrapping_add(1);
         if let Some(slot) = self.slot_mut(address) {
             slot.value = value;
         }

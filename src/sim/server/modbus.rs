@@ -69,12 +69,12 @@ pub struct Session {
     layouts: Layouts,
 }
 
-/// The layouts of the RX (3502h) and TX (3602h) process images as last built, each with the
-/// mapping entries it was built from.
+/// The layouts of the RX (3502h) and TX (3602h) process images as last built, each with
+/// the drive's `od_changes` when it was built.
 #[derive(Debug, Default)]
 struct Layouts {
-    rx: Option<(Vec<u32>, ImageLayout)>,
-    tx: Option<(Vec<u32>, ImageLayout)>,
+    rx: Option<(u64, ImageLayout)>,
+    tx: Option<(u64, ImageLayout)>,
 }
 
 fn refuse(request: &Request, code: u8) -> Exception {
@@ -84,41 +84,36 @@ fn refuse(request: &Request, code: u8) -> Exception {
     }
 }
 
-/// The mapping of a process image, from its mapping object (3502h or 3602h). The mapping
-/// is read on every request (a master may remap between two), the layout built again only
-/// when it changed: building one allocates and walks every entry.
+/// The mapping of a process image, from its mapping object (3502h or 3602h). Reading the
+/// mapping and building its layout on every request was a third of what the server spent
+/// per request, so the layout is kept until an object is set from outside (a master may
+/// remap between two requests: then it is built again).
 fn layout<'a>(
     drive: &Drive,
     mapping: u16,
-    cached: &'a mut Option<(Vec<u32>, ImageLayout)>,
+    cached: &'a mut Option<(u64, ImageLayout)>,
 ) -> &'a ImageLayout {
-    let count = drive
-        .read(Address::new(mapping, 0))
-        .ok()
-        .and_then(|v| v.as_i128())
-        .unwrap_or(0)
-        .clamp(0, 16) as u8;
-    let entry = |sub: u8| {
-        drive
-            .read(Address::new(mapping, sub))
-            .ok()
-            .and_then(|v| v.as_i128())
-            .unwrap_or(0) as u32
-    };
-    let same = cached.as_ref().is_some_and(|(entries, _)| {
-        entries.len() == usize::from(count)
-            && entries
-                .iter()
-                .zip(1..=count)
-                .all(|(e, sub)| *e == entry(sub))
-    });
-    if !same {
+    let changes = drive.od_changes();
+    if cached.as_ref().is_some_and(|(built, _)| *built != changes) {
         *cached = None;
     }
     let (_, layout) = cached.get_or_insert_with(|| {
-        let entries: Vec<u32> = (1..=count).map(entry).collect();
-        let layout = ImageLayout::from_entries(&entries);
-        (entries, layout)
+        let count = drive
+            .read(Address::new(mapping, 0))
+            .ok()
+            .and_then(|v| v.as_i128())
+            .unwrap_or(0)
+            .clamp(0, 16) as u8;
+        let entries: Vec<u32> = (1..=count)
+            .map(|sub| {
+                drive
+                    .read(Address::new(mapping, sub))
+                    .ok()
+                    .and_then(|v| v.as_i128())
+                    .unwrap_or(0) as u32
+            })
+            .collect();
+        (changes, ImageLayout::from_entries(&entries))
     });
     layout
 }
@@ -144,22 +139,26 @@ fn read_area(
     let within = |start: u16, len: usize| {
         u32::from(address) >= u32::from(start) && end <= u32::from(start) + len as u32
     };
-    let slice = |all: Vec<u16>, start: u16| -> Vec<u16> {
+    let slice = |mut all: Vec<u16>, start: u16| -> Vec<u16> {
         let from = usize::from(address - start);
-        all[from..from + usize::from(count)].to_vec()
+        all.truncate(from + usize::from(count));
+        all.drain(..from);
+        all
     };
     // PDI TX followed by the TX image: one contiguous area.
     let tx_layout = layout(drive, 0x3602, &mut layouts.tx);
     let tx_len = usize::from(PDI_REGISTERS) + tx_layout.register_len();
     if within(PDI_TX, tx_len) {
-        let mut all = registers::tx_to_registers(&drive.tx_image(), order).to_vec();
+        let mut all = Vec::with_capacity(tx_len);
+        all.extend_from_slice(&registers::tx_to_registers(&drive.tx_image(), order));
         all.extend(tx_layout.pack(|a| raw_value(drive, a), order));
         return Some(slice(all, PDI_TX));
     }
     let rx_layout = layout(drive, 0x3502, &mut layouts.rx);
     let rx_len = usize::from(PDI_REGISTERS) + rx_layout.register_len();
     if within(PDI_RX, rx_len) {
-        let mut all = registers::rx_to_registers(&drive.rx_image(), order).to_vec();
+        let mut all = Vec::with_capacity(rx_len);
+        all.extend_from_slice(&registers::rx_to_registers(&drive.rx_image(), order));
         all.extend(rx_layout.pack(|a| raw_value(drive, a), order));
         return Some(slice(all, PDI_RX));
     }
