@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """The independent client of `drivedeck bench`: pymodbus doing the PDI exchange drivedeck
 does, one FC 23 (read/write multiple registers) per cycle: write 5996..5999, read
-4996..4999, against the same Modbus TCP server.
+4996..4999 (or READ registers from 4996: 11 is the PDI and the factory TX image, what
+drivedeck's client reads), against the same Modbus TCP server.
 
-    python3 pymodbus_fc23.py HOST PORT SECONDS
+    python3 pymodbus_fc23.py HOST PORT SECONDS [READ]
 
 Like drivedeck's bench it never commands anything: it reads the RX registers the drive
 holds (FC 3 at 5996) and writes them back. Prints one JSON object with the round-trip
@@ -27,6 +28,7 @@ PDI_TX = 4996
 
 def main():
     host, port, seconds = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+    read = int(sys.argv[4]) if len(sys.argv) > 4 else 4
     client = ModbusTcpClient(host, port=port, timeout=2, retries=0)
     if not client.connect():
         raise RuntimeError(f"cannot connect to {host}:{port}")
@@ -41,7 +43,7 @@ def main():
             sent = time.perf_counter()
             r = client.readwrite_registers(
                 read_address=PDI_TX,
-                read_count=4,
+                read_count=read,
                 write_address=PDI_RX,
                 values=rx,
                 device_id=0,

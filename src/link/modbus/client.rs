@@ -87,6 +87,37 @@ impl ModbusLink {
         }
     }
 
+    /// Connect to a device whose TX process image mapping (3602h entries) is known, without
+    /// asking for it over FC 43: for a server that does not know FC 43 / MEI 0Dh and closes
+    /// the connection on it instead of answering exception 01, as a tokio-modbus register
+    /// server does (the anchor server of `benches/anchors.rs`).
+    pub async fn connect_with_tx_map(
+        spec: &LinkSpec,
+        timeout: Duration,
+        tx_map: &[u32],
+    ) -> Result<ModbusLink, Error> {
+        let order = match spec {
+            LinkSpec::ModbusTcp { words, .. } | LinkSpec::ModbusRtu { words, .. } => *words,
+            _ => {
+                return Err(Error::Unsupported(format!(
+                    "{spec} is not a Modbus connection string"
+                )));
+            }
+        };
+        let transport = Transport::connect(spec, timeout).await?;
+        let mut link = ModbusLink {
+            spec: spec.clone(),
+            transport,
+            order,
+            fc23: Support::Unknown,
+            fc43: Support::Unknown,
+            tx_image: None,
+            notices: vec![],
+        };
+        link.use_tx_map(tx_map);
+        Ok(link)
+    }
+
     /// Where the TX process image is and what it holds: 3602h over FC 43 where the device
     /// answers it, the factory mapping otherwise.
     async fn learn_tx_image(&mut self) -> Result<(), Error> {
@@ -108,7 +139,13 @@ impl ModbusLink {
             entries = Some(read);
         }
         let entries = entries.unwrap_or_else(|| FACTORY_TX_MAP.to_vec());
-        let layout = ImageLayout::from_entries(&entries);
+        self.use_tx_map(&entries);
+        Ok(())
+    }
+
+    /// Read the TX process image of this mapping along with the PDI, if it is worth it.
+    fn use_tx_map(&mut self, entries: &[u32]) {
+        let layout = ImageLayout::from_entries(entries);
         // Only worth reading if it carries something we show.
         let useful = layout
             .entries
@@ -116,7 +153,6 @@ impl ModbusLink {
             .any(|e| Signal::of_address(e.address).is_some());
         self.tx_image =
             (useful && layout.register_len() > 0 && layout.register_len() <= 100).then_some(layout);
-        Ok(())
     }
 
     /// Read the whole object dictionary with FC 101 (restart, then next until "no data").

@@ -29,7 +29,7 @@ use crate::pdi::{
     TxImage, set_value2_to_index, set_value3_to_subindex,
 };
 
-use super::dictionary::{Dictionary, wrap_integer};
+use super::dictionary::Dictionary;
 use super::homing::{HomingRun, HomingStep};
 use super::motion::{Demand, rpm_to_units, step_position, step_velocity, units_to_rpm};
 use super::world::World;

@@ -138,9 +138,8 @@ impl Drive {
             PowerState::Fault | PowerState::FaultReactionActive => od.int(0x6040, 0) as u16,
             _ => controlword::DISABLE_VOLTAGE,
         };
-        od.set(
-            Address::new(0x6040, 0),
-            wrap_integer(DataType::Unsigned16, i64::from(controlword)),
-        );
+        // The drive's own value, like the rest: `set_int` (6040h is Unsigned16), so that
+        // `Dictionary::changes` counts only what comes from outside.
+        od.set_int(0x6040, 0, i64::from(controlword));
     }
 }

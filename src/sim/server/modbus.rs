@@ -61,10 +61,20 @@ impl Default for ServerOptions {
     }
 }
 
-/// What one client connection remembers: the FC 101 cursor.
+/// What one client connection remembers: the FC 101 cursor, and the layouts of the process
+/// images.
 #[derive(Debug, Default)]
 pub struct Session {
     dictionary_cursor: usize,
+    layouts: Layouts,
+}
+
+/// The layouts of the RX (3502h) and TX (3602h) process images as last built, each with
+/// the drive's `od_changes` when it was built.
+#[derive(Debug, Default)]
+struct Layouts {
+    rx: Option<(u64, ImageLayout)>,
+    tx: Option<(u64, ImageLayout)>,
 }
 
 fn refuse(request: &Request, code: u8) -> Exception {
@@ -74,24 +84,38 @@ fn refuse(request: &Request, code: u8) -> Exception {
     }
 }
 
-/// The mapping of a process image, from its mapping object (3502h or 3602h).
-fn layout(drive: &Drive, mapping: u16) -> ImageLayout {
-    let count = drive
-        .read(Address::new(mapping, 0))
-        .ok()
-        .and_then(|v| v.as_i128())
-        .unwrap_or(0)
-        .clamp(0, 16) as u8;
-    let entries: Vec<u32> = (1..=count)
-        .map(|sub| {
-            drive
-                .read(Address::new(mapping, sub))
-                .ok()
-                .and_then(|v| v.as_i128())
-                .unwrap_or(0) as u32
-        })
-        .collect();
-    ImageLayout::from_entries(&entries)
+/// The mapping of a process image, from its mapping object (3502h or 3602h). Reading the
+/// mapping and building its layout on every request was a third of what the server spent
+/// per request, so the layout is kept until an object is set from outside (a master may
+/// remap between two requests: then it is built again).
+fn layout<'a>(
+    drive: &Drive,
+    mapping: u16,
+    cached: &'a mut Option<(u64, ImageLayout)>,
+) -> &'a ImageLayout {
+    let changes = drive.od_changes();
+    if cached.as_ref().is_some_and(|(built, _)| *built != changes) {
+        *cached = None;
+    }
+    let (_, layout) = cached.get_or_insert_with(|| {
+        let count = drive
+            .read(Address::new(mapping, 0))
+            .ok()
+            .and_then(|v| v.as_i128())
+            .unwrap_or(0)
+            .clamp(0, 16) as u8;
+        let entries: Vec<u32> = (1..=count)
+            .map(|sub| {
+                drive
+                    .read(Address::new(mapping, sub))
+                    .ok()
+                    .and_then(|v| v.as_i128())
+                    .unwrap_or(0) as u32
+            })
+            .collect();
+        (changes, ImageLayout::from_entries(&entries))
+    });
+    layout
 }
 
 /// An object's raw bits for a process image.
@@ -104,27 +128,37 @@ fn raw_value(drive: &Drive, address: Address) -> u32 {
 }
 
 /// A register area that can be read, and its content.
-fn read_area(drive: &Drive, address: u16, count: u16, order: WordOrder) -> Option<Vec<u16>> {
+fn read_area(
+    drive: &Drive,
+    layouts: &mut Layouts,
+    address: u16,
+    count: u16,
+    order: WordOrder,
+) -> Option<Vec<u16>> {
     let end = u32::from(address) + u32::from(count);
     let within = |start: u16, len: usize| {
         u32::from(address) >= u32::from(start) && end <= u32::from(start) + len as u32
     };
-    let slice = |all: Vec<u16>, start: u16| -> Vec<u16> {
+    let slice = |mut all: Vec<u16>, start: u16| -> Vec<u16> {
         let from = usize::from(address - start);
-        all[from..from + usize::from(count)].to_vec()
+        all.truncate(from + usize::from(count));
+        all.drain(..from);
+        all
     };
     // PDI TX followed by the TX image: one contiguous area.
-    let tx_layout = layout(drive, 0x3602);
+    let tx_layout = layout(drive, 0x3602, &mut layouts.tx);
     let tx_len = usize::from(PDI_REGISTERS) + tx_layout.register_len();
     if within(PDI_TX, tx_len) {
-        let mut all = registers::tx_to_registers(&drive.tx_image(), order).to_vec();
+        let mut all = Vec::with_capacity(tx_len);
+        all.extend_from_slice(&registers::tx_to_registers(&drive.tx_image(), order));
         all.extend(tx_layout.pack(|a| raw_value(drive, a), order));
         return Some(slice(all, PDI_TX));
     }
-    let rx_layout = layout(drive, 0x3502);
+    let rx_layout = layout(drive, 0x3502, &mut layouts.rx);
     let rx_len = usize::from(PDI_REGISTERS) + rx_layout.register_len();
     if within(PDI_RX, rx_len) {
-        let mut all = registers::rx_to_registers(&drive.rx_image(), order).to_vec();
+        let mut all = Vec::with_capacity(rx_len);
+        all.extend_from_slice(&registers::rx_to_registers(&drive.rx_image(), order));
         all.extend(rx_layout.pack(|a| raw_value(drive, a), order));
         return Some(slice(all, PDI_RX));
     }
@@ -142,6 +176,7 @@ fn read_area(drive: &Drive, address: u16, count: u16, order: WordOrder) -> Optio
 /// Write registers; `Err` is the exception to answer.
 fn write_area(
     drive: &mut Drive,
+    layouts: &mut Layouts,
     request: &Request,
     address: u16,
     values: &[u16],
@@ -149,7 +184,7 @@ fn write_area(
 ) -> Result<(), Exception> {
     let end = usize::from(address) + values.len();
     // PDI RX and the RX image behind it.
-    let rx_layout = layout(drive, 0x3502);
+    let rx_layout = layout(drive, 0x3502, &mut layouts.rx);
     let rx_end = usize::from(PDI_RX) + usize::from(PDI_REGISTERS) + rx_layout.register_len();
     if address >= PDI_RX && end <= rx_end {
         let offset = usize::from(address - PDI_RX);
@@ -326,26 +361,27 @@ pub fn answer(
     if request.validate().is_err() {
         return Err(refuse(request, exception::ILLEGAL_DATA_VALUE));
     }
-    let read = |drive: &Drive, address: u16, count: u16| {
-        read_area(drive, address, count, order)
+    let read = |drive: &Drive, layouts: &mut Layouts, address: u16, count: u16| {
+        read_area(drive, layouts, address, count, order)
             .ok_or_else(|| refuse(request, exception::ILLEGAL_DATA_ADDRESS))
     };
+    let layouts = &mut session.layouts;
     match request {
         Request::ReadHolding { address, count } => {
-            read(drive, *address, *count).map(Response::ReadHolding)
+            read(drive, layouts, *address, *count).map(Response::ReadHolding)
         }
         Request::ReadInput { address, count } => {
-            read(drive, *address, *count).map(Response::ReadInput)
+            read(drive, layouts, *address, *count).map(Response::ReadInput)
         }
         Request::WriteSingle { address, value } => {
-            write_area(drive, request, *address, &[*value], order)?;
+            write_area(drive, layouts, request, *address, &[*value], order)?;
             Ok(Response::WriteSingle {
                 address: *address,
                 value: *value,
             })
         }
         Request::WriteMultiple { address, values } => {
-            write_area(drive, request, *address, values, order)?;
+            write_area(drive, layouts, request, *address, values, order)?;
             Ok(Response::WriteMultiple {
                 address: *address,
                 count: values.len() as u16,
@@ -358,8 +394,8 @@ pub fn answer(
             values,
         } => {
             // The write happens before the read (Modbus spec).
-            write_area(drive, request, *write_address, values, order)?;
-            read(drive, *read_address, *read_count).map(Response::ReadWrite)
+            write_area(drive, layouts, request, *write_address, values, order)?;
+            read(drive, layouts, *read_address, *read_count).map(Response::ReadWrite)
         }
         Request::Canopen(c) => canopen(drive, c),
         Request::ReadDictionary { restart } => dictionary(drive, session, *restart),

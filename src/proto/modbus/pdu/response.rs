@@ -43,7 +43,9 @@ impl Response {
 
     /// The PDU bytes, function code first.
     pub fn encode(&self) -> Vec<u8> {
-        let mut out = vec![self.function()];
+        // One allocation: a response PDU is at most MAX_PDU bytes.
+        let mut out = Vec::with_capacity(MAX_PDU);
+        out.push(self.function());
         match self {
             Response::ReadHolding(values)
             | Response::ReadInput(values)
