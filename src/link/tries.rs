@@ -46,11 +46,11 @@ pub(crate) fn gave_up(what: String, troubles: Vec<String>, waited: Duration, hin
 
 /// Write `bytes` before `deadline`: a write that cannot finish, or fails, ends the request
 /// (sending again cannot help), the failure named by `io_error`.
-pub(crate) async fn send_within<W: AsyncWrite + Unpin>(
+pub(crate) async fn send_within<W: AsyncWrite + Unpin, D: std::fmt::Display + ?Sized>(
     writer: &mut W,
     bytes: &[u8],
     deadline: Instant,
-    what: &str,
+    what: &D,
     timeout: Duration,
     io_error: impl FnOnce(&str, std::io::Error) -> Error,
 ) -> Result<(), Trouble> {
@@ -59,7 +59,7 @@ pub(crate) async fn send_within<W: AsyncWrite + Unpin>(
             what: format!("{what}: sending"),
             after: timeout,
         })),
-        Ok(Err(e)) => Err(Trouble::Fatal(io_error(what, e))),
+        Ok(Err(e)) => Err(Trouble::Fatal(io_error(&what.to_string(), e))),
         Ok(Ok(())) => Ok(()),
     }
 }
@@ -67,18 +67,22 @@ pub(crate) async fn send_within<W: AsyncWrite + Unpin>(
 /// Read what comes next (up to `CHUNK` bytes) onto `buffer` before `deadline`: `true`
 /// when something came, `false` at the deadline. A read that fails, or a peer that
 /// closes the stream (`closed` says what closed), ends the request.
-pub(crate) async fn read_within<R: AsyncRead + Unpin, const CHUNK: usize>(
+pub(crate) async fn read_within<
+    R: AsyncRead + Unpin,
+    const CHUNK: usize,
+    D: std::fmt::Display + ?Sized,
+>(
     reader: &mut R,
     buffer: &mut Vec<u8>,
     deadline: Instant,
-    what: &str,
+    what: &D,
     closed: &str,
     io_error: impl FnOnce(&str, std::io::Error) -> Error,
 ) -> Result<bool, Trouble> {
     let mut chunk = [0u8; CHUNK];
     match tokio::time::timeout_at(deadline.into(), reader.read(&mut chunk)).await {
         Err(_) => Ok(false),
-        Ok(Err(e)) => Err(Trouble::Fatal(io_error(what, e))),
+        Ok(Err(e)) => Err(Trouble::Fatal(io_error(&what.to_string(), e))),
         Ok(Ok(0)) => Err(Trouble::Fatal(Error::Disconnected(format!(
             "{what}: {closed}"
         )))),

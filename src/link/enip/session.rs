@@ -233,7 +233,7 @@ impl Session {
                 return reply;
             }
             let closed = "the adapter closed the connection";
-            let read = read_within::<_, 2048>(
+            let read = read_within::<_, 2048, _>(
                 &mut self.stream,
                 &mut self.buffer,
                 deadline,

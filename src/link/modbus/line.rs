@@ -342,7 +342,7 @@ impl Owner {
                 deadline
             };
             let closed = "the serial port closed";
-            let read = read_within::<_, 256>(
+            let read = read_within::<_, 256, _>(
                 &mut self.port,
                 &mut self.buffer,
                 wait_until,

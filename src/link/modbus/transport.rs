@@ -11,7 +11,7 @@ use tokio::net::TcpStream;
 use super::line::RtuLine;
 
 use crate::link::tries::{TRIES, Trouble, gave_up, read_within, send_within, silence};
-use crate::link::{Error, LinkSpec, TraceRecord, TraceRing};
+use crate::link::{Error, LinkSpec, TRACE_LIMIT, TraceRecord};
 use crate::proto::modbus::frame;
 use crate::proto::modbus::pdu::{Exception, Request, Response};
 
@@ -38,7 +38,11 @@ pub struct Transport {
     /// The transaction ids sent lately (TCP), oldest first.
     sent: VecDeque<u16>,
     buffer: Vec<u8>,
-    trace: TraceRing,
+    /// Where, for messages (`describe`), worked out once.
+    place: std::sync::Arc<str>,
+    /// The frames sent and received, as bytes: made into text only when taken (the
+    /// exchange is the hot path, the frame log is read far less often).
+    frames: VecDeque<(std::time::SystemTime, bool, Vec<u8>)>,
     /// Troubles got over by sending again, not yet reported.
     recovered: Vec<String>,
 }
@@ -57,6 +61,31 @@ fn hex(bytes: &[u8]) -> String {
     crate::number::hex_cut(bytes, 32)
 }
 
+/// Bytes of a frame kept for the frame log (its text shows at most 32 of them).
+const TRACE_BYTES: usize = 64;
+
+/// Where a link goes, for messages: `192.168.2.100:502` or `/dev/ttyUSB0 slave 5`.
+fn describe(spec: &LinkSpec) -> String {
+    match spec {
+        LinkSpec::ModbusTcp { host, port, .. } => format!("{host}:{port}"),
+        LinkSpec::ModbusRtu { path, slave, .. } => format!("{path} slave {slave}"),
+        other => other.to_string(),
+    }
+}
+
+/// What a transaction is, for its messages: "FC 23 (…) to 192.168.2.100:502", written out
+/// only when a message needs it.
+struct What<'a> {
+    request: &'a Request,
+    place: &'a str,
+}
+
+impl std::fmt::Display for What<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} to {}", self.request.describe(), self.place)
+    }
+}
+
 impl Transport {
     /// Open the connection `spec` names (Modbus TCP or RTU).
     pub async fn connect(spec: &LinkSpec, timeout: Duration) -> Result<Transport, Error> {
@@ -68,23 +97,40 @@ impl Transport {
             transaction: 0,
             sent: VecDeque::with_capacity(SENT_KEPT),
             buffer: Vec::with_capacity(512),
-            trace: TraceRing::new(),
+            place: describe(spec).into(),
+            frames: VecDeque::new(),
             recovered: Vec::new(),
         })
     }
 
     /// Where, for messages: `192.168.2.100:502` or `/dev/ttyUSB0 slave 5`.
     pub fn describe(&self) -> String {
-        match &self.spec {
-            LinkSpec::ModbusTcp { host, port, .. } => format!("{host}:{port}"),
-            LinkSpec::ModbusRtu { path, slave, .. } => format!("{path} slave {slave}"),
-            other => other.to_string(),
-        }
+        self.place.to_string()
     }
 
     /// The frames sent and received since the last call, oldest first.
     pub fn take_trace(&mut self) -> Vec<TraceRecord> {
-        self.trace.take()
+        let function_at = match self.spec {
+            LinkSpec::ModbusRtu { .. } => 1,
+            _ => 7,
+        };
+        self.frames
+            .drain(..)
+            .map(|(at, sent, bytes)| {
+                let text = match bytes.get(function_at) {
+                    Some(f) if f & 0x80 != 0 => format!("FC {} exception", f & 0x7F),
+                    Some(f) => format!("FC {f} {}", if sent { "request" } else { "response" }),
+                    None => "short frame".into(),
+                };
+                TraceRecord {
+                    at,
+                    sent,
+                    raw: hex(&bytes),
+                    text,
+                    can: None,
+                }
+            })
+            .collect()
     }
 
     /// Open the connection again after a failure.
@@ -108,23 +154,18 @@ impl Transport {
     }
 
     fn record_at(&mut self, at: std::time::SystemTime, sent: bool, bytes: &[u8]) {
-        let function = match self.io {
-            Io::Tcp(_) => bytes.get(7),
-            Io::Rtu(_) => bytes.get(1),
-            Io::Closed => None,
+        // The oldest frame's buffer is reused once the ring is full.
+        let mut kept = if self.frames.len() >= TRACE_LIMIT {
+            self.frames
+                .pop_front()
+                .map(|(_, _, b)| b)
+                .unwrap_or_default()
+        } else {
+            Vec::new()
         };
-        let text = match function {
-            Some(f) if f & 0x80 != 0 => format!("FC {} exception", f & 0x7F),
-            Some(f) => format!("FC {f} {}", if sent { "request" } else { "response" }),
-            None => "short frame".into(),
-        };
-        self.trace.push(TraceRecord {
-            at,
-            sent,
-            raw: hex(bytes),
-            text,
-            can: None,
-        });
+        kept.clear();
+        kept.extend_from_slice(&bytes[..bytes.len().min(TRACE_BYTES)]);
+        self.frames.push_back((at, sent, kept));
     }
 
     /// Send a request and wait for its answer. A device's exception is data
@@ -137,7 +178,12 @@ impl Transport {
         request: &Request,
     ) -> Result<Result<Response, Exception>, Error> {
         let pdu = request.encode();
-        let what = format!("{} to {}", request.describe(), self.describe());
+        // Said only when something goes wrong: not formatted on every exchange.
+        let place = self.place.clone();
+        let what = What {
+            request,
+            place: &place,
+        };
         let started = Instant::now();
         let deadline = started + self.timeout;
         let per_try = self.timeout / TRIES;
@@ -179,7 +225,7 @@ impl Transport {
             LinkSpec::ModbusRtu { .. } => "check the slave address, baud rate and parity",
             _ => "",
         };
-        Err(gave_up(what, troubles, self.timeout, hint))
+        Err(gave_up(what.to_string(), troubles, self.timeout, hint))
     }
 
     /// What went wrong and was got over by sending again, since the last call (for the
@@ -195,7 +241,7 @@ impl Transport {
     async fn try_tcp(
         &mut self,
         pdu: &[u8],
-        what: &str,
+        what: &What<'_>,
         deadline: Instant,
         ids: &mut Vec<u16>,
     ) -> Result<Vec<u8>, Trouble> {
@@ -219,7 +265,7 @@ impl Transport {
                 return answer;
             }
             let stream = tcp(&mut self.io)?;
-            let read = read_within::<_, 512>(
+            let read = read_within::<_, 512, _>(
                 stream,
                 &mut self.buffer,
                 deadline,
@@ -279,7 +325,7 @@ impl Transport {
     async fn try_rtu(
         &mut self,
         pdu: &[u8],
-        what: &str,
+        what: &What<'_>,
         deadline: Instant,
     ) -> Result<Vec<u8>, Trouble> {
         let LinkSpec::ModbusRtu { slave, .. } = self.spec else {
@@ -290,7 +336,9 @@ impl Transport {
         };
         let adu = frame::encode_rtu(slave, pdu);
         let window = deadline.saturating_duration_since(Instant::now());
-        let (answer, frames) = line.transact(slave, adu, window, what, self.timeout).await;
+        let (answer, frames) = line
+            .transact(slave, adu, window, &what.to_string(), self.timeout)
+            .await;
         for (at, sent, bytes) in frames {
             self.record_at(at, sent, &bytes);
         }
