@@ -32,6 +32,21 @@
 //! The raw client against the raw server is the loopback limit: no client or server can
 //! do the same exchange faster on this machine. Every figure is the median of the rounds;
 //! every ratio is the median of the ratios within each round.
+//!
+//! `--enip` measures the simulated drive's EtherNet/IP adapter the same way:
+//!
+//! ```sh
+//! cargo bench --bench anchors -- --enip --seconds 0.5 --rounds 9
+//! ```
+//!
+//! One exchange is an object read as drivedeck's link does it in `io=explicit` (and for
+//! every object view and catalog read): GetOD (32h) of 6041h:00 in SendRRData over a
+//! registered session, a 49-byte request and a 46-byte reply. Clients: **drivedeck**
+//! (`EnipLink::read_object`) and **raw TCP** (blocking std sockets: RegisterSession, then
+//! the very bytes drivedeck's session sends, a fresh sender context each time). Servers:
+//! **drivedeck sim** (`ServerThread::enip`, what `drivedeck sim --enip` serves) and a
+//! **raw ping-pong** (a message read by its encapsulation length, a reply of the same 46
+//! bytes, no CIP code), and any `--server` given.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
@@ -39,12 +54,18 @@ use std::process::{Child, Command, ExitCode, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use drivedeck::link::enip::client::EnipLink;
 use drivedeck::link::modbus::client::ModbusLink;
 use drivedeck::link::{Link, LinkSpec};
+use drivedeck::od::{Address, DataType};
+use drivedeck::proto::enip::cpf::Item;
+use drivedeck::proto::enip::encap::{self, Command as EncapCommand, Packet, RrData};
+use drivedeck::proto::enip::nanotec;
 use drivedeck::proto::modbus::registers::{
     FACTORY_TX_MAP, ImageLayout, PDI_REGISTERS, PDI_RX, PDI_TX,
 };
 use drivedeck::sim::server::ServerThread;
+use drivedeck::sim::server::enip::AdapterOptions;
 use drivedeck::sim::server::modbus::ServerOptions;
 
 /// Registers read by one exchange: the PDI TX block and the factory TX image.
@@ -63,6 +84,8 @@ struct Args {
     servers: Vec<(String, SocketAddr)>,
     serve: Option<String>,
     clients: Vec<String>,
+    /// `--enip`: the EtherNet/IP adapter's explicit messaging instead of Modbus TCP.
+    enip: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -72,7 +95,8 @@ fn parse_args() -> Result<Args, String> {
         python: None,
         servers: vec![],
         serve: None,
-        clients: CLIENTS.iter().map(|c| c.to_string()).collect(),
+        clients: vec![],
+        enip: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -103,8 +127,13 @@ fn parse_args() -> Result<Args, String> {
                 args.servers.push((name.to_owned(), addr));
             }
             "--serve" => args.serve = Some(value("--serve")?),
+            "--enip" => args.enip = true,
             other => return Err(format!("unknown argument {other}")),
         }
+    }
+    if args.clients.is_empty() {
+        let all: &[&str] = if args.enip { &ENIP_CLIENTS } else { &CLIENTS };
+        args.clients = all.iter().map(|c| c.to_string()).collect();
     }
     Ok(args)
 }
@@ -119,6 +148,7 @@ fn main() -> ExitCode {
     };
     let result = match &args.serve {
         Some(kind) => serve_child(kind),
+        None if args.enip => run_enip(&args),
         None => run(&args),
     };
     match result {
@@ -156,6 +186,22 @@ fn serve_child(kind: &str) -> Result<(), String> {
             let listener = TcpListener::bind(loopback).map_err(|e| e.to_string())?;
             let port = listener.local_addr().map_err(|e| e.to_string())?.port();
             std::thread::spawn(move || raw_server(listener));
+            port
+        }
+        "enip-sim" => {
+            let options = AdapterOptions {
+                io_port: 0,
+                ..Default::default()
+            };
+            let server = ServerThread::enip(loopback, options).map_err(|e| e.to_string())?;
+            let port = server.addr.port();
+            _sim = Some(server);
+            port
+        }
+        "enip-raw" => {
+            let listener = TcpListener::bind(loopback).map_err(|e| e.to_string())?;
+            let port = listener.local_addr().map_err(|e| e.to_string())?.port();
+            std::thread::spawn(move || raw_enip_server(listener));
             port
         }
         other => return Err(format!("no server {other}")),
@@ -560,17 +606,34 @@ fn run(args: &Args) -> Result<(), String> {
         args.rounds,
         span.as_secs_f64()
     );
-    // rates[round][server][client], medians likewise.
-    let mut rates = vec![vec![vec![f64::NAN; clients.len()]; servers.len()]; args.rounds];
+    let (rates, rtts) = rounds(args.rounds, &servers, &clients, &mut |client, addr| {
+        measure(&runtime, client, addr, span, &python)
+    });
+    print_tables(&servers, &clients, &rates, &rtts);
+    drop(children);
+    Ok(())
+}
+
+/// Cycles/s and median round trips, `[round][server][client]`: every client against every
+/// server in each round, who goes first turning with the round so that no one always
+/// follows the same.
+type Grid = Vec<Vec<Vec<f64>>>;
+
+fn rounds(
+    count: usize,
+    servers: &[(String, SocketAddr)],
+    clients: &[&str],
+    measure: &mut dyn FnMut(&str, SocketAddr) -> Result<Run, String>,
+) -> (Grid, Grid) {
+    let mut rates = vec![vec![vec![f64::NAN; clients.len()]; servers.len()]; count];
     let mut rtts = rates.clone();
-    for round in 0..args.rounds {
-        // Who goes first turns with the round, so no one always follows the same.
+    for round in 0..count {
         for s in 0..servers.len() {
             let s = (s + round) % servers.len();
             for c in 0..clients.len() {
                 let c = (c + round) % clients.len();
                 let (name, addr) = &servers[s];
-                match measure(&runtime, clients[c], *addr, span, &python) {
+                match measure(clients[c], *addr) {
                     Ok(run) => {
                         rates[round][s][c] = run.per_second();
                         rtts[round][s][c] = run.median_ms();
@@ -590,9 +653,7 @@ fn run(args: &Args) -> Result<(), String> {
             }
         }
     }
-    print_tables(&servers, &clients, &rates, &rtts);
-    drop(children);
-    Ok(())
+    (rates, rtts)
 }
 
 fn print_tables(
@@ -647,6 +708,10 @@ fn print_tables(
     }
     println!();
     let row = |label: &str, f: &dyn Fn(usize) -> Option<f64>| {
+        // A row of clients or servers not in this run: left out.
+        if (0..servers.len()).all(|s| f(s).is_none()) {
+            return;
+        }
         print!("| {label} |");
         for s in 0..servers.len() {
             match f(s) {
@@ -670,12 +735,227 @@ fn print_tables(
             Some(ratio((s, c), limit?))
         });
     }
-    if let Some(anchor) = server("tokio-modbus server") {
+    // Each server against the reference server with the same client: the tokio-modbus
+    // server for Modbus, the raw ping-pong where there is none (EtherNet/IP).
+    let anchor = ["tokio-modbus server", "raw ping-pong"]
+        .into_iter()
+        .find_map(|a| server(a).map(|s| (a, s)));
+    if let Some((anchor_name, anchor)) = anchor {
         for (c, name) in clients.iter().enumerate() {
-            row(
-                &format!("server / tokio-modbus server, {name} client"),
-                &|s| Some(ratio((s, c), (anchor, c))),
-            );
+            row(&format!("server / {anchor_name}, {name} client"), &|s| {
+                Some(ratio((s, c), (anchor, c)))
+            });
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// EtherNet/IP (`--enip`): the simulated adapter's explicit messaging against the raw
+// exchange of the same bytes
+
+/// The object every EtherNet/IP exchange reads with GetOD: the statusword, UNSIGNED16.
+const ENIP_OBJECT: Address = Address {
+    index: 0x6041,
+    sub: 0,
+};
+const ENIP_TYPE: DataType = DataType::Unsigned16;
+/// The value bytes in GetOD's reply.
+const ENIP_VALUE_LEN: usize = 2;
+/// The encapsulation header.
+const ENCAP_HEADER: usize = 24;
+/// The reply to one GetOD: the header, the SendRRData body up to the data item's length
+/// (16 bytes), the Message Router reply's 4 bytes, the value.
+const ENIP_REPLY_LEN: usize = ENCAP_HEADER + 16 + 4 + ENIP_VALUE_LEN;
+
+const ENIP_CLIENTS: [&str; 2] = ["drivedeck", "raw TCP"];
+
+/// The SendRRData message drivedeck's session sends for a GetOD of [`ENIP_OBJECT`] (its
+/// sender context at bytes 12-19 is the caller's to set).
+fn enip_get_od(session: u32) -> Vec<u8> {
+    let body = RrData::new(
+        10,
+        vec![
+            Item::Null,
+            Item::UnconnectedData(nanotec::get_od(ENIP_OBJECT).encode()),
+        ],
+    )
+    .encode();
+    Packet::new(EncapCommand::SEND_RR_DATA, session, [0; 8], body).encode()
+}
+
+/// The raw ping-pong of EtherNet/IP: a message read by its encapsulation length; the
+/// header sent back with the length of the reply; RegisterSession gets handle 1,
+/// SendRRData a Message Router reply of [`ENIP_VALUE_LEN`] zero bytes with the request's
+/// interface handle, timeout and items, anything else (ListIdentity) no data. No CIP code.
+fn raw_enip_server(listener: TcpListener) {
+    for stream in listener.incoming().flatten() {
+        std::thread::spawn(move || {
+            let _ = raw_enip_connection(stream);
+        });
+    }
+}
+
+fn raw_enip_connection(mut stream: TcpStream) -> std::io::Result<()> {
+    stream.set_nodelay(true)?;
+    let mut request = [0u8; ENCAP_HEADER + 600];
+    let mut reply = Vec::with_capacity(ENCAP_HEADER + 600);
+    loop {
+        stream.read_exact(&mut request[..ENCAP_HEADER])?;
+        let len = usize::from(u16::from_le_bytes([request[2], request[3]]));
+        if len > 600 {
+            return Ok(());
+        }
+        let end = ENCAP_HEADER + len;
+        stream.read_exact(&mut request[ENCAP_HEADER..end])?;
+        reply.clear();
+        reply.extend_from_slice(&request[..ENCAP_HEADER]);
+        match u16::from_le_bytes([request[0], request[1]]) {
+            // RegisterSession: handle 1, the protocol version and options back.
+            0x65 => {
+                reply[4..8].copy_from_slice(&1u32.to_le_bytes());
+                reply.extend_from_slice(&request[ENCAP_HEADER..end]);
+            }
+            // SendRRData: interface handle, timeout, item count, null item and the data
+            // item's type as asked; the data item: service | 80h, reserved, status 0, no
+            // additional status, the value.
+            0x6F if len > 16 => {
+                let body = &request[ENCAP_HEADER..end];
+                reply.extend_from_slice(&body[..14]);
+                reply.extend_from_slice(&((4 + ENIP_VALUE_LEN) as u16).to_le_bytes());
+                reply.extend_from_slice(&[body[16] | 0x80, 0, 0, 0]);
+                reply.resize(reply.len() + ENIP_VALUE_LEN, 0);
+            }
+            // UnRegisterSession: no reply.
+            0x66 => return Ok(()),
+            _ => {}
+        }
+        let data_len = (reply.len() - ENCAP_HEADER) as u16;
+        reply[2..4].copy_from_slice(&data_len.to_le_bytes());
+        stream.write_all(&reply)?;
+    }
+}
+
+/// One whole encapsulation message into `buffer`; its length.
+fn read_encap(stream: &mut TcpStream, buffer: &mut Vec<u8>) -> std::io::Result<usize> {
+    buffer.resize(ENCAP_HEADER, 0);
+    stream.read_exact(&mut buffer[..ENCAP_HEADER])?;
+    let len = ENCAP_HEADER + usize::from(u16::from_le_bytes([buffer[2], buffer[3]]));
+    buffer.resize(len, 0);
+    stream.read_exact(&mut buffer[ENCAP_HEADER..])?;
+    Ok(len)
+}
+
+/// Blocking std sockets: RegisterSession, then the very bytes drivedeck's session sends
+/// for a GetOD, a fresh sender context each time, the reply read by its length and
+/// checked for its context, status and size.
+fn raw_enip_client(addr: SocketAddr, span: Duration) -> Result<Run, String> {
+    let mut stream = TcpStream::connect(addr).map_err(|e| e.to_string())?;
+    stream.set_nodelay(true).map_err(|e| e.to_string())?;
+    let register = Packet::new(
+        EncapCommand::REGISTER_SESSION,
+        0,
+        [0; 8],
+        encap::register_session_data(),
+    )
+    .encode();
+    stream.write_all(&register).map_err(|e| e.to_string())?;
+    let mut reply = Vec::with_capacity(600);
+    read_encap(&mut stream, &mut reply).map_err(|e| e.to_string())?;
+    let handle = u32::from_le_bytes([reply[4], reply[5], reply[6], reply[7]]);
+    if handle == 0 || reply[8..12] != [0; 4] {
+        return Err(format!("RegisterSession refused: {reply:02X?}"));
+    }
+    let mut request = enip_get_od(handle);
+    let mut context = 0u64;
+    timed(span, || {
+        context = context.wrapping_add(1);
+        request[12..20].copy_from_slice(&context.to_le_bytes());
+        stream.write_all(&request)?;
+        let len = read_encap(&mut stream, &mut reply)?;
+        // Status (8-11) zero, our context, the Message Router's general status zero.
+        if reply[8..12] != [0; 4]
+            || reply[12..20] != request[12..20]
+            || len != ENIP_REPLY_LEN
+            || reply[ENCAP_HEADER + 18] != 0
+        {
+            return Err(std::io::Error::other(format!(
+                "not the reply expected ({ENIP_REPLY_LEN} bytes): {reply:02X?}"
+            )));
+        }
+        Ok(())
+    })
+    .map_err(|e| e.to_string())
+}
+
+/// drivedeck's link in `io=explicit`: object reads with `read_object`, the GetOD the
+/// object views and the catalog read send.
+async fn drivedeck_enip_client(addr: SocketAddr, span: Duration) -> Result<Run, String> {
+    let spec: LinkSpec = format!("enip://{addr}?io=explicit&udp=0")
+        .parse()
+        .map_err(|e| format!("{e}"))?;
+    let mut link = EnipLink::connect(&spec).await.map_err(|e| e.to_string())?;
+    let mut rtts = Vec::with_capacity(100_000);
+    let start = Instant::now();
+    while start.elapsed() < span {
+        let sent = Instant::now();
+        link.read_object(ENIP_OBJECT, ENIP_TYPE)
+            .await
+            .map_err(|e| e.to_string())?
+            .map_err(|e| e.to_string())?;
+        rtts.push(sent.elapsed());
+    }
+    let span = start.elapsed();
+    let _ = link.close().await;
+    Ok(Run { rtts, span })
+}
+
+fn measure_enip(
+    runtime: &tokio::runtime::Runtime,
+    client: &str,
+    addr: SocketAddr,
+    span: Duration,
+) -> Result<Run, String> {
+    let mut last = String::new();
+    for _ in 0..5 {
+        let result = match client {
+            "drivedeck" => runtime.block_on(drivedeck_enip_client(addr, span)),
+            "raw TCP" => raw_enip_client(addr, span),
+            other => return Err(format!("no client {other}")),
+        };
+        match result {
+            Ok(run) => return Ok(run),
+            Err(e) => last = e,
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    Err(format!("{client} on {addr}: {last}"))
+}
+
+fn run_enip(args: &Args) -> Result<(), String> {
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| e.to_string())?;
+    let span = Duration::from_secs_f64(args.seconds.clamp(0.1, 60.0));
+    let mut children = vec![];
+    let mut servers: Vec<(String, SocketAddr)> = vec![];
+    for (kind, name) in [("enip-sim", "drivedeck sim"), ("enip-raw", "raw ping-pong")] {
+        let child = ServerChild::start(kind)?;
+        servers.push((name.to_owned(), child.addr));
+        children.push(child);
+    }
+    servers.extend(args.servers.iter().cloned());
+    let clients: Vec<&str> = args.clients.iter().map(String::as_str).collect();
+    println!(
+        "EtherNet/IP explicit GetOD {ENIP_OBJECT} in SendRRData over a registered session: a {}-byte request, a {ENIP_REPLY_LEN}-byte reply; {} rounds of {:.1} s per client and server, interleaved",
+        enip_get_od(1).len(),
+        args.rounds,
+        span.as_secs_f64()
+    );
+    let (rates, rtts) = rounds(args.rounds, &servers, &clients, &mut |client, addr| {
+        measure_enip(&runtime, client, addr, span)
+    });
+    print_tables(&servers, &clients, &rates, &rtts);
+    drop(children);
+    Ok(())
 }

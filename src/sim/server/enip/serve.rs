@@ -249,13 +249,19 @@ async fn serve_stream(
             Ok(0) | Err(_) => break,
             Ok(n) => n,
         };
-        let received = {
+        let (received, rescheduled) = {
             let mut adapter = lock(&adapter);
             let mut drive = shared.lock();
-            adapter.receive(id, &chunk[..n], &mut drive, Instant::now())
+            let due = adapter.next_due();
+            let received = adapter.receive(id, &chunk[..n], &mut drive, Instant::now());
+            (received, adapter.next_due() != due)
         };
-        // A Forward_Open may have started production.
-        wake.notify_one();
+        // A Forward_Open may have started production (a Forward_Close ended it): the
+        // producer sleeps to the next datagram due, so only a change to that wakes it, not
+        // every explicit message (a thread switch and a poll of the adapter each).
+        if rescheduled {
+            wake.notify_one();
+        }
         if !received.reply.is_empty() && stream.write_all(&received.reply).await.is_err() {
             break;
         }
