@@ -973,40 +973,29 @@ fn lanes(scope: &Scope, from: f64, to: f64, decimations: &mut Decimations) -> Ve
 /// it was 1 throughout, a filled-looking zigzag where it changed inside the column. A run
 /// of columns at one level is one segment (a bit that seldom changes costs two points per
 /// change, not per column), except across a band, where the line breaks.
-fn lane_points(spans: &[BitSpan], bit: u8, base: f64, bands: &[Band]) -> Vec<[f64; 2]> {
+fn lane_points(spans: &[BitSpan], bit: u8, base: f64, _bands: &[Band]) -> Vec<[f64; 2]> {
+    // Two points per column (four where the bit changed inside it). Runs of one level
+    // merged into one segment drew high stretches as wedges on screen (egui_plot's filled
+    // area between few, far-apart points): back to a point pair per column until that is
+    // understood. A band (gap) is cut by `split_at_bands`.
     let mask = 1u32 << bit;
     let high = base + 1.0;
-    let mut out = Vec::new();
-    // The level of the segment the last point ends, while it may be lengthened.
-    let mut level_run: Option<f64> = None;
-    let mut previous_end = f64::NEG_INFINITY;
+    let mut out = Vec::with_capacity(spans.len() * 2);
     for span in spans {
         let any = span.any & mask != 0;
         let all = span.all & mask != 0;
-        let across_band = bands
-            .iter()
-            .any(|band| previous_end <= band.from && span.t0 >= band.to);
-        previous_end = span.t1;
-        let level = if all {
-            high
+        if all {
+            out.push([span.t0, high]);
+            out.push([span.t1, high]);
         } else if !any {
-            base
+            out.push([span.t0, base]);
+            out.push([span.t1, base]);
         } else {
             out.push([span.t0, base]);
             out.push([span.t0, high]);
             out.push([span.t1, base]);
             out.push([span.t1, high]);
-            level_run = None;
-            continue;
-        };
-        match out.last_mut() {
-            Some(last) if level_run == Some(level) && !across_band => last[0] = span.t1,
-            _ => {
-                out.push([span.t0, level]);
-                out.push([span.t1, level]);
-            }
         }
-        level_run = Some(level);
     }
     out
 }
@@ -1125,24 +1114,22 @@ mod tests {
     }
 
     #[test]
-    fn a_lane_that_seldom_changes_is_a_few_segments() {
+    fn a_lane_is_a_point_pair_per_column_and_a_gap_cuts_it() {
         let span = |t: f64, any: u32, all: u32| BitSpan {
             t0: t,
             t1: t + 0.5,
             any,
             all,
         };
-        // High, high, changing, low, low, [gap], low.
+        // High, changing, low, [gap], low.
         let spans = [
             span(0.0, 1, 1),
-            span(1.0, 1, 1),
             span(2.0, 1, 0),
             span(3.0, 0, 0),
-            span(4.0, 0, 0),
             span(9.0, 0, 0),
         ];
         let gap = Band {
-            from: 4.5,
+            from: 3.5,
             to: 9.0,
             label: String::new(),
         };
@@ -1151,13 +1138,13 @@ mod tests {
             points,
             [
                 [0.0, 1.0],
-                [1.5, 1.0],
+                [0.5, 1.0],
                 [2.0, 0.0],
                 [2.0, 1.0],
                 [2.5, 0.0],
                 [2.5, 1.0],
                 [3.0, 0.0],
-                [4.5, 0.0],
+                [3.5, 0.0],
                 [9.0, 0.0],
                 [9.5, 0.0]
             ]
