@@ -27,6 +27,21 @@ impl CanFrame {
         Self::with(u32::from(id), false, false, data)
     }
 
+    /// A standard data frame that cannot be refused: the identifier is masked to 11 bits and
+    /// at most the first 8 bytes are taken. For frames built from constants and node ids.
+    pub fn standard(id: u16, data: &[u8]) -> CanFrame {
+        let data = &data[..data.len().min(8)];
+        let mut bytes = [0u8; 8];
+        bytes[..data.len()].copy_from_slice(data);
+        CanFrame {
+            id: u32::from(id & 0x7FF),
+            extended: false,
+            rtr: false,
+            len: data.len() as u8,
+            data: bytes,
+        }
+    }
+
     /// Any frame.
     pub fn with(id: u32, extended: bool, rtr: bool, data: &[u8]) -> Result<CanFrame, FrameError> {
         let bits = if extended { 29 } else { 11 };
@@ -136,6 +151,17 @@ mod tests {
         );
         assert_eq!(CanFrame::new(1, &[0; 9]), Err(FrameError::TooLong(9)));
         assert!(CanFrame::with(0x1FFF_FFFF, true, false, &[1]).is_ok());
+    }
+
+    #[test]
+    fn a_standard_frame_masks_and_truncates_like_new_would_refuse() {
+        assert_eq!(
+            CanFrame::standard(0x601, &[1, 2]),
+            CanFrame::new(0x601, &[1, 2]).unwrap()
+        );
+        let masked = CanFrame::standard(0xF81, &[0; 10]);
+        assert_eq!(masked.cob_id(), Some(0x781));
+        assert_eq!(masked.data(), &[0; 8]);
     }
 
     #[test]

@@ -11,11 +11,9 @@ use std::fmt;
 
 use super::CanFrame;
 
-/// A standard (11-bit) data frame. Infallible: the identifier is masked to 11 bits and at
-/// most 8 bytes are taken, so `CanFrame::new` cannot refuse it.
+/// A standard (11-bit) data frame; see [`CanFrame::standard`].
 pub(crate) fn data_frame(cob_id: u16, data: &[u8]) -> CanFrame {
-    let data = &data[..data.len().min(8)];
-    CanFrame::new(cob_id & 0x7FF, data).expect("an 11-bit identifier and at most 8 bytes")
+    CanFrame::standard(cob_id, data)
 }
 
 /// COB-IDs of the CiA 301 predefined connection set (protocol notes §2.2 to §2.4).
