@@ -20,7 +20,7 @@ pub use crate::signal::{Signal, Signals};
 pub use error::{Error, ErrorKind, LinkFailure, Refusal, modbus_exception_text};
 pub use notice::{Notice, NoticeKind};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
-pub use trace::{TRACE_LIMIT, TraceRecord, TraceRing};
+pub use trace::{RawFrames, TRACE_LIMIT, TraceRecord, TraceRing};
 
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};

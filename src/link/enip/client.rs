@@ -181,11 +181,15 @@ impl EnipLink {
     }
 
     /// One explicit request; a CIP error status is the device's refusal of `what`.
-    async fn explicit(&mut self, request: &cip::Request, what: String) -> Answer<cip::Reply> {
+    async fn explicit(
+        &mut self,
+        request: &cip::Request,
+        what: impl FnOnce() -> String,
+    ) -> Answer<cip::Reply> {
         let (reply, _) = self.session.request(request, vec![]).await?;
         if !reply.status.is_success() {
             return Ok(Err(Refusal::Cip {
-                what,
+                what: what(),
                 status: reply.status.0,
                 additional: reply.additional,
             }));
@@ -197,7 +201,7 @@ impl EnipLink {
     async fn get(&mut self, address: Address, dtype: DataType) -> Answer<Value> {
         let request = nanotec::get_od(address);
         Ok(self
-            .explicit(&request, format!("GetOD {address}"))
+            .explicit(&request, || format!("GetOD {address}"))
             .await?
             .and_then(|reply| decode_value(address, dtype, &reply.data)))
     }
@@ -206,7 +210,7 @@ impl EnipLink {
     pub async fn get_typed(&mut self, address: Address) -> Answer<(DataType, Value)> {
         let request = nanotec::get_od_rockwell(address);
         let reply = match self
-            .explicit(&request, format!("GetOD Rockwell {address}"))
+            .explicit(&request, || format!("GetOD Rockwell {address}"))
             .await?
         {
             Ok(reply) => reply,
@@ -236,7 +240,7 @@ impl EnipLink {
             Err(e) => return Ok(Err(Refusal::Malformed(e.to_string()))),
         };
         Ok(self
-            .explicit(&request, format!("SetOD {address}"))
+            .explicit(&request, || format!("SetOD {address}"))
             .await?
             .map(|_| ()))
     }

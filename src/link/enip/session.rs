@@ -2,13 +2,14 @@
 //! sender context, explicit Message Router requests in SendRRData, and a trace of every
 //! message for the frame log.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use tokio::io::AsyncWriteExt;
 use tokio::net::TcpStream;
 
 use crate::link::tries::{TRIES, Trouble, gave_up, read_within, send_within, silence};
-use crate::link::{Error, TraceRecord, TraceRing};
+use crate::link::{Error, RawFrames, TraceRecord};
 use crate::proto::enip::cip::{self, Reply, Request};
 use crate::proto::enip::cpf::Item;
 use crate::proto::enip::describe::describe;
@@ -25,10 +26,46 @@ pub struct Session {
     context: u64,
     timeout: Duration,
     /// `host:port`, for messages.
-    peer: String,
-    trace: TraceRing,
+    peer: Arc<str>,
+    /// The messages sent and received, as bytes: described only when taken.
+    trace: RawFrames<Kept>,
     /// Troubles got over by sending again, not yet reported.
     recovered: Vec<String>,
+}
+
+/// What a kept frame was when it came or went.
+#[derive(Debug, Clone, Copy)]
+enum Kept {
+    /// A whole encapsulation message: described from its bytes when taken.
+    Message,
+    /// Half a message, left when a try ended.
+    Incomplete,
+    /// Bytes that announced a message longer than any adapter sends.
+    Garbage,
+}
+
+/// Bytes of a message kept for the frame log: more than any explicit message drivedeck
+/// sends or expects (a CIP explicit message fits 504 bytes).
+const TRACE_BYTES: usize = 4096;
+
+/// What an exchange is, for its messages ("Get_Attribute_Single (0Eh) to 10.0.0.5:44818"),
+/// written out only when a message needs it.
+enum What<'a> {
+    Command(Command, &'a str),
+    Service(u8, &'a str),
+}
+
+impl std::fmt::Display for What<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            What::Command(command, peer) => write!(f, "{} to {peer}", command.name()),
+            What::Service(service, peer) => write!(
+                f,
+                "{} ({service:02X}h) to {peer}",
+                cip::service::name(*service)
+            ),
+        }
+    }
 }
 
 /// Message for a failed TCP read or write.
@@ -95,8 +132,8 @@ impl Session {
             buffer: Vec::with_capacity(1024),
             context: 0,
             timeout,
-            peer,
-            trace: TraceRing::new(),
+            peer: peer.into(),
+            trace: RawFrames::new(TRACE_BYTES),
             recovered: Vec::new(),
         };
         match session.register().await {
@@ -144,19 +181,30 @@ impl Session {
     }
 
     pub fn take_trace(&mut self) -> Vec<TraceRecord> {
-        self.trace.take()
+        self.trace.take(|_, kept, bytes| {
+            let text = match kept {
+                Kept::Message => match encap::split(bytes) {
+                    Framed::Packet(packet, _) => describe(&packet),
+                    _ => "message (cut for the frame log)".to_owned(),
+                },
+                Kept::Incomplete => "incomplete".to_owned(),
+                Kept::Garbage => "garbage".to_owned(),
+            };
+            (hex(bytes), text)
+        })
     }
 
-    fn record(&mut self, sent: bool, bytes: &[u8], text: String) {
-        self.trace.record(sent, hex(bytes), text);
+    fn record(&mut self, sent: bool, bytes: &[u8], kept: Kept) {
+        self.trace.record(sent, kept, bytes);
     }
 
     /// Send one encapsulation message and wait for its reply. A lost, late, corrupted or
     /// mismatched reply sends the message again (up to [`TRIES`] times within the
     /// timeout); a reply with another session handle or command code is rejected by name.
     pub async fn exchange(&mut self, command: Command, data: Vec<u8>) -> Result<Packet, Error> {
-        let what = format!("{} to {}", command.name(), self.peer);
-        self.with_tries(command, &data, what, |reply| Ok(Ok(reply)))
+        let peer = self.peer.clone();
+        let what = What::Command(command, &peer);
+        self.with_tries(command, &data, &what, |reply| Ok(Ok(reply)))
             .await
     }
 
@@ -167,7 +215,7 @@ impl Session {
         &mut self,
         command: Command,
         data: &[u8],
-        what: String,
+        what: &What<'_>,
         mut accept: impl FnMut(Packet) -> Result<Result<T, Error>, String>,
     ) -> Result<T, Error> {
         let deadline = Instant::now() + self.timeout;
@@ -176,7 +224,7 @@ impl Session {
         for attempt in 1..=TRIES {
             let try_deadline = try_deadline(attempt, self.timeout, deadline);
             let reply = match self
-                .exchange_once(command, data, &what, try_deadline, &mut contexts)
+                .exchange_once(command, data, what, try_deadline, &mut contexts)
                 .await
             {
                 Ok(reply) => reply,
@@ -199,7 +247,7 @@ impl Session {
                 Err(text) => troubles.push(format!("a corrupted reply ({text})")),
             }
         }
-        Err(gave_up(what, troubles, self.timeout, ""))
+        Err(gave_up(what.to_string(), troubles, self.timeout, ""))
     }
 
     /// One try: a fresh sender context, then frames until the reply to this or an earlier
@@ -208,7 +256,7 @@ impl Session {
         &mut self,
         command: Command,
         data: &[u8],
-        what: &str,
+        what: &What<'_>,
         deadline: Instant,
         contexts: &mut Vec<[u8; 8]>,
     ) -> Result<Packet, Trouble> {
@@ -217,7 +265,7 @@ impl Session {
         contexts.push(context);
         let packet = Packet::new(command, self.handle, context, data.to_vec());
         let bytes = packet.encode();
-        self.record(true, &bytes, describe(&packet));
+        self.record(true, &bytes, Kept::Message);
         send_within(
             &mut self.stream,
             &bytes,
@@ -245,7 +293,7 @@ impl Session {
                 // Half a message: its rest may never come; start clean.
                 let partial = (!self.buffer.is_empty()).then(|| {
                     let raw = std::mem::take(&mut self.buffer);
-                    self.record(false, &raw, "incomplete".into());
+                    self.record(false, &raw, Kept::Incomplete);
                     ("message", hex(&raw))
                 });
                 return Err(silence(sent_at, partial));
@@ -263,9 +311,8 @@ impl Session {
         loop {
             match encap::split(&self.buffer) {
                 Framed::Packet(reply, used) => {
-                    let raw = self.buffer[..used].to_vec();
+                    self.trace.record(false, Kept::Message, &self.buffer[..used]);
                     self.buffer.drain(..used);
-                    self.record(false, &raw, describe(&reply));
                     if contexts.contains(&reply.context) {
                         return Some(self.check_reply(command, reply));
                     }
@@ -273,7 +320,7 @@ impl Session {
                 }
                 Framed::TooLong(header) => {
                     let raw = std::mem::take(&mut self.buffer);
-                    self.record(false, &raw, "garbage".into());
+                    self.record(false, &raw, Kept::Garbage);
                     return Some(Err(Trouble::Retry(format!(
                         "a reply that announces {} bytes, more than any adapter sends (corrupted): {}",
                         header.length,
@@ -319,23 +366,18 @@ impl Session {
         let mut all = vec![Item::Null, Item::UnconnectedData(request.encode())];
         all.extend(items);
         let body = RrData::new(10, all).encode();
-        let what = format!(
-            "{} ({:02X}h) to {}",
-            cip::service::name(request.service),
-            request.service,
-            self.peer
-        );
-        let named = what.clone();
-        self.with_tries(Command::SEND_RR_DATA, &body, what, |reply| {
+        let peer = self.peer.clone();
+        let what = What::Service(request.service, &peer);
+        self.with_tries(Command::SEND_RR_DATA, &body, &what, |reply| {
             if reply.status == Status::INVALID_SESSION {
                 return Ok(Err(Error::Disconnected(format!(
-                    "{named}: the adapter no longer knows our session ({})",
+                    "{what}: the adapter no longer knows our session ({})",
                     reply.status
                 ))));
             }
             if reply.status != Status::SUCCESS {
                 return Ok(Err(Error::Answer(format!(
-                    "{named}: the adapter answered {}",
+                    "{what}: the adapter answered {}",
                     reply.status
                 ))));
             }
@@ -367,7 +409,7 @@ impl Session {
     pub async fn close(&mut self) {
         let packet = Packet::new(Command::UNREGISTER_SESSION, self.handle, [0; 8], vec![]);
         let bytes = packet.encode();
-        self.record(true, &bytes, describe(&packet));
+        self.record(true, &bytes, Kept::Message);
         let _ = tokio::time::timeout(self.timeout, self.stream.write_all(&bytes)).await;
         let _ = self.stream.shutdown().await;
     }

@@ -11,7 +11,7 @@ use tokio::net::TcpStream;
 use super::line::RtuLine;
 
 use crate::link::tries::{TRIES, Trouble, gave_up, read_within, send_within, silence};
-use crate::link::{Error, LinkSpec, TRACE_LIMIT, TraceRecord};
+use crate::link::{Error, LinkSpec, RawFrames, TraceRecord};
 use crate::proto::modbus::frame;
 use crate::proto::modbus::pdu::{Exception, Request, Response};
 
@@ -40,9 +40,8 @@ pub struct Transport {
     buffer: Vec<u8>,
     /// Where, for messages (`describe`), worked out once.
     place: std::sync::Arc<str>,
-    /// The frames sent and received, as bytes: made into text only when taken (the
-    /// exchange is the hot path, the frame log is read far less often).
-    frames: VecDeque<(std::time::SystemTime, bool, Vec<u8>)>,
+    /// The frames sent and received, as bytes: made into text only when taken.
+    frames: RawFrames<()>,
     /// Troubles got over by sending again, not yet reported.
     recovered: Vec<String>,
 }
@@ -98,7 +97,7 @@ impl Transport {
             sent: VecDeque::with_capacity(SENT_KEPT),
             buffer: Vec::with_capacity(512),
             place: describe(spec).into(),
-            frames: VecDeque::new(),
+            frames: RawFrames::new(TRACE_BYTES),
             recovered: Vec::new(),
         })
     }
@@ -114,23 +113,14 @@ impl Transport {
             LinkSpec::ModbusRtu { .. } => 1,
             _ => 7,
         };
-        self.frames
-            .drain(..)
-            .map(|(at, sent, bytes)| {
-                let text = match bytes.get(function_at) {
-                    Some(f) if f & 0x80 != 0 => format!("FC {} exception", f & 0x7F),
-                    Some(f) => format!("FC {f} {}", if sent { "request" } else { "response" }),
-                    None => "short frame".into(),
-                };
-                TraceRecord {
-                    at,
-                    sent,
-                    raw: hex(&bytes),
-                    text,
-                    can: None,
-                }
-            })
-            .collect()
+        self.frames.take(|sent, _, bytes| {
+            let text = match bytes.get(function_at) {
+                Some(f) if f & 0x80 != 0 => format!("FC {} exception", f & 0x7F),
+                Some(f) => format!("FC {f} {}", if sent { "request" } else { "response" }),
+                None => "short frame".into(),
+            };
+            (hex(bytes), text)
+        })
     }
 
     /// Open the connection again after a failure.
@@ -150,22 +140,7 @@ impl Transport {
     }
 
     fn record(&mut self, sent: bool, bytes: &[u8]) {
-        self.record_at(std::time::SystemTime::now(), sent, bytes);
-    }
-
-    fn record_at(&mut self, at: std::time::SystemTime, sent: bool, bytes: &[u8]) {
-        // The oldest frame's buffer is reused once the ring is full.
-        let mut kept = if self.frames.len() >= TRACE_LIMIT {
-            self.frames
-                .pop_front()
-                .map(|(_, _, b)| b)
-                .unwrap_or_default()
-        } else {
-            Vec::new()
-        };
-        kept.clear();
-        kept.extend_from_slice(&bytes[..bytes.len().min(TRACE_BYTES)]);
-        self.frames.push_back((at, sent, kept));
+        self.frames.record(sent, (), bytes);
     }
 
     /// Send a request and wait for its answer. A device's exception is data
@@ -340,7 +315,7 @@ impl Transport {
             .transact(slave, adu, window, &what.to_string(), self.timeout)
             .await;
         for (at, sent, bytes) in frames {
-            self.record_at(at, sent, &bytes);
+            self.frames.record_at(at, sent, (), &bytes);
         }
         answer
     }
