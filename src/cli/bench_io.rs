@@ -46,8 +46,9 @@ pub struct Intervals {
     pub max_ms: f64,
     /// The 99th percentile within [`KEPT_WITHIN`] of the RPI.
     pub kept: bool,
-    /// What the scanner's producer thread got from the OS.
-    pub producer_priority: String,
+    /// What the scanner's thread of this direction got from the OS: the producer's for
+    /// O→T, the consumer's (at the end: lowered after a flood) for T→O.
+    pub thread_priority: String,
 }
 
 impl Intervals {
@@ -64,7 +65,7 @@ impl Intervals {
             p99_ms: ms(spread.p99),
             max_ms: ms(spread.max),
             kept: ms(spread.p99) <= ms(rpi) * (1.0 + KEPT_WITHIN),
-            producer_priority: priority.to_owned(),
+            thread_priority: priority.to_owned(),
         }
     }
 }
@@ -300,9 +301,10 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
     }
     plotter.set_active(false);
     drop(plotter);
-    let priority = link
-        .io_priority()
-        .map_or_else(|| "unknown".to_owned(), |p| p.to_string());
+    let said = |p: Option<crate::link::enip::priority::Priority>| {
+        p.map_or_else(|| "unknown".to_owned(), |p| p.to_string())
+    };
+    let (producer, consumer) = (said(link.io_priority()), said(link.io_consumer_priority()));
     let _ = link.close().await;
     let mut out = vec![];
     for (load, timing) in &gathered {
@@ -310,7 +312,7 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
             format!("O→T sent, {}", load.name()),
             rpi,
             &timing.ot,
-            &priority,
+            &producer,
         ));
     }
     for (load, timing) in &gathered {
@@ -318,7 +320,7 @@ pub async fn measure(spec: &LinkSpec, span: Duration) -> Result<Vec<Intervals>, 
             format!("T→O taken, {}", load.name()),
             rpi,
             &timing.to,
-            &priority,
+            &consumer,
         ));
     }
     Ok(out)
@@ -336,10 +338,12 @@ pub fn run(
         return Ok(vec![]);
     }
     let intervals = runtime.block_on(measure(spec, span))?;
-    if let (false, Some(first)) = (json, intervals.first()) {
+    let first = |direction: &str| intervals.iter().find(|i| i.what.starts_with(direction));
+    if let (false, Some(ot), Some(to)) = (json, first("O→T"), first("T→O")) {
         outln!(
-            "  class 1 producer thread: {} priority (${}=normal for ordinary)",
-            first.producer_priority,
+            "  class 1 threads: producer {} priority, consumer {} priority (${}=normal for ordinary)",
+            ot.thread_priority,
+            to.thread_priority,
             crate::link::enip::priority::PRIORITY_ENV
         );
     }

@@ -599,6 +599,16 @@ impl EnipLink {
         self.io.as_ref().and_then(|o| o.handle.priority())
     }
 
+    /// The local UDP address the I/O connection takes T→O packets on.
+    pub fn io_local(&self) -> Option<std::net::SocketAddr> {
+        self.io.as_ref().map(|o| o.handle.local)
+    }
+
+    /// The priority the I/O consumer thread runs at now.
+    pub fn io_consumer_priority(&self) -> Option<super::priority::Priority> {
+        self.io.as_ref().and_then(|o| o.handle.consumer_priority())
+    }
+
     /// The RPI of the open I/O connection.
     pub fn io_rpi(&self) -> Option<Duration> {
         self.io.as_ref().map(|o| o.handle.config.ot_rpi)

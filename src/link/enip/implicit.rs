@@ -26,8 +26,8 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::Notify;
 
-use super::priority::{self, Priority};
-use crate::link::{TraceRecord, TraceRing};
+use super::priority::{self, FloodGuard, Priority};
+use crate::link::{RawFrames, TraceRecord};
 use crate::proto::enip::io::{Arrival, IoPacket, Newest, Schedule, Spread};
 use crate::proto::enip::wire::hex;
 
@@ -148,9 +148,11 @@ struct Timing {
     recorded: IoTiming,
     /// What the producer thread got from the OS.
     priority: Option<Priority>,
+    /// What the consumer thread runs at: real-time where granted, until a flood.
+    consumer_priority: Option<Priority>,
 }
 
-#[derive(Debug, Default)]
+#[derive(Debug)]
 struct Shared {
     output: Vec<u8>,
     input: Option<Input>,
@@ -165,13 +167,53 @@ struct Shared {
     unreported: Dropped,
     reported_at: Option<Instant>,
     error: Option<String>,
-    trace: TraceRing,
+    /// Said once, with the troubles got over (a flood that lowered the consumer).
+    notices: Vec<String>,
+    trace: RawFrames<IoFrame>,
     timing: Timing,
 }
 
+impl Default for Shared {
+    fn default() -> Self {
+        Shared {
+            output: Vec::new(),
+            input: None,
+            received: 0,
+            sent: 0,
+            stray: 0,
+            newest: Newest::default(),
+            unreported: Dropped::default(),
+            reported_at: None,
+            error: None,
+            notices: Vec::new(),
+            trace: RawFrames::new(TRACE_BYTES),
+            timing: Timing::default(),
+        }
+    }
+}
+
+/// Bytes of an I/O packet kept for the frame log (an assembly is at most 500 bytes).
+const TRACE_BYTES: usize = 1024;
+
+/// What an I/O datagram was, kept with its bytes; the frame log's words are written from
+/// both when it is taken, not at the RPI.
+#[derive(Clone, Debug)]
+enum IoFrame {
+    /// An O→T packet sent.
+    Sent,
+    /// A T→O packet taken as the newest.
+    Taken,
+    /// A T→O packet dropped: the newest sequence number before it, and why.
+    Dropped { newest: u32, why: &'static str },
+    /// A class 1 packet of another connection or size.
+    Stray,
+    /// Not a class 1 packet at all.
+    Bad(String),
+}
+
 impl Shared {
-    fn record(&mut self, sent: bool, bytes: &[u8], text: String) {
-        self.trace.record(sent, hex(bytes), text);
+    fn record(&mut self, sent: bool, bytes: &[u8], frame: IoFrame) {
+        self.trace.record(sent, frame, bytes);
     }
 
     /// An O→T packet left at `now`.
@@ -364,6 +406,11 @@ impl IoHandle {
         lock(&self.shared).timing.priority
     }
 
+    /// The priority the consumer thread runs at now (ordinary after a flood).
+    pub fn consumer_priority(&self) -> Option<Priority> {
+        lock(&self.shared).timing.consumer_priority
+    }
+
     /// Once the first second of production was measured: a warning with the figures if
     /// this computer did not keep the RPI. Given once.
     pub fn take_timing_notice(&self) -> Option<String> {
@@ -374,20 +421,24 @@ impl IoHandle {
         }
     }
 
-    /// The datagrams dropped since the last report, in words: at once the first time,
+    /// A flood that lowered the consumer's priority (once), and the datagrams dropped
+    /// since the last report, in words: at once the first time,
     /// then at most every [`REPORT_EVERY`] (the counts add up in between).
     pub fn take_recovered(&self) -> Vec<String> {
         let mut s = lock(&self.shared);
+        let mut out = std::mem::take(&mut s.notices);
         let now = Instant::now();
         if s.unreported.is_empty() || s.reported_at.is_some_and(|at| now - at < REPORT_EVERY) {
-            return vec![];
+            return out;
         }
         s.reported_at = Some(now);
-        std::mem::take(&mut s.unreported)
-            .words()
-            .into_iter()
-            .map(|w| format!("class 1 I/O: {w}"))
-            .collect()
+        out.extend(
+            std::mem::take(&mut s.unreported)
+                .words()
+                .into_iter()
+                .map(|w| format!("class 1 I/O: {w}")),
+        );
+        out
     }
 
     /// The first input after packet number `after`, waiting up to `timeout`. An error says
@@ -417,7 +468,37 @@ impl IoHandle {
     }
 
     pub fn take_trace(&self) -> Vec<TraceRecord> {
-        lock(&self.shared).trace.take()
+        let (ot_header, to_header) = (self.config.ot_header, self.config.to_header);
+        lock(&self.shared).trace.take(|sent, frame, bytes| {
+            let header = if sent { ot_header } else { to_header };
+            let packet = IoPacket::decode(bytes, header);
+            let text = match (frame, packet) {
+                (IoFrame::Bad(why), _) => format!("not a class 1 packet: {why}"),
+                (_, Err(e)) => format!("class 1 packet (cut for the frame log: {e})"),
+                (IoFrame::Sent, Ok(p)) => format!(
+                    "class 1 O→T #{} count {}: {}",
+                    p.sequence,
+                    p.count,
+                    hex(&p.data)
+                ),
+                (IoFrame::Taken, Ok(p)) => format!(
+                    "class 1 T→O #{} count {}: {}",
+                    p.sequence,
+                    p.count,
+                    hex(&p.data)
+                ),
+                (IoFrame::Dropped { newest, why }, Ok(p)) => format!(
+                    "class 1 T→O #{} count {} after #{newest}: {why}",
+                    p.sequence, p.count
+                ),
+                (IoFrame::Stray, Ok(p)) => format!(
+                    "class 1 packet for connection {:08X}h with {} bytes, ignored",
+                    p.connection,
+                    p.data.len()
+                ),
+            };
+            (hex(bytes), text)
+        })
     }
 
     /// Stop producing and consuming, and wait for both threads to let go of the socket
@@ -579,11 +660,7 @@ impl Producer {
         let mut s = lock(&self.shared);
         s.sent += 1;
         s.on_sent(sent_at, self.config.ot_rpi);
-        s.record(
-            true,
-            &bytes,
-            format!("class 1 O→T #{sequence} count {count}: {}", hex(&output)),
-        );
+        s.record(true, &bytes, IoFrame::Sent);
         drop(s);
         self.last_sent = Some(output);
         ControlFlow::Continue(())
@@ -611,13 +688,24 @@ struct Consumer {
 }
 
 impl Consumer {
+    /// Real-time priority where granted, as the producer: a consumer woken late takes a
+    /// T→O packet late, and the worker waits for it. A flood (see [`FloodGuard`]) sends it
+    /// back to ordinary priority, said once in the log.
     fn run(self) {
+        let got = priority::raise_current_thread();
+        lock(&self.shared).timing.consumer_priority = Some(got);
+        let mut guard = FloodGuard::new(self.config.to_rpi);
         let mut buffer = vec![0u8; 1500];
         while !self.stop.load(Ordering::Acquire) {
             match self.socket.recv_from(&mut buffer) {
-                Ok((n, _from)) => {
+                Ok((n, from)) => {
                     if self.stop.load(Ordering::Acquire) {
                         return;
+                    }
+                    if let Some(count) = guard.arrived(Instant::now())
+                        && matches!(got, Priority::Realtime(_))
+                    {
+                        self.on_flood(count, from);
                     }
                     self.on_datagram(&buffer[..n]);
                 }
@@ -634,6 +722,18 @@ impl Consumer {
         }
     }
 
+    /// More datagrams than the RPI can explain: back to ordinary priority, and say so.
+    fn on_flood(&self, count: u32, from: SocketAddr) {
+        let now = priority::lower_current_thread();
+        let mut s = lock(&self.shared);
+        s.timing.consumer_priority = Some(now);
+        s.notices.push(format!(
+            "class 1 I/O: {count} datagrams reached the T→O socket within {} ms (the last from {from}), more than four times what an RPI of {} ms sends: the I/O consumer went back to {now} priority so that a flood cannot take a core; the I/O goes on",
+            FloodGuard::WINDOW.as_millis(),
+            self.config.to_rpi.as_secs_f64() * 1e3,
+        ));
+    }
+
     /// A datagram on the socket: this connection's T→O packet, or a stray one.
     fn on_datagram(&self, bytes: &[u8]) {
         match IoPacket::decode(bytes, self.config.to_header) {
@@ -643,23 +743,15 @@ impl Consumer {
             {
                 self.on_input(bytes, packet);
             }
-            Ok(packet) => {
+            Ok(_) => {
                 let mut s = lock(&self.shared);
                 s.stray += 1;
-                s.record(
-                    false,
-                    bytes,
-                    format!(
-                        "class 1 packet for connection {:08X}h with {} bytes, ignored",
-                        packet.connection,
-                        packet.data.len()
-                    ),
-                );
+                s.record(false, bytes, IoFrame::Stray);
             }
             Err(e) => {
                 let mut s = lock(&self.shared);
                 s.stray += 1;
-                s.record(false, bytes, format!("not a class 1 packet: {e}"));
+                s.record(false, bytes, IoFrame::Bad(e.to_string()));
             }
         }
     }
@@ -683,29 +775,13 @@ impl Consumer {
         if let Some(why) = dropped {
             // A stale image neither replaces the newest nor keeps the connection alive
             // (protocol notes §3.5).
-            s.record(
-                false,
-                bytes,
-                format!(
-                    "class 1 T→O #{} count {} after #{newest}: {why}",
-                    packet.sequence, packet.count
-                ),
-            );
+            s.record(false, bytes, IoFrame::Dropped { newest, why });
             return;
         }
         s.on_input(now);
         s.received += 1;
         let number = s.received;
-        s.record(
-            false,
-            bytes,
-            format!(
-                "class 1 T→O #{} count {}: {}",
-                packet.sequence,
-                packet.count,
-                hex(&packet.data)
-            ),
-        );
+        s.record(false, bytes, IoFrame::Taken);
         s.input = Some(Input {
             data: packet.data,
             number,
