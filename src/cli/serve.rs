@@ -75,9 +75,8 @@ async fn serve(args: &SimArgs, planned: &[Planned]) -> Result<(), String> {
         })
         .collect();
     let mut tasks = tokio::task::JoinSet::new();
-    let clock = tokio::spawn(crate::sim::server::run_clocks(
-        served.iter().map(|s| s.drive.clone()).collect(),
-    ));
+    let clock = crate::sim::server::Clock::start(served.iter().map(|s| s.drive.clone()).collect())
+        .map_err(|e| format!("starting the drives' clock: {e}"))?;
     for (planned, served) in planned.iter().zip(&mut served) {
         if let Some(addr) = planned.modbus_tcp {
             let local = serve_modbus_tcp(&mut tasks, &served.drive, args, addr, order).await?;
@@ -107,7 +106,7 @@ async fn serve(args: &SimArgs, planned: &[Planned]) -> Result<(), String> {
         }
         _ = async { while tasks.join_next().await.is_some() {} } => {}
     }
-    clock.abort();
+    drop(clock);
     Ok(())
 }
 
