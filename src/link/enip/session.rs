@@ -311,7 +311,8 @@ impl Session {
         loop {
             match encap::split(&self.buffer) {
                 Framed::Packet(reply, used) => {
-                    self.trace.record(false, Kept::Message, &self.buffer[..used]);
+                    self.trace
+                        .record(false, Kept::Message, &self.buffer[..used]);
                     self.buffer.drain(..used);
                     if contexts.contains(&reply.context) {
                         return Some(self.check_reply(command, reply));
