@@ -1,10 +1,12 @@
 //! The plot panel: stacked plots of the sampled signals on one time axis, the status bits
 //! as digital lanes, command markers, a cursor read-out, pause, follow, zoom and pan; the
-//! trigger and the exports live in `capture`, the PNG in `picture`, recordings opened
-//! from files (and a frozen capture) in `review`, the dialogs in `files`.
+//! analog plots live in `traces`, the status-bit lanes in `lanes`, the trigger and the
+//! exports in `capture`, the PNG in `picture`, recordings opened from files (and a frozen
+//! capture) in `review`, the dialogs in `files`.
 
 mod capture;
 pub mod files;
+mod lanes;
 mod picture;
 pub mod readout;
 pub mod review;

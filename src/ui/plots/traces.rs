@@ -1,42 +1,33 @@
-//! The stacked plots: one per analog signal, then the digital lanes, all on one linked
-//! time axis, each drawn from the history's min/max decimation at one point group per
-//! pixel column, so the whole history draws without dropping a peak. The y axes always
+//! The stacked plots: one per analog signal, then the digital lanes (drawn by `lanes`),
+//! all on one linked time axis, each drawn from the history's min/max decimation at one
+//! point group per pixel column, so the whole history draws without dropping a peak. The y axes always
 //! fit what is in view (zoom and pan move the time axis only, no trace is clipped); a
 //! recording overlaid is drawn dashed over the one it is compared with.
 
 use std::cell::RefCell;
 
 use eframe::egui::{self, Color32, Ui};
-use egui_plot::{FilledArea, Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
+use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
 
 use super::super::state::AppState;
 use super::super::widgets::{AMBER, BLUE, GREEN, RED};
+use super::lanes::{lane_labels_ui, lanes, lanes_plot_ui};
 use super::{Beside, PositionUnit, shown_scope, time_range};
 use crate::telemetry::ring::Decimations;
-use crate::telemetry::{
-    BitSpan, Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef, bit_name,
-};
+use crate::telemetry::{Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef};
 
 /// Height of one digital lane, in points: at most, and at least (the lanes take up to
 /// 40 % of the panel between the two).
 const LANE_HEIGHT: f32 = 26.0;
 const LANE_HEIGHT_MIN: f32 = 16.0;
 /// Width of every plot's y axis, so the time axes line up.
-const Y_AXIS_WIDTH: f32 = 56.0;
+pub(super) const Y_AXIS_WIDTH: f32 = 56.0;
 /// The lowest an analog plot gets (only when many share a low window).
 const PLOT_HEIGHT_MIN: f32 = 28.0;
 /// The space egui leaves between two plots, in points.
 const PLOT_SPACING: f32 = 4.0;
 /// Marker labels drawn per plot at most (all markers get their line).
 const MARKER_LABELS: usize = 24;
-/// The PDI-Status lanes drawn even when low throughout.
-const ALWAYS_LANES: [crate::pdi::StatusBit; 3] = [
-    crate::pdi::StatusBit::OperationEnabled,
-    crate::pdi::StatusBit::TargetReached,
-    crate::pdi::StatusBit::Fault,
-];
-/// The lane labels' size, in points.
-const LANE_LABEL_SIZE: f32 = 13.0;
 
 const PURPLE: Color32 = Color32::from_rgb(150, 110, 210);
 const TEAL: Color32 = Color32::from_rgb(60, 190, 190);
@@ -49,7 +40,7 @@ const GREY: Color32 = Color32::from_gray(150);
 /// The shade of a stretch without samples.
 const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
 /// The colours for traces that are no built-in signal, in order.
-const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY, SAND, GREEN, BLUE];
+pub(super) const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY, SAND, GREEN, BLUE];
 /// Another drive's line in a plot: its legend name, its points, its gaps.
 type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band]);
 
@@ -94,31 +85,12 @@ pub fn colors(signals: &[SignalDef]) -> Vec<Color32> {
         .collect()
 }
 
-/// A lane's colour: the lamp colour of what its bit means where the status panel has
-/// one, a colour of its own otherwise.
-fn lane_color(k: usize) -> Color32 {
-    PALETTE[k % PALETTE.len()]
-}
-
-/// A lane to draw: which bit of which bit signal.
-struct Lane {
-    column: usize,
-    bit: u8,
-    name: String,
-}
-
-/// What the lanes say, for their labels: each lane's name, the value of its middle on
-/// the plot's y axis, its colour, and whether it is high at the right edge.
-struct LaneLabels {
-    rows: Vec<(String, f64, Color32, bool)>,
-}
-
 /// A stretch without samples in view (a lost link, a disconnect): shaded, labelled, and
 /// no line drawn across it.
-struct Band {
-    from: f64,
-    to: f64,
-    label: String,
+pub(super) struct Band {
+    pub(super) from: f64,
+    pub(super) to: f64,
+    pub(super) label: String,
 }
 
 /// What the plots report back for the next frame.
@@ -136,19 +108,19 @@ struct Interaction {
 
 /// What every plot of one frame shares: the time span, whether it follows the newest
 /// sample, the linked axis, and the marks drawn across all plots.
-struct View<'a> {
-    ring: &'a Ring,
+pub(super) struct View<'a> {
+    pub(super) ring: &'a Ring,
     /// The recording drawn over this one, and the seconds its times are moved by.
     overlay: Option<(&'a Scope, f64)>,
     position_unit: PositionUnit,
     cursors: [Option<f64>; 2],
-    from: f64,
-    to: f64,
-    follow: bool,
-    group: egui::Id,
-    markers: Vec<(f64, &'a str)>,
+    pub(super) from: f64,
+    pub(super) to: f64,
+    pub(super) follow: bool,
+    pub(super) group: egui::Id,
+    pub(super) markers: Vec<(f64, &'a str)>,
     /// The gaps in view, oldest first.
-    bands: Vec<Band>,
+    pub(super) bands: Vec<Band>,
     highlight: Option<f64>,
     trigger_at: Option<f64>,
     /// The threshold trigger's signal column and level.
@@ -158,7 +130,7 @@ struct View<'a> {
     /// The other drives whose signals are drawn on the same time axis, and their gaps.
     beside: Vec<(&'a Beside<'a>, Vec<Band>)>,
     /// The last frames' decimations, reused where the plots have not moved.
-    decimations: RefCell<Decimations>,
+    pub(super) decimations: RefCell<Decimations>,
 }
 
 impl<'a> View<'a> {
@@ -335,7 +307,7 @@ fn split_at_bands<'p>(points: &'p [[f64; 2]], bands: &[Band]) -> Vec<&'p [[f64; 
 }
 
 /// Where the pointer is on the time axis, and the span the plot showed.
-type Seen = (Option<f64>, (f64, f64));
+pub(super) type Seen = (Option<f64>, (f64, f64));
 
 /// The plots; where they were drawn (every axis included), for the picture.
 pub fn traces_ui(
@@ -560,7 +532,7 @@ fn scale_values(points: &mut [[f64; 2]], scale: f64, offset: f64) {
 }
 
 /// The trigger's moment and level, and the moment marked from the timeline.
-fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<f64>) {
+pub(super) fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<f64>) {
     if let Some(at) = view.trigger_at {
         // Unnamed: a name would put it in every plot's legend.
         plot_ui.add(VLine::new("", at).color(RED).width(1.5).allow_hover(false));
@@ -589,112 +561,6 @@ fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<f64>) {
                 .color(RED)
                 .style(LineStyle::dashed_loose()),
         );
-    }
-}
-
-/// The digital lanes, one plot under the analog ones, on the same time axis.
-fn lanes_plot_ui(
-    ui: &mut Ui,
-    view: &View<'_>,
-    lanes: &[Lane],
-    height: f32,
-) -> egui_plot::PlotResponse<(Seen, LaneLabels)> {
-    Plot::new("plot_lanes")
-        .height(height - 8.0)
-        .link_axis(view.group, [true, false])
-        .link_cursor(view.group, [true, false])
-        .allow_double_click_reset(false)
-        .allow_zoom([true, false])
-        .allow_drag([true, false])
-        .show_grid([true, false])
-        .y_axis_min_width(Y_AXIS_WIDTH)
-        .y_axis_formatter(|_, _| String::new())
-        .y_grid_spacer(|_| Vec::new())
-        .custom_x_axes(time_axis())
-        .x_grid_spacer(time_steps)
-        .show(ui, |plot_ui| {
-            let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
-            // Lane k from the top: its low line at (n - 1 - k) * 1.5, its high one 1 above.
-            plot_ui.set_plot_bounds(PlotBounds::from_min_max(
-                [from, -0.35],
-                [to, lanes.len() as f64 * 1.5 - 0.15],
-            ));
-            draw_bands(plot_ui, &view.bands, false);
-            draw_markers(plot_ui, &view.markers, false);
-            draw_moments(plot_ui, view, None);
-            let labels = draw_lanes(plot_ui, view, lanes, from, to);
-            (
-                (plot_ui.pointer_coordinate().map(|p| p.x), (from, to)),
-                labels,
-            )
-        })
-}
-
-/// Each lane, 1.5 apart, the first on top: its high stretches filled in its colour over
-/// a thin low line, so high and low are told apart at a glance.
-fn draw_lanes(
-    plot_ui: &mut PlotUi,
-    view: &View<'_>,
-    lanes: &[Lane],
-    from: f64,
-    to: f64,
-) -> LaneLabels {
-    let columns = plot_ui.transform().frame().width().max(1.0) as usize;
-    let mut last_column = None;
-    let mut spans: Vec<BitSpan> = Vec::new();
-    let mut rows = Vec::new();
-    for (k, lane) in lanes.iter().enumerate() {
-        if last_column != Some(lane.column) {
-            spans = view
-                .decimations
-                .borrow_mut()
-                .bits(view.ring, lane.column, from, to, columns);
-            last_column = Some(lane.column);
-        }
-        let base = (lanes.len() - 1 - k) as f64 * 1.5;
-        let color = lane_color(k);
-        let points = lane_points(&spans, lane.bit, base, &view.bands);
-        for run in split_at_bands(&points, &view.bands) {
-            let xs: Vec<f64> = run.iter().map(|p| p[0]).collect();
-            let lows = vec![base; run.len()];
-            let highs: Vec<f64> = run.iter().map(|p| p[1]).collect();
-            plot_ui.add(
-                FilledArea::new("", &xs, &lows, &highs)
-                    .fill_color(color.gamma_multiply(0.55))
-                    .allow_hover(false),
-            );
-            plot_ui.line(Line::new("", run.to_vec()).color(color).width(1.5));
-        }
-        let high_now = spans.last().is_some_and(|s| s.all & (1 << lane.bit) != 0);
-        rows.push((lane.name.clone(), base + 0.5, color, high_now));
-    }
-    LaneLabels { rows }
-}
-
-/// The lanes' names at the left edge of the lanes, legible over any trace: on a dark
-/// plate, in the lane's colour, "= 1" after the name of a bit that is high at the right
-/// edge.
-///
-/// Placed with the plot's final transform of this frame (the one inside the plot may be
-/// the last frame's when the plot's size changed).
-fn lane_labels_ui(ui: &Ui, labels: &LaneLabels, transform: &egui_plot::PlotTransform) {
-    let rect = *transform.frame();
-    let painter = ui.painter_at(rect);
-    let font = egui::FontId::proportional(LANE_LABEL_SIZE);
-    for (name, middle, color, high) in &labels.rows {
-        let y = transform
-            .position_from_point(&egui_plot::PlotPoint::new(0.0, *middle))
-            .y;
-        let text = if *high {
-            format!("{name} = 1")
-        } else {
-            name.clone()
-        };
-        let galley = painter.layout_no_wrap(text, font.clone(), *color);
-        let at = egui::pos2(rect.left() + 4.0, y - galley.size().y / 2.0);
-        let plate = egui::Rect::from_min_size(at, galley.size()).expand2(egui::vec2(3.0, 1.0));
-        painter.rect_filled(plate, 3.0, Color32::from_black_alpha(200));
-        painter.galley(at, galley, *color);
     }
 }
 
@@ -733,7 +599,7 @@ fn nice_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
 /// The time axis: a label every 1, 2 or 5 × 10ⁿ s, about one per 90 points whatever the
 /// zoom (egui_plot's decades show one label per 10 s on a 10 s window, none when zoomed
 /// in between two), each with the decimals its step needs.
-fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
+pub(super) fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
     vec![
         egui_plot::AxisHints::new_x()
             .label("time [s]")
@@ -760,7 +626,7 @@ fn time_label(value: f64, step: f64) -> String {
 
 /// The time axis's marks: labelled ones at 1, 2 or 5 × 10ⁿ s about 90 points apart, and
 /// finer unlabelled ones between.
-fn time_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
+pub(super) fn time_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
     let (min, max) = input.bounds;
     let span = max - min;
     if !span.is_finite() || span <= 0.0 || input.base_step_size <= 0.0 {
@@ -833,7 +699,7 @@ impl Interaction {
 
 /// The time span this plot shows: ours while following, the plot's own (zoomed, panned)
 /// otherwise.
-fn visible(plot_ui: &PlotUi, follow: bool, from: f64, to: f64) -> (f64, f64) {
+pub(super) fn visible(plot_ui: &PlotUi, follow: bool, from: f64, to: f64) -> (f64, f64) {
     if follow {
         return (from, to);
     }
@@ -874,7 +740,7 @@ fn fit_bounds(lines: &[&[[f64; 2]]], from: f64, to: f64, level: Option<f64>) -> 
 
 /// Every stretch without samples shaded, with its edges; labelled ("no link 12.3 s") on
 /// the top plot.
-fn draw_bands(plot_ui: &mut PlotUi, bands: &[Band], labels: bool) {
+pub(super) fn draw_bands(plot_ui: &mut PlotUi, bands: &[Band], labels: bool) {
     let top = plot_ui.plot_bounds().max()[1];
     for band in bands {
         plot_ui.add(
@@ -899,7 +765,7 @@ fn draw_bands(plot_ui: &mut PlotUi, bands: &[Band], labels: bool) {
 }
 
 /// A dashed line for every command sent, labelled (the newest few) on the top plot.
-fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
+pub(super) fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
     for (t, _) in markers {
         plot_ui.add(
             VLine::new("", *t)
@@ -921,83 +787,6 @@ fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels: bool) {
             );
         }
     }
-}
-
-/// The lanes to draw: the PDI-Status bits that were high somewhere in view (and always
-/// operation enabled, target reached and fault), and the digital inputs that were on
-/// somewhere in view (the limit and home switches when none was).
-fn lanes(scope: &Scope, from: f64, to: f64, decimations: &mut Decimations) -> Vec<Lane> {
-    let ring = scope.ring();
-    let mut lanes = Vec::new();
-    for signal in scope.signals() {
-        if !scope.is_drawn(signal)
-            || signal.kind != Kind::Bits
-            || ring.latest(signal.column).is_none()
-        {
-            continue;
-        }
-        let builtin = signal.builtin();
-        let bits: Vec<u8> = match builtin {
-            // The bits that were high somewhere in view, and always whether the drive is
-            // on, at its target, faulted: a bit low throughout says nothing new.
-            Some(Builtin::PdiStatus) => {
-                let any = decimations
-                    .bits(ring, signal.column, from, to, 1)
-                    .iter()
-                    .fold(0, |acc, s| acc | s.any);
-                crate::pdi::StatusBit::ALL
-                    .into_iter()
-                    .filter(|b| any & u32::from(b.mask()) != 0 || ALWAYS_LANES.contains(b))
-                    .map(|b| b.bit())
-                    .collect()
-            }
-            _ => {
-                let any = decimations
-                    .bits(ring, signal.column, from, to, 1)
-                    .iter()
-                    .fold(0, |acc, s| acc | s.any);
-                let on: Vec<u8> = (0..32).filter(|b| any & (1 << b) != 0).collect();
-                if on.is_empty() { vec![0, 1, 2] } else { on }
-            }
-        };
-        lanes.extend(bits.into_iter().map(|bit| Lane {
-            column: signal.column,
-            bit,
-            name: bit_name(builtin, bit),
-        }));
-    }
-    lanes
-}
-
-/// One lane's line: low (base) where the bit was 0 throughout a pixel column, high where
-/// it was 1 throughout, a filled-looking zigzag where it changed inside the column. A run
-/// of columns at one level is one segment (a bit that seldom changes costs two points per
-/// change, not per column), except across a band, where the line breaks.
-fn lane_points(spans: &[BitSpan], bit: u8, base: f64, _bands: &[Band]) -> Vec<[f64; 2]> {
-    // Two points per column (four where the bit changed inside it). Runs of one level
-    // merged into one segment drew high stretches as wedges on screen (egui_plot's filled
-    // area between few, far-apart points): back to a point pair per column until that is
-    // understood. A band (gap) is cut by `split_at_bands`.
-    let mask = 1u32 << bit;
-    let high = base + 1.0;
-    let mut out = Vec::with_capacity(spans.len() * 2);
-    for span in spans {
-        let any = span.any & mask != 0;
-        let all = span.all & mask != 0;
-        if all {
-            out.push([span.t0, high]);
-            out.push([span.t1, high]);
-        } else if !any {
-            out.push([span.t0, base]);
-            out.push([span.t1, base]);
-        } else {
-            out.push([span.t0, base]);
-            out.push([span.t0, high]);
-            out.push([span.t1, base]);
-            out.push([span.t1, high]);
-        }
-    }
-    out
 }
 
 #[cfg(test)]
@@ -1111,46 +900,6 @@ mod tests {
         );
         // Few points per column: as they are.
         assert_eq!(extremes_per_column(points.clone(), 0.0, 2.0, 4), points);
-    }
-
-    #[test]
-    fn a_lane_is_a_point_pair_per_column_and_a_gap_cuts_it() {
-        let span = |t: f64, any: u32, all: u32| BitSpan {
-            t0: t,
-            t1: t + 0.5,
-            any,
-            all,
-        };
-        // High, changing, low, [gap], low.
-        let spans = [
-            span(0.0, 1, 1),
-            span(2.0, 1, 0),
-            span(3.0, 0, 0),
-            span(9.0, 0, 0),
-        ];
-        let gap = Band {
-            from: 3.5,
-            to: 9.0,
-            label: String::new(),
-        };
-        let points = lane_points(&spans, 0, 0.0, std::slice::from_ref(&gap));
-        assert_eq!(
-            points,
-            [
-                [0.0, 1.0],
-                [0.5, 1.0],
-                [2.0, 0.0],
-                [2.0, 1.0],
-                [2.5, 0.0],
-                [2.5, 1.0],
-                [3.0, 0.0],
-                [3.5, 0.0],
-                [9.0, 0.0],
-                [9.5, 0.0]
-            ]
-        );
-        let runs = split_at_bands(&points, &[gap]);
-        assert_eq!(runs.len(), 2);
     }
 
     #[test]
