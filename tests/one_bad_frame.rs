@@ -46,6 +46,21 @@ fn move_through(spec: LinkSpec, spoil: impl FnOnce()) -> Probe {
     probe
 }
 
+/// Keep the link exchanging (the worker polls on its own) until the proxy has applied
+/// `count` spoilings: a move may end before the last one was due on a loaded machine, and
+/// each must still be got over.
+fn until_applied(probe: &mut Probe, count: usize, applied: impl Fn() -> usize) {
+    if applied() >= count {
+        return;
+    }
+    probe.wait(
+        "every spoiling applied by the proxy",
+        Duration::from_secs(15),
+        |_| applied() >= count,
+    );
+    probe.never_dropped();
+}
+
 /// A notice that says `words` (all of them).
 fn named(probe: &Probe, words: &[&str]) -> bool {
     probe.notice_with(words).is_some()
@@ -282,12 +297,13 @@ fn modbus_rtu_noise_and_a_crc_error_are_got_over() {
     };
     let _sim = common::Sim::rtu(&device.a, &["--baud", "115200"]);
     let proxy = SerialProxy::start(&host.b, &device.b, false);
-    let probe = move_through(rtu(&host.a), || {
+    let mut probe = move_through(rtu(&host.a), || {
         proxy.noise_in(3, Noise::Before);
         proxy.noise_in(9, Noise::Flip);
         proxy.noise_in(15, Noise::Lost);
         proxy.noise_in(21, Noise::Garbage);
     });
+    until_applied(&mut probe, 4, || proxy.applied().len());
     assert_eq!(
         proxy.applied(),
         vec![Noise::Before, Noise::Flip, Noise::Lost, Noise::Garbage]
@@ -316,12 +332,13 @@ fn slcan_a_garbled_line_is_skipped() {
     let spec: LinkSpec = format!("canopen+slcan://{}?node=1", host.a.display())
         .parse()
         .expect("spec");
-    move_through(spec, || {
+    let mut probe = move_through(spec, || {
         proxy.noise_in(2, Noise::Garbage);
         proxy.noise_in(5, Noise::Flip);
         proxy.noise_in(9, Noise::Lost);
         proxy.noise_in(12, Noise::Before);
     });
+    until_applied(&mut probe, 4, || proxy.applied().len());
     assert_eq!(
         proxy.applied(),
         vec![Noise::Garbage, Noise::Flip, Noise::Lost, Noise::Before]

@@ -63,7 +63,6 @@ impl SharedDrive {
         }
         DriveGuard { guard }
     }
-
 }
 
 /// Advances drives on real time when nobody asks, on a thread of its own, until dropped.
