@@ -290,17 +290,57 @@ fn raw_server(listener: TcpListener) {
     }
 }
 
+/// One whole message into `buffer`, its length told by `total` from its first `header`
+/// bytes (at most `limit`), in as few reads as the peer's writes allow: one per message on
+/// loopback, as the tokio clients and servers read. (Reading the header and then the rest,
+/// two reads a message, made the "limit" slower than tokio-modbus.) The raw peers are
+/// strict ping-pong: a byte after the message is an error, not the next one.
+fn read_message(
+    stream: &mut TcpStream,
+    buffer: &mut Vec<u8>,
+    header: usize,
+    limit: usize,
+    total: impl Fn(&[u8]) -> usize,
+) -> std::io::Result<usize> {
+    buffer.resize(limit, 0);
+    let mut have = 0;
+    loop {
+        let n = stream.read(&mut buffer[have..])?;
+        if n == 0 {
+            return Err(std::io::ErrorKind::UnexpectedEof.into());
+        }
+        have += n;
+        if have < header {
+            continue;
+        }
+        let len = total(&buffer[..header]);
+        if len > limit || have > len {
+            return Err(std::io::Error::other(format!(
+                "a message of {len} bytes, {have} read: not one message at a time"
+            )));
+        }
+        if have == len {
+            buffer.truncate(len);
+            return Ok(len);
+        }
+    }
+}
+
+/// A Modbus TCP message's length from its MBAP header.
+fn mbap_total(header: &[u8]) -> usize {
+    6 + usize::from(u16::from_be_bytes([header[4], header[5]]))
+}
+
 fn raw_connection(mut stream: TcpStream) -> std::io::Result<()> {
     stream.set_nodelay(true)?;
-    let mut request = [0u8; 260];
+    let mut request = Vec::with_capacity(260);
     let mut reply = Vec::with_capacity(260);
     loop {
-        stream.read_exact(&mut request[..7])?;
+        read_message(&mut stream, &mut request, 7, 260, mbap_total)?;
         let len = usize::from(u16::from_be_bytes([request[4], request[5]]));
-        if !(2..=254).contains(&len) {
+        if !(2..=254).contains(&len) || request.len() < 12 {
             return Ok(());
         }
-        stream.read_exact(&mut request[7..6 + len])?;
         let function = request[7];
         // FC 3 and FC 23 both carry the read count at PDU bytes 3-4.
         let count = usize::from(u16::from_be_bytes([request[10], request[11]])).min(125);
@@ -457,14 +497,11 @@ fn raw_transact(
     frame.push(0);
     frame.extend_from_slice(pdu);
     stream.write_all(frame)?;
-    frame.resize(7, 0);
-    stream.read_exact(&mut frame[..7])?;
+    read_message(stream, frame, 7, 260, mbap_total)?;
     let len = usize::from(u16::from_be_bytes([frame[4], frame[5]]));
     if u16::from_be_bytes([frame[0], frame[1]]) != transaction || !(2..=254).contains(&len) {
         return Err(std::io::Error::other("a reply to another request"));
     }
-    frame.resize(6 + len, 0);
-    stream.read_exact(&mut frame[7..])?;
     if frame[7] != pdu[0] {
         return Err(std::io::Error::other(format!(
             "exception {:02X}h",
@@ -797,16 +834,11 @@ fn raw_enip_server(listener: TcpListener) {
 
 fn raw_enip_connection(mut stream: TcpStream) -> std::io::Result<()> {
     stream.set_nodelay(true)?;
-    let mut request = [0u8; ENCAP_HEADER + 600];
+    let mut request = Vec::with_capacity(ENCAP_HEADER + 600);
     let mut reply = Vec::with_capacity(ENCAP_HEADER + 600);
     loop {
-        stream.read_exact(&mut request[..ENCAP_HEADER])?;
-        let len = usize::from(u16::from_le_bytes([request[2], request[3]]));
-        if len > 600 {
-            return Ok(());
-        }
-        let end = ENCAP_HEADER + len;
-        stream.read_exact(&mut request[ENCAP_HEADER..end])?;
+        let end = read_encap(&mut stream, &mut request)?;
+        let len = end - ENCAP_HEADER;
         reply.clear();
         reply.extend_from_slice(&request[..ENCAP_HEADER]);
         match u16::from_le_bytes([request[0], request[1]]) {
@@ -837,12 +869,9 @@ fn raw_enip_connection(mut stream: TcpStream) -> std::io::Result<()> {
 
 /// One whole encapsulation message into `buffer`; its length.
 fn read_encap(stream: &mut TcpStream, buffer: &mut Vec<u8>) -> std::io::Result<usize> {
-    buffer.resize(ENCAP_HEADER, 0);
-    stream.read_exact(&mut buffer[..ENCAP_HEADER])?;
-    let len = ENCAP_HEADER + usize::from(u16::from_le_bytes([buffer[2], buffer[3]]));
-    buffer.resize(len, 0);
-    stream.read_exact(&mut buffer[ENCAP_HEADER..])?;
-    Ok(len)
+    read_message(stream, buffer, ENCAP_HEADER, ENCAP_HEADER + 600, |header| {
+        ENCAP_HEADER + usize::from(u16::from_le_bytes([header[2], header[3]]))
+    })
 }
 
 /// Blocking std sockets: RegisterSession, then the very bytes drivedeck's session sends
