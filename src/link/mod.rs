@@ -10,6 +10,7 @@ pub mod enip;
 mod error;
 pub mod modbus;
 mod notice;
+pub(crate) mod owner;
 pub mod spec;
 mod trace;
 pub(crate) mod tries;

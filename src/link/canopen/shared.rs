@@ -133,7 +133,7 @@ fn lock<T>(mutex: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 /// A bus opened again waits for its last owner to let go of the adapter.
 type Registry = BTreeMap<String, (mpsc::WeakSender<Command>, Arc<Shared>, Thread)>;
 
-type Thread = Option<std::thread::JoinHandle<()>>;
+use crate::link::owner::Thread;
 
 fn registry() -> std::sync::MutexGuard<'static, Registry> {
     static BUSES: Mutex<Registry> = Mutex::new(BTreeMap::new());
@@ -268,43 +268,26 @@ where
     F: FnOnce() -> Fut + Send + 'static,
     Fut: std::future::Future<Output = Result<B, Error>> + 'static,
 {
-    let name = format!("drivedeck-can {}", shared.key);
-    std::thread::Builder::new()
-        .name(name)
-        .spawn(move || {
-            if let Some(last) = last {
-                let _ = last.join();
+    let key = shared.key.to_string();
+    crate::link::owner::spawn_owner(
+        format!("drivedeck-can {key}"),
+        key,
+        "the CAN bus",
+        last,
+        opened,
+        move |opened| async move {
+            match open().await {
+                Ok(bus) => {
+                    let _ = shared.describe.set(bus.describe());
+                    let _ = opened.send(Ok(()));
+                    serve(bus, commands, &shared).await;
+                }
+                Err(error) => {
+                    let _ = opened.send(Err(error));
+                }
             }
-            let runtime = match tokio::runtime::Builder::new_current_thread()
-                .enable_all()
-                .build()
-            {
-                Ok(runtime) => runtime,
-                Err(e) => {
-                    let _ = opened.send(Err(Error::Io {
-                        context: format!("starting the owner of {}", shared.key),
-                        source: e,
-                    }));
-                    return;
-                }
-            };
-            runtime.block_on(async move {
-                match open().await {
-                    Ok(bus) => {
-                        let _ = shared.describe.set(bus.describe());
-                        let _ = opened.send(Ok(()));
-                        serve(bus, commands, &shared).await;
-                    }
-                    Err(error) => {
-                        let _ = opened.send(Err(error));
-                    }
-                }
-            });
-        })
-        .map_err(|e| Error::Io {
-            context: "starting the thread that owns the CAN bus".into(),
-            source: e,
-        })
+        },
+    )
 }
 
 /// The owner's loop: commands from the ports, frames from the bus, until the last port

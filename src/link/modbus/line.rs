@@ -73,7 +73,7 @@ impl std::fmt::Display for Settings {
 /// opened again waits for the last owner to let go of the port.
 type Registry = BTreeMap<String, (mpsc::WeakSender<Try>, Settings, Thread)>;
 
-type Thread = Option<std::thread::JoinHandle<()>>;
+use crate::link::owner::Thread;
 
 fn registry() -> std::sync::MutexGuard<'static, Registry> {
     static LINES: Mutex<Registry> = Mutex::new(BTreeMap::new());
@@ -209,49 +209,33 @@ fn spawn_owner(
     opened: oneshot::Sender<Result<(), Error>>,
     last: Thread,
 ) -> Result<std::thread::JoinHandle<()>, Error> {
-    std::thread::Builder::new()
-        .name(format!("drivedeck-rtu {}", settings.path))
-        .spawn(move || {
-            if let Some(last) = last {
-                let _ = last.join();
+    let key = settings.path.clone();
+    crate::link::owner::spawn_owner(
+        format!("drivedeck-rtu {key}"),
+        key,
+        "the serial line",
+        last,
+        opened,
+        move |opened| async move {
+            match open(&settings) {
+                Ok(port) => {
+                    let _ = opened.send(Ok(()));
+                    Owner {
+                        port,
+                        baud: settings.baud,
+                        buffer: Vec::with_capacity(512),
+                        last_answer: None,
+                        frames: Vec::new(),
+                    }
+                    .serve(tries)
+                    .await;
+                }
+                Err(error) => {
+                    let _ = opened.send(Err(error));
+                }
             }
-            let runtime = match tokio::runtime::Builder::new_current_thread()
-                .enable_all()
-                .build()
-            {
-                Ok(runtime) => runtime,
-                Err(e) => {
-                    let _ = opened.send(Err(Error::Io {
-                        context: format!("starting the owner of {}", settings.path),
-                        source: e,
-                    }));
-                    return;
-                }
-            };
-            runtime.block_on(async move {
-                match open(&settings) {
-                    Ok(port) => {
-                        let _ = opened.send(Ok(()));
-                        Owner {
-                            port,
-                            baud: settings.baud,
-                            buffer: Vec::with_capacity(512),
-                            last_answer: None,
-                            frames: Vec::new(),
-                        }
-                        .serve(tries)
-                        .await;
-                    }
-                    Err(error) => {
-                        let _ = opened.send(Err(error));
-                    }
-                }
-            });
-        })
-        .map_err(|e| Error::Io {
-            context: "starting the thread that owns the serial line".into(),
-            source: e,
-        })
+        },
+    )
 }
 
 fn open(settings: &Settings) -> Result<SerialStream, Error> {
