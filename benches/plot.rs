@@ -57,18 +57,7 @@ fn sample(i: usize) -> Sample {
 }
 
 fn frame(ctx: &egui::Context, state: &mut AppState) -> usize {
-    let input = egui::RawInput {
-        screen_rect: Some(egui::Rect::from_min_size(
-            egui::Pos2::ZERO,
-            egui::vec2(1600.0, 1000.0),
-        )),
-        ..Default::default()
-    };
-    let output = ctx.run_ui(input, |ui| {
-        drivedeck::ui::plots::plots_ui(ui, state);
-    });
-    let primitives = ctx.tessellate(output.shapes, output.pixels_per_point);
-    primitives.len()
+    drivedeck::ui::plots::headless_frame(ctx, state)
 }
 
 fn plot_frames(c: &mut Criterion) {

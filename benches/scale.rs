@@ -96,17 +96,7 @@ fn state_with(watched: usize) -> AppState {
 }
 
 fn frame(ctx: &egui::Context, state: &mut AppState) -> usize {
-    let input = egui::RawInput {
-        screen_rect: Some(egui::Rect::from_min_size(
-            egui::Pos2::ZERO,
-            egui::vec2(1600.0, 1000.0),
-        )),
-        ..Default::default()
-    };
-    let output = ctx.run_ui(input, |ui| {
-        drivedeck::ui::plots::plots_ui(ui, state);
-    });
-    ctx.tessellate(output.shapes, output.pixels_per_point).len()
+    drivedeck::ui::plots::headless_frame(ctx, state)
 }
 
 fn median(values: &mut [f64]) -> f64 {

@@ -264,6 +264,21 @@ pub struct Beside<'a> {
     pub scope: &'a Scope,
 }
 
+/// One frame of the plot panel alone, drawn through `ctx` without a window at 1600×1000
+/// (layout, decimation, plot items and tessellation; no GPU): what the benches and
+/// `drivedeck bench`'s plotting load measure. The number of clipped primitives.
+pub fn headless_frame(ctx: &egui::Context, state: &mut AppState) -> usize {
+    let input = egui::RawInput {
+        screen_rect: Some(egui::Rect::from_min_size(
+            egui::Pos2::ZERO,
+            egui::vec2(1600.0, 1000.0),
+        )),
+        ..Default::default()
+    };
+    let output = ctx.run_ui(input, |ui| plots_ui(ui, state));
+    ctx.tessellate(output.shapes, output.pixels_per_point).len()
+}
+
 pub fn plots_ui(ui: &mut Ui, state: &mut AppState) {
     drives_plots_ui(ui, state, "", &[]);
 }
