@@ -176,18 +176,8 @@ fn serve_child(kind: &str) -> Result<(), String> {
             _sim = Some(server);
             port
         }
-        "tokio-modbus" => {
-            let listener = TcpListener::bind(loopback).map_err(|e| e.to_string())?;
-            let port = listener.local_addr().map_err(|e| e.to_string())?.port();
-            std::thread::spawn(move || tokio_modbus_server(listener));
-            port
-        }
-        "raw" => {
-            let listener = TcpListener::bind(loopback).map_err(|e| e.to_string())?;
-            let port = listener.local_addr().map_err(|e| e.to_string())?.port();
-            std::thread::spawn(move || raw_server(listener));
-            port
-        }
+        "tokio-modbus" => listen(loopback, tokio_modbus_server)?,
+        "raw" => listen(loopback, raw_server)?,
         "enip-sim" => {
             let options = AdapterOptions {
                 io_port: 0,
@@ -198,12 +188,7 @@ fn serve_child(kind: &str) -> Result<(), String> {
             _sim = Some(server);
             port
         }
-        "enip-raw" => {
-            let listener = TcpListener::bind(loopback).map_err(|e| e.to_string())?;
-            let port = listener.local_addr().map_err(|e| e.to_string())?.port();
-            std::thread::spawn(move || raw_enip_server(listener));
-            port
-        }
+        "enip-raw" => listen(loopback, raw_enip_server)?,
         other => return Err(format!("no server {other}")),
     };
     println!("{port}");
@@ -212,6 +197,14 @@ fn serve_child(kind: &str) -> Result<(), String> {
     let mut sink = vec![];
     let _ = std::io::stdin().read_to_end(&mut sink);
     Ok(())
+}
+
+/// A listener on a free loopback port served by `serve` on a thread of its own; its port.
+fn listen(loopback: SocketAddr, serve: fn(TcpListener)) -> Result<u16, String> {
+    let listener = TcpListener::bind(loopback).map_err(|e| e.to_string())?;
+    let port = listener.local_addr().map_err(|e| e.to_string())?.port();
+    std::thread::spawn(move || serve(listener));
+    Ok(port)
 }
 
 /// A tokio-modbus register server: FC 3 and FC 23 on a bank of 65 536 registers, as a
