@@ -380,6 +380,71 @@ impl Ring {
         }
     }
 
+    /// Decimation on a grid that does not move with the view: column `k` holds the rows
+    /// with `k·width <= t < (k+1)·width`. For each non-empty column in `k0..=k1`,
+    /// `emit(k, points)` with its first, lowest, highest and last samples in time order, as
+    /// [`Ring::decimate`] gives a span's. A view that slides keeps its columns, so only
+    /// the new ones need decimating ([`Decimations`] keeps the others).
+    pub fn decimate_grid(
+        &self,
+        channel: usize,
+        (k0, k1): (i64, i64),
+        width: f64,
+        mut emit: impl FnMut(i64, &[[f64; 2]]),
+    ) {
+        let Some(column) = self.columns.get(channel) else {
+            return;
+        };
+        if !(width > 0.0 && width.is_finite()) || k1 < k0 {
+            return;
+        }
+        let count = (k1 - k0 + 1) as usize;
+        let edge = |k: usize| (k0 + k as i64) as f64 * width;
+        let lo = self.partition(0, self.len, |t| t < edge(0));
+        let hi = self.partition(lo, self.len, |t| t < edge(count));
+        let point = |i: usize| [self.t(i), column.values[self.slot(i)]];
+        self.spans(
+            column,
+            lo..hi,
+            count,
+            edge,
+            |t| ((t / width).floor() as i64 - k0).max(0) as usize,
+            |k, m: &MinMax| {
+                let mut idx = [m.first, m.imin, m.imax, m.last];
+                idx.sort_unstable();
+                let mut points = [[0.0; 2]; 4];
+                let mut n = 0;
+                for (j, i) in idx.into_iter().enumerate() {
+                    if j == 0 || idx[j - 1] != i {
+                        points[n] = point(i);
+                        n += 1;
+                    }
+                }
+                emit(k0 + k as i64, &points[..n]);
+            },
+        );
+    }
+
+    /// The newest sample of `channel` before time `t`, and the oldest at or after `u`: the
+    /// neighbours that carry a decimated line to the edges of its span.
+    pub fn neighbours(
+        &self,
+        channel: usize,
+        t: f64,
+        u: f64,
+    ) -> (Option<[f64; 2]>, Option<[f64; 2]>) {
+        let Some(column) = self.columns.get(channel) else {
+            return (None, None);
+        };
+        let point = |i: usize| [self.t(i), column.values[self.slot(i)]];
+        let before = self.partition(0, self.len, |x| x < t);
+        let after = self.partition(0, self.len, |x| x < u);
+        (
+            self.prev_sample(column, before, 0).map(point),
+            self.next_sample(column, after, self.len).map(point),
+        )
+    }
+
     /// Per span of a bit channel (status word, digital inputs), which bits were ever 1
     /// (`any`) and always 1 (`all`) among its non-NaN samples. Spans without samples are left
     /// out; values are read as `u32` (saturating, so negative values read as 0).

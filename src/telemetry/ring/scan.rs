@@ -268,17 +268,44 @@ impl Ring {
         // A zero-width window is a single span.
         let columns = if width > 0.0 { columns } else { 1 };
         let n = columns as f64;
-        let edge = |k: usize| window.from + width * (k as f64 / n);
+        self.spans(
+            column,
+            rows,
+            columns,
+            |k| window.from + width * (k as f64 / n),
+            |t| {
+                if width > 0.0 {
+                    ((t - window.from) / width * n) as usize
+                } else {
+                    0
+                }
+            },
+            |_, acc: &A| emit(acc),
+        );
+    }
+
+    /// Split rows into `columns` spans at `edge(k)` (increasing; the rows lie within
+    /// `edge(0)..edge(columns)`, the last span also takes any row at or past its end) and
+    /// call `emit(k, what span k held)` for each non-empty span, in order. `guess` is a
+    /// first guess of a time's span, corrected against the edges, so that a row on an edge
+    /// always goes to the span the edges say.
+    pub(super) fn spans<A: Fold>(
+        &self,
+        column: &Column,
+        rows: Range<usize>,
+        columns: usize,
+        edge: impl Fn(usize) -> f64,
+        guess: impl Fn(f64) -> usize,
+        mut emit: impl FnMut(usize, &A),
+    ) {
+        if columns == 0 {
+            return;
+        }
         let mut i = rows.start;
         let mut previous = 1;
         while i < rows.end {
             let t = self.t(i);
-            let guess = if width > 0.0 {
-                ((t - window.from) / width * n) as usize
-            } else {
-                0
-            };
-            let mut k = guess.min(columns - 1);
+            let mut k = guess(t).min(columns - 1);
             while k + 1 < columns && t >= edge(k + 1) {
                 k += 1;
             }
@@ -294,7 +321,7 @@ impl Ring {
             self.fold(column, i, end, &mut acc);
             // Spans of only NaN fold to nothing.
             if acc.seen() {
-                emit(&acc);
+                emit(k, &acc);
             }
             previous = end - i;
             i = end;
