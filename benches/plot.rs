@@ -90,11 +90,11 @@ fn plot_frames(c: &mut Criterion) {
     g.finish();
 }
 
-/// Frames of the plot panel with the history still (the same view every frame, so the
-/// decimations are reused) and with one new sample per frame (the view moves, every
-/// decimation is made again: a live frame).
+/// Frames of the plot panel with one new sample per frame: the view moves, as in a live
+/// plot following the newest samples (the whole decimations cannot be reused; the grid
+/// columns the newest row has passed are).
 fn live_frames(c: &mut Criterion) {
-    let mut g = c.benchmark_group("plot frame, one new sample per frame (no reuse)");
+    let mut g = c.benchmark_group("plot frame, one new sample per frame (the view moves)");
     g.sample_size(20);
     for rows in [10_000, 600_000] {
         let mut state = state_with(rows);
