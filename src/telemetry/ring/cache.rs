@@ -4,14 +4,10 @@
 //! it is reused while the ring's contents are the same (its [`Version`]), or while the only
 //! rows added since lie after the span and none of the rows it was made of has gone.
 //!
-//! A view that moves (following the newest samples) is decimated on a grid of columns
-//! fixed in time ([`Ring::decimate_grid`], the column width rounded down to a step of 1/64
-//! of its power of two so that it stays the same from frame to frame) and the columns
-//! the newest row has passed are kept: each frame decimates only the columns that came
-//! into view or were still filling, not the whole span.
+//! What is not reused is made on a grid fixed in time ([`Grids`]), so that a view that
+//! moves still reuses the columns the newest row has passed.
 
-use std::collections::VecDeque;
-
+use super::grid::Grids;
 use super::{BitSpan, Ring, Version};
 
 /// What one decimation was asked for.
@@ -27,10 +23,9 @@ struct Key {
 
 #[derive(Debug, Clone)]
 enum Made {
-    /// The points as kept (maybe thinned for drawing), the times of the first and last
-    /// point the decimation made, and the time up to which its columns reached (at or
-    /// after the span's end).
-    Points(Vec<[f64; 2]>, Option<(f64, f64)>, f64),
+    /// The points as kept (maybe thinned for drawing), and the times of the first and
+    /// last point the decimation made.
+    Points(Vec<[f64; 2]>, Option<(f64, f64)>),
     Bits(Vec<BitSpan>),
 }
 
@@ -40,6 +35,8 @@ struct Entry {
     /// The ring's version and newest time when this was made.
     version: Version,
     last: f64,
+    /// Rows before this time were in its columns (the grid's columns reach past the span).
+    until: f64,
     made: Made,
     /// Asked for since the last [`Decimations::end_frame`].
     used: bool,
@@ -59,68 +56,29 @@ impl Entry {
         // span. The first point made (the sample before the span, or the span's first)
         // must still be there, with an older row before it (so no row of equal time went).
         let first = ring.first_time().unwrap_or(f64::INFINITY);
-        if self.key.to >= self.last {
+        // A row appended later must fall after the columns.
+        if self.last < self.until {
             return false;
         }
         match &self.made {
             // The last point must be the sample after the columns: one appended later
-            // could otherwise become it, or fall into the last column.
-            Made::Points(_, ends, until) => {
-                ends.is_some_and(|(head, tail)| head > first && tail >= *until)
+            // could otherwise become it.
+            Made::Points(_, ends) => {
+                ends.is_some_and(|(head, tail)| head > first && tail >= self.until)
             }
             Made::Bits(spans) => spans.first().is_none_or(|s| s.t0 > first),
         }
     }
 }
 
-/// One column of a grid decimation: up to four points (none: the column has no sample),
-/// and whether the newest row had passed the column's end when it was made (only then can
-/// nothing change it but the ring dropping its rows).
-#[derive(Debug, Clone, Copy)]
-struct Cell {
-    len: u8,
-    points: [[f64; 2]; 4],
-    complete: bool,
-}
-
-/// The columns of a moving view of one channel, on a fixed grid.
-#[derive(Debug, Clone)]
-struct Grid {
-    ring: u64,
-    epoch: u64,
-    channel: usize,
-    width: f64,
-    /// Column `first + i` is `cells[i]` (`None`: not made).
-    first: i64,
-    cells: VecDeque<Option<Cell>>,
-    /// The ring's oldest row time when last used: rows dropped since lie before the oldest
-    /// now, and the columns they were in must be made again.
-    oldest: f64,
-    used: bool,
-}
-
-/// The width of a grid column for spans `width` wide: rounded down to a multiple of 1/64 of
-/// its power of two, so that a view of the same length (its ends moving, their difference
-/// changing in the last bits) keeps the same grid. At most 1.6 % narrower: a few more
-/// columns than asked for.
-fn grid_width(width: f64) -> f64 {
-    if !(width > 0.0 && width.is_finite()) {
-        return f64::NAN;
-    }
-    let step = 2f64.powi(width.log2().floor() as i32) / 64.0;
-    ((width / step).floor() * step).max(step)
-}
-
 /// The decimations of the last frames, for reuse.
 #[derive(Debug, Clone, Default)]
 pub struct Decimations {
     entries: Vec<Entry>,
-    grids: Vec<Grid>,
+    grids: Grids,
     /// Decimations reused and made since this was created (for tests and measurements).
     pub reused: u64,
     pub made: u64,
-    /// Grid columns decimated since this was created (the rest were kept).
-    pub columns_made: u64,
 }
 
 impl Decimations {
@@ -155,129 +113,22 @@ impl Decimations {
             to,
             columns,
         };
-        if let Some(Made::Points(points, _, _)) = self.find(ring, key) {
+        if let Some(Made::Points(points, _)) = self.find(ring, key) {
             return points.clone();
         }
-        let (points, until) = self.on_grid(ring, channel, from, to, columns);
+        let (points, until) = self
+            .grids
+            .points(ring, channel, (from, to), columns)
+            .unwrap_or_else(|| (ring.decimate(channel, from, to, columns), to.next_up()));
         let ends = points.first().zip(points.last()).map(|(a, b)| (a[0], b[0]));
         let points = finish(points);
-        self.keep(ring, key, Made::Points(points.clone(), ends, until));
+        self.keep(ring, key, until, Made::Points(points.clone(), ends));
         points
     }
 
-    /// The decimation of `from..=to` on the grid of its column width, the columns kept from
-    /// earlier frames reused; and the time its columns reach to. A span that cannot have a
-    /// grid (empty, not finite) is decimated as asked.
-    fn on_grid(
-        &mut self,
-        ring: &Ring,
-        channel: usize,
-        from: f64,
-        to: f64,
-        columns: usize,
-    ) -> (Vec<[f64; 2]>, f64) {
-        let width = grid_width((to - from) / columns.max(1) as f64);
-        let (k0, k1) = ((from / width).floor(), (to / width).floor());
-        if !(k0.is_finite() && k1.is_finite()) || k1 - k0 > 4.0 * columns as f64 + 4.0 {
-            return (ring.decimate(channel, from, to, columns), to);
-        }
-        let (k0, k1) = (k0 as i64, k1 as i64);
-        let version = ring.version();
-        let at = self
-            .grids
-            .iter()
-            .position(|g| g.ring == version.id && g.channel == channel && g.width == width);
-        let grid = match at {
-            Some(at) => &mut self.grids[at],
-            None => {
-                self.grids.push(Grid {
-                    ring: version.id,
-                    epoch: version.epoch,
-                    channel,
-                    width,
-                    first: k0,
-                    cells: VecDeque::new(),
-                    oldest: f64::NEG_INFINITY,
-                    used: true,
-                });
-                let last = self.grids.len() - 1;
-                &mut self.grids[last]
-            }
-        };
-        grid.used = true;
-        // Another epoch (cleared, resized), or the view went back before what is kept.
-        if grid.epoch != version.epoch || k0 < grid.first {
-            grid.epoch = version.epoch;
-            grid.cells.clear();
-            grid.first = k0;
-        }
-        // The columns left behind go; those that held rows the ring dropped since the last
-        // frame (between the oldest row then and the oldest now) are made again.
-        while !grid.cells.is_empty() && grid.first < k0 {
-            grid.cells.pop_front();
-            grid.first += 1;
-        }
-        let oldest = ring.first_time().unwrap_or(f64::INFINITY);
-        for (j, cell) in grid.cells.iter_mut().enumerate() {
-            let k = grid.first + j as i64;
-            if (k as f64) * width >= oldest {
-                break;
-            }
-            if ((k + 1) as f64) * width > grid.oldest {
-                *cell = None;
-            }
-        }
-        grid.oldest = oldest;
-        if grid.cells.is_empty() {
-            grid.first = k0;
-        }
-        // Columns in view before those kept (the ring's oldest rows were dropped from
-        // them): made afresh below.
-        while grid.first > k0 {
-            grid.cells.push_front(None);
-            grid.first -= 1;
-        }
-        let wanted = (k1 - grid.first + 1) as usize;
-        grid.cells.truncate(wanted);
-        grid.cells.resize(wanted, None);
-        // Make the columns not kept, a run at a time.
-        let newest = ring.last_time().unwrap_or(f64::NEG_INFINITY);
-        let mut k = k0;
-        while k <= k1 {
-            let kept = |k: i64| grid.cells[(k - grid.first) as usize].is_some_and(|c| c.complete);
-            if kept(k) {
-                k += 1;
-                continue;
-            }
-            let start = k;
-            while k <= k1 && !kept(k) {
-                k += 1;
-            }
-            for j in start..k {
-                grid.cells[(j - grid.first) as usize] = Some(Cell {
-                    len: 0,
-                    points: [[0.0; 2]; 4],
-                    complete: (j + 1) as f64 * width <= newest,
-                });
-            }
-            self.columns_made += (k - start) as u64;
-            let first = grid.first;
-            ring.decimate_grid(channel, (start, k - 1), width, |j, points| {
-                if let Some(Some(cell)) = grid.cells.get_mut((j - first) as usize) {
-                    cell.len = points.len() as u8;
-                    cell.points[..points.len()].copy_from_slice(points);
-                }
-            });
-        }
-        let until = (k1 + 1) as f64 * width;
-        let (before, after) = ring.neighbours(channel, k0 as f64 * width, until);
-        let mut out = Vec::with_capacity(4 * (k1 - k0 + 1) as usize + 2);
-        out.extend(before);
-        for cell in grid.cells.iter().flatten() {
-            out.extend_from_slice(&cell.points[..usize::from(cell.len)]);
-        }
-        out.extend(after);
-        (out, until)
+    /// Grid columns decimated since this was created (the rest were kept).
+    pub fn columns_made(&self) -> u64 {
+        self.grids.columns_made
     }
 
     /// [`Ring::decimate_bits`], reused when it still holds.
@@ -300,8 +151,11 @@ impl Decimations {
         if let Some(Made::Bits(spans)) = self.find(ring, key) {
             return spans.clone();
         }
-        let spans = ring.decimate_bits(channel, from, to, columns);
-        self.keep(ring, key, Made::Bits(spans.clone()));
+        let (spans, until) = self
+            .grids
+            .bits(ring, channel, (from, to), columns)
+            .unwrap_or_else(|| (ring.decimate_bits(channel, from, to, columns), to.next_up()));
+        self.keep(ring, key, until, Made::Bits(spans.clone()));
         spans
     }
 
@@ -311,10 +165,7 @@ impl Decimations {
         for entry in &mut self.entries {
             entry.used = false;
         }
-        self.grids.retain(|g| g.used);
-        for grid in &mut self.grids {
-            grid.used = false;
-        }
+        self.grids.end_frame();
     }
 
     fn find(&mut self, ring: &Ring, key: Key) -> Option<&Made> {
@@ -329,13 +180,14 @@ impl Decimations {
         Some(&entry.made)
     }
 
-    fn keep(&mut self, ring: &Ring, key: Key, made: Made) {
+    fn keep(&mut self, ring: &Ring, key: Key, until: f64, made: Made) {
         self.made += 1;
         self.entries.retain(|e| e.key != key);
         self.entries.push(Entry {
             key,
             version: ring.version(),
             last: ring.last_time().unwrap_or(f64::NEG_INFINITY),
+            until,
             made,
             used: true,
         });
@@ -361,6 +213,11 @@ mod tests {
         Decimations::default().points(ring, 0, from, to, columns)
     }
 
+    /// The same for the bits of channel 1.
+    fn afresh_bits(ring: &Ring, from: f64, to: f64, columns: usize) -> Vec<BitSpan> {
+        Decimations::default().bits(ring, 1, from, to, columns)
+    }
+
     #[test]
     fn a_span_that_has_not_moved_is_decimated_once_and_always_as_afresh() {
         let mut ring = ring(20_000, 30_000);
@@ -378,7 +235,7 @@ mod tests {
                 let now = cache.points(&ring, 0, from, to, 300);
                 assert_eq!(now, afresh(&ring, from, to, 300), "row {i}");
                 let bits = cache.bits(&ring, 1, from, to, 300);
-                assert_eq!(bits, ring.decimate_bits(1, from, to, 300), "row {i}");
+                assert_eq!(bits, afresh_bits(&ring, from, to, 300), "row {i}");
             }
         }
         assert!(cache.reused > 10, "{cache:?}");
@@ -415,7 +272,7 @@ mod tests {
         cache.end_frame();
         cache.end_frame();
         assert!(cache.entries.is_empty());
-        assert!(cache.grids.is_empty());
+        assert_eq!(cache.grids.len(), 0);
     }
 
     /// Per grid column, its first, lowest, highest and last samples, found by looking at
@@ -470,6 +327,28 @@ mod tests {
                 brute_grid(&ring, k0, k1, width),
                 "{k0}..={k1} by {width}"
             );
+            // The bits of channel 1 on the same grid: first and last times, OR and AND.
+            let mut bits = vec![];
+            ring.decimate_bits_grid(1, (k0, k1), width, |k, span| bits.push((k, span)));
+            let mut expected = vec![];
+            for k in k0..=k1 {
+                let (lo, hi) = (k as f64 * width, (k + 1) as f64 * width);
+                let rows: Vec<(f64, u32)> = (0..ring.len())
+                    .filter_map(|i| Some((ring.time(i)?, ring.value(i, 1)?)))
+                    .filter(|(t, v)| *t >= lo && *t < hi && !v.is_nan())
+                    .map(|(t, v)| (t, v as u32))
+                    .collect();
+                if let (Some(first), Some(last)) = (rows.first(), rows.last()) {
+                    let span = BitSpan {
+                        t0: first.0,
+                        t1: last.0,
+                        any: rows.iter().fold(0, |a, r| a | r.1),
+                        all: rows.iter().fold(u32::MAX, |a, r| a & r.1),
+                    };
+                    expected.push((k, span));
+                }
+            }
+            assert_eq!(bits, expected, "bits {k0}..={k1} by {width}");
         }
     }
 
@@ -484,7 +363,8 @@ mod tests {
             for _ in 0..37 {
                 let v =
                     ((i * 7919) % 101) as f64 + if i.is_multiple_of(5_003) { 900.0 } else { 0.0 };
-                ring.push(i as f64 * 0.001, &[v, 0.0]).expect("forward");
+                let bits = ((i / 700) % 4) as f64;
+                ring.push(i as f64 * 0.001, &[v, bits]).expect("forward");
                 i += 1;
             }
             let to = ring.last_time().expect("rows");
@@ -492,16 +372,18 @@ mod tests {
             let from = to - 10.0;
             let points = cache.points(&ring, 0, from, to, 600);
             assert_eq!(points, afresh(&ring, from, to, 600), "frame {frames}");
+            let bits = cache.bits(&ring, 1, from, to, 600);
+            assert_eq!(bits, afresh_bits(&ring, from, to, 600), "frame {frames}");
             cache.end_frame();
             frames += 1;
         }
         // Most columns were kept, not made again: 37 ms of rows a frame fill about two
         // columns of 16.7 ms; the first frames and the ring's dropped rows add a few.
-        assert_eq!(cache.grids.len(), 1);
-        let per_frame = cache.columns_made as f64 / frames as f64;
+        assert_eq!(cache.grids.len(), 2);
+        let per_frame = cache.columns_made() as f64 / frames as f64;
         assert!(
-            per_frame < 12.0,
-            "{per_frame} columns made a frame of ~600 in view"
+            per_frame < 24.0,
+            "{per_frame} columns made a frame of ~2 × 600 in view"
         );
         // And every extreme is drawn: the spikes in view are there.
         let to = ring.last_time().expect("rows");

@@ -27,6 +27,7 @@ mod scan;
 #[allow(unused_imports)]
 pub use scan::*;
 mod cache;
+mod grid;
 pub use cache::Decimations;
 #[cfg(test)]
 mod tests;
@@ -388,13 +389,62 @@ impl Ring {
     pub fn decimate_grid(
         &self,
         channel: usize,
-        (k0, k1): (i64, i64),
+        columns: (i64, i64),
         width: f64,
         mut emit: impl FnMut(i64, &[[f64; 2]]),
     ) {
         let Some(column) = self.columns.get(channel) else {
             return;
         };
+        let point = |i: usize| [self.t(i), column.values[self.slot(i)]];
+        self.grid_spans(column, columns, width, |k, m: &MinMax| {
+            let mut idx = [m.first, m.imin, m.imax, m.last];
+            idx.sort_unstable();
+            let mut points = [[0.0; 2]; 4];
+            let mut n = 0;
+            for (j, i) in idx.into_iter().enumerate() {
+                if j == 0 || idx[j - 1] != i {
+                    points[n] = point(i);
+                    n += 1;
+                }
+            }
+            emit(k, &points[..n]);
+        });
+    }
+
+    /// [`Ring::decimate_bits`] on the grid of [`Ring::decimate_grid`]: each non-empty
+    /// column's bits, with its number.
+    pub fn decimate_bits_grid(
+        &self,
+        channel: usize,
+        columns: (i64, i64),
+        width: f64,
+        mut emit: impl FnMut(i64, BitSpan),
+    ) {
+        let Some(column) = self.columns.get(channel) else {
+            return;
+        };
+        self.grid_spans(column, columns, width, |k, b: &Bits| {
+            emit(
+                k,
+                BitSpan {
+                    t0: self.t(b.first),
+                    t1: self.t(b.last),
+                    any: b.any,
+                    all: b.all,
+                },
+            );
+        });
+    }
+
+    /// What each non-empty grid column `k0..=k1` of `width` held, with its number.
+    fn grid_spans<A: Fold>(
+        &self,
+        column: &Column,
+        (k0, k1): (i64, i64),
+        width: f64,
+        mut emit: impl FnMut(i64, &A),
+    ) {
         if !(width > 0.0 && width.is_finite()) || k1 < k0 {
             return;
         }
@@ -402,26 +452,13 @@ impl Ring {
         let edge = |k: usize| (k0 + k as i64) as f64 * width;
         let lo = self.partition(0, self.len, |t| t < edge(0));
         let hi = self.partition(lo, self.len, |t| t < edge(count));
-        let point = |i: usize| [self.t(i), column.values[self.slot(i)]];
         self.spans(
             column,
             lo..hi,
             count,
             edge,
             |t| ((t / width).floor() as i64 - k0).max(0) as usize,
-            |k, m: &MinMax| {
-                let mut idx = [m.first, m.imin, m.imax, m.last];
-                idx.sort_unstable();
-                let mut points = [[0.0; 2]; 4];
-                let mut n = 0;
-                for (j, i) in idx.into_iter().enumerate() {
-                    if j == 0 || idx[j - 1] != i {
-                        points[n] = point(i);
-                        n += 1;
-                    }
-                }
-                emit(k0 + k as i64, &points[..n]);
-            },
+            |k, acc: &A| emit(k0 + k as i64, acc),
         );
     }
 
