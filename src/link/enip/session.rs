@@ -23,6 +23,8 @@ pub struct Session {
     stream: TcpStream,
     handle: u32,
     buffer: Vec<u8>,
+    /// The message being sent, kept from one exchange to the next.
+    out: Vec<u8>,
     context: u64,
     timeout: Duration,
     /// `host:port`, for messages.
@@ -130,6 +132,7 @@ impl Session {
             stream,
             handle: 0,
             buffer: Vec::with_capacity(1024),
+            out: Vec::with_capacity(256),
             context: 0,
             timeout,
             peer: peer.into(),
@@ -220,7 +223,7 @@ impl Session {
     ) -> Result<T, Error> {
         let deadline = Instant::now() + self.timeout;
         let mut troubles = Vec::new();
-        let mut contexts = Vec::new();
+        let mut contexts = Contexts::default();
         for attempt in 1..=TRIES {
             let try_deadline = try_deadline(attempt, self.timeout, deadline);
             let reply = match self
@@ -258,17 +261,16 @@ impl Session {
         data: &[u8],
         what: &What<'_>,
         deadline: Instant,
-        contexts: &mut Vec<[u8; 8]>,
+        contexts: &mut Contexts,
     ) -> Result<Packet, Trouble> {
         self.context = self.context.wrapping_add(1);
         let context = self.context.to_le_bytes();
         contexts.push(context);
-        let packet = Packet::new(command, self.handle, context, data.to_vec());
-        let bytes = packet.encode();
-        self.record(true, &bytes, Kept::Message);
+        Packet::encode_request_into(&mut self.out, command, self.handle, context, data);
+        self.trace.record(true, Kept::Message, &self.out);
         send_within(
             &mut self.stream,
-            &bytes,
+            &self.out,
             deadline,
             what,
             self.timeout,
@@ -306,7 +308,7 @@ impl Session {
     fn buffered_reply(
         &mut self,
         command: Command,
-        contexts: &[[u8; 8]],
+        contexts: &Contexts,
     ) -> Option<Result<Packet, Trouble>> {
         loop {
             match encap::split(&self.buffer) {
@@ -413,6 +415,27 @@ impl Session {
         self.record(true, &bytes, Kept::Message);
         let _ = tokio::time::timeout(self.timeout, self.stream.write_all(&bytes)).await;
         let _ = self.stream.shutdown().await;
+    }
+}
+
+/// The sender contexts of the tries of one request (at most [`TRIES`]): a reply to any of
+/// them answers it.
+#[derive(Default)]
+struct Contexts {
+    sent: [[u8; 8]; TRIES as usize],
+    len: usize,
+}
+
+impl Contexts {
+    fn push(&mut self, context: [u8; 8]) {
+        if let Some(slot) = self.sent.get_mut(self.len) {
+            *slot = context;
+            self.len += 1;
+        }
+    }
+
+    fn contains(&self, context: &[u8; 8]) -> bool {
+        self.sent[..self.len].contains(context)
     }
 }
 

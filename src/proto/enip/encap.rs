@@ -184,6 +184,29 @@ impl Packet {
         out
     }
 
+    /// A request (status and options 0) with `data` written onto `out` (cleared first), as
+    /// [`Packet::encode`] writes it, without building the packet: a session sends one per
+    /// exchange and keeps the buffer.
+    pub fn encode_request_into(
+        out: &mut Vec<u8>,
+        command: Command,
+        session: u32,
+        context: [u8; 8],
+        data: &[u8],
+    ) {
+        out.clear();
+        Header {
+            command,
+            length: data.len().min(usize::from(u16::MAX)) as u16,
+            session,
+            status: Status::SUCCESS,
+            context,
+            options: 0,
+        }
+        .encode_into(out);
+        out.extend_from_slice(data);
+    }
+
     /// One whole datagram (UDP): the header's length must match what came.
     pub fn decode(bytes: &[u8]) -> Result<Packet, DecodeError> {
         let header = Header::decode(bytes)?;
