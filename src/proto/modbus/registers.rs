@@ -189,8 +189,27 @@ impl ImageLayout {
 
     /// Pack object values (raw, as unsigned bits of their width) into registers.
     /// `value_of` gives each mapped object's value; dummies are zero.
-    pub fn pack(&self, mut value_of: impl FnMut(Address) -> u32, order: WordOrder) -> Vec<u16> {
-        let mut stream = Vec::with_capacity(self.byte_len() + 1);
+    pub fn pack(&self, value_of: impl FnMut(Address) -> u32, order: WordOrder) -> Vec<u16> {
+        let mut out = Vec::with_capacity(self.register_len());
+        self.pack_into(value_of, order, &mut out);
+        out
+    }
+
+    /// [`ImageLayout::pack`] onto the end of `out`, allocating nothing else: the simulated
+    /// drive's server packs an image on every request. Bytes pair into registers as they
+    /// come (an 8-bit object may leave half a register for the next one); an odd byte count
+    /// ends with a zero byte.
+    pub fn pack_into(
+        &self,
+        mut value_of: impl FnMut(Address) -> u32,
+        order: WordOrder,
+        out: &mut Vec<u16>,
+    ) {
+        let mut half: Option<u8> = None;
+        let mut put = |byte: u8, out: &mut Vec<u16>| match half.take() {
+            Some(high) => out.push(u16::from_be_bytes([high, byte])),
+            None => half = Some(byte),
+        };
         for entry in &self.entries {
             let value = if entry.is_dummy() {
                 0
@@ -198,23 +217,22 @@ impl ImageLayout {
                 value_of(entry.address)
             };
             match entry.bits {
-                8 => stream.push(value as u8),
-                16 => stream.extend_from_slice(&(value as u16).to_be_bytes()),
+                8 => put(value as u8, out),
+                16 => (value as u16)
+                    .to_be_bytes()
+                    .into_iter()
+                    .for_each(|b| put(b, out)),
                 _ => {
                     // A 32-bit object: its two words in the configured order.
                     for word in u32_to_registers(value, order) {
-                        stream.extend_from_slice(&word.to_be_bytes());
+                        word.to_be_bytes().into_iter().for_each(|b| put(b, out));
                     }
                 }
             }
         }
-        if stream.len() % 2 == 1 {
-            stream.push(0);
+        if let Some(high) = half {
+            out.push(u16::from_be_bytes([high, 0]));
         }
-        stream
-            .chunks_exact(2)
-            .map(|pair| u16::from_be_bytes([pair[0], pair[1]]))
-            .collect()
     }
 
     /// The objects a register write covers: each mapped object whose bytes lie wholly in

@@ -151,7 +151,7 @@ fn read_area(
     if within(PDI_TX, tx_len) {
         let mut all = Vec::with_capacity(tx_len);
         all.extend_from_slice(&registers::tx_to_registers(&drive.tx_image(), order));
-        all.extend(tx_layout.pack(|a| raw_value(drive, a), order));
+        tx_layout.pack_into(|a| raw_value(drive, a), order, &mut all);
         return Some(slice(all, PDI_TX));
     }
     let rx_layout = layout(drive, 0x3502, &mut layouts.rx);
@@ -159,7 +159,7 @@ fn read_area(
     if within(PDI_RX, rx_len) {
         let mut all = Vec::with_capacity(rx_len);
         all.extend_from_slice(&registers::rx_to_registers(&drive.rx_image(), order));
-        all.extend(rx_layout.pack(|a| raw_value(drive, a), order));
+        rx_layout.pack_into(|a| raw_value(drive, a), order, &mut all);
         return Some(slice(all, PDI_RX));
     }
     if within(NANOJ_OUTPUTS, usize::from(NANOJ_REGISTERS)) {
