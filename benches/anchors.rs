@@ -578,18 +578,27 @@ fn measure(
     span: Duration,
     python: &str,
 ) -> Result<Run, String> {
+    again(client, addr, || match client {
+        "drivedeck" => Some(runtime.block_on(drivedeck_client(addr, span))),
+        "tokio-modbus" => Some(runtime.block_on(tokio_modbus_client(addr, span))),
+        "pymodbus" => Some(pymodbus_client(python, addr, span)),
+        "raw TCP" => Some(raw_client(addr, span)),
+        _ => None,
+    })
+}
+
+/// `run` up to five times, 200 ms apart, until it measures; `None` from it: no such client.
+fn again(
+    client: &str,
+    addr: SocketAddr,
+    mut run: impl FnMut() -> Option<Result<Run, String>>,
+) -> Result<Run, String> {
     let mut last = String::new();
     for _ in 0..5 {
-        let result = match client {
-            "drivedeck" => runtime.block_on(drivedeck_client(addr, span)),
-            "tokio-modbus" => runtime.block_on(tokio_modbus_client(addr, span)),
-            "pymodbus" => pymodbus_client(python, addr, span),
-            "raw TCP" => raw_client(addr, span),
-            other => return Err(format!("no client {other}")),
-        };
-        match result {
-            Ok(run) => return Ok(run),
-            Err(e) => last = e,
+        match run() {
+            None => return Err(format!("no client {client}")),
+            Some(Ok(run)) => return Ok(run),
+            Some(Err(e)) => last = e,
         }
         std::thread::sleep(Duration::from_millis(200));
     }
@@ -937,20 +946,11 @@ fn measure_enip(
     addr: SocketAddr,
     span: Duration,
 ) -> Result<Run, String> {
-    let mut last = String::new();
-    for _ in 0..5 {
-        let result = match client {
-            "drivedeck" => runtime.block_on(drivedeck_enip_client(addr, span)),
-            "raw TCP" => raw_enip_client(addr, span),
-            other => return Err(format!("no client {other}")),
-        };
-        match result {
-            Ok(run) => return Ok(run),
-            Err(e) => last = e,
-        }
-        std::thread::sleep(Duration::from_millis(200));
-    }
-    Err(format!("{client} on {addr}: {last}"))
+    again(client, addr, || match client {
+        "drivedeck" => Some(runtime.block_on(drivedeck_enip_client(addr, span))),
+        "raw TCP" => Some(raw_enip_client(addr, span)),
+        _ => None,
+    })
 }
 
 fn run_enip(args: &Args) -> Result<(), String> {

@@ -25,8 +25,9 @@ fn bytes_of(raw: &str) -> Vec<u8> {
         .collect()
 }
 
-#[test]
-fn class_1_io_keeps_producing_and_consuming_while_the_links_thread_is_blocked() {
+/// The simulated adapter with class 1 I/O on any port, the link to it at RPI_MS, and a
+/// runtime of one thread (the link's, as the worker's).
+fn served() -> (ServerThread, LinkSpec, tokio::runtime::Runtime) {
     let server = ServerThread::enip(
         ([127, 0, 0, 1], 0).into(),
         AdapterOptions {
@@ -42,6 +43,13 @@ fn class_1_io_keeps_producing_and_consuming_while_the_links_thread_is_blocked() 
         .enable_all()
         .build()
         .expect("runtime");
+    (server, spec, runtime)
+}
+
+#[test]
+fn class_1_io_keeps_producing_and_consuming_while_the_links_thread_is_blocked() {
+    // The server lives to the end of the test.
+    let (_server, spec, runtime) = served();
     runtime.block_on(async {
         let mut link = EnipLink::connect(&spec).await.expect("connected");
         let rx = link.read_rx().await.expect("the RX image");
@@ -105,21 +113,8 @@ fn class_1_io_keeps_producing_and_consuming_while_the_links_thread_is_blocked() 
 /// consumer at real-time priority goes back to ordinary priority, said once in the log.
 #[test]
 fn a_flood_at_the_io_socket_lowers_the_consumer_and_the_io_goes_on() {
-    let server = ServerThread::enip(
-        ([127, 0, 0, 1], 0).into(),
-        AdapterOptions {
-            io_port: 0,
-            ..AdapterOptions::default()
-        },
-    )
-    .expect("the simulated adapter");
-    let spec: LinkSpec = format!("enip://{}?io=pdi&rpi={RPI_MS}&udp=0", server.addr)
-        .parse()
-        .expect("spec");
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("runtime");
+    // The server lives to the end of the test.
+    let (_server, spec, runtime) = served();
     runtime.block_on(async {
         let mut link = EnipLink::connect(&spec).await.expect("connected");
         let rx = link.read_rx().await.expect("the RX image");
