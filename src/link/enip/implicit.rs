@@ -727,8 +727,17 @@ impl Consumer {
         let now = priority::lower_current_thread();
         let mut s = lock(&self.shared);
         s.timing.consumer_priority = Some(now);
+        let what = match now {
+            Priority::Normal => {
+                "the I/O consumer went back to ordinary priority so that a flood cannot take a core"
+                    .to_owned()
+            }
+            Priority::Realtime(_) => format!(
+                "the I/O consumer could not leave {now} priority, so the flood may take a core"
+            ),
+        };
         s.notices.push(format!(
-            "class 1 I/O: {count} datagrams reached the T→O socket within {} ms (the last from {from}), more than four times what an RPI of {} ms sends: the I/O consumer went back to {now} priority so that a flood cannot take a core; the I/O goes on",
+            "class 1 I/O: {count} datagrams reached the T→O socket within {} ms (the last from {from}), more than four times what an RPI of {} ms sends: {what}; the I/O goes on (find what else sends to this port: a second scanner, a device given this address)",
             FloodGuard::WINDOW.as_millis(),
             self.config.to_rpi.as_secs_f64() * 1e3,
         ));
