@@ -19,6 +19,8 @@
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
+use drivedeck::ui::plots::PlotCommand;
+use drivedeck::ui::Command;
 use drivedeck::ui::pace::{Pace, stat_cpu};
 use drivedeck::ui::{App, Settings};
 use drivedeck::worker::Notify;
@@ -157,8 +159,8 @@ fn run(scenario: &Scenario, warm_up: Duration, seconds: Duration) -> Figures {
     let mut paused = false;
     while due.wait(warm_end) {
         frame(&mut app);
-        if scenario.paused && !paused && app.state.scope.ring().last_time().is_some() {
-            app.state.plot.paused_at = app.state.scope.ring().last_time();
+        if scenario.paused && !paused && app.shown().scope.ring().last_time().is_some() {
+            app.apply_command(Command::Plot(PlotCommand::Pause));
             paused = true;
         }
     }

@@ -9,20 +9,18 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group};
 use drivedeck::pdi::{Status, TxImage};
 use drivedeck::signal::{Signal, Signals};
-use drivedeck::ui::{AppState, Settings};
+use drivedeck::ui::plots::Alone;
 use drivedeck::worker::Sample;
 use eframe::egui;
 
 /// A plot panel holding `rows` samples at 1 kHz: a moving motor with noise, a few
 /// one-sample spikes, status bits toggling.
-fn state_with(rows: usize) -> AppState {
-    let mut settings = Settings::default();
-    settings.plot.history_rows = rows;
+fn state_with(rows: usize) -> Alone {
+    let mut state = Alone::new(rows);
     // The whole history in view: the worst case.
-    settings.plot.window_s = 0.0;
-    let mut state = AppState::new(settings);
+    state.settings.window_s = 0.0;
     for i in 0..rows {
-        state.scope.push(&sample(i));
+        state.drive.scope.push(&sample(i));
     }
     state
 }
@@ -56,7 +54,7 @@ fn sample(i: usize) -> Sample {
     }
 }
 
-fn frame(ctx: &egui::Context, state: &mut AppState) -> usize {
+fn frame(ctx: &egui::Context, state: &mut Alone) -> usize {
     drivedeck::ui::plots::headless_frame(ctx, state)
 }
 
@@ -78,7 +76,7 @@ fn plot_frames(c: &mut Criterion) {
     let mut g = c.benchmark_group("decimation, one signal, 1600 columns");
     for rows in [10_000, 600_000, 1_000_000, 5_000_000] {
         let state = state_with(rows);
-        let ring = state.scope.ring();
+        let ring = state.drive.scope.ring();
         let (from, to) = (
             ring.first_time().unwrap_or(0.0),
             ring.last_time().unwrap_or(0.0),
@@ -104,7 +102,7 @@ fn live_frames(c: &mut Criterion) {
         let mut i = rows;
         g.bench_function(format!("{rows} samples"), |b| {
             b.iter(|| {
-                state.scope.push(&sample(i));
+                state.drive.scope.push(&sample(i));
                 i += 1;
                 black_box(frame(&ctx, &mut state))
             })
@@ -134,7 +132,7 @@ fn profile() -> bool {
     let mut n = 0;
     for k in 0..frames {
         if live {
-            state.scope.push(&sample(rows + k));
+            state.drive.scope.push(&sample(rows + k));
         }
         n += frame(&ctx, &mut state);
     }

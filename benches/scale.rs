@@ -16,7 +16,7 @@ use drivedeck::od::Address;
 use drivedeck::pdi::{Status, TxImage};
 use drivedeck::signal::{MAX_WATCHED, Signal, Signals};
 use drivedeck::telemetry::WatchedObject;
-use drivedeck::ui::{AppState, Settings};
+use drivedeck::ui::plots::Alone;
 use drivedeck::worker::Sample;
 use eframe::egui;
 
@@ -51,11 +51,9 @@ static ALLOCATOR: Counting = Counting;
 const ROWS: usize = 600_000;
 
 /// A plot panel with 10 minutes of 1 kHz samples, and `watched` objects sampled besides.
-fn state_with(watched: usize) -> AppState {
-    let mut settings = Settings::default();
-    settings.plot.history_rows = ROWS;
-    settings.plot.window_s = 0.0;
-    let mut state = AppState::new(settings);
+fn state_with(watched: usize) -> Alone {
+    let mut state = Alone::new(ROWS);
+    state.settings.window_s = 0.0;
     let objects: Vec<WatchedObject> = (0..watched)
         .map(|i| WatchedObject {
             address: Address::new(0x2400 + i as u16, 1),
@@ -63,7 +61,7 @@ fn state_with(watched: usize) -> AppState {
             unit: String::new(),
         })
         .collect();
-    state.scope.set_watched(&objects);
+    state.drive.scope.set_watched(&objects);
     for i in 0..ROWS {
         let t = i as f64 * 0.001;
         let noise = ((i * 7919) % 101) as f64 - 50.0;
@@ -71,7 +69,7 @@ fn state_with(watched: usize) -> AppState {
         for (k, v) in values.iter_mut().take(watched).enumerate() {
             *v = Some((t * (0.3 + k as f64 * 0.2)).sin() * 1000.0 + noise);
         }
-        state.scope.push(&Sample {
+        state.drive.scope.push(&Sample {
             t,
             signals: Signals::default()
                 .with(Signal::Position, (t * 0.7).sin() * 36_000.0 + noise)
@@ -87,7 +85,7 @@ fn state_with(watched: usize) -> AppState {
         });
     }
     // Every user signal drawn, as a technician who pinned them would have it.
-    for signal in state.scope.signals_mut() {
+    for signal in state.drive.scope.signals_mut() {
         if signal.info.name.starts_with("User object") {
             signal.shown = true;
         }
@@ -95,7 +93,7 @@ fn state_with(watched: usize) -> AppState {
     state
 }
 
-fn frame(ctx: &egui::Context, state: &mut AppState) -> usize {
+fn frame(ctx: &egui::Context, state: &mut Alone) -> usize {
     drivedeck::ui::plots::headless_frame(ctx, state)
 }
 
@@ -110,7 +108,7 @@ fn main() {
         let before = LIVE.load(Ordering::Relaxed);
         let state = state_with(watched);
         let bytes = LIVE.load(Ordering::Relaxed).saturating_sub(before);
-        let channels = state.scope.signals().len();
+        let channels = state.drive.scope.signals().len();
         cases.push((watched, channels, bytes, state, egui::Context::default()));
     }
     let before_frames = LIVE.load(Ordering::Relaxed);

@@ -103,9 +103,9 @@ fn the_window_connects_over_slcan_and_moves_the_motor() {
         "the slcan connection",
         Duration::from_secs(10),
         |h| {
-            h.state().state.link_info().is_some_and(|i| {
+            h.state().shown().link_info().is_some_and(|i| {
                 i.description.contains("CANopen node 5") && i.description.contains("RPDO1/TPDO1")
-            }) && h.state().state.latest.is_some()
+            }) && h.state().shown().latest().is_some()
         },
     );
     harness.get_by_label("Move absolute").click();
@@ -116,7 +116,7 @@ fn the_window_connects_over_slcan_and_moves_the_motor() {
         Duration::from_secs(15),
         |h| {
             lamp(h, "Target reached")
-                && h.state().state.latest.map(|s| s.tx.return_value) == Some(2000)
+                && h.state().shown().latest().map(|s| s.tx.return_value) == Some(2000)
         },
     );
     window::read_object(
@@ -135,6 +135,6 @@ fn the_window_connects_over_slcan_and_moves_the_motor() {
         &mut harness,
         "the disconnection",
         Duration::from_secs(5),
-        |h| h.state().state.link_info().is_none(),
+        |h| h.state().shown().link_info().is_none(),
     );
 }

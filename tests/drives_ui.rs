@@ -14,7 +14,8 @@ use drivedeck::injection::Injection;
 use drivedeck::od::Address;
 use drivedeck::pdi::Action;
 use drivedeck::ui::App;
-use drivedeck::ui::state::{AppState, Connection};
+use drivedeck::ui::Drive as AppState;
+use drivedeck::ui::drive::Connection;
 use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui_kittest::Harness;
@@ -39,24 +40,24 @@ fn two_drives() -> Harness<'static, App> {
         &mut harness,
         "both drives sampled",
         Duration::from_secs(5),
-        |h| (0..2).all(|i| h.state().drive_state(i).is_some_and(|s| s.latest.is_some())),
+        |h| (0..2).all(|i| h.state().drive(i).is_some_and(|s| s.latest().is_some())),
     );
     harness
 }
 
 fn drive<'a>(harness: &'a Harness<'_, App>, index: usize) -> &'a AppState {
-    harness.state().drive_state(index).expect("the drive")
+    harness.state().drive(index).expect("the drive")
 }
 
 fn power(state: &AppState) -> Option<PowerState> {
     state
-        .latest
+        .latest()
         .and_then(|s| s.statusword())
         .and_then(PowerState::from_statusword)
 }
 
 fn speed(state: &AppState) -> f64 {
-    state.latest.and_then(|s| s.velocity()).unwrap_or(f64::NAN)
+    state.latest().and_then(|s| s.velocity()).unwrap_or(f64::NAN)
 }
 
 /// Drive `index` told to turn at 30 rpm (slow: the simulated drive's limit switch at
@@ -64,7 +65,7 @@ fn speed(state: &AppState) -> f64 {
 fn turn(harness: &mut Harness<'_, App>, index: usize) {
     harness
         .state_mut()
-        .drive_state_mut(index)
+        .drive_mut(index)
         .expect("the drive")
         .request(Request::Command(Action::Velocity { speed: 30 }));
     step_until(harness, "the motor to turn", Duration::from_secs(5), |h| {
@@ -108,7 +109,7 @@ fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() 
     harness.get_by_label("Y axis").click();
     harness.run_steps(2);
     assert_eq!(harness.state().selected(), 1);
-    let shown = &harness.state().state;
+    let shown = harness.state().shown();
     assert!(
         speed(shown) < 1.0,
         "the panels show Y axis: {}",
@@ -139,7 +140,7 @@ fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() 
     assert_eq!(names, ["X axis", "Y table"]);
     harness.get_by_label("Y table");
     assert!(
-        speed(&harness.state().state) > 25.0,
+        speed(harness.state().shown()) > 25.0,
         "the panels show X axis again"
     );
     // A name given twice is refused, and the list says why.
@@ -158,7 +159,7 @@ fn esc_stops_every_drive_ahead_of_what_is_queued_on_each() {
         path: ObjectPath::Auto,
     };
     for i in 0..2 {
-        let state = harness.state_mut().drive_state_mut(i).expect("drive");
+        let state = harness.state_mut().drive_mut(i).expect("drive");
         state.request(read.clone());
     }
     harness.key_press(egui::Key::Escape);
@@ -186,7 +187,7 @@ fn esc_stops_every_drive_ahead_of_what_is_queued_on_each() {
         },
     );
     for i in 0..2 {
-        let why = drive(&harness, i).why.clone().unwrap_or_default();
+        let why = drive(&harness, i).motion.why.clone().unwrap_or_default();
         assert!(why.starts_with("Quickstop sent from this window"), "{why}");
     }
 }
@@ -212,24 +213,24 @@ fn a_drive_lost_mid_run_leaves_the_others_polled_and_is_reported() {
     turn(&mut harness, 0);
     harness
         .state_mut()
-        .drive_state_mut(1)
+        .drive_mut(1)
         .expect("drive")
         .request(Request::Inject {
             injection: Injection::LinkLoss,
             active: true,
         });
     step_until(&mut harness, "Y axis lost", Duration::from_secs(8), |h| {
-        drive(h, 1).link_lost.is_some()
+        drive(h, 1).link.lost.is_some()
     });
-    let lost_at = drive(&harness, 0).latest.map(|s| s.t).expect("a sample");
+    let lost_at = drive(&harness, 0).latest().map(|s| s.t).expect("a sample");
     // While Y axis is without its link, X axis is polled on: newer samples keep coming.
     step_until(
         &mut harness,
         "X axis polled on",
         Duration::from_secs(3),
         |h| {
-            drive(h, 0).latest.is_some_and(|s| s.t > lost_at + 0.3)
-                && drive(h, 1).link_lost.is_some()
+            drive(h, 0).latest().is_some_and(|s| s.t > lost_at + 0.3)
+                && drive(h, 1).link.lost.is_some()
         },
     );
     let rows = harness.state().drive_rows(SystemTime::now());
@@ -284,7 +285,7 @@ fn closing_asks_once_for_every_energised_drive_and_halts_each() {
         &mut harness,
         "both drives left",
         Duration::from_secs(8),
-        |h| (0..2).all(|i| matches!(drive(h, i).connection, Connection::Disconnected)),
+        |h| (0..2).all(|i| matches!(drive(h, i).link.connection, Connection::Disconnected)),
     );
     for i in 0..2 {
         let log = &drive(&harness, i).log;
@@ -302,8 +303,8 @@ fn the_plots_draw_every_drive_on_one_time_axis() {
     window::step_for(&mut harness, Duration::from_millis(300));
     let before = harness
         .state()
-        .state
-        .latest
+        .shown()
+        .latest()
         .map(|s| s.t)
         .expect("X sampled");
     harness
@@ -314,11 +315,11 @@ fn the_plots_draw_every_drive_on_one_time_axis() {
         &mut harness,
         "Y axis sampled",
         Duration::from_secs(5),
-        |h| drive(h, 1).connected_at.is_some(),
+        |h| drive(h, 1).link.connected_at.is_some(),
     );
     // Both workers count from the window's start: the drive added later starts later on
     // the same axis (on a clock of its own it would start at 0).
-    let first = drive(&harness, 1).connected_at.expect("Y's first sample");
+    let first = drive(&harness, 1).link.connected_at.expect("Y's first sample");
     assert!(
         first > before,
         "one time base: Y starts at {first} s, X was at {before} s"
@@ -332,10 +333,10 @@ fn the_plots_draw_every_drive_on_one_time_axis() {
 /// The plots' rectangle at 1366×768 once samples are drawn.
 fn plot_room(harness: &mut Harness<'_, App>) -> egui::Rect {
     step_until(harness, "the plots drawn", Duration::from_secs(5), |h| {
-        h.state().state.plot.plots_rect.is_some()
+        h.state().plots_rect().is_some()
     });
     harness.run_steps(3);
-    harness.state().state.plot.plots_rect.expect("drawn")
+    harness.state().plots_rect().expect("drawn")
 }
 
 #[test]
@@ -351,7 +352,7 @@ fn the_list_takes_no_room_from_the_plots_at_1366x768() {
         .add_drive("Y axis".into(), "sim://")
         .expect("a second drive");
     step_until(&mut two, "Y axis sampled", Duration::from_secs(5), |h| {
-        drive(h, 1).latest.is_some()
+        drive(h, 1).latest().is_some()
     });
     let both = plot_room(&mut two);
     println!(
@@ -375,7 +376,7 @@ fn a_trigger_on_another_drive_stops_the_plots_on_its_capture() {
     harness.get_by_label("Y axis").click();
     harness.run_steps(2);
     {
-        let form = &mut harness.state_mut().state.settings.plot.trigger;
+        let form = &mut harness.state_mut().window_mut().settings.plot.trigger;
         form.threshold = true;
         form.signal = "position".into();
         form.level = "1000".into();
@@ -394,10 +395,10 @@ fn a_trigger_on_another_drive_stops_the_plots_on_its_capture() {
     harness.get_by_label("X axis").click();
     harness.run_steps(2);
     assert_eq!(harness.state().selected(), 0);
-    assert!(harness.state().state.plot.paused_at.is_none());
+    assert!(harness.state().plot().paused_at().is_none());
     harness
         .state_mut()
-        .drive_state_mut(1)
+        .drive_mut(1)
         .expect("Y axis")
         .request(Request::Command(Action::MoveAbsolute {
             target: 2000,
@@ -407,20 +408,20 @@ fn a_trigger_on_another_drive_stops_the_plots_on_its_capture() {
         &mut harness,
         "Y axis's capture",
         Duration::from_secs(10),
-        |h| drive(h, 1).scope.recording().is_some() && h.state().state.plot.paused_at.is_some(),
+        |h| drive(h, 1).scope.recording().is_some() && h.state().plot().paused_at().is_some(),
     );
     let at = drive(&harness, 1)
         .scope
         .recording()
         .and_then(|r| r.meta.trigger_time_s)
         .expect("the trigger time");
-    let plot = &harness.state().state.plot;
+    let plot = harness.state().plot();
     assert_eq!(
-        plot.highlight,
+        plot.highlight(),
         Some(at),
         "the trigger marked on X axis's plots"
     );
-    let message = format!("{:?}", plot.message);
+    let message = format!("{:?}", plot.message());
     assert!(message.contains("Y axis's trigger fired at"), "{message}");
 }
 
@@ -436,7 +437,7 @@ fn exports_write_every_drive_beside_the_selected_one_and_ask_before_replacing_an
     let picker = ScriptedPicker::new();
     picker.answer(Some(chosen.clone()));
     picker.answer(Some(chosen.clone()));
-    harness.state_mut().state.plot.files = picker.clone();
+    harness.state_mut().window_mut().plot.set_files(picker.clone());
     harness.get_by_label("Export visible…").click();
     harness.run_steps(2);
     // The selected drive's signals in the file chosen, Y axis's beside it, over one span.
@@ -475,7 +476,7 @@ fn exports_write_every_drive_beside_the_selected_one_and_ask_before_replacing_an
             .unwrap_or(f64::NAN)
     };
     assert!(velocity(&y) > 25.0 && velocity(&x).abs() < 1.0);
-    let said = match &harness.state().state.plot.message {
+    let said = match &harness.state().plot().message() {
         Some(Ok(text)) => text.clone(),
         other => panic!("{other:?}"),
     };

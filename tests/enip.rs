@@ -472,14 +472,14 @@ fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
     harness.get_by_label("common").click();
     harness.run();
     // Tests run in parallel: receive I/O on any free port.
-    harness.state_mut().state.settings.connection.enip_more = "&udp=0".into();
+    harness.state_mut().shown_mut().settings.connection.enip_more = "&udp=0".into();
     harness.get_by_label("Discover").click();
     harness.step();
     step_until(
         &mut harness,
         "the discovery",
         Duration::from_secs(10),
-        |h| h.state().state.scan.is_some(),
+        |h| h.state().shown().scan.is_some(),
     );
     harness.run();
     harness.get_by_label("Use 127.0.0.1").click();
@@ -490,10 +490,10 @@ fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
         Duration::from_secs(10),
         |h| {
             h.state()
-                .state
+                .shown()
                 .link_info()
                 .is_some_and(|i| i.description.contains("Common set"))
-                && h.state().state.latest.is_some()
+                && h.state().shown().latest().is_some()
         },
     );
     harness.get_by_label("Move absolute").click();

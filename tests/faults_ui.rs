@@ -10,7 +10,7 @@ use std::time::Duration;
 use drivedeck::diagnostics::{Origin, Severity};
 use drivedeck::sim::Injection;
 use drivedeck::ui::App;
-use drivedeck::ui::state::Central;
+use drivedeck::ui::settings::PLOTS;
 use drivedeck::worker::Request;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
@@ -19,7 +19,7 @@ use window::{app_harness, connected, step_until};
 fn has(harness: &Harness<'_, App>, origin: Origin, text: &str) -> bool {
     harness
         .state()
-        .state
+        .shown()
         .timeline
         .entries()
         .any(|e| e.origin == origin && e.text.contains(text))
@@ -31,10 +31,10 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
     connected(&mut harness);
     harness.step();
     assert!(
-        harness.state().state.timeline.is_empty(),
+        harness.state().shown().timeline.is_empty(),
         "a healthy drive: nothing on the timeline"
     );
-    harness.state_mut().state.request(Request::Inject {
+    harness.state_mut().shown_mut().request(Request::Inject {
         injection: Injection::FollowingError,
         active: true,
     });
@@ -50,7 +50,7 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
         Duration::from_secs(3),
         |h| has(h, Origin::ErrorHistory, "8611h") && has(h, Origin::ErrorRegister, ""),
     );
-    let state = &harness.state().state;
+    let state = harness.state().shown();
     let code = state
         .timeline
         .entries()
@@ -75,21 +75,21 @@ fn a_following_error_lands_on_the_timeline_with_its_code_and_meaning() {
     );
 
     // The Faults tab lists them; "Show" puts the plots at that moment.
-    let tab = format!("Faults ({})", harness.state().state.timeline.len());
+    let tab = format!("Faults ({})", harness.state().shown().timeline.len());
     harness.get_by_label(&tab).click();
     harness.step();
     harness.get_by_label("Show entry 1").click();
     harness.step();
-    let state = &harness.state().state;
-    assert_eq!(state.settings.central, Central::Plots);
-    let highlight = state.plot.highlight.expect("marked on the plots");
+    let app = harness.state();
+    assert_eq!(app.settings().central, PLOTS);
+    let highlight = app.plot().highlight().expect("marked on the plots");
     assert!((highlight - at).abs() < 0.5, "{highlight} vs {at}");
-    assert!(state.plot.paused_at.is_some(), "held still to look at it");
+    assert!(app.plot().paused_at().is_some(), "held still to look at it");
 
     // Exported as CSV.
     let dir = common::temp_dir("faults");
     let path = dir.path().join("timeline.csv");
-    harness.state_mut().state.settings.timeline_path = path.to_string_lossy().into_owned();
+    harness.state_mut().window_mut().settings.timeline_path = path.to_string_lossy().into_owned();
     harness.get_by_label("Export timeline").click();
     harness.step();
     let csv = std::fs::read_to_string(&path).expect("exported");
@@ -107,7 +107,7 @@ fn the_changes_tab_lists_what_was_written_and_restores_it() {
     connected(&mut harness);
     let velocity = Address::new(0x6081, 0);
     window::change(&mut harness, velocity, 1234);
-    let before = harness.state().state.changes[0]
+    let before = harness.state().shown().changes.entries[0]
         .before
         .clone()
         .expect("read before the write");
@@ -117,23 +117,23 @@ fn the_changes_tab_lists_what_was_written_and_restores_it() {
     harness.get_by_label("Restore what I changed (1)").click();
     harness.step();
     step_until(&mut harness, "the restore", Duration::from_secs(3), |h| {
-        h.state().state.changes.is_empty()
+        h.state().shown().changes.is_empty()
     });
     assert!(
         harness
             .state()
-            .state
+            .shown()
             .log
             .iter()
             .any(|e| e.what == format!("write {before} to {velocity}")),
         "{:#?}",
-        harness.state().state.log
+        harness.state().shown().log
     );
 }
 
 #[test]
 fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
-    use drivedeck::ui::state::Outcome;
+    use drivedeck::ui::drive::Outcome;
     let mut harness = app_harness();
     connected(&mut harness);
     // A long relative move (ten turns at 200 rpm), replaced by the next one while it runs.
@@ -153,7 +153,7 @@ fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
     harness.step();
     let moves = |h: &Harness<'_, App>| -> Vec<Outcome> {
         h.state()
-            .state
+            .shown()
             .log
             .iter()
             .filter(|e| e.what.starts_with("Profile Position relative"))
@@ -175,11 +175,11 @@ fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
     assert!(
         !has(&harness, Origin::Command, "superseded"),
         "{:#?}",
-        harness.state().state.timeline.entries().collect::<Vec<_>>()
+        harness.state().shown().timeline.entries().collect::<Vec<_>>()
     );
 
     // A command the drive refuses (travel while a fault is active) still is a fault.
-    harness.state_mut().state.request(Request::Inject {
+    harness.state_mut().shown_mut().request(Request::Inject {
         injection: Injection::OverCurrent,
         active: true,
     });
@@ -201,7 +201,7 @@ fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
 fn time_of(harness: &Harness<'_, App>, origin: Origin, text: &str) -> Option<f64> {
     harness
         .state()
-        .state
+        .shown()
         .timeline
         .entries()
         .find(|e| e.origin == origin && e.text.contains(text))
@@ -212,7 +212,7 @@ fn time_of(harness: &Harness<'_, App>, origin: Origin, text: &str) -> Option<f64
 fn the_timeline_keeps_its_entries_and_its_clock_across_a_lost_link() {
     let mut harness = app_harness();
     connected(&mut harness);
-    harness.state_mut().state.request(Request::Inject {
+    harness.state_mut().shown_mut().request(Request::Inject {
         injection: Injection::FollowingError,
         active: true,
     });
@@ -222,7 +222,7 @@ fn the_timeline_keeps_its_entries_and_its_clock_across_a_lost_link() {
     let fault = time_of(&harness, Origin::PdiStatus, "Fault set").expect("a time");
 
     // The simulated cable pulled for 3 s; the worker reconnects by itself.
-    harness.state_mut().state.request(Request::Inject {
+    harness.state_mut().shown_mut().request(Request::Inject {
         injection: Injection::LinkLoss,
         active: true,
     });

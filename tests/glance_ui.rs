@@ -28,8 +28,8 @@ use window::{
 fn power(harness: &Harness<'_, App>) -> Option<PowerState> {
     harness
         .state()
-        .state
-        .latest
+        .shown()
+        .latest()
         .and_then(|s| s.statusword())
         .and_then(PowerState::from_statusword)
 }
@@ -100,7 +100,7 @@ fn a_quick_stop_says_why_a_fault_shows_its_code_beside_clear_error_and_no_link_i
     let mut harness = app_harness();
     connected(&mut harness);
     // Quick stop option 6: brake on the quick stop ramp and stay in Quick Stop Active.
-    harness.state_mut().state.request(Request::WriteObject {
+    harness.state_mut().shown_mut().request(Request::WriteObject {
         address: Address::new(0x605A, 0),
         dtype: DataType::Integer16,
         value: Value::Int(6),
@@ -125,7 +125,7 @@ fn a_quick_stop_says_why_a_fault_shows_its_code_beside_clear_error_and_no_link_i
         injection: Injection::OverCurrent,
         active,
     };
-    harness.state_mut().state.request(inject(true));
+    harness.state_mut().shown_mut().request(inject(true));
     let fault = shown_containing(&mut harness, "FAULT 2300h");
     assert!(
         fault.len() > "FAULT 2300h ".len(),
@@ -145,7 +145,7 @@ fn a_quick_stop_says_why_a_fault_shows_its_code_beside_clear_error_and_no_link_i
     );
     let why = window::text_containing(&harness, "Why: ");
     assert!(why.starts_with("Why: Profile Velocity"), "{why}");
-    harness.state_mut().state.request(inject(false));
+    harness.state_mut().shown_mut().request(inject(false));
     harness.step();
     press(&mut harness, "Clear error");
     step_until_shown(&mut harness, "DISABLED");
@@ -185,7 +185,7 @@ fn a_limit_switch_that_blocks_a_move_is_named_with_its_direction() {
         &mut harness,
         "the limit switch",
         Duration::from_secs(10),
-        |h| h.state().state.bit(StatusBit::LimitReached),
+        |h| h.state().shown().bit(StatusBit::LimitReached),
     );
     let line = shown_containing(&mut harness, "limit switch active");
     assert!(
@@ -238,7 +238,7 @@ fn at_1366_by_768_nothing_needed_is_cut_off_and_the_command_panel_folds() {
     // Folded: a strip at the right edge, the plots get the room.
     harness.get_by_label("Collapse the command panel").click();
     harness.run_steps(3);
-    assert!(harness.state().state.settings.commands_collapsed);
+    assert!(harness.state().settings().commands_collapsed);
     assert!(harness.query_by_label("Move absolute").is_none());
     let expand = on_screen(&harness, "Expand the command panel", screen);
     assert!(expand.left() > size.x - 60.0, "a narrow strip: {expand:?}");
@@ -246,6 +246,6 @@ fn at_1366_by_768_nothing_needed_is_cut_off_and_the_command_panel_folds() {
     assert_eq!(harness.get_by_label("Plots").rect(), plots_tab);
     harness.get_by_label("Expand the command panel").click();
     harness.run_steps(3);
-    assert!(!harness.state().state.settings.commands_collapsed);
+    assert!(!harness.state().settings().commands_collapsed);
     on_screen(&harness, "Move absolute", screen);
 }

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use drivedeck::od::{Address, DataType};
 use drivedeck::pdi::StatusBit;
-use drivedeck::ui::state::Outcome;
+use drivedeck::ui::drive::Outcome;
 use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui_kittest::kittest::Queryable;
@@ -32,7 +32,7 @@ fn the_motor_moves_while_jog_is_held_and_halts_on_release() {
     assert!(
         !harness
             .state()
-            .state
+            .shown()
             .log
             .iter()
             .any(|e| e.what.contains("jog halted")),
@@ -46,13 +46,13 @@ fn the_motor_moves_while_jog_is_held_and_halts_on_release() {
         Duration::from_secs(3),
         |h| velocity(h) == 0.0,
     );
-    let state = &harness.state().state;
+    let state = harness.state().shown();
     assert!(state.bit(StatusBit::QsHaltBit));
     assert!(
         state.bit(StatusBit::OperationEnabled),
         "halted, still enabled"
     );
-    assert!(state.jog.is_none());
+    assert!(state.motion.jog.is_none());
     assert!(state.log.iter().any(|e| e.what == "Jog released: halt"));
 }
 
@@ -75,15 +75,15 @@ fn arrow_keys_jog_and_escape_stops_a_jog_for_good() {
         &mut harness,
         "the quick stop",
         Duration::from_secs(3),
-        |h| !h.state().state.bit(StatusBit::OperationEnabled) && velocity(h) == 0.0,
+        |h| !h.state().shown().bit(StatusBit::OperationEnabled) && velocity(h) == 0.0,
     );
     step_for(&mut harness, Duration::from_millis(400));
     assert!(velocity(&harness) == 0.0, "the held key did not jog again");
-    assert!(harness.state().state.jog.is_none());
+    assert!(harness.state().shown().motion.jog.is_none());
     harness.key_up(egui::Key::ArrowLeft);
     harness.step();
     assert!(
-        !harness.state().state.jog_blocked,
+        !harness.state().shown().motion.jog_blocked,
         "released: jog works again"
     );
 }
@@ -98,7 +98,7 @@ fn escape_sends_quickstop_ahead_of_everything_queued() {
     // busy machine.
     for sub in 1..=4 {
         for _ in 0..7 {
-            harness.state_mut().state.request(Request::ReadObject {
+            harness.state_mut().shown_mut().request(Request::ReadObject {
                 address: Address::new(0x1018, sub),
                 dtype: Some(DataType::Unsigned32),
                 path: ObjectPath::Pdi,
@@ -113,7 +113,7 @@ fn escape_sends_quickstop_ahead_of_everything_queued() {
         Duration::from_secs(2),
         |h| {
             h.state()
-                .state
+                .shown()
                 .log
                 .iter()
                 .any(|e| e.what == "Quickstop" && e.outcome != Outcome::Queued)
@@ -121,7 +121,7 @@ fn escape_sends_quickstop_ahead_of_everything_queued() {
     );
     let waiting = harness
         .state()
-        .state
+        .shown()
         .log
         .iter()
         .filter(|e| e.what.starts_with("read 1018h") && e.outcome == Outcome::Queued)
@@ -134,6 +134,6 @@ fn escape_sends_quickstop_ahead_of_everything_queued() {
         &mut harness,
         "the motor to stop",
         Duration::from_secs(3),
-        |h| velocity(h) == 0.0 && !h.state().state.bit(StatusBit::OperationEnabled),
+        |h| velocity(h) == 0.0 && !h.state().shown().bit(StatusBit::OperationEnabled),
     );
 }

@@ -14,7 +14,8 @@ use drivedeck::cia::PowerState;
 use drivedeck::od::{Address, Value};
 use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::ServerOptions;
-use drivedeck::ui::state::{Bus, Connection, Outcome};
+use drivedeck::ui::connection_form::Bus;
+use drivedeck::ui::drive::{Connection, Outcome};
 use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
@@ -44,7 +45,7 @@ fn turning(server: &ServerThread) -> Harness<'static, App> {
 }
 
 fn disconnected(harness: &Harness<'_, App>) -> bool {
-    matches!(harness.state().state.connection, Connection::Disconnected)
+    matches!(harness.state().shown().link.connection, Connection::Disconnected)
 }
 
 /// Click `label` (Disconnect, or an answer to the question it asks) and wait until the
@@ -66,7 +67,7 @@ fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
     let mut harness = turning(&server);
     harness.get_by_label("Disconnect").click();
     step_until_shown(&mut harness, "Halt, then disconnect");
-    assert!(harness.state().state.leaving.is_some(), "it asks first");
+    assert!(harness.state().shown().leaving.is_some(), "it asks first");
     assert!(!disconnected(&harness), "nothing happens before the answer");
     // It says what the motor does, and which button Enter presses.
     let sentence = window::text_containing(&harness, "The power stage is on: the motor is ");
@@ -79,7 +80,7 @@ fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
     // The log says the drive confirmed the halt, as a success (green, not red).
     let verdict = harness
         .state()
-        .state
+        .shown()
         .log
         .iter()
         .find(|e| e.what == "Halt before disconnecting")
@@ -92,12 +93,12 @@ fn disconnect_while_turning_asks_and_the_default_halt_reaches_the_drive() {
     assert!(
         !harness
             .state()
-            .state
+            .shown()
             .log
             .iter()
             .any(|e| matches!(e.outcome, Outcome::Failed(_))),
         "nothing logged as failed: {:#?}",
-        harness.state().state.log
+        harness.state().shown().log
     );
     // The halt bit reached the drive before the link closed: it brakes to a stop and
     // stays energised.
@@ -120,7 +121,7 @@ fn switch_off_with_restore_undoes_the_changes_then_switches_off() {
     harness.get_by_label("Disconnect").click();
     step_until_shown(&mut harness, "Switch off, then disconnect");
     // Restoring is offered, and on by default.
-    assert!(harness.state().state.leaving.is_some_and(|l| l.restore));
+    assert!(harness.state().shown().leaving.is_some_and(|l| l.restore));
     click_and_disconnect(&mut harness, "Switch off, then disconnect");
     let drive = server.drive();
     assert_eq!(drive.lock().read(velocity), Ok(before), "restored");
@@ -177,7 +178,7 @@ fn closing_the_window_while_turning_asks_too() {
         .events
         .push(egui::ViewportEvent::Close);
     step_until_shown(&mut harness, "Halt, then disconnect");
-    let leaving = harness.state().state.leaving.expect("asked");
+    let leaving = harness.state().shown().leaving.expect("asked");
     assert!(leaving.close_window);
     click_and_disconnect(&mut harness, "Halt, then disconnect");
     assert!(server.drive().lock().rx_image().cmd & 0x40 != 0, "halted");

@@ -52,7 +52,7 @@ fn compare(harness: &mut Harness<'_, App>) {
     harness.get_by_label("Compare with file").click();
     harness.step();
     step_until(harness, "the comparison", Duration::from_secs(20), |h| {
-        h.state().state.browser.comparison.is_some()
+        h.state().shown().browser.comparison.is_some()
     });
 }
 
@@ -62,7 +62,7 @@ fn preview_restore(harness: &mut Harness<'_, App>) {
     harness.get_by_label("Restore from file").click();
     harness.step();
     step_until(harness, "the preview", Duration::from_secs(20), |h| {
-        h.state().state.browser.restore.is_some()
+        h.state().shown().browser.restore.is_some()
     });
 }
 
@@ -75,7 +75,7 @@ fn restore_the_one_write(harness: &mut Harness<'_, App>) {
     harness.step();
     step_until(harness, "the restore", Duration::from_secs(10), |h| {
         h.state()
-            .state
+            .shown()
             .browser
             .restore
             .as_ref()
@@ -86,7 +86,7 @@ fn restore_the_one_write(harness: &mut Harness<'_, App>) {
 fn value_of(harness: &Harness<'_, App>, address: Address) -> Option<Result<Value, String>> {
     harness
         .state()
-        .state
+        .shown()
         .browser
         .values
         .get(&address)
@@ -107,7 +107,7 @@ fn side_by_side(harness: &Harness<'_, App>, left: &str, right: &str) -> bool {
 
 /// What the browser says now.
 fn said(harness: &Harness<'_, App>) -> Option<Message> {
-    harness.state().state.browser.message.clone()
+    harness.state().shown().browser.message.clone()
 }
 
 const PROFILE_VELOCITY: Address = Address::new(0x6081, 0);
@@ -157,14 +157,14 @@ fn a_bad_value_is_refused_with_its_reason_and_a_good_one_is_written_and_read_bac
     harness.run();
     let error = harness
         .state()
-        .state
+        .shown()
         .browser
         .edit
         .as_ref()
         .and_then(|e| e.error.clone())
         .expect("an error");
     assert!(error.contains("-5"), "{error}");
-    assert!(harness.state().state.browser.confirm.is_none());
+    assert!(harness.state().shown().browser.confirm.is_none());
     assert!(harness.query_by_label("Write to the drive?").is_none());
     // A good one asks first, then writes, then reads back.
     harness
@@ -192,7 +192,7 @@ fn a_bad_value_is_refused_with_its_reason_and_a_good_one_is_written_and_read_bac
     assert_eq!(
         harness
             .state()
-            .state
+            .shown()
             .browser
             .write_results
             .get(&PROFILE_VELOCITY),
@@ -206,14 +206,14 @@ fn read_all_fills_the_table_with_progress_and_can_be_cancelled() {
     harness.get_by_label("Read all").click();
     harness.step();
     assert!(
-        harness.state().state.browser.bulk.is_some(),
+        harness.state().shown().browser.bulk.is_some(),
         "a bulk read runs"
     );
     step_until(
         &mut harness,
         "the whole read",
         Duration::from_secs(20),
-        |h| h.state().state.browser.bulk.is_none(),
+        |h| h.state().shown().browser.bulk.is_none(),
     );
     let message = said(&harness);
     assert!(
@@ -248,7 +248,7 @@ fn read_all_fills_the_table_with_progress_and_can_be_cancelled() {
         &mut harness,
         "the cancellation",
         Duration::from_secs(20),
-        |h| h.state().state.browser.bulk.is_none(),
+        |h| h.state().shown().browser.bulk.is_none(),
     );
     let message = said(&harness);
     assert!(
@@ -308,7 +308,7 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
     );
     let differing: Vec<Address> = harness
         .state()
-        .state
+        .shown()
         .browser
         .comparison
         .as_ref()
@@ -325,7 +325,7 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
     preview_restore(&mut harness);
     let steps = harness
         .state()
-        .state
+        .shown()
         .browser
         .restore
         .as_ref()
@@ -351,7 +351,7 @@ fn backup_change_compare_and_restore_undo_exactly_the_change() {
     );
     let cell = harness
         .state()
-        .state
+        .shown()
         .browser
         .values
         .get(&PROFILE_VELOCITY)
@@ -381,7 +381,7 @@ fn an_eds_replaces_the_catalog_in_amber_with_its_warnings_and_a_broken_path_says
     // What the import skipped or guessed is counted, in amber: never success green.
     assert_eq!(message.tone, Tone::Warning, "{message:?}");
     assert_eq!(
-        message.tone.color(),
+        drivedeck::ui::browser::tone_color(message.tone),
         Some(drivedeck::ui::widgets::AMBER),
         "amber, not green"
     );
@@ -466,7 +466,7 @@ fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_th
     preview_restore(&mut harness);
     let restore = harness
         .state()
-        .state
+        .shown()
         .browser
         .restore
         .clone()
@@ -534,8 +534,8 @@ fn a_file_naming_an_object_twice_is_refused_with_the_object_named() {
         matches!(&message, Some(m) if m.tone == Tone::Failed && m.text.contains("6081h:00h") && m.text.contains("twice")),
         "{message:?}"
     );
-    assert!(harness.state().state.browser.bulk.is_none(), "nothing read");
-    assert!(harness.state().state.browser.restore.is_none());
+    assert!(harness.state().shown().browser.bulk.is_none(), "nothing read");
+    assert!(harness.state().shown().browser.restore.is_none());
 }
 
 /// Double-click at `pos` (a row's value cell, say).
@@ -707,7 +707,7 @@ fn a_value_is_edited_in_place_with_the_limit_error_under_the_field_as_typed() {
     harness.key_press(egui::Key::Escape);
     harness.run();
     assert!(harness.query_by_label("New value 605Ah:00h").is_none());
-    assert!(harness.state().state.browser.edit.is_none());
+    assert!(harness.state().shown().browser.edit.is_none());
 }
 
 #[test]
@@ -719,7 +719,7 @@ fn the_rows_on_screen_are_read_by_themselves_at_the_rate_chosen() {
     let mut harness = browser_with(settings);
     let visible: Vec<Address> = harness
         .state()
-        .state
+        .shown()
         .browser
         .visible
         .iter()
@@ -732,11 +732,11 @@ fn the_rows_on_screen_are_read_by_themselves_at_the_rate_chosen() {
         .collect();
     assert!(visible.len() > REFRESH_IN_FLIGHT, "{} rows", visible.len());
     let started = std::time::Instant::now();
-    let sent_before = harness.state().state.browser.refresh.sent;
+    let sent_before = harness.state().shown().browser.refresh.sent;
     let mut most = 0;
     // The rows on screen now (as the lines above the table settle, one may go or come).
     let all_read = |h: &Harness<'_, App>| {
-        let b = &h.state().state.browser;
+        let b = &h.state().shown().browser;
         b.visible
             .iter()
             .filter(|a| {
@@ -747,7 +747,7 @@ fn the_rows_on_screen_are_read_by_themselves_at_the_rate_chosen() {
             .all(|a| b.values.contains_key(a))
     };
     while !all_read(&harness) {
-        let b = &harness.state().state.browser;
+        let b = &harness.state().shown().browser;
         assert!(
             started.elapsed() < Duration::from_secs(20),
             "the rows on screen were not read: {:?} of {:?}",
@@ -759,14 +759,14 @@ fn the_rows_on_screen_are_read_by_themselves_at_the_rate_chosen() {
         let allowed = RATE * started.elapsed().as_secs_f64() + REFRESH_IN_FLIGHT as f64;
         assert!(sent as f64 <= allowed, "{sent} read, {allowed} allowed");
         harness.step();
-        most = most.max(harness.state().state.browser.refresh.in_flight());
+        most = most.max(harness.state().shown().browser.refresh.in_flight());
         std::thread::sleep(Duration::from_millis(5));
     }
     assert!(most > 0 && most <= REFRESH_IN_FLIGHT, "{most} in flight");
     // Nothing more while they are fresh.
-    let sent = harness.state().state.browser.refresh.sent;
+    let sent = harness.state().shown().browser.refresh.sent;
     window::step_for(&mut harness, Duration::from_millis(500));
-    assert_eq!(harness.state().state.browser.refresh.sent, sent);
+    assert_eq!(harness.state().shown().browser.refresh.sent, sent);
     // The box that sets the rate is in the toolbar.
     assert!(
         harness
@@ -787,7 +787,7 @@ fn with_auto_read_off_the_rows_wait_for_a_read() {
         None,
         "not read by itself"
     );
-    assert_eq!(harness.state().state.browser.refresh.sent, 0);
+    assert_eq!(harness.state().shown().browser.refresh.sent, 0);
     harness.get_by_label("Read 6081h:00h").click();
     harness.step();
     step_until(&mut harness, "the read", Duration::from_secs(5), |h| {
@@ -813,29 +813,29 @@ fn preview_goes_with_a_new_connection(
     preview_restore(&mut harness);
     harness.run();
     assert!(harness.query_by_label("Restore 1 writes").is_some());
-    let before = harness.state().state.browser.connection();
+    let before = harness.state().shown().browser.connection();
 
     let spec = to(&harness);
     harness
         .state_mut()
-        .state
+        .shown_mut()
         .request(drivedeck::worker::Request::Connect(spec.clone()));
     step_until(
         &mut harness,
         "the new connection",
         Duration::from_secs(10),
         |h| {
-            h.state().state.browser.connection() > before
-                && h.state().state.link_info().is_some_and(|i| i.spec == spec)
+            h.state().shown().browser.connection() > before
+                && h.state().shown().link_info().is_some_and(|i| i.spec == spec)
         },
     );
     harness.step();
     harness.run();
-    assert!(harness.state().state.browser.restore.is_none());
+    assert!(harness.state().shown().browser.restore.is_none());
     assert!(harness.query_by_label("Restore 1 writes").is_none());
     assert!(harness.query_by_label("Restore preview").is_none());
     let message = said(&harness).expect("the preview's message");
-    assert!(message.earlier(harness.state().state.browser.connection()));
+    assert!(message.earlier(harness.state().shown().browser.connection()));
     // The message about the preview says which link it came from.
     assert!(
         harness
@@ -856,7 +856,7 @@ fn a_preview_from_another_drive_goes_when_the_link_changes() {
 fn a_new_connection_to_the_same_drive_drops_the_preview_made_before() {
     preview_goes_with_a_new_connection("backup-reconnect", |h| {
         h.state()
-            .state
+            .shown()
             .link_info()
             .map(|i| i.spec.clone())
             .expect("connected")
@@ -866,7 +866,7 @@ fn a_new_connection_to_the_same_drive_drops_the_preview_made_before() {
 #[test]
 fn rows_scrolled_into_view_are_read_by_themselves() {
     let mut harness = browser();
-    let first: Vec<Address> = harness.state().state.browser.visible.clone();
+    let first: Vec<Address> = harness.state().shown().browser.visible.clone();
     // Down the table with the wheel over it.
     harness.get_by_label("Device Type").hover();
     for _ in 0..4 {
@@ -881,7 +881,7 @@ fn rows_scrolled_into_view_are_read_by_themselves() {
             harness.step();
         }
     }
-    let now: Vec<Address> = harness.state().state.browser.visible.clone();
+    let now: Vec<Address> = harness.state().shown().browser.visible.clone();
     let new: Vec<Address> = now
         .iter()
         .copied()
@@ -898,7 +898,7 @@ fn rows_scrolled_into_view_are_read_by_themselves() {
         "the rows scrolled to",
         Duration::from_secs(10),
         |h| {
-            let b = &h.state().state.browser;
+            let b = &h.state().shown().browser;
             new.iter().all(|a| b.values.contains_key(a))
         },
     );

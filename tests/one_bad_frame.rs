@@ -351,7 +351,7 @@ mod window;
 /// three tries all go unanswered loses the link; with the default 3 the same is got over.
 #[test]
 fn the_windows_lost_after_setting_decides_when_the_link_counts_as_lost() {
-    use drivedeck::ui::state::Connection;
+    use drivedeck::ui::drive::Connection;
     for (lost_after, survives) in [(1u32, false), (3, true)] {
         let server = common::modbus_server(Default::default());
         let proxy = Proxy::start(server.addr, Framing::ModbusTcp);
@@ -370,15 +370,15 @@ fn the_windows_lost_after_setting_decides_when_the_link_counts_as_lost() {
             |_| proxy.dropped() >= 3,
         );
         window::step_for(&mut harness, Duration::from_millis(700));
-        let state = &harness.state().state;
+        let state = harness.state().shown();
         let lost = state.log.iter().any(|e| e.what.starts_with("link lost"));
         assert_eq!(
             !lost, survives,
             "lost after {lost_after}: {:?}; {:#?}",
-            state.connection, state.log
+            state.link.connection, state.log
         );
         if survives {
-            assert!(matches!(state.connection, Connection::Connected(_)));
+            assert!(matches!(state.link.connection, Connection::Connected(_)));
         }
         drop(harness);
         drop(server);

@@ -17,7 +17,8 @@ use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::ServerOptions;
 use drivedeck::telemetry::{CaptureState, Edge, Recording};
 use drivedeck::ui::plots::ScriptedPicker;
-use drivedeck::ui::{App, AppState, Settings};
+use drivedeck::ui::plots::{Alone, PlotCommand, PlotView};
+use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
@@ -34,9 +35,9 @@ fn path_in(dir: &tempfile::TempDir, name: &str) -> String {
 }
 
 /// The dialogs of this window answered by a script.
-fn scripted(state: &mut AppState) -> Arc<ScriptedPicker> {
+fn scripted(view: &mut PlotView) -> Arc<ScriptedPicker> {
     let picker = ScriptedPicker::new();
-    state.plot.files = picker.clone();
+    view.set_files(picker.clone());
     picker
 }
 
@@ -52,39 +53,39 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
         &mut harness,
         "samples and the identity",
         Duration::from_secs(5),
-        |h| h.state().state.scope.ring().len() > 50 && h.state().state.plot.identity.is_some(),
+        |h| h.state().shown().scope.ring().len() > 50 && h.state().shown().link.identity.is_some(),
     );
 
     harness.get_by_label("Pause plot").click();
     harness.step();
-    let paused_at = harness.state().state.plot.paused_at.expect("paused");
-    let len_at_pause = harness.state().state.scope.ring().len();
+    let paused_at = harness.state().plot().paused_at().expect("paused");
+    let len_at_pause = harness.state().shown().scope.ring().len();
     step_for(&mut harness, Duration::from_millis(300));
-    let state = &harness.state().state;
+    let app = harness.state();
     assert_eq!(
-        state.plot.paused_at,
+        app.plot().paused_at(),
         Some(paused_at),
         "the picture stays put"
     );
     assert!(
-        state.scope.ring().len() > len_at_pause,
+        app.shown().scope.ring().len() > len_at_pause,
         "sampling goes on underneath"
     );
-    let (_, end) = drivedeck::ui::plots::time_range(state).expect("a range");
+    let (_, end) = app.time_range().expect("a range");
     assert_eq!(end, paused_at);
 
     harness.get_by_label("Resume plot").click();
     harness.step();
     step_for(&mut harness, Duration::from_millis(100));
-    let state = &harness.state().state;
-    assert_eq!(state.plot.paused_at, None);
-    assert!(state.plot.follow);
-    let (_, end) = drivedeck::ui::plots::time_range(state).expect("a range");
+    let app = harness.state();
+    assert_eq!(app.plot().paused_at(), None);
+    assert!(app.plot().follows());
+    let (_, end) = app.time_range().expect("a range");
     assert!(end > paused_at, "following the newest samples again");
 
     // The visible window to CSV, then to JSON: units and identity in the header. The
     // dialog proposes a name with the device and the date, in the folder used last.
-    let picker = scripted(&mut harness.state_mut().state);
+    let picker = scripted(&mut harness.state_mut().window_mut().plot);
     let dir = common::temp_dir("plots");
     let csv = path_in(&dir, "visible.csv");
     answer(&picker, &csv);
@@ -93,8 +94,8 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
     let asked = picker.asked();
     let device = harness
         .state()
-        .state
-        .plot
+        .shown()
+        .link
         .identity
         .as_ref()
         .and_then(|i| i.name.clone())
@@ -143,10 +144,10 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
 fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
     let mut harness = app_harness();
     step_until(&mut harness, "samples", Duration::from_secs(5), |h| {
-        h.state().state.scope.ring().len() > 20
+        h.state().shown().scope.ring().len() > 20
     });
     {
-        let form = &mut harness.state_mut().state.settings.plot.trigger;
+        let form = &mut harness.state_mut().window_mut().settings.plot.trigger;
         form.threshold = true;
         form.signal = "position".into();
         form.level = "1000".into();
@@ -158,10 +159,10 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
     harness.get_by_label("Arm").click();
     harness.step();
     assert_eq!(
-        harness.state().state.scope.capture_state(),
+        harness.state().shown().scope.capture_state(),
         CaptureState::Armed,
         "{:?}",
-        harness.state().state.plot.message
+        harness.state().plot().message()
     );
     // The default absolute move: to 2000 (0.1°) at 200 rpm, through the level.
     harness.get_by_label("Move absolute").click();
@@ -170,9 +171,9 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
         &mut harness,
         "the recording",
         Duration::from_secs(10),
-        |h| h.state().state.scope.recording().is_some(),
+        |h| h.state().shown().scope.recording().is_some(),
     );
-    let state = &harness.state().state;
+    let state = harness.state().shown();
     let recording = state.scope.recording().expect("recorded");
     let at = recording.meta.trigger_time_s.expect("the trigger time");
     let first = recording.times.first().copied().unwrap_or(f64::NAN);
@@ -208,13 +209,18 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
     );
 
     // Frozen on screen until dismissed: the capture, not the live history.
-    let state = &harness.state().state;
-    assert!(state.plot.review.as_ref().is_some_and(|r| r.capture));
+    assert!(
+        harness
+            .state()
+            .plot()
+            .review()
+            .is_some_and(|r| r.capture)
+    );
     harness.get_by_label("Dismiss");
 
     let dir = common::temp_dir("plots");
     let path = path_in(&dir, "triggered.csv");
-    let picker = scripted(&mut harness.state_mut().state);
+    let picker = scripted(&mut harness.state_mut().window_mut().plot);
     answer(&picker, &path);
     harness.get_by_label("Save recording…").click();
     harness.step();
@@ -226,7 +232,7 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
         back.len(),
         harness
             .state()
-            .state
+            .shown()
             .scope
             .recording()
             .map_or(0, Recording::len)
@@ -237,9 +243,9 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
 fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
     let mut harness = app_harness();
     step_until(&mut harness, "samples", Duration::from_secs(5), |h| {
-        h.state().state.scope.ring().len() > 5
+        h.state().shown().scope.ring().len() > 5
     });
-    harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Dictionary;
+    harness.state_mut().window_mut().settings.central = drivedeck::ui::settings::DICTIONARY.to_owned();
     harness.step();
     harness
         .get_by_label("Object filter")
@@ -248,12 +254,12 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
     harness.get_by_label("Plot 6044h:00h").click();
     harness.step();
     harness.step();
-    let message = harness.state().state.plot.message.clone();
+    let message = harness.state().plot().message().clone();
     assert!(
         matches!(&message, Some(Ok(text)) if text.contains("6044h:00h")),
         "{message:?}"
     );
-    harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Plots;
+    harness.state_mut().window_mut().settings.central = drivedeck::ui::settings::PLOTS.to_owned();
     // A long move (the default one lasts a fifth of a second, which a window starved on a
     // busy machine may step over): the velocity stays up long enough to be seen.
     harness
@@ -263,15 +269,15 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
     harness.get_by_label("Move absolute").click();
     harness.step();
     step_until(&mut harness, "6044h to move", Duration::from_secs(5), |h| {
-        let scope = &h.state().state.scope;
+        let scope = &h.state().shown().scope;
         scope
             .signal("6044h_00h")
             .and_then(|s| scope.ring().latest(s.column))
             .is_some_and(|(_, v)| v > 50.0)
     });
     // A string cannot be plotted: refused with the reason.
-    harness.state_mut().state.watch_object("1008");
-    let message = harness.state().state.plot.message.clone();
+    let _ = harness.state_mut().plot_object("1008");
+    let message = harness.state().plot().message().clone();
     assert!(
         matches!(&message, Some(Err(e)) if e.contains("not a number")),
         "{message:?}"
@@ -280,15 +286,15 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
 
 /// The plot panel alone with no drive, fed samples by hand: a position ramp from 0 to
 /// 2000 in 2 s, the trigger armed at 1000.
-fn plots_harness() -> Harness<'static, AppState> {
+fn plots_harness() -> Harness<'static, Alone> {
     let mut harness = Harness::builder()
         .with_size(egui::vec2(1200.0, 800.0))
         .build_ui_state(
-            |ui, state: &mut AppState| drivedeck::ui::plots::plots_ui(ui, state),
-            AppState::new(Settings::default()),
+            |ui, alone: &mut Alone| alone.ui(ui),
+            Alone::new(Settings::default().plot.history_rows),
         );
     {
-        let form = &mut harness.state_mut().settings.plot.trigger;
+        let form = &mut harness.state_mut().settings.trigger;
         form.threshold = true;
         form.signal = "position".into();
         form.level = "1000".into();
@@ -301,14 +307,14 @@ fn plots_harness() -> Harness<'static, AppState> {
     harness.step();
     feed(&mut harness, 0..200);
     assert!(
-        harness.state().scope.recording().is_some(),
+        harness.state().drive.scope.recording().is_some(),
         "the trigger fired"
     );
     harness
 }
 
 /// Samples `range` of the ramp (every 10 ms, 10 × 0.1° a sample).
-fn feed(harness: &mut Harness<'static, AppState>, range: std::ops::Range<i32>) {
+fn feed(harness: &mut Harness<'static, Alone>, range: std::ops::Range<i32>) {
     let samples = range
         .map(|i| drivedeck::worker::Sample {
             t: f64::from(i) * 0.01,
@@ -319,34 +325,34 @@ fn feed(harness: &mut Harness<'static, AppState>, range: std::ops::Range<i32>) {
         .collect();
     harness
         .state_mut()
-        .apply(drivedeck::worker::Event::Samples(samples));
+        .apply_event(drivedeck::worker::Event::Samples(samples));
     harness.step();
 }
 
 /// A few frames: a dialog's answer is taken at the end of a frame, the question or the
 /// message it brings shows in the next.
-fn settle(harness: &mut Harness<'_, AppState>) {
+fn settle(harness: &mut Harness<'_, Alone>) {
     for _ in 0..3 {
         harness.step();
     }
 }
 
-fn message(harness: &Harness<'_, AppState>) -> Result<String, String> {
-    harness.state().plot.message.clone().expect("a message")
+fn message(harness: &Harness<'_, Alone>) -> Result<String, String> {
+    harness.state().view.message().cloned().expect("a message")
 }
 
 /// Step the panel until `done` holds (a file is read on a thread of its own).
 fn step_panel_until(
-    harness: &mut Harness<'_, AppState>,
+    harness: &mut Harness<'_, Alone>,
     what: &str,
-    done: impl Fn(&AppState) -> bool,
+    done: impl Fn(&Alone) -> bool,
 ) {
     let deadline = Instant::now() + Duration::from_secs(10);
     while !done(harness.state()) {
         assert!(
             Instant::now() < deadline,
             "{what} did not happen; message: {:?}",
-            harness.state().plot.message
+            harness.state().view.message()
         );
         std::thread::sleep(Duration::from_millis(5));
         harness.step();
@@ -357,8 +363,8 @@ fn step_panel_until(
 #[test]
 fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
     let mut harness = plots_harness();
-    let picker = scripted(harness.state_mut());
-    let recorded = harness.state().scope.recording().map(Recording::len);
+    let picker = scripted(&mut harness.state_mut().view);
+    let recorded = harness.state().drive.scope.recording().map(Recording::len);
 
     // A directory that does not exist.
     let missing = format!("/nonexistent-drivedeck-{}/run.csv", std::process::id());
@@ -379,7 +385,7 @@ fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
     );
     harness.get_by_label(&error);
     assert_eq!(
-        harness.state().scope.recording().map(Recording::len),
+        harness.state().drive.scope.recording().map(Recording::len),
         recorded
     );
 
@@ -429,7 +435,7 @@ fn a_failed_save_says_where_and_why_and_keeps_the_recording_for_the_next_try() {
 #[test]
 fn no_file_is_replaced_without_the_users_word() {
     let mut harness = plots_harness();
-    let picker = scripted(harness.state_mut());
+    let picker = scripted(&mut harness.state_mut().view);
     let dir = common::temp_dir("plots");
     let path = path_in(&dir, "capture.csv");
     answer(&picker, &path);
@@ -484,10 +490,11 @@ fn no_file_is_replaced_without_the_users_word() {
 #[test]
 fn a_triggered_capture_stays_on_screen_until_dismissed_or_re_armed() {
     let mut harness = plots_harness();
-    let span = |h: &Harness<'_, AppState>| drivedeck::ui::plots::time_range(h.state());
+    let span = |h: &Harness<'_, Alone>| h.state().time_range();
     let captured = span(&harness).expect("a range");
     let recording = harness
         .state()
+        .drive
         .scope
         .recording()
         .cloned()
@@ -501,24 +508,24 @@ fn a_triggered_capture_stays_on_screen_until_dismissed_or_re_armed() {
         feed(&mut harness, 200 + k * 100..300 + k * 100);
     }
     assert_eq!(span(&harness), Some(captured));
-    assert!(harness.state().scope.ring().last_time().unwrap_or(0.0) > 11.0);
+    assert!(harness.state().drive.scope.ring().last_time().unwrap_or(0.0) > 11.0);
 
     harness.get_by_label("Dismiss").click();
     harness.step();
-    assert!(harness.state().plot.review.is_none());
+    assert!(harness.state().view.review().is_none());
     let (_, end) = span(&harness).expect("live");
     assert!(end > 11.0, "live again: {end}");
     // The capture is still there to save.
     harness.get_by_label("Save recording…");
 
     // Re-arm from a frozen capture: live, waiting for the next one.
-    let scope = harness.state().scope.clone();
-    drivedeck::ui::plots::review::freeze_capture(&mut harness.state_mut().plot, &scope);
+    let scope = harness.state().drive.scope.clone();
+    drivedeck::ui::plots::review::freeze_capture(&mut harness.state_mut().view, &scope);
     harness.step();
     harness.get_by_label("Re-arm").click();
     harness.step();
-    assert!(harness.state().plot.review.is_none());
-    assert_eq!(harness.state().scope.capture_state(), CaptureState::Armed);
+    assert!(harness.state().view.review().is_none());
+    assert_eq!(harness.state().drive.scope.capture_state(), CaptureState::Armed);
 }
 
 /// A recording of a move to `to` (0.1°) in 1 s with its trigger at `trigger` s, as our
@@ -564,27 +571,26 @@ fn recording_file(dir: &tempfile::TempDir, name: &str, to: f64, trigger: f64) ->
 }
 
 /// The seconds the overlay is moved by.
-fn overlay_offset(harness: &Harness<'_, AppState>) -> f64 {
+fn overlay_offset(harness: &Harness<'_, Alone>) -> f64 {
     harness
         .state()
-        .plot
-        .review
-        .as_ref()
+        .view
+        .review()
         .map_or(f64::NAN, |r| r.offset_s)
 }
 
 /// The plot panel with no drive at all.
-fn empty_panel() -> Harness<'static, AppState> {
+fn empty_panel() -> Harness<'static, Alone> {
     Harness::builder()
         .with_size(egui::vec2(1366.0, 768.0))
         .build_ui_state(
-            |ui, state: &mut AppState| drivedeck::ui::plots::plots_ui(ui, state),
-            AppState::new(Settings::default()),
+            |ui, alone: &mut Alone| alone.ui(ui),
+            Alone::new(Settings::default().plot.history_rows),
         )
 }
 
 /// A click at `pos`: the primary button or the secondary one.
-fn click_at(harness: &mut Harness<'_, AppState>, pos: egui::Pos2, button: egui::PointerButton) {
+fn click_at(harness: &mut Harness<'_, Alone>, pos: egui::Pos2, button: egui::PointerButton) {
     harness
         .input_mut()
         .events
@@ -605,7 +611,7 @@ fn click_at(harness: &mut Harness<'_, AppState>, pos: egui::Pos2, button: egui::
 fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger() {
     let mut harness = empty_panel();
     harness.step();
-    let picker = scripted(harness.state_mut());
+    let picker = scripted(&mut harness.state_mut().view);
     let dir = common::temp_dir("plots");
     let before = recording_file(&dir, "before.csv", 2000.0, 0.5);
     let after = recording_file(&dir, "after.json", 2400.0, 0.3);
@@ -613,36 +619,34 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
     answer(&picker, &before);
     harness.get_by_label("Open recording…").click();
     step_panel_until(&mut harness, "the recording open", |s| {
-        s.plot.review.is_some()
+        s.view.review().is_some()
     });
     assert!(!picker.asked()[0].save);
     harness.get_by_label("Recording: before.csv");
     assert_eq!(
-        drivedeck::ui::plots::time_range(harness.state()),
+        harness.state().time_range(),
         Some((0.0, 1.0))
     );
-    let shown = drivedeck::ui::plots::shown_scope(harness.state());
+    let shown = harness.state().shown_scope();
     assert_eq!(shown.ring().len(), 101);
     assert!(
-        harness.state().scope.ring().is_empty(),
+        harness.state().drive.scope.ring().is_empty(),
         "no drive, no live samples"
     );
 
     answer(&picker, &after);
     harness.get_by_label("Overlay recording…").click();
     step_panel_until(&mut harness, "the overlay", |s| {
-        s.plot.review.as_ref().is_some_and(|r| r.overlay.is_some())
+        s.view.review().is_some_and(|r| r.overlay.is_some())
     });
     harness.get_by_label("Overlay (dashed): after.json, moved by");
     let offset = overlay_offset(&harness);
     assert!((offset - 0.2).abs() < 1e-9, "trigger on trigger: {offset}");
     // A chosen offset instead, then back on the triggers.
-    if let Some(review) = &mut harness.state_mut().plot.review {
-        review.offset_s = -0.5;
-    }
+    harness.state_mut().apply(PlotCommand::MoveOverlay(-0.5));
     harness.step();
     assert_eq!(
-        drivedeck::ui::plots::time_range(harness.state()),
+        harness.state().time_range(),
         Some((-0.5, 1.0))
     );
     harness.get_by_label("Align").click();
@@ -653,8 +657,13 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
     // Two cursors: a click places A, a right click B; Δt and each signal's Δ read out.
     // Inside the top plot, at a fraction of its width (the read-out above may have
     // grown after the first click).
-    let at = |h: &Harness<'_, AppState>, fraction: f32| {
-        let plots = h.state().plot.plots_rect.expect("plots drawn");
+    let at = |h: &Harness<'_, Alone>, fraction: f32| {
+        let plots = h
+            .state()
+            .view
+            .plots_area()
+            .map(|[l, t, r, b]| egui::Rect::from_min_max(egui::pos2(l, t), egui::pos2(r, b)))
+            .expect("plots drawn");
         let left = plots.left() + 80.0;
         egui::pos2(
             left + (plots.width() - 100.0) * fraction,
@@ -666,13 +675,13 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
     let second = at(&harness, 0.7);
     click_at(&mut harness, second, egui::PointerButton::Secondary);
     harness.step();
-    let [a, b] = harness.state().plot.cursors;
+    let [a, b] = harness.state().view.cursors();
     let (a, b) = (a.expect("cursor A"), b.expect("cursor B"));
     assert!(a < b, "{a} {b}");
     let times = format!("A {a:.3} s  B {b:.3} s  Δt {:.3} s", b - a);
     harness.get_by_label(&times);
     let rows = drivedeck::ui::plots::readout::cursor_rows(
-        drivedeck::ui::plots::shown_scope(harness.state()),
+        harness.state().shown_scope(),
         Some(a),
         Some(b),
     );
@@ -685,26 +694,26 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
     assert!(delta.contains("° = ") && delta.ends_with(" rev"), "{delta}");
     harness.get_by_label("Clear cursors").click();
     harness.step();
-    assert_eq!(harness.state().plot.cursors, [None, None]);
+    assert_eq!(harness.state().view.cursors(), [None, None]);
 
     // Closed: back to the (empty) live plots.
     harness.get_by_label("Close recording").click();
     harness.step();
-    assert!(harness.state().plot.review.is_none());
+    assert!(harness.state().view.review().is_none());
 }
 
 #[test]
 fn a_file_that_is_no_recording_is_refused_with_the_reason_and_nothing_changes() {
     let mut harness = empty_panel();
     harness.step();
-    let picker = scripted(harness.state_mut());
+    let picker = scripted(&mut harness.state_mut().view);
     let dir = common::temp_dir("plots");
     let bad = path_in(&dir, "photo.csv");
     std::fs::write(&bad, b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR").expect("written");
     answer(&picker, &bad);
     harness.get_by_label("Open recording…").click();
     step_panel_until(&mut harness, "the refusal", |s| {
-        matches!(s.plot.message, Some(Err(_)))
+        matches!(s.view.message(), Some(Err(_)))
     });
     let error = message(&harness).expect_err("refused");
     assert!(
@@ -712,14 +721,14 @@ fn a_file_that_is_no_recording_is_refused_with_the_reason_and_nothing_changes() 
         "{error}"
     );
     harness.get_by_label(&error);
-    assert!(harness.state().plot.review.is_none());
+    assert!(harness.state().view.review().is_none());
 }
 
 /// The times of the timeline's link entries whose text starts with `text`.
 fn link_entries(harness: &Harness<'_, App>, text: &str) -> Vec<Option<f64>> {
     harness
         .state()
-        .state
+        .shown()
         .timeline
         .entries()
         .filter(|e| e.origin == Origin::Link && e.text.starts_with(text))
@@ -735,7 +744,7 @@ fn an_outage_keeps_the_plots_markers_and_timeline_on_one_axis_with_a_gap() {
     let mut harness = connected_to(&spec, None, egui::vec2(1366.0, 768.0));
     start_turning(&mut harness, 100.0);
     step_for(&mut harness, Duration::from_millis(300));
-    let scope = &harness.state().state.scope;
+    let scope = &harness.state().shown().scope;
     let first = scope.ring().first_time();
     let (rows, before) = (scope.ring().len(), scope.ring().last_time().unwrap_or(0.0));
     let markers: Vec<(f64, String)> = scope.markers().map(|m| (m.t, m.text.clone())).collect();
@@ -744,7 +753,7 @@ fn an_outage_keeps_the_plots_markers_and_timeline_on_one_axis_with_a_gap() {
     // The drive's plug pulled for a while, then back on the same address.
     drop(server);
     step_until(&mut harness, "the link lost", Duration::from_secs(5), |h| {
-        h.state().state.scope.open_gap().is_some_and(|g| g.lost)
+        h.state().shown().scope.open_gap().is_some_and(|g| g.lost)
     });
     step_for(&mut harness, Duration::from_millis(800));
     let _server =
@@ -754,14 +763,14 @@ fn an_outage_keeps_the_plots_markers_and_timeline_on_one_axis_with_a_gap() {
         "samples again",
         Duration::from_secs(15),
         |h| {
-            let state = &h.state().state;
+            let state = h.state().shown();
             state.is_connected()
                 && state.scope.open_gap().is_none()
                 && state.scope.ring().len() > rows + 20
         },
     );
 
-    let state = &harness.state().state;
+    let state = harness.state().shown();
     let scope = &state.scope;
     assert_eq!(
         scope.ring().first_time(),
@@ -792,9 +801,9 @@ fn an_outage_keeps_the_plots_markers_and_timeline_on_one_axis_with_a_gap() {
     assert_eq!(link_entries(&harness, "link lost: "), [Some(gap.from)]);
     assert_eq!(link_entries(&harness, "link back after "), [Some(back)]);
     // The plots draw the whole of it: the range reaches back before the outage.
-    harness.state_mut().state.settings.plot.window_s = 0.0;
+    harness.state_mut().window_mut().settings.plot.window_s = 0.0;
     harness.step();
-    let (from, to) = drivedeck::ui::plots::time_range(&harness.state().state).expect("range");
+    let (from, to) = harness.state().time_range().expect("range");
     assert!(from <= gap.from && to > back, "{from}..{to} around {gap:?}");
 }
 
@@ -840,7 +849,7 @@ fn samples_wake_the_window_at_the_redraw_rate_and_paused_plots_once_a_second() {
     assert!(due.is_some_and(|due| due >= began + period - Duration::from_micros(1)));
 
     // A slower rate from the settings.
-    harness.state_mut().state.settings.plot.redraw_hz = 10.0;
+    harness.state_mut().window_mut().settings.plot.redraw_hz = 10.0;
     let (asks, due, began) = asked_after_samples(&mut harness, &pace, Duration::from_millis(150));
     assert_eq!(asks, 1);
     assert!(due.is_some_and(|due| due >= began + Duration::from_millis(100)));
@@ -849,14 +858,14 @@ fn samples_wake_the_window_at_the_redraw_rate_and_paused_plots_once_a_second() {
     // for the status panel's figures.
     harness.get_by_label("Pause plot").click();
     harness.step();
-    assert!(harness.state().state.plot.is_paused());
+    assert!(harness.state().plot().is_paused());
     assert!(harness.state().plots_still());
-    let recorded = harness.state().state.scope.ring().len();
+    let recorded = harness.state().shown().scope.ring().len();
     let (asks, due, began) = asked_after_samples(&mut harness, &pace, Duration::from_millis(300));
     assert_eq!(asks, 1);
     assert!(due.is_some_and(|due| due >= began + Duration::from_secs(1)));
     harness.step();
-    assert!(harness.state().state.scope.ring().len() > recorded);
+    assert!(harness.state().shown().scope.ring().len() > recorded);
 
     // Resumed: the redraw rate again (from the frame after the click).
     harness.get_by_label("Resume plot").click();

@@ -16,7 +16,8 @@ use drivedeck::od::Address;
 use drivedeck::od::backup::DeviceIdentity;
 use drivedeck::project::{self, Drive, Format, Pin, Project};
 use drivedeck::ui::plots::files::ScriptedPicker;
-use drivedeck::ui::state::{AppState, Outcome};
+use drivedeck::ui::Drive as AppState;
+use drivedeck::ui::drive::Outcome;
 use drivedeck::ui::{App, Settings};
 use drivedeck::worker::LinkLossAction;
 use eframe::egui;
@@ -67,7 +68,7 @@ fn harness(app: App) -> Harness<'static, App> {
 }
 
 fn drive<'a>(harness: &'a Harness<'_, App>, index: usize) -> &'a AppState {
-    harness.state().drive_state(index).expect("the drive")
+    harness.state().drive(index).expect("the drive")
 }
 
 /// The outcome of drive `index`'s project check in its log.
@@ -108,7 +109,7 @@ fn a_project_opens_every_drive_and_says_per_drive_what_differs() {
     assert_eq!(x.settings.lost_after, 4);
     assert_eq!(x.settings.watch.pins.len(), 1);
     assert!(drive(&harness, 1).settings.watch.pins.is_empty());
-    assert_eq!(harness.state().state.settings.plot.window_s, 4.0);
+    assert_eq!(harness.state().settings().plot.window_s, 4.0);
 
     step_until(
         &mut harness,
@@ -243,7 +244,7 @@ fn the_project_menu_saves_through_the_dialog_and_asks_before_replacing_a_file() 
     let picker = ScriptedPicker::new();
     picker.answer(Some(other.clone()));
     picker.answer(Some(other.clone()));
-    app.state.plot.files = picker.clone();
+    app.window_mut().plot.set_files(picker.clone());
     let mut harness = harness(app);
     harness.run_steps(2);
 

@@ -11,8 +11,9 @@ use drivedeck::od::Value;
 use drivedeck::pdi::{Action, StatusBit};
 use drivedeck::sim::server::ServerThread;
 use drivedeck::sim::server::modbus::ServerOptions;
-use drivedeck::ui::state::Connection;
-use drivedeck::ui::{AppState, Settings, commands};
+use drivedeck::ui::drive::Connection;
+use drivedeck::ui::settings::DriveSettings;
+use drivedeck::ui::{Command, Drive, commands};
 use drivedeck::worker::Request;
 use eframe::egui;
 use egui::accesskit::Toggled;
@@ -30,7 +31,7 @@ fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
         &mut harness,
         "connecting to the simulator",
         Duration::from_secs(5),
-        |h| h.state().state.is_connected() && h.state().state.latest.is_some(),
+        |h| h.state().shown().is_connected() && h.state().shown().latest().is_some(),
     );
     assert!(!lamp(&harness, "Operation enabled"));
     assert!(!lamp(&harness, "Target reached"));
@@ -50,7 +51,7 @@ fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
         Duration::from_secs(5),
         |h| lamp(h, "Target reached") && position(h) == 2000.0,
     );
-    let state = &harness.state().state;
+    let state = harness.state().shown();
     let entry = state
         .log
         .iter()
@@ -59,7 +60,7 @@ fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
     let image = entry.image.expect("the image written is logged");
     assert_eq!(image.to_bytes(), [0xD0, 0x07, 0, 0, 0xC8, 0, 0, 20]);
     assert!(
-        matches!(&entry.outcome, drivedeck::ui::state::Outcome::Succeeded(text) if text.contains("2000")),
+        matches!(&entry.outcome, drivedeck::ui::drive::Outcome::Succeeded(text) if text.contains("2000")),
         "{:?}",
         entry.outcome
     );
@@ -103,10 +104,45 @@ fn halt_toggle_stops_and_resumes_the_move() {
     );
 }
 
+/// A drive's panels fed by hand, without a worker: drawn, and what the user asked of
+/// them applied to the drive as the window applies it.
+struct Fed {
+    drive: Drive,
+    collapsed: bool,
+}
+
+impl Fed {
+    fn new() -> Fed {
+        Fed {
+            drive: Drive::new("Drive 1".into(), 0, DriveSettings::default(), 10_000, &[]),
+            collapsed: false,
+        }
+    }
+
+    /// The user's commands of a frame, applied to the drive.
+    fn apply(&mut self, commands: Vec<Command>) {
+        for command in commands {
+            self.drive.apply_command(command);
+        }
+    }
+
+    /// The requests waiting for the worker.
+    fn outbox(&self) -> Vec<Request> {
+        self.drive.waiting().cloned().collect()
+    }
+}
+
+/// The command panel of `fed`, its commands applied.
+fn commands_panel_ui(ui: &mut egui::Ui, fed: &mut Fed) {
+    let mut asked = Vec::new();
+    commands::commands_ui(ui, &mut fed.drive, &mut fed.collapsed, &mut asked);
+    fed.apply(asked);
+}
+
 /// A command panel that believes it is connected, so only the inputs decide.
-fn commands_harness() -> Harness<'static, AppState> {
-    let mut state = AppState::new(Settings::default());
-    state.connection = Connection::Connected(LinkInfo {
+fn commands_harness() -> Harness<'static, Fed> {
+    let mut fed = Fed::new();
+    fed.drive.link.connection = Connection::Connected(LinkInfo {
         spec: LinkSpec::Sim,
         description: "test".into(),
         native_objects: true,
@@ -114,13 +150,10 @@ fn commands_harness() -> Harness<'static, AppState> {
         pdi: true,
         homing_methods: None,
     });
-    state.torque_slope = Some(1000);
+    fed.drive.motion.torque_slope = Some(1000);
     Harness::builder()
         .with_size(egui::vec2(600.0, 800.0))
-        .build_ui_state(
-            |ui, state: &mut AppState| commands::commands_ui(ui, state),
-            state,
-        )
+        .build_ui_state(commands_panel_ui, fed)
 }
 
 #[test]
@@ -139,7 +172,7 @@ fn an_out_of_range_set_value2_disables_the_button_and_sends_nothing() {
         .set_text_value_accesskit("40000");
     harness.run();
     assert_eq!(
-        harness.state().settings.inputs["Profile Position absolute"],
+        harness.state().drive.settings.inputs["Profile Position absolute"],
         vec!["2000".to_owned(), "40000".to_owned()]
     );
     let button = harness.get_by_label("Move absolute");
@@ -147,9 +180,9 @@ fn an_out_of_range_set_value2_disables_the_button_and_sends_nothing() {
     button.click();
     harness.run();
     assert!(
-        harness.state().outbox.is_empty(),
+        harness.state().outbox().is_empty(),
         "{:?}",
-        harness.state().outbox
+        harness.state().outbox()
     );
     // The reason is on screen: field, value and range.
     harness.get_by_label_contains("40000 does not fit PDI-SetValue2");
@@ -162,7 +195,7 @@ fn an_out_of_range_set_value2_disables_the_button_and_sends_nothing() {
     harness.get_by_label("Move absolute").click();
     harness.run();
     assert_eq!(
-        harness.state().outbox,
+        harness.state().outbox(),
         vec![Request::Command(Action::MoveAbsolute {
             target: 2000,
             speed: 32767
@@ -173,15 +206,15 @@ fn an_out_of_range_set_value2_disables_the_button_and_sends_nothing() {
 #[test]
 fn a_torque_command_with_slope_zero_asks_first() {
     let mut harness = commands_harness();
-    harness.state_mut().torque_slope = Some(0);
+    harness.state_mut().drive.motion.torque_slope = Some(0);
     harness.run();
     harness.get_by_label("Torque").click();
     harness.run();
-    assert!(harness.state().outbox.is_empty());
+    assert!(harness.state().outbox().is_empty());
     harness.get_by_label_contains("torque never builds up");
     harness.get_by_label("Set slope and send").click();
     harness.run();
-    let outbox = &harness.state().outbox;
+    let outbox = &harness.state().outbox();
     assert_eq!(outbox.len(), 2, "{outbox:?}");
     assert!(matches!(&outbox[0], Request::WriteObject { address, .. } if address.index == 0x6087));
     assert_eq!(
@@ -214,12 +247,12 @@ fn escape_sends_quickstop_from_anywhere() {
     assert!(
         harness
             .state()
-            .state
+            .shown()
             .log
             .iter()
             .any(|e| e.what == "Quickstop")
     );
-    assert!(!harness.state().state.bit(StatusBit::OperationEnabled));
+    assert!(!harness.state().shown().bit(StatusBit::OperationEnabled));
 }
 
 #[test]
@@ -228,7 +261,7 @@ fn the_poll_rate_box_changes_the_worker_rate() {
     connected(&mut harness);
     harness.get_by_label("Poll rate").set_value_accesskit(25.0);
     harness.step();
-    assert_eq!(harness.state().state.settings.poll_rate, 25.0);
+    assert_eq!(harness.state().shown().settings.poll_rate, 25.0);
     // Health comes once a second; the second report after the change shows the new rate.
     std::thread::sleep(Duration::from_millis(2200));
     step_until(
@@ -237,7 +270,8 @@ fn the_poll_rate_box_changes_the_worker_rate() {
         Duration::from_secs(3),
         |h| {
             h.state()
-                .state
+                .shown()
+                .link
                 .health
                 .is_some_and(|health| (15.0..32.0).contains(&health.cycles_per_second))
         },
@@ -264,9 +298,9 @@ fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor()
         "the Modbus connection",
         Duration::from_secs(5),
         |h| {
-            h.state().state.latest.is_some()
+            h.state().shown().latest().is_some()
                 && h.state()
-                    .state
+                    .shown()
                     .link_info()
                     .is_some_and(|i| i.description.contains("Modbus TCP"))
         },
@@ -284,7 +318,7 @@ fn the_connection_bar_connects_over_modbus_tcp_and_the_window_drives_the_motor()
     assert_eq!(
         harness
             .state()
-            .state
+            .shown()
             .settings
             .connection
             .spec()
@@ -301,11 +335,11 @@ fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
     harness.get_by_label("Scan bus").click();
     harness.step();
     step_until(&mut harness, "the scan", Duration::from_secs(5), |h| {
-        h.state().state.scan.is_some()
+        h.state().shown().scan.is_some()
     });
     let found = harness
         .state()
-        .state
+        .shown()
         .scan
         .clone()
         .expect("scan")
@@ -321,13 +355,13 @@ fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
         "the CANopen connection",
         Duration::from_secs(5),
         |h| {
-            h.state().state.link_info().is_some_and(|i| {
+            h.state().shown().link_info().is_some_and(|i| {
                 i.description.contains("CANopen node 6") && i.description.contains("RPDO1/TPDO1")
-            }) && h.state().state.latest.is_some()
+            }) && h.state().shown().latest().is_some()
         },
     );
     // What the link itself changed (the PDO mapping) is listed, with its fate.
-    let link_changes = harness.state().state.link_changes.clone();
+    let link_changes = harness.state().shown().link.own_changes.clone();
     assert!(
         link_changes
             .iter()
@@ -344,7 +378,7 @@ fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
         Duration::from_secs(10),
         |h| {
             lamp(h, "Target reached")
-                && h.state().state.latest.map(|s| s.tx.return_value) == Some(2000)
+                && h.state().shown().latest().map(|s| s.tx.return_value) == Some(2000)
         },
     );
     // Any object, read the way the link does it best: 1008h over a segmented SDO upload.
@@ -357,18 +391,31 @@ fn the_window_scans_the_can_bus_connects_moves_over_pdos_and_reads_a_string() {
 }
 
 /// The status panel, the command panel and the stop strip of a window fed by hand.
-fn panels_harness() -> Harness<'static, AppState> {
+fn panels_harness() -> Harness<'static, Fed> {
     let harness = Harness::builder()
         .with_size(egui::vec2(1100.0, 900.0))
         .build_ui_state(
-            |ui, state: &mut AppState| {
-                drivedeck::ui::connection::stop_strip_ui(ui, state);
+            |ui, fed: &mut Fed| {
+                let mut asked = Vec::new();
+                let offline = fed.drive.offline_reason().unwrap_or_default();
+                let connected = fed.drive.is_connected();
+                if let Some(stop) =
+                    drivedeck::ui::connection::stop_buttons_ui(ui, connected, &offline, &[])
+                {
+                    asked.push(Command::Request(Request::Command(stop)));
+                }
                 ui.columns(2, |columns| {
-                    drivedeck::ui::status::status_ui(&mut columns[0], state);
-                    commands::commands_ui(&mut columns[1], state);
+                    drivedeck::ui::status::status_ui(&mut columns[0], &fed.drive, &mut asked);
+                    commands::commands_ui(
+                        &mut columns[1],
+                        &mut fed.drive,
+                        &mut fed.collapsed,
+                        &mut asked,
+                    );
                 });
+                fed.apply(asked);
             },
-            AppState::new(Settings::default()),
+            Fed::new(),
         );
     // Tooltips at once, so a test can read them.
     harness
@@ -378,7 +425,7 @@ fn panels_harness() -> Harness<'static, AppState> {
 }
 
 /// The lamps drawn lit in the last frame (coloured circles), with their alpha.
-fn lit_lamp_alphas(harness: &Harness<'_, AppState>) -> Vec<u8> {
+fn lit_lamp_alphas(harness: &Harness<'_, Fed>) -> Vec<u8> {
     harness
         .output()
         .shapes
@@ -393,7 +440,7 @@ fn lit_lamp_alphas(harness: &Harness<'_, AppState>) -> Vec<u8> {
 }
 
 /// A live panel: no banner, the lit lamps at full strength, the buttons enabled.
-fn shows_live(harness: &Harness<'_, AppState>) {
+fn shows_live(harness: &Harness<'_, Fed>) {
     assert!(harness.query_by_label_contains("NO LINK").is_none());
     assert!(
         harness
@@ -457,18 +504,19 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
             .is_disabled()
     );
 
-    harness.state_mut().apply(Event::Connected(sim_info()));
+    harness.state_mut().drive.apply(Event::Connected(sim_info()));
     harness.step();
     harness.get_by_label_contains("WAITING FOR DATA");
     harness
         .state_mut()
+        .drive
         .apply(Event::Samples(vec![operation_enabled_sample(1.0)]));
     harness.step();
     // Live: no banner, lamps at full strength, the buttons enabled.
     assert!(lamp(&harness, "Operation enabled"));
     shows_live(&harness);
 
-    harness.state_mut().apply(Event::Disconnected {
+    harness.state_mut().drive.apply(Event::Disconnected {
         reason: Some("connection reset by peer".into()),
     });
     harness.step();
@@ -526,7 +574,7 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
 
     // Reconnecting: still the old values until the first sample of the new link.
     harness.get_by_label("Drive status").hover();
-    harness.state_mut().apply(Event::Connecting(LinkSpec::Sim));
+    harness.state_mut().drive.apply(Event::Connecting(LinkSpec::Sim));
     harness.step();
     harness.get_by_label_contains("NO LINK — last seen at ");
     assert_eq!(
@@ -535,11 +583,12 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
             .count(),
         2
     );
-    harness.state_mut().apply(Event::Connected(sim_info()));
+    harness.state_mut().drive.apply(Event::Connected(sim_info()));
     harness.step();
     harness.get_by_label_contains("WAITING FOR DATA — connected; last seen at ");
     harness
         .state_mut()
+        .drive
         .apply(Event::Samples(vec![operation_enabled_sample(0.01)]));
     harness.step();
     shows_live(&harness);
@@ -599,7 +648,7 @@ fn the_window_shows_a_drive_whose_server_died_as_last_seen_and_comes_back_live()
         "the window to be live again",
         Duration::from_secs(15),
         |h| {
-            h.state().state.is_connected()
+            h.state().shown().is_connected()
                 // The state tile and the status panel's banner both say so until then.
                 && h.query_all_by_label_contains("NO LINK").next().is_none()
                 && h.query_all_by_label_contains("WAITING FOR DATA").next().is_none()

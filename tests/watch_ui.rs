@@ -31,7 +31,7 @@ fn pin_typed(harness: &mut Harness<'_, drivedeck::ui::App>, address: &str) {
 fn reading(harness: &Harness<'_, drivedeck::ui::App>, address: Address) -> Option<Value> {
     harness
         .state()
-        .state
+        .shown()
         .watch
         .reading(address)
         .and_then(|r| r.result.clone().ok())
@@ -54,7 +54,7 @@ fn a_pinned_position_refreshes_while_the_motor_turns() {
         harness.query_by_label("Watch (2)").is_some(),
         "the toggle counts the pins"
     );
-    let settings = &harness.state().state.settings.watch;
+    let settings = &harness.state().shown().settings.watch;
     assert_eq!(settings.pins.len(), 2);
     assert_eq!(
         settings.pins[1].format,
@@ -67,7 +67,7 @@ fn a_pinned_position_refreshes_while_the_motor_turns() {
     harness.step();
     harness.get_by_label("10 Hz").click();
     harness.step();
-    assert_eq!(harness.state().state.settings.watch.rate, 10.0);
+    assert_eq!(harness.state().shown().settings.watch.rate, 10.0);
     step_until(
         &mut harness,
         "a first reading",
@@ -93,7 +93,7 @@ fn a_pinned_position_refreshes_while_the_motor_turns() {
     );
     // What the last frame drew is what the state held after it.
     harness.step();
-    let watch = &harness.state().state.watch;
+    let watch = &harness.state().shown().watch;
     let read = watch.reading(POSITION).expect("6064h read");
     assert!(read.changed_at.is_some(), "a value that changed is marked");
     let shown = format!("6064h:00h = {}", read.result.clone().expect("a value"));
@@ -105,12 +105,12 @@ fn a_pinned_position_refreshes_while_the_motor_turns() {
     assert!(
         !harness
             .state()
-            .state
+            .shown()
             .log
             .iter()
             .any(|e| e.what.contains("objects")),
         "{:#?}",
-        harness.state().state.log
+        harness.state().shown().log
     );
 }
 
@@ -126,7 +126,7 @@ fn a_bad_address_is_named_and_kept_to_correct() {
             .query_by_label_contains("'60g4' is not an address")
             .is_some(),
         "{:?}",
-        harness.state().state.watch.message
+        harness.state().shown().watch.message
     );
     pin_typed(&mut harness, "5FFF:33");
     assert!(
@@ -134,19 +134,22 @@ fn a_bad_address_is_named_and_kept_to_correct() {
             .query_by_label_contains("5FFFh:33h is not in the dictionary shown")
             .is_some()
     );
-    assert!(harness.state().state.settings.watch.pins.is_empty());
+    assert!(harness.state().shown().settings.watch.pins.is_empty());
 }
 
 #[test]
 fn the_pins_are_saved_with_the_layout() {
     let mut settings = Settings::default();
-    settings.watch.address = "6041".into();
-    settings
-        .watch
-        .pin_typed(drivedeck::od::builtin())
-        .expect("pin 6041h");
+    let mut watch = drivedeck::ui::watch::WatchSettings {
+        address: "6041".into(),
+        ..Default::default()
+    };
+    watch.pin_typed(drivedeck::od::builtin()).expect("pin 6041h");
+    settings.watch.pins = watch.pins;
     settings.watch.pins[0].format = Format::Hex;
     settings.watch.rate = 5.0;
+    // The panel was open when the window was closed.
+    settings.watch.open = true;
     // What eframe stores between runs is the settings as RON; JSON has the same serde.
     let saved = serde_json::to_string(&settings).expect("settings serialise");
     let loaded: Settings = serde_json::from_str(&saved).expect("and come back");
@@ -181,7 +184,7 @@ fn objects_are_pinned_from_the_dictionary_and_from_the_plots() {
     let mut harness = app_harness();
     connected(&mut harness);
     // From the dictionary: the row's Watch button pins the object and opens the panel.
-    harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Dictionary;
+    harness.state_mut().window_mut().settings.central = drivedeck::ui::settings::DICTIONARY.to_owned();
     harness.step();
     harness
         .get_by_label("Object filter")
@@ -190,8 +193,8 @@ fn objects_are_pinned_from_the_dictionary_and_from_the_plots() {
     harness.get_by_label("Watch 6064h:00h").click();
     harness.step();
     harness.step();
-    assert!(harness.state().state.settings.watch.is_pinned(POSITION));
-    assert!(harness.state().state.settings.watch.open, "the panel opens");
+    assert!(harness.state().shown().settings.watch.is_pinned(POSITION));
+    assert!(harness.state().settings().watch_open, "the panel opens");
     assert!(
         harness
             .query_by_label_contains("watching 6064h:00h")
@@ -210,13 +213,16 @@ fn objects_are_pinned_from_the_dictionary_and_from_the_plots() {
             .is_disabled()
     );
     assert_eq!(
-        harness.state_mut().state.pin_to_watch(POSITION),
+        harness.state_mut().pin_to_watch(POSITION),
         Err("6064h:00h is pinned already".to_owned())
     );
 
     // From the plots: an object plotted from the dictionary can be watched in numbers.
-    harness.state_mut().state.watch_object("6044");
-    harness.state_mut().state.settings.central = drivedeck::ui::state::Central::Plots;
+    harness
+        .state_mut()
+        .plot_object("6044")
+        .expect("6044h plotted");
+    harness.state_mut().window_mut().settings.central = drivedeck::ui::settings::PLOTS.to_owned();
     harness.step();
     harness.get_by_label("Signals").click();
     step_until_shown(&mut harness, "Watch 6044h:00h");
@@ -224,11 +230,11 @@ fn objects_are_pinned_from_the_dictionary_and_from_the_plots() {
     harness.step();
     harness.step();
     let velocity = Address::new(0x6044, 0);
-    assert!(harness.state().state.settings.watch.is_pinned(velocity));
+    assert!(harness.state().shown().settings.watch.is_pinned(velocity));
     assert!(
-        matches!(&harness.state().state.plot.message, Some(Ok(t)) if t.contains("watching 6044h:00h")),
+        matches!(&harness.state().plot().message(), Some(Ok(t)) if t.contains("watching 6044h:00h")),
         "{:?}",
-        harness.state().state.plot.message
+        harness.state().plot().message()
     );
     step_until(&mut harness, "6044h read", Duration::from_secs(5), |h| {
         reading(h, velocity).is_some()

@@ -175,13 +175,11 @@ fn plot_frames(ready: &AtomicBool, active: &AtomicBool, stop: &AtomicBool) {
     use crate::pdi::{Status, TxImage};
     use crate::signal::{Signal, Signals};
     use eframe::egui;
-    let mut settings = crate::ui::Settings::default();
-    settings.plot.history_rows = PLOT_ROWS;
-    let mut state = crate::ui::AppState::new(settings);
+    let mut plots = crate::ui::plots::Alone::new(PLOT_ROWS);
     for i in 0..PLOT_ROWS {
         let t = i as f64 * 0.001;
         let noise = ((i * 7919) % 101) as f64 - 50.0;
-        state.scope.push(&crate::worker::Sample {
+        plots.drive.scope.push(&crate::worker::Sample {
             t,
             signals: Signals::default()
                 .with(Signal::Position, (t * 0.7).sin() * 36_000.0 + noise)
@@ -205,7 +203,7 @@ fn plot_frames(ready: &AtomicBool, active: &AtomicBool, stop: &AtomicBool) {
             next = Instant::now();
             continue;
         }
-        std::hint::black_box(crate::ui::plots::headless_frame(&ctx, &mut state));
+        std::hint::black_box(crate::ui::plots::headless_frame(&ctx, &mut plots));
         next += FRAME;
         let now = Instant::now();
         if next > now {

@@ -4,13 +4,16 @@
 use eframe::egui::{self, Color32, RichText, Ui};
 
 use super::scan::{discover_ui, scan_button_ui};
-use super::state::{AppState, Bus, Connection, ConnectionForm, FormError, Settings};
+use super::command::Command;
+use super::connection_form::{Bus, ConnectionForm, FormError};
+use super::drive::{Connection, Drive};
+use super::settings::DriveSettings;
 use super::widgets::{
     AMBER, GREEN, RED, choice_ui, labelled_text_edit_ui, name_widget, named_text_edit,
 };
 use crate::link::{EnipIo, LinkSpec, Parity};
 use crate::pdi::Action;
-use crate::worker::{Health, LinkLossAction, MAX_LOST_AFTER, Request};
+use crate::worker::{Health, LinkLossAction, MAX_LOST_AFTER};
 
 /// A labelled box of the bar, named "Connection: <label>".
 fn field_ui(ui: &mut Ui, label: &str, text: &mut String, width: f32) {
@@ -51,30 +54,30 @@ fn port_field_ui(ui: &mut Ui, path: &mut String, ports: &Option<Vec<String>>) ->
     ask
 }
 
-pub fn connection_ui(ui: &mut Ui, state: &mut AppState) {
+pub fn connection_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
     let mut want_ports = false;
     ui.horizontal_wrapped(|ui| {
-        let form = &mut state.settings.connection;
+        let form = &mut drive.settings.connection;
         choice_ui(ui, "bus", "Bus", &mut form.bus, &Bus::ALL, Bus::name, None);
-        want_ports = bus_fields_ui(ui, form, &state.serial_ports);
+        want_ports = bus_fields_ui(ui, form, &drive.link.machine.serial_ports);
         if form.bus == Bus::Enip {
-            discover_ui(ui, state);
+            discover_ui(ui, drive, commands);
         }
 
-        let spec = state.settings.connection.spec();
-        scan_button_ui(ui, state, &spec);
-        connect_button_ui(ui, state, &spec);
+        let spec = drive.settings.connection.spec();
+        scan_button_ui(ui, drive, &spec, commands);
+        connect_button_ui(ui, drive, &spec, commands);
         if let Err(reason) = &spec {
             ui.colored_label(RED, reason.to_string());
         }
 
         ui.separator();
-        poll_rate_ui(ui, &mut state.settings);
-        link_loss_ui(ui, &mut state.settings);
-        link_state_ui(ui, state);
+        poll_rate_ui(ui, &mut drive.settings);
+        link_loss_ui(ui, &mut drive.settings);
+        link_state_ui(ui, drive);
     });
     if want_ports {
-        state.ask_serial_ports();
+        drive.ask_serial_ports();
     }
 }
 
@@ -157,15 +160,20 @@ fn enip_fields_ui(ui: &mut Ui, form: &mut ConnectionForm) {
 }
 
 /// Connect to what the bar describes; Disconnect while connected or retrying.
-fn connect_button_ui(ui: &mut Ui, state: &mut AppState, spec: &Result<LinkSpec, FormError>) {
-    let busy = matches!(state.connection, Connection::Connecting(_));
-    match &state.connection {
+fn connect_button_ui(
+    ui: &mut Ui,
+    drive: &Drive,
+    spec: &Result<LinkSpec, FormError>,
+    commands: &mut Vec<Command>,
+) {
+    let busy = matches!(drive.link.connection, Connection::Connecting(_));
+    match &drive.link.connection {
         Connection::Connected(_)
         | Connection::Failed {
             retry_in: Some(_), ..
         } => {
             if ui.button("Disconnect").clicked() {
-                state.ask_to_leave(false);
+                commands.push(Command::Disconnect);
             }
         }
         _ => {
@@ -180,14 +188,14 @@ fn connect_button_ui(ui: &mut Ui, state: &mut AppState, spec: &Result<LinkSpec, 
             if response.clicked()
                 && let Ok(spec) = spec.clone()
             {
-                state.request(Request::Connect(spec));
+                commands.push(Command::Connect(spec));
             }
         }
     }
 }
 
 /// How many process-image exchanges the worker makes a second.
-fn poll_rate_ui(ui: &mut Ui, settings: &mut Settings) {
+fn poll_rate_ui(ui: &mut Ui, settings: &mut DriveSettings) {
     ui.label("Poll");
     let poll = ui.add(
         egui::DragValue::new(&mut settings.poll_rate)
@@ -202,7 +210,7 @@ fn poll_rate_ui(ui: &mut Ui, settings: &mut Settings) {
 
 /// What the worker does when the link drops, and after how many failed exchanges it
 /// counts as dropped.
-fn link_loss_ui(ui: &mut Ui, settings: &mut Settings) {
+fn link_loss_ui(ui: &mut Ui, settings: &mut DriveSettings) {
     let loss = egui::ComboBox::from_id_salt("on_link_loss")
         .selected_text(format!("link lost: {}", settings.on_link_loss.name()))
         .show_ui(ui, |ui| {
@@ -236,8 +244,8 @@ fn link_loss_ui(ui: &mut Ui, settings: &mut Settings) {
 }
 
 /// Where the link stands: connecting, connected (and how well), failed.
-fn link_state_ui(ui: &mut Ui, state: &AppState) {
-    match &state.connection {
+fn link_state_ui(ui: &mut Ui, drive: &Drive) {
+    match &drive.link.connection {
         Connection::Disconnected => {
             ui.weak("disconnected");
         }
@@ -248,7 +256,7 @@ fn link_state_ui(ui: &mut Ui, state: &AppState) {
         Connection::Connected(info) => {
             ui.colored_label(GREEN, "connected:");
             ui.label(&info.description);
-            if let Some(health) = state.health {
+            if let Some(health) = drive.link.health {
                 health_ui(ui, &health);
             }
         }
@@ -285,14 +293,6 @@ fn health_ui(ui: &mut Ui, health: &Health) {
     } else {
         "Process-image exchanges per second and their round-trip time".to_owned()
     });
-}
-
-/// Quickstop and Switch Off, always visible; Esc and Shift+Esc reach them from anywhere.
-pub fn stop_strip_ui(ui: &mut Ui, state: &mut AppState) {
-    let offline = state.offline_reason().unwrap_or_default();
-    if let Some(action) = stop_buttons_ui(ui, state.is_connected(), &offline, &[]) {
-        state.request(Request::Command(action));
-    }
 }
 
 /// The two stop buttons, for the drives named (with more than one they stop them all, and

@@ -3,38 +3,42 @@
 
 use eframe::egui::{self, RichText, Ui};
 
-use super::state::AppState;
+use super::command::Command;
+use super::drive::Drive;
+use super::plots::PlotCommand;
 use super::widgets::{AMBER, GREEN, RED, labelled_text_edit_ui, log_grid_ui};
 use crate::diagnostics::{Entry as TimelineEntry, Severity};
 
-pub fn faults_ui(ui: &mut Ui, state: &mut AppState) {
+/// The id of the log's tab of faults.
+pub const FAULTS: &str = "faults";
+
+pub fn faults_ui(ui: &mut Ui, drive: &mut Drive, file: &mut String, commands: &mut Vec<Command>) {
     ui.horizontal(|ui| {
-        let file = &mut state.settings.timeline_path;
         labelled_text_edit_ui(ui, "Export to", file, 200.0, "Timeline file");
         if ui
             .button("Export timeline")
             .on_hover_text("Every entry as CSV: time, wall clock, severity, origin, text")
             .clicked()
         {
-            let path = state.settings.timeline_path.clone();
+            let path = file.clone();
             let message = match crate::file::write_whole(
                 std::path::Path::new(&path),
-                state.timeline.to_csv(),
+                drive.timeline.to_csv(),
             ) {
-                Ok(()) => format!("saved {} entries to {path}", state.timeline.len()),
+                Ok(()) => format!("saved {} entries to {path}", drive.timeline.len()),
                 Err(e) => format!("cannot write {path}: {e}"),
             };
-            state.info(message);
+            drive.info(message);
         }
         ui.weak("PDI-Status edges, 603Fh, 1001h, 1003h, EMCY, failed commands, link drops");
     });
     let mut show = None;
     log_grid_ui(ui, "timeline_grid", 5, |ui| {
-        if state.timeline.is_empty() {
+        if drive.timeline.is_empty() {
             ui.weak("no faults or warnings seen");
             ui.end_row();
         }
-        for (i, entry) in state.timeline.entries().enumerate() {
+        for (i, entry) in drive.timeline.entries().enumerate() {
             if let Some(t) = entry_time_ui(ui, i, entry) {
                 show = Some(t);
             }
@@ -51,7 +55,7 @@ pub fn faults_ui(ui: &mut Ui, state: &mut AppState) {
         }
     });
     if let Some(t) = show {
-        state.show_on_plot(t);
+        commands.push(Command::Plot(PlotCommand::ShowMoment(t)));
     }
 }
 

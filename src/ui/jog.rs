@@ -6,79 +6,14 @@
 
 use eframe::egui::{self, Key, RichText, Sense, Ui};
 
-use super::state::AppState;
+use super::command::Command;
+use super::drive::{Drive, jog_speed};
 use super::widgets::{AMBER, name_widget, named_text_edit};
-use crate::worker::{JOG_KEEPALIVE, Request};
+use crate::worker::JOG_KEEPALIVE;
 
-/// Fastest jog the box accepts, rpm.
-pub const JOG_MAX_SPEED: i32 = 3000;
-
-/// A jog held in the window.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct JogHold {
-    /// -1 or +1.
-    pub direction: i32,
-    pub speed: i32,
-    /// When the last jog request or keep-alive went out (the window's clock).
-    pub sent_at: f64,
-}
-
-/// The jog speed as typed, or why it cannot be used.
-pub fn jog_speed(text: &str) -> Result<i32, String> {
-    text.trim()
-        .parse::<i32>()
-        .ok()
-        .filter(|v| (1..=JOG_MAX_SPEED).contains(v))
-        .ok_or_else(|| format!("jog speed '{text}' is not 1 to {JOG_MAX_SPEED} rpm"))
-}
-
-impl AppState {
-    /// One frame of the jog: `direction` is what is held now (0: nothing).
-    pub fn jog_step(&mut self, direction: i32, speed: i32) {
-        let keepalive = JOG_KEEPALIVE.as_secs_f64();
-        if self.jog_blocked {
-            if direction == 0 {
-                self.jog_blocked = false;
-            }
-            return;
-        }
-        match (self.jog, direction) {
-            (None, 0) => {}
-            (None, d) => self.start_jog(d, speed),
-            (Some(_), 0) => {
-                self.jog = None;
-                self.request(Request::JogStop);
-            }
-            (Some(hold), d) if d != hold.direction || speed != hold.speed => {
-                self.start_jog(d, speed)
-            }
-            (Some(hold), _) => {
-                if self.clock - hold.sent_at >= keepalive {
-                    self.outbox.push(Request::JogKeepAlive);
-                    self.jog = Some(JogHold {
-                        sent_at: self.clock,
-                        ..hold
-                    });
-                }
-            }
-        }
-    }
-
-    fn start_jog(&mut self, direction: i32, speed: i32) {
-        self.jog = Some(JogHold {
-            direction,
-            speed,
-            sent_at: self.clock,
-        });
-        self.request(Request::Jog {
-            speed: direction * speed,
-        });
-    }
-}
-
-pub fn jog_ui(ui: &mut Ui, state: &mut AppState) {
-    let offline = state.offline_reason();
-    let speed = jog_speed(&state.settings.jog_speed);
+pub fn jog_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
+    let offline = drive.offline_reason();
+    let speed = jog_speed(&drive.settings.jog_speed);
     let usable = offline.is_none() && speed.is_ok();
     let mut held = 0;
     ui.horizontal(|ui| {
@@ -100,9 +35,9 @@ pub fn jog_ui(ui: &mut Ui, state: &mut AppState) {
                 held = direction;
             }
         }
-        named_text_edit(ui, &mut state.settings.jog_speed, 48.0, "Jog speed");
+        named_text_edit(ui, &mut drive.settings.jog_speed, 48.0, "Jog speed");
         ui.label("rpm");
-        match (&speed, state.jog) {
+        match (&speed, drive.motion.jog) {
             (Err(e), _) => {
                 ui.colored_label(AMBER, e);
             }
@@ -116,7 +51,7 @@ pub fn jog_ui(ui: &mut Ui, state: &mut AppState) {
         }
     });
     // Under the buttons, so the row stays narrow enough for a narrow command panel.
-    if speed.is_ok() && state.jog.is_none() {
+    if speed.is_ok() && drive.motion.jog.is_none() {
         ui.weak("Hold a button, or the Left/Right arrow key.");
     }
     // The arrow keys, unless a text box is being typed in.
@@ -136,14 +71,16 @@ pub fn jog_ui(ui: &mut Ui, state: &mut AppState) {
             .iter()
             .any(|e| matches!(e, egui::Event::WindowFocused(false)))
     });
-    if focus_lost && state.jog.is_some() {
-        state.jog_step(0, 0);
-        state.jog_blocked = true;
+    if focus_lost && drive.motion.jog.is_some() {
+        commands.push(Command::JogFocusLost);
         return;
     }
     let speed = speed.unwrap_or(0);
-    state.jog_step(if usable { held } else { 0 }, speed);
-    if state.jog.is_some() {
+    commands.push(Command::Jog {
+        direction: if usable { held } else { 0 },
+        speed,
+    });
+    if drive.motion.jog.is_some() || held != 0 {
         ui.ctx().request_repaint_after(JOG_KEEPALIVE / 2);
     }
 }

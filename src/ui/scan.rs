@@ -3,7 +3,9 @@
 
 use eframe::egui::{self, RichText, Ui};
 
-use super::state::{AppState, Bus, FormError};
+use super::command::Command;
+use super::connection_form::{Bus, FormError};
+use super::drive::Drive;
 use super::widgets::{RED, name_widget, title_with_close_ui};
 use crate::link::{FoundDevice, LinkSpec};
 use crate::worker::Request;
@@ -11,11 +13,12 @@ use crate::worker::Request;
 /// "Scan bus", on the CANopen buses: find the nodes on the bus the bar describes.
 pub(super) fn scan_button_ui(
     ui: &mut Ui,
-    state: &mut AppState,
+    drive: &Drive,
     spec: &Result<LinkSpec, FormError>,
+    commands: &mut Vec<Command>,
 ) {
     let is_can = matches!(
-        state.settings.connection.bus,
+        drive.settings.connection.bus,
         Bus::CanopenSim | Bus::CanopenSlcan | Bus::CanopenSocketcan
     );
     if is_can
@@ -27,17 +30,17 @@ pub(super) fn scan_button_ui(
             .clicked()
         && let Ok(spec) = spec.clone()
     {
-        state.request(Request::Scan(spec));
+        commands.push(Command::Request(Request::Scan(spec)));
     }
 }
 
 /// EtherNet/IP discovery: the interface to broadcast on, and the button.
-pub(super) fn discover_ui(ui: &mut Ui, state: &mut AppState) {
-    if state.interfaces.is_none() {
-        state.ask_interfaces();
+pub(super) fn discover_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
+    if drive.link.machine.interfaces.is_none() {
+        drive.ask_interfaces();
     }
-    let interfaces = state.interfaces.clone().unwrap_or_default();
-    let form = &mut state.settings.connection;
+    let interfaces = drive.link.machine.interfaces.clone().unwrap_or_default();
+    let form = &mut drive.settings.connection;
     let shown = if form.discover_interface.is_empty() {
         "all interfaces".to_owned()
     } else {
@@ -75,27 +78,27 @@ pub(super) fn discover_ui(ui: &mut Ui, state: &mut AppState) {
         )
         .clicked()
     {
-        state.request(Request::Discover {
+        commands.push(Command::Request(Request::Discover {
             interface,
             host,
             port,
-        });
+        }));
     }
 }
 
 /// The last bus scan or discovery: the devices found, each with a button to connect to it.
-pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
-    let Some(result) = state.scan.clone() else {
+pub fn scan_results_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
+    let Some(result) = drive.scan.clone() else {
         return;
     };
-    let enip = state.settings.connection.bus == Bus::Enip;
+    let enip = drive.settings.connection.bus == Bus::Enip;
     let title = if enip {
         "EtherNet/IP discovery"
     } else {
         "Bus scan"
     };
     if title_with_close_ui(ui, title, None) {
-        state.scan = None;
+        drive.scan = None;
     }
     let found = match result {
         Ok(found) => found,
@@ -123,7 +126,7 @@ pub fn scan_results_ui(ui: &mut Ui, state: &mut AppState) {
             }
             ui.end_row();
             for device in &found {
-                device_row_ui(ui, state, device);
+                device_row_ui(ui, drive, device, commands);
                 ui.end_row();
             }
         });
@@ -135,7 +138,12 @@ fn hex_or_unknown(value: Option<u32>) -> String {
 }
 
 /// One device found: what it says of itself, and the button to connect to it.
-fn device_row_ui(ui: &mut Ui, state: &mut AppState, device: &FoundDevice) {
+fn device_row_ui(
+    ui: &mut Ui,
+    drive: &mut Drive,
+    device: &FoundDevice,
+    commands: &mut Vec<Command>,
+) {
     ui.label(&device.address);
     ui.label(device.vendor_name());
     ui.monospace(hex_or_unknown(device.product));
@@ -147,13 +155,18 @@ fn device_row_ui(ui: &mut Ui, state: &mut AppState, device: &FoundDevice) {
     ui.monospace(hex_or_unknown(device.serial));
     ui.label(device.name.clone().unwrap_or_default());
     ui.label(device.state.clone().unwrap_or_default());
-    use_device_ui(ui, state, device);
+    use_device_ui(ui, drive, device, commands);
 }
 
 /// "Use node 5" or "Use 192.168.2.100": the bar set to the device, and connected to it;
 /// "Add as drive": the device as another drive of the list, with its own link.
-fn use_device_ui(ui: &mut Ui, state: &mut AppState, device: &FoundDevice) {
-    let mut form = state.settings.connection.clone();
+fn use_device_ui(
+    ui: &mut Ui,
+    drive: &mut Drive,
+    device: &FoundDevice,
+    commands: &mut Vec<Command>,
+) {
+    let mut form = drive.settings.connection.clone();
     let label = if let Some(node) = device.node {
         form.node = node.to_string();
         format!("Use node {node}")
@@ -168,8 +181,12 @@ fn use_device_ui(ui: &mut Ui, state: &mut AppState, device: &FoundDevice) {
     };
     ui.horizontal(|ui| {
         if ui.button(&label).clicked() {
-            state.settings.connection = form.clone();
-            connect_to_form(state);
+            // The bar now describes the device: connect to it, and close the scan.
+            if let Ok(spec) = form.spec() {
+                commands.push(Command::Connect(spec));
+            }
+            drive.settings.connection = form.clone();
+            drive.scan = None;
         }
         let spec = form.spec();
         let add = ui
@@ -183,15 +200,7 @@ fn use_device_ui(ui: &mut Ui, state: &mut AppState, device: &FoundDevice) {
         if add.clicked()
             && let Ok(spec) = spec
         {
-            state.wanted_drives.push(spec);
+            commands.push(Command::AddDriveOn(spec));
         }
     });
-}
-
-/// Connect to what the bar now describes, and close the scan.
-fn connect_to_form(state: &mut AppState) {
-    if let Ok(spec) = state.settings.connection.spec() {
-        state.request(Request::Connect(spec));
-    }
-    state.scan = None;
 }

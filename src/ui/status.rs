@@ -5,13 +5,14 @@ use std::time::{Duration, SystemTime};
 
 use eframe::egui::{self, RichText, Ui};
 
-use super::state::AppState;
+use super::command::Command;
+use super::drive::Drive;
 use super::widgets::{AMBER, BLUE, GREEN, RED, clipped_label, lamp, value_with_unit};
 use crate::cia::{ErrorCode, PowerState};
 use crate::injection::Injection;
 use crate::pdi::{Status, StatusBit};
 use crate::signal::Signal;
-use crate::worker::{Request, Sample};
+use crate::worker::Sample;
 
 fn lamp_color(bit: StatusBit) -> egui::Color32 {
     match bit {
@@ -53,26 +54,26 @@ fn mode_name(mode: i8) -> &'static str {
 /// How strongly the last known state is drawn while it is not the drive now.
 pub const STALE_OPACITY: f32 = 0.4;
 
-pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
+pub fn status_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
     ui.heading("Drive status");
     let now = SystemTime::now();
-    let stale = state.stale_line(now);
+    let stale = drive.stale_line(now);
     if let Some(line) = &stale {
-        stale_banner(ui, line, state.offline_reason().as_deref());
+        stale_banner(ui, line, drive.offline_reason().as_deref());
         // The "… s ago" keeps counting while nothing else repaints the window.
-        let age = state.sample_age(now).unwrap_or(f64::INFINITY);
+        let age = drive.link.sample_age(now).unwrap_or(f64::INFINITY);
         if age < 3600.0 {
             ui.ctx()
                 .request_repaint_after(Duration::from_millis(if age < 60.0 { 100 } else { 1000 }));
         }
     }
-    if state.link_info().is_some_and(|i| !i.pdi) {
+    if drive.link_info().is_some_and(|i| !i.pdi) {
         ui.colored_label(
             AMBER,
             "This device has no Plug & Drive interface (2291h/2292h): object access only, no PDI commands.",
         );
     }
-    let Some(sample) = state.latest else {
+    let Some(sample) = drive.latest() else {
         ui.label("No status yet: connect to a drive.");
         return;
     };
@@ -83,7 +84,7 @@ pub fn status_ui(ui: &mut Ui, state: &mut AppState) {
         }
         sample_ui(ui, &sample, stale.is_some());
     });
-    inject_ui(ui, state);
+    inject_ui(ui, drive, commands);
 }
 
 /// "NO LINK — last seen at …" and why, above the dimmed values.
@@ -268,23 +269,18 @@ fn actual_values_ui(ui: &mut Ui, sample: &Sample) {
 }
 
 /// The simulator's fault injection, while connected to it.
-fn inject_ui(ui: &mut Ui, state: &mut AppState) {
-    if state.link_info().is_some_and(|i| i.can_inject) {
+fn inject_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
+    if drive.link_info().is_some_and(|i| i.can_inject) {
         ui.add_space(8.0);
         ui.collapsing("Simulator: inject faults", |ui| {
             for injection in Injection::DRIVE {
-                let mut active = state.injected.contains(&injection);
+                let mut active = drive.link.injected.contains(&injection);
                 if ui
                     .checkbox(&mut active, injection.name())
                     .on_hover_text(injection.describe())
                     .changed()
                 {
-                    if active {
-                        state.injected.push(injection);
-                    } else {
-                        state.injected.retain(|i| *i != injection);
-                    }
-                    state.request(Request::Inject { injection, active });
+                    commands.push(Command::Inject { injection, active });
                 }
             }
             ui.small("A fault stays latched after you withdraw it, until Clear Error.");
@@ -294,7 +290,7 @@ fn inject_ui(ui: &mut Ui, state: &mut AppState) {
                 .on_hover_text(Injection::LinkLoss.describe())
                 .clicked()
             {
-                state.request(Request::Inject {
+                commands.push(Command::Inject {
                     injection: Injection::LinkLoss,
                     active: true,
                 });

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use drivedeck::link::LinkSpec;
 use drivedeck::od::{Address, DataType, Value};
-use drivedeck::ui::state::ConnectionForm;
+use drivedeck::ui::connection_form::ConnectionForm;
 use drivedeck::ui::{App, Settings};
 use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
@@ -65,14 +65,15 @@ pub fn step_until(
 ) {
     let deadline = Instant::now() + timeout;
     while !done(harness) {
-        let state = &harness.state().state;
+        let app = harness.state();
+        let drive = app.shown();
         assert!(
             Instant::now() < deadline,
             "{what} did not happen within {timeout:?}; plot message: {:?}; browser message: {:?}; timeline: {:#?}; log: {:#?}",
-            state.plot.message,
-            state.browser.message,
-            state.timeline.entries().collect::<Vec<_>>(),
-            state.log
+            app.plot().message(),
+            drive.browser.message,
+            drive.timeline.entries().collect::<Vec<_>>(),
+            drive.log
         );
         std::thread::sleep(Duration::from_millis(10));
         harness.step();
@@ -91,7 +92,7 @@ pub fn step_for(harness: &mut Harness<'_, App>, time: Duration) {
 /// Wait until the window has its first sample from the drive.
 pub fn connected(harness: &mut Harness<'_, App>) {
     step_until(harness, "connecting", Duration::from_secs(5), |h| {
-        h.state().state.latest.is_some()
+        h.state().shown().latest().is_some()
     });
 }
 
@@ -147,7 +148,8 @@ pub fn read_object(
     harness.step();
     step_until(harness, &format!("{address} read"), timeout, |h| {
         h.state()
-            .state
+            .shown()
+            .motion
             .last_object
             .as_ref()
             .is_some_and(|r| r.result.as_ref() == Ok(expected))
@@ -157,14 +159,14 @@ pub fn read_object(
 /// The window's worker writes `value` (UNSIGNED32) to `address`; wait until the window
 /// lists it as the one change made.
 pub fn change(harness: &mut Harness<'_, App>, address: Address, value: u64) {
-    harness.state_mut().state.request(Request::WriteObject {
+    harness.state_mut().shown_mut().request(Request::WriteObject {
         address,
         dtype: DataType::Unsigned32,
         value: Value::Uint(value),
         path: ObjectPath::Auto,
     });
     step_until(harness, "the change", Duration::from_secs(3), |h| {
-        h.state().state.changes.len() == 1
+        h.state().shown().changes.len() == 1
     });
 }
 
@@ -182,8 +184,8 @@ pub fn start_turning(harness: &mut Harness<'_, App>, above: f64) {
 pub fn velocity(harness: &Harness<'_, App>) -> f64 {
     harness
         .state()
-        .state
-        .latest
+        .shown()
+        .latest()
         .and_then(|s| s.velocity())
         .unwrap_or(f64::NAN)
 }
@@ -192,8 +194,8 @@ pub fn velocity(harness: &Harness<'_, App>) -> f64 {
 pub fn position(harness: &Harness<'_, App>) -> f64 {
     harness
         .state()
-        .state
-        .latest
+        .shown()
+        .latest()
         .and_then(|s| s.position())
         .unwrap_or(f64::NAN)
 }

@@ -1,9 +1,14 @@
 //! Backups in the browser: dump, compare with the drive, and the restore preview and run.
 
-use super::*;
-use crate::ui::widgets::title_with_close_ui;
+use eframe::egui::{self, RichText, Ui};
 
-pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
+use super::{Browser, Pending, Purpose, Restore, shown_in};
+use crate::od::backup::{self, Backup, Comparison, Step, Why};
+use crate::od::{Catalog, DataType, Entry, Value};
+use crate::ui::widgets::{AMBER, GREEN, RED, title_with_close_ui};
+use crate::worker::{ObjectPath, Request};
+
+pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, connected: bool) {
     ui.horizontal_wrapped(|ui| {
         ui.label(RichText::new("Backup").strong());
         crate::ui::widgets::named_text_edit(ui, &mut b.backup_path, 200.0, "Backup file");
@@ -17,10 +22,10 @@ pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>,
             let path = b.backup_path.trim().to_owned();
             b.comparison = None;
             b.restore = None;
-            b.read_many(outbox, objects, Purpose::Backup { path });
+            b.read_many(objects, Purpose::Backup { path });
         }
         for read in &FILE_READS {
-            file_read_button_ui(ui, b, outbox, idle, read);
+            file_read_button_ui(ui, b, idle, read);
         }
         if ui
             .add_enabled(idle, egui::Button::new("Store to device"))
@@ -31,12 +36,12 @@ pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>,
         }
     });
     if b.confirm_store {
-        confirm_store_ui(ui, b, outbox);
+        confirm_store_ui(ui, b);
     }
 }
 
 /// "Store to device?": Store writes the save command, Cancel leaves the drive as it is.
-fn confirm_store_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
+fn confirm_store_ui(ui: &mut Ui, b: &mut Browser) {
     let modal = egui::Modal::new(egui::Id::unique("confirm_store")).show(ui.ctx(), |ui| {
         ui.heading("Store to device?");
         ui.label("Writes 65766173h (\"save\") to 1010h:01. The drive keeps every current value after a restart; this cannot be undone from here.");
@@ -44,9 +49,7 @@ fn confirm_store_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
             if ui.button("Store").clicked() {
                 b.confirm_store = false;
                 let (address, value) = backup::STORE_ALL;
-                b.send(
-                    outbox,
-                    Request::WriteObject {
+                b.send(Request::WriteObject {
                         address,
                         dtype: DataType::Unsigned32,
                         value: Value::Uint(u64::from(value)),
@@ -90,7 +93,6 @@ const FILE_READS: [FileRead; 2] = [
 fn file_read_button_ui(
     ui: &mut Ui,
     b: &mut Browser,
-    outbox: &mut Vec<Request>,
     enabled: bool,
     read: &FileRead,
 ) {
@@ -107,7 +109,7 @@ fn file_read_button_ui(
             Purpose::Restore(_) => b.comparison = None,
             Purpose::Browse | Purpose::Backup { .. } => {}
         }
-        b.read_many(outbox, objects, purpose);
+        b.read_many(objects, purpose);
     }
 }
 
@@ -155,7 +157,7 @@ pub(super) fn comparison_ui(ui: &mut Ui, b: &mut Browser) {
     }
 }
 
-pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
+pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, connected: bool) {
     let Some(restore) = &b.restore else {
         return;
     };
@@ -191,7 +193,7 @@ pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>
         restore.confirm = true;
     }
     if b.restore.as_ref().is_some_and(|r| r.confirm) {
-        confirm_restore_ui(ui, b, outbox);
+        confirm_restore_ui(ui, b);
     }
 }
 
@@ -250,7 +252,7 @@ fn skipped_ui(ui: &mut Ui, catalog: &Catalog, restore: &Restore) {
 }
 
 /// "Restore from the file?": Write them starts the restore, Cancel goes back to the preview.
-fn confirm_restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
+fn confirm_restore_ui(ui: &mut Ui, b: &mut Browser) {
     let count = b.restore.as_ref().map_or(0, |r| r.steps.len());
     let modal = egui::Modal::new(egui::Id::unique("confirm_restore")).show(ui.ctx(), |ui| {
         ui.heading("Restore from the file?");
@@ -271,12 +273,12 @@ fn confirm_restore_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
             r.confirm = false;
         }
     } else if go {
-        start_restore(b, outbox);
+        start_restore(b);
     }
 }
 
 /// Send every step's write, in order; the results come back one by one.
-fn start_restore(b: &mut Browser, outbox: &mut Vec<Request>) {
+fn start_restore(b: &mut Browser) {
     let steps: Vec<Step> = match b.restore.as_mut() {
         Some(r) => {
             r.confirm = false;
@@ -286,9 +288,7 @@ fn start_restore(b: &mut Browser, outbox: &mut Vec<Request>) {
         None => vec![],
     };
     for (n, step) in steps.into_iter().enumerate() {
-        b.send(
-            outbox,
-            Request::WriteObject {
+        b.send(Request::WriteObject {
                 address: step.address,
                 dtype: step.dtype,
                 value: step.value,

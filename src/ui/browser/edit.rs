@@ -3,11 +3,17 @@
 //! limits) with the reason right under it; Enter asks for the confirmation and writes, Esc
 //! cancels (Esc is also the Quickstop while connected, whatever has focus).
 
-use super::*;
-use eframe::egui::Rect;
+use eframe::egui::{self, Rect, RichText, Ui};
+
+use super::panel::limits_text;
+use super::table::{RowAction, row_button_ui};
+use super::{Browser, Edit, Pending};
+use crate::od::{Address, Entry};
+use crate::ui::widgets::RED;
+use crate::worker::{ObjectPath, Request};
 
 /// The confirmation of a write: the object, its value before and after, with its unit.
-pub(super) fn confirm_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
+pub(super) fn confirm_ui(ui: &mut Ui, b: &mut Browser) {
     let Some(confirm) = b.confirm.clone() else {
         return;
     };
@@ -36,9 +42,7 @@ pub(super) fn confirm_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>
         b.confirm = None;
         b.edit = None;
         b.write_results.remove(&confirm.address);
-        b.send(
-            outbox,
-            Request::WriteObject {
+        b.send(Request::WriteObject {
                 address: confirm.address,
                 dtype: confirm.dtype,
                 value: confirm.value,
@@ -139,74 +143,3 @@ pub(super) fn edit_buttons_ui(ui: &mut Ui, entry: &Entry, actions: &mut Vec<(Add
     }
 }
 
-/// Start editing `entry`'s value, the box taking the keyboard.
-pub(super) fn start_edit(b: &mut Browser, entry: &Entry) {
-    let text = edit_text(b.values.get(&entry.address), entry);
-    b.selected = Some(entry.address);
-    b.edit = Some(Edit {
-        address: entry.address,
-        text,
-        error: None,
-        focus: true,
-    });
-}
-
-/// What was typed: checked at once, so the reason shows before Enter.
-pub(super) fn typed(b: &mut Browser, entry: &Entry, text: String) {
-    if let Some(edit) = b.edit.as_mut().filter(|e| e.address == entry.address) {
-        edit.error = if text.trim().is_empty() {
-            None
-        } else {
-            parse_edit(entry, &text).err()
-        };
-        edit.text = text;
-    }
-}
-
-/// What the edit box starts with: the value as last read (bytes in hex, a flag as 0 or
-/// 1), else the default.
-fn edit_text(cell: Option<&Cell>, entry: &Entry) -> String {
-    match cell.map(|c| &c.result) {
-        Some(Ok(Value::Bytes(bytes))) => bytes
-            .iter()
-            .map(|x| format!("{x:02X}"))
-            .collect::<Vec<_>>()
-            .join(" "),
-        Some(Ok(Value::Text(t))) => t.clone(),
-        Some(Ok(Value::Bool(v))) => u8::from(*v).to_string(),
-        Some(Ok(v)) => v.to_string(),
-        _ => entry
-            .default
-            .as_ref()
-            .map(Value::to_string)
-            .unwrap_or_default(),
-    }
-}
-
-/// The value typed, checked: the confirmation asked for, or why it is refused.
-pub(super) fn submit_edit(b: &mut Browser, entry: &Entry) {
-    let address = entry.address;
-    let before = b
-        .values
-        .get(&address)
-        .and_then(|c| c.result.as_ref().ok().cloned());
-    let Some(edit) = b.edit.as_mut().filter(|e| e.address == address) else {
-        return;
-    };
-    match parse_edit(entry, &edit.text) {
-        Err(reason) => {
-            edit.error = Some(reason);
-            // The box keeps the keyboard, to correct the value.
-            edit.focus = true;
-        }
-        Ok(value) => {
-            b.confirm = Some(Confirm {
-                address,
-                name: entry.full_name(),
-                dtype: entry.dtype,
-                value,
-                before,
-            });
-        }
-    }
-}

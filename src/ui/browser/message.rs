@@ -1,8 +1,9 @@
 //! What the browser says about the last thing done, in the colour of its outcome, and
 //! whose link it is: values, previews and messages belong to the drive they came from.
+//!
+//! A model: no egui here.
 
-use super::*;
-use eframe::egui::Color32;
+use super::Browser;
 
 /// How something went: the colour of its message. Refusals and warnings are never green.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -15,18 +16,6 @@ pub enum Tone {
     Warning,
     /// Not done (red).
     Failed,
-}
-
-impl Tone {
-    /// The colour of the message; `None`: the text colour.
-    pub fn color(self) -> Option<Color32> {
-        match self {
-            Tone::Done => Some(GREEN),
-            Tone::Info => None,
-            Tone::Warning => Some(AMBER),
-            Tone::Failed => Some(RED),
-        }
-    }
 }
 
 /// One message of the browser.
@@ -60,7 +49,7 @@ impl Browser {
     }
 
     /// Say how something went.
-    pub(super) fn say(&mut self, tone: Tone, text: impl Into<String>) {
+    pub fn say(&mut self, tone: Tone, text: impl Into<String>) {
         self.message = Some(self.message_now(tone, text));
     }
 
@@ -85,9 +74,6 @@ impl Browser {
         self.edit = None;
         self.bulk = None;
         self.refresh.forget_all();
-        for pending in self.ids.values_mut() {
-            *pending = Pending::Stale;
-        }
         if self.drive != link {
             self.drive = link.to_owned();
             self.values.clear();
@@ -96,36 +82,15 @@ impl Browser {
     }
 }
 
-/// The message line: in its outcome's colour; one from an earlier connection is dimmed
-/// and says where it came from.
-pub(super) fn message_ui(ui: &mut Ui, b: &Browser) {
-    let Some(message) = &b.message else {
-        return;
-    };
-    let earlier = message.earlier(b.connection);
-    let mut text = if earlier {
-        RichText::new(format!(
-            "[{}, earlier connection] {}",
-            message.link, message.text
-        ))
-    } else {
-        RichText::new(&message.text)
-    };
-    if let Some(color) = message.tone.color() {
-        text = text.color(if earlier {
-            color.gamma_multiply(0.6)
-        } else {
-            color
-        });
-    } else if earlier {
-        text = text.weak();
-    }
-    ui.add(egui::Label::new(text).wrap());
-}
-
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeMap;
+
     use super::*;
+    use crate::od::backup::Backup;
+    use crate::od::{Address, Value};
+    use crate::ui::browser::{Bulk, Pending, Purpose, Restore};
+    use crate::worker::Rejection;
 
     fn bulk(total: usize, failed: usize) -> Bulk {
         Bulk {
@@ -150,8 +115,9 @@ mod tests {
         assert_eq!(tone(&b), Some(Tone::Done));
         b.finish_browse(&bulk(10, 3));
         assert_eq!(tone(&b), Some(Tone::Warning));
-        assert_ne!(Tone::Warning.color(), Tone::Done.color());
-        assert_ne!(Tone::Failed.color(), Tone::Done.color());
+        let color = super::super::panel::tone_color;
+        assert_ne!(color(Tone::Warning), color(Tone::Done));
+        assert_ne!(color(Tone::Failed), color(Tone::Done));
     }
 
     #[test]
@@ -179,7 +145,6 @@ mod tests {
     fn a_read_the_user_asked_for_says_its_refusal_the_table_s_own_do_not() {
         let mut b = Browser::new();
         b.on_connected("sim");
-        let mut outbox = vec![];
         let entry = crate::od::builtin()
             .filter("6081")
             .next()
@@ -187,16 +152,17 @@ mod tests {
             .clone();
         // The table's own read, refused: nothing said (it tries again by itself).
         b.visible = vec![entry.address];
-        b.refresh_visible(&mut outbox, true, 10.0);
-        let own = outbox.pop().expect("a read");
-        assert!(b.note_queued(1, &own));
-        assert!(b.on_rejected(1, &Rejection::LinkGone("gone".into())));
+        b.refresh_visible(true, 10.0);
+        let (mut own, _) = b.take_asks().pop().expect("a read");
+        b.sent(1, &own);
+        assert!(!b.on_rejected(1, &mut own, &Rejection::LinkGone("gone".into())));
+        assert_eq!(own, Pending::Stale, "its later answers are dropped");
         assert_eq!(b.message, None);
         // A row's Read, refused: said in red.
-        b.read_one(&mut outbox, entry.address, entry.dtype);
-        let asked = outbox.pop().expect("a read");
-        assert!(b.note_queued(2, &asked));
-        assert!(b.on_rejected(2, &Rejection::LinkGone("gone".into())));
+        b.read_one(entry.address, entry.dtype);
+        let (mut asked, _) = b.take_asks().pop().expect("a read");
+        b.sent(2, &asked);
+        b.on_rejected(2, &mut asked, &Rejection::LinkGone("gone".into()));
         assert_eq!(tone(&b), Some(Tone::Failed));
     }
 

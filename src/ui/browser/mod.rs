@@ -8,35 +8,28 @@
 //! reason, and never written. Messages say how things went by their colour and belong to
 //! the link they came from.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
-use eframe::egui::{self, RichText, Ui};
-use egui_extras::{Column, TableBuilder};
-
-use crate::od::backup::{self, Backup, Comparison, Difference, Step, Why};
-use crate::od::eds::Eds;
+use crate::od::backup::{self, Backup, Comparison, Difference, Step};
 use crate::od::{Address, Catalog, DataType, Entry, Value};
-use crate::ui::state::AppState;
-use crate::ui::widgets::{AMBER, GREEN, RED};
 use crate::worker::{ObjectError, ObjectPath, Rejection, Request, RequestId};
 
-mod panel;
-#[allow(unused_imports)]
-pub use panel::*;
 mod backup_view;
-#[allow(unused_imports)]
-pub use backup_view::*;
 mod edit;
+mod editing;
 mod message;
-pub use message::{Message, Tone};
+mod panel;
 mod refresh;
+mod table;
+
+pub use message::{Message, Tone};
+pub use editing::parse_edit;
+pub use panel::{browser_ui, tone_color};
 pub use refresh::{
     CHANGED_FOR, DictionarySettings, MOST_READS_PER_SECOND, REFRESH_AFTER, REFRESH_IN_FLIGHT,
     Refresh,
 };
-mod table;
-#[allow(unused_imports)]
-pub use table::*;
+pub use table::Columns;
 
 /// A value as last read.
 #[derive(Clone, Debug, PartialEq)]
@@ -110,9 +103,10 @@ pub struct Restore {
     pub skipped: Vec<(Address, String)>,
 }
 
-/// What a request the browser sent is for.
+/// What a request the browser sent is for: it leaves with the request as its owner's
+/// note, and comes back with every reply.
 #[derive(Clone, Debug, PartialEq)]
-enum Pending {
+pub enum Pending {
     /// The bulk read ([`Browser::bulk`]).
     Bulk,
     /// Reads outside the bulk one (a row's Read, the rows on screen, read-backs after a
@@ -158,10 +152,6 @@ pub struct Browser {
     /// A dictionary loaded from an EDS instead of the built-in catalog.
     pub eds: Option<(String, Catalog)>,
     pub eds_path: String,
-    /// An object the user asked to plot (the app takes it after the panel is drawn).
-    pub plot_request: Option<Address>,
-    /// An object the user asked to pin to the watch panel (taken like `plot_request`).
-    pub watch_request: Option<Address>,
     /// The connection string, for backup files and to know whose values are shown ("" when
     /// not connected).
     pub link_text: String,
@@ -169,14 +159,14 @@ pub struct Browser {
     drive: String,
     /// How many connections were made so far (see [`Browser::on_connected`]).
     connection: u64,
-    /// `AppState::clock` as last seen.
+    /// The window's clock as last seen.
     now: f64,
-    unsent: Vec<(Request, Pending)>,
-    ids: HashMap<RequestId, Pending>,
+    /// Requests for the worker, each with what it is for.
+    asks: Vec<(Pending, Request)>,
 }
 
 /// A value with the unit `catalog` gives its object (as it is, for an object it lacks).
-fn shown_in(catalog: &Catalog, address: Address, value: &Value) -> String {
+pub(super) fn shown_in(catalog: &Catalog, address: Address, value: &Value) -> String {
     match catalog.get(address) {
         Some(entry) => backup::shown(value, entry),
         None => value.to_string(),
@@ -209,18 +199,27 @@ impl Browser {
         shown_in(self.catalog(), address, value)
     }
 
-    fn send(&mut self, outbox: &mut Vec<Request>, request: Request, pending: Pending) {
-        self.unsent.push((request.clone(), pending));
-        outbox.push(request);
+    pub(super) fn send(&mut self, request: Request, pending: Pending) {
+        self.asks.push((pending, request));
+    }
+
+    /// The requests the browser wants sent, each with what it is for.
+    pub fn take_asks(&mut self) -> Vec<(Pending, Request)> {
+        std::mem::take(&mut self.asks)
+    }
+
+    /// The requests waiting to be sent.
+    pub fn asks(&self) -> impl Iterator<Item = &Request> {
+        self.asks.iter().map(|(_, r)| r)
+    }
+
+    /// The window's clock now (for the ages shown and the reads' pace).
+    pub fn set_clock(&mut self, now: f64) {
+        self.now = now;
     }
 
     /// Start a bulk read of `objects` (readable ones only).
-    pub fn read_many(
-        &mut self,
-        outbox: &mut Vec<Request>,
-        objects: Vec<(Address, DataType)>,
-        purpose: Purpose,
-    ) {
+    pub fn read_many(&mut self, objects: Vec<(Address, DataType)>, purpose: Purpose) {
         if objects.is_empty() {
             return;
         }
@@ -234,7 +233,6 @@ impl Browser {
             cancelled: false,
         });
         self.send(
-            outbox,
             Request::ReadMany {
                 objects,
                 path: ObjectPath::Auto,
@@ -243,9 +241,14 @@ impl Browser {
         );
     }
 
+    /// Drop what is still to be read of the bulk read `id`.
+    pub(super) fn cancel_bulk(&mut self, id: RequestId) {
+        self.send(Request::Cancel(id), Pending::Stale);
+    }
+
     /// One object, read by itself.
-    pub fn read_one(&mut self, outbox: &mut Vec<Request>, address: Address, dtype: DataType) {
-        self.read_back(outbox, vec![(address, dtype)], true);
+    pub fn read_one(&mut self, address: Address, dtype: DataType) {
+        self.read_back(vec![(address, dtype)], true);
     }
 
     fn readable(entries: &[&Entry]) -> Vec<(Address, DataType)> {
@@ -256,28 +259,18 @@ impl Browser {
             .collect()
     }
 
-    /// The app learned the id of a request: keep it if it is ours.
-    pub fn note_queued(&mut self, id: RequestId, request: &Request) -> bool {
-        let Some(at) = self.unsent.iter().position(|(r, _)| r == request) else {
-            return false;
-        };
-        let (_, pending) = self.unsent.remove(at);
-        if pending == Pending::Bulk
+    /// The worker took a request of ours as `id`.
+    pub fn sent(&mut self, id: RequestId, pending: &Pending) {
+        if *pending == Pending::Bulk
             && let Some(bulk) = self.bulk.as_mut()
             && bulk.id.is_none()
         {
             bulk.id = Some(id);
         }
-        self.ids.insert(id, pending);
-        true
     }
 
     /// A request of ours that could not be sent at all.
-    pub fn note_unsent(&mut self, request: &Request, reason: &str) -> bool {
-        let Some(at) = self.unsent.iter().position(|(r, _)| r == request) else {
-            return false;
-        };
-        let (_, pending) = self.unsent.remove(at);
+    pub fn unsent(&mut self, pending: Pending, request: &Request, reason: &str) {
         match (pending, request) {
             (Pending::Refresh { asked, .. }, Request::ReadMany { objects, .. }) => {
                 // The table tries again by itself; no message for what nobody asked for.
@@ -292,33 +285,32 @@ impl Browser {
             }
             _ => self.say(Tone::Failed, reason),
         }
-        true
     }
 
     fn is_bulk(&self, id: RequestId) -> bool {
         self.bulk.as_ref().is_some_and(|b| b.id == Some(id))
     }
 
-    /// A read result; `true` when it was ours.
+    /// A read result for request `id` (what it is for: `pending`); `true` when the
+    /// request is over.
     pub fn on_read(
         &mut self,
         id: RequestId,
+        pending: &mut Pending,
         address: Address,
         result: &Result<Value, ObjectError>,
         clock: f64,
     ) -> bool {
         self.now = clock;
-        match self.ids.get_mut(&id) {
-            None => return false,
-            Some(Pending::Stale) => return true,
-            Some(Pending::Refresh { left, .. }) => {
+        let mut over = false;
+        match pending {
+            Pending::Stale => return false,
+            Pending::Refresh { left, .. } => {
                 *left = left.saturating_sub(1);
-                if *left == 0 {
-                    self.ids.remove(&id);
-                }
+                over = *left == 0;
                 self.refresh.arrived(address);
             }
-            Some(_) => {}
+            _ => {}
         }
         // The table shows the refusal in words; the variant decided nothing here.
         let result = result.clone().map_err(|e| e.to_string());
@@ -331,9 +323,9 @@ impl Browser {
                 }
                 bulk.reads.insert(address, result);
             }
-            self.bulk_progressed(id);
+            over = self.bulk_progressed(id);
         }
-        true
+        over
     }
 
     /// A value read: into its row, marked when it differs from the one read before.
@@ -353,39 +345,48 @@ impl Browser {
         );
     }
 
-    /// A refusal of a request of ours (not connected, link lost…).
-    pub fn on_rejected(&mut self, id: RequestId, rejection: &Rejection) -> bool {
+    /// A refusal of request `id` of ours (not connected, link lost…); `true` when the
+    /// request is over.
+    pub fn on_rejected(
+        &mut self,
+        id: RequestId,
+        pending: &mut Pending,
+        rejection: &Rejection,
+    ) -> bool {
         let reason = rejection.to_string();
-        let Some(pending) = self.ids.get(&id).cloned() else {
-            return false;
-        };
-        match pending {
-            Pending::Stale => {}
+        match pending.clone() {
+            Pending::Stale => false,
             Pending::Bulk => self.bulk_rejected(id, rejection),
             Pending::Refresh { asked, .. } => {
                 // Which objects went unread is not said: the table reads them again once
                 // they are due; later refusals of the same request are dropped.
-                self.ids.insert(id, Pending::Stale);
+                *pending = Pending::Stale;
                 self.refresh.forget_all();
                 if asked {
                     self.say(Tone::Failed, reason);
                 }
+                false
             }
             Pending::Write { address } => {
                 self.write_results.insert(address, Err(reason));
+                true
             }
             Pending::RestoreStep(step) => {
                 self.restore_result(step, Err(reason));
+                true
             }
-            Pending::Store => self.say(Tone::Failed, format!("store to device: {reason}")),
+            Pending::Store => {
+                self.say(Tone::Failed, format!("store to device: {reason}"));
+                true
+            }
         }
-        true
     }
 
-    /// The bulk read refused whole, or one of its objects dropped with the link.
-    fn bulk_rejected(&mut self, id: RequestId, rejection: &Rejection) {
+    /// The bulk read refused whole, or one of its objects dropped with the link; `true`
+    /// when it is over.
+    fn bulk_rejected(&mut self, id: RequestId, rejection: &Rejection) -> bool {
         if !self.is_bulk(id) {
-            return;
+            return false;
         }
         if let Some(bulk) = self.bulk.as_mut() {
             if bulk.done == 0 && *rejection == Rejection::NotConnected {
@@ -397,45 +398,41 @@ impl Browser {
             }
         }
         self.say(Tone::Failed, rejection.to_string());
-        self.bulk_progressed(id);
+        self.bulk_progressed(id)
     }
 
-    /// The worker dropped what was left of a bulk read.
-    pub fn on_cancelled(&mut self, id: RequestId, dropped: usize) -> bool {
-        if !self.is_bulk(id) {
+    /// The worker dropped what was left of a bulk read; `true` when it is over.
+    pub fn on_cancelled(&mut self, id: RequestId, pending: &Pending, dropped: usize) -> bool {
+        if *pending != Pending::Bulk || !self.is_bulk(id) {
             return false;
         }
         if let Some(bulk) = self.bulk.as_mut() {
             bulk.done += dropped;
             bulk.cancelled = true;
         }
-        self.bulk_progressed(id);
-        true
+        self.bulk_progressed(id)
     }
 
-    /// A write result; `true` when it was ours. The objects written are read back.
+    /// A write result of a request of ours (what it was for: `pending`). The objects
+    /// written are read back.
     pub fn on_written(
         &mut self,
-        id: RequestId,
+        pending: Pending,
         address: Address,
         result: &Result<(), ObjectError>,
-        outbox: &mut Vec<Request>,
-    ) -> bool {
+    ) {
         let result = &result.clone().map_err(|e| e.to_string());
-        let Some(pending) = self.ids.remove(&id) else {
-            return false;
-        };
         match pending {
             Pending::Write { .. } => {
                 self.write_results.insert(address, result.clone());
                 if let Some(entry) = self.catalog().get(address) {
                     let object = (address, entry.dtype);
-                    self.read_back(outbox, vec![object], true);
+                    self.read_back(vec![object], true);
                 }
             }
             Pending::RestoreStep(step) => {
                 if self.restore_result(step, result.clone()) {
-                    self.read_back_restored(outbox);
+                    self.read_back_restored();
                 }
             }
             Pending::Store => {
@@ -451,7 +448,6 @@ impl Browser {
             }
             Pending::Refresh { .. } | Pending::Bulk | Pending::Stale => {}
         }
-        true
     }
 
     /// A restore step's outcome; `true` when it was the last one.
@@ -488,17 +484,16 @@ impl Browser {
         true
     }
 
-    /// A bulk read moved on; when complete, finish what it was for.
-    fn bulk_progressed(&mut self, id: RequestId) {
-        let Some(bulk) = self.bulk.as_ref() else {
-            return;
+    /// A bulk read moved on; when complete, finish what it was for (`true`).
+    fn bulk_progressed(&mut self, id: RequestId) -> bool {
+        let Some(bulk) = self.bulk.as_ref().filter(|b| b.id == Some(id)) else {
+            return false;
         };
         if bulk.done < bulk.total {
-            return;
+            return false;
         }
-        self.ids.remove(&id);
         let Some(bulk) = self.bulk.take() else {
-            return;
+            return false;
         };
         if bulk.cancelled {
             self.say(
@@ -509,7 +504,7 @@ impl Browser {
                     bulk.total
                 ),
             );
-            return;
+            return true;
         }
         match bulk.purpose {
             Purpose::Browse => self.finish_browse(&bulk),
@@ -517,6 +512,7 @@ impl Browser {
             Purpose::Compare(file) => self.finish_compare(file, &bulk.reads),
             Purpose::Restore(file) => self.finish_restore(file, &bulk.reads),
         }
+        true
     }
 
     /// The table filled: how many objects were read, how many refused.

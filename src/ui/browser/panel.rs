@@ -1,7 +1,17 @@
 //! The browser panel: its toolbar, EDS loading, the bulk reads, and how values and limits read.
 
-use super::*;
-use crate::ui::widgets::labelled_text_edit_ui;
+use eframe::egui::{self, RichText, Ui};
+
+use super::backup_view::{backup_ui, comparison_ui, restore_ui};
+use super::edit;
+use super::table::{table_keys, table_ui};
+use super::{Browser, DictionarySettings, MOST_READS_PER_SECOND, Purpose, REFRESH_AFTER, Tone};
+use crate::od::backup;
+use crate::od::eds::Eds;
+use crate::od::{Address, DataType, Entry, Value};
+use crate::ui::command::Command;
+use crate::ui::drive::Drive;
+use crate::ui::widgets::{AMBER, GREEN, RED, labelled_text_edit_ui};
 
 pub(super) fn value_text(value: &Value, entry: &Entry) -> String {
     backup::shown(value, entry)
@@ -27,34 +37,31 @@ pub(super) fn age_text(clock: f64, at: f64) -> String {
     }
 }
 
-/// Check what the user typed for `entry`: its type, its range and its limits.
-pub fn parse_edit(entry: &Entry, text: &str) -> Result<Value, String> {
-    let value = Value::parse(entry.dtype, text).map_err(|e| e.to_string())?;
-    entry.check(&value).map_err(|e| e.to_string())?;
-    Ok(value)
-}
-
-pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
-    let connected = state.is_connected();
-    let link = state
+pub fn browser_ui(
+    ui: &mut Ui,
+    drive: &mut Drive,
+    settings: &mut DictionarySettings,
+    commands: &mut Vec<Command>,
+) {
+    let connected = drive.is_connected();
+    let link = drive
         .link_info()
         .map(|i| i.spec.to_string())
         .unwrap_or_default();
-    let watched: Vec<Address> = state
+    let watched: Vec<Address> = drive
         .settings
         .watch
         .pins
         .iter()
         .map(|p| p.address)
         .collect();
-    let b = &mut state.browser;
+    let b = &mut drive.browser;
     // "" while not connected; a new connection is `Browser::on_connected`'s.
     b.link_text = link;
-    b.now = state.clock;
+    b.set_clock(drive.clock);
     // Before any text box can take them.
     let keys = table_keys(ui, b);
-    let outbox = &mut state.outbox;
-    let rate = &mut state.settings.dictionary.reads_per_second;
+    let rate = &mut settings.reads_per_second;
 
     // The tab above says what this is: no heading, the rows get the room. Each group
     // (a label and its box, a bar and its button) stays on one line when the rows wrap.
@@ -67,11 +74,11 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
                 b.catalog().len()
             ));
         });
-        read_buttons_ui(ui, b, outbox, connected);
+        read_buttons_ui(ui, b, connected);
         together(ui, 130.0, |ui| auto_read_ui(ui, rate));
     });
     ui.horizontal_wrapped(|ui| {
-        together(ui, 300.0, |ui| bulk_ui(ui, b, outbox));
+        together(ui, 300.0, |ui| bulk_ui(ui, b));
         together(ui, 360.0, |ui| {
             dictionary_ui(ui, b);
             labelled_text_edit_ui(ui, "EDS", &mut b.eds_path, 160.0, "EDS path");
@@ -84,34 +91,17 @@ pub fn browser_ui(ui: &mut Ui, state: &mut AppState) {
             }
         });
     });
-    backup_ui(ui, b, outbox, connected);
-    message::message_ui(ui, b);
+    backup_ui(ui, b, connected);
+    message_ui(ui, b);
     comparison_ui(ui, b);
-    restore_ui(ui, b, outbox, connected);
-    edit::confirm_ui(ui, b, outbox);
-    table_ui(ui, b, outbox, (connected, &watched), keys);
-    b.refresh_visible(outbox, connected, *rate);
-    if let Some(address) = state.browser.plot_request.take() {
-        state.watch_object(&address.to_string());
-        let said = state.plot.message.clone().map(|m| match m {
-            Ok(text) => (Tone::Done, format!("{text}: see the Plots tab")),
-            Err(text) => (Tone::Failed, text),
-        });
-        if let Some((tone, text)) = said {
-            state.browser.say(tone, text);
-        }
-    }
-    if let Some(address) = state.browser.watch_request.take() {
-        let (tone, text) = match state.pin_to_watch(address) {
-            Ok(text) => (Tone::Done, text),
-            Err(text) => (Tone::Failed, text),
-        };
-        state.browser.say(tone, text);
-    }
+    restore_ui(ui, b, connected);
+    edit::confirm_ui(ui, b);
+    table_ui(ui, b, commands, (connected, &watched), keys);
+    b.refresh_visible(connected, *rate);
 }
 
 /// Read visible and Read all.
-fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, connected: bool) {
+fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, connected: bool) {
     let readable = Browser::readable(&b.rows());
     let busy = b.bulk.is_some();
     if ui
@@ -126,7 +116,7 @@ fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, conn
             .filter(|e| e.access.readable())
             .map(|e| (e.address, e.dtype))
             .collect();
-        b.read_many(outbox, visible, Purpose::Browse);
+        b.read_many(visible, Purpose::Browse);
     }
     if ui
         .add_enabled(connected && !busy, egui::Button::new("Read all"))
@@ -135,7 +125,7 @@ fn read_buttons_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>, conn
         )
         .clicked()
     {
-        b.read_many(outbox, readable, Purpose::Browse);
+        b.read_many(readable, Purpose::Browse);
     }
 }
 
@@ -259,7 +249,7 @@ fn eds_loaded_text(eds: &Eds, objects: usize, path: &str) -> (Tone, String) {
 /// The progress row of a bulk read. Always drawn (idle: empty, Cancel disabled), so the
 /// widgets below never jump when a read starts or ends: a click aimed at Cancel as the
 /// read completes must not land on the button that moved under the pointer.
-fn bulk_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
+fn bulk_ui(ui: &mut Ui, b: &mut Browser) {
     let (fraction, text, id, cancelled) = match &b.bulk {
         Some(bulk) => {
             let what = match &bulk.purpose {
@@ -292,7 +282,45 @@ fn bulk_ui(ui: &mut Ui, b: &mut Browser, outbox: &mut Vec<Request>) {
             .clicked()
             && let Some(id) = id
         {
-            outbox.push(Request::Cancel(id));
+            b.cancel_bulk(id);
         }
     });
 }
+
+/// The colour of a message of the browser; `None`: the text colour.
+pub fn tone_color(tone: Tone) -> Option<egui::Color32> {
+    match tone {
+        Tone::Done => Some(GREEN),
+        Tone::Info => None,
+        Tone::Warning => Some(AMBER),
+        Tone::Failed => Some(RED),
+    }
+}
+
+/// The message line: in its outcome's colour; one from an earlier connection is dimmed
+/// and says where it came from.
+pub(super) fn message_ui(ui: &mut Ui, b: &Browser) {
+    let Some(message) = &b.message else {
+        return;
+    };
+    let earlier = message.earlier(b.connection);
+    let mut text = if earlier {
+        RichText::new(format!(
+            "[{}, earlier connection] {}",
+            message.link, message.text
+        ))
+    } else {
+        RichText::new(&message.text)
+    };
+    if let Some(color) = tone_color(message.tone) {
+        text = text.color(if earlier {
+            color.gamma_multiply(0.6)
+        } else {
+            color
+        });
+    } else if earlier {
+        text = text.weak();
+    }
+    ui.add(egui::Label::new(text).wrap());
+}
+

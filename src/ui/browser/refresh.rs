@@ -5,12 +5,16 @@
 //! (`JOB_QUEUE`, `BULK_QUEUE` in `worker::jobs`) never fill with them and a slow link simply
 //! reads them more slowly. Writes and restores read back the objects they wrote the same
 //! way (not rate-limited: they are as many as were written).
+//!
+//! A model: no egui here.
 
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::*;
+use super::{Browser, Pending};
+use crate::od::{Address, DataType};
+use crate::worker::{ObjectPath, Request};
 
 /// Objects the table reads by itself that may wait for the drive at once, and how many it
 /// may read in one go after a pause.
@@ -77,7 +81,6 @@ impl Browser {
     /// user (a refusal of the request is said), or by the table itself.
     pub(super) fn read_back(
         &mut self,
-        outbox: &mut Vec<Request>,
         objects: Vec<(Address, DataType)>,
         asked: bool,
     ) {
@@ -88,9 +91,7 @@ impl Browser {
             self.refresh.in_flight.insert(*address, self.now);
         }
         let count = objects.len();
-        self.send(
-            outbox,
-            Request::ReadMany {
+        self.send(Request::ReadMany {
                 objects,
                 path: ObjectPath::Auto,
             },
@@ -99,7 +100,7 @@ impl Browser {
     }
 
     /// After a restore: read every object it wrote, so the rows show what the drive holds.
-    pub(super) fn read_back_restored(&mut self, outbox: &mut Vec<Request>) {
+    pub(super) fn read_back_restored(&mut self) {
         let Some(restore) = &self.restore else {
             return;
         };
@@ -113,7 +114,7 @@ impl Browser {
                 objects.push((step.address, step.dtype));
             }
         }
-        self.read_back(outbox, objects, true);
+        self.read_back(objects, true);
     }
 
     /// The rows on screen due for a read, as many as may go now at `rate` objects a
@@ -121,7 +122,6 @@ impl Browser {
     /// themselves) or without a link.
     pub(super) fn refresh_visible(
         &mut self,
-        outbox: &mut Vec<Request>,
         connected: bool,
         rate: f64,
     ) {
@@ -153,7 +153,7 @@ impl Browser {
         }
         self.refresh.allowance = Some((now, allowance - due.len() as f64));
         self.refresh.sent += due.len();
-        self.read_back(outbox, due, false);
+        self.read_back(due, false);
     }
 
     /// The readable rows on screen not read yet, then those read longest ago (beyond
@@ -193,6 +193,7 @@ pub(super) fn change_glow(age: f64) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::od::Value;
 
     /// A browser showing the first `rows` readable objects of the built-in catalog.
     fn showing(rows: usize) -> Browser {
@@ -207,8 +208,8 @@ mod tests {
     }
 
     /// Every read asked for answered at once.
-    fn answer_all(b: &mut Browser, outbox: &mut Vec<Request>) {
-        for request in outbox.drain(..) {
+    fn answer_all(b: &mut Browser) {
+        for (_, request) in b.take_asks() {
             if let Request::ReadMany { objects, .. } = request {
                 for (address, _) in objects {
                     b.refresh.arrived(address);
@@ -222,13 +223,12 @@ mod tests {
     fn the_rows_on_screen_are_read_no_faster_than_the_rate() {
         let rate = 10.0;
         let mut b = showing(40);
-        let mut outbox = vec![];
         let mut t = 0.0;
         while t < 6.0 {
             b.now = t;
-            b.refresh_visible(&mut outbox, true, rate);
+            b.refresh_visible(true, rate);
             assert!(b.refresh.in_flight() <= REFRESH_IN_FLIGHT);
-            answer_all(&mut b, &mut outbox);
+            answer_all(&mut b);
             let allowed = REFRESH_IN_FLIGHT as f64 + rate * t;
             assert!(
                 b.refresh.sent as f64 <= allowed + 1e-9,
@@ -250,26 +250,24 @@ mod tests {
     #[test]
     fn nothing_is_read_by_itself_at_rate_zero_or_without_a_link() {
         let mut b = showing(10);
-        let mut outbox = vec![];
         b.now = 1.0;
-        b.refresh_visible(&mut outbox, true, 0.0);
-        b.refresh_visible(&mut outbox, false, 10.0);
-        assert!(outbox.is_empty());
+        b.refresh_visible(true, 0.0);
+        b.refresh_visible(false, 10.0);
+        assert!(b.take_asks().is_empty());
         assert_eq!(b.refresh.sent, 0);
     }
 
     #[test]
     fn rows_read_longer_ago_than_refresh_after_are_read_again() {
         let mut b = showing(3);
-        let mut outbox = vec![];
-        b.refresh_visible(&mut outbox, true, 100.0);
-        answer_all(&mut b, &mut outbox);
+        b.refresh_visible(true, 100.0);
+        answer_all(&mut b);
         assert_eq!(b.refresh.sent, 3);
         b.now = REFRESH_AFTER / 2.0;
-        b.refresh_visible(&mut outbox, true, 100.0);
-        assert!(outbox.is_empty(), "fresh");
+        b.refresh_visible(true, 100.0);
+        assert!(b.take_asks().is_empty(), "fresh");
         b.now = REFRESH_AFTER;
-        b.refresh_visible(&mut outbox, true, 100.0);
+        b.refresh_visible(true, 100.0);
         assert_eq!(b.refresh.sent, 6, "read again");
     }
 

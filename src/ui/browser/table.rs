@@ -12,11 +12,18 @@
 //! edge. The sideways offset moves with the bar under the window, a horizontal wheel or
 //! Shift+wheel over the table; a column's width by dragging its header's right edge.
 
+use eframe::egui::{self, Rect, Response, Sense, Ui, UiBuilder};
+use egui_extras::{Column, TableBuilder, TableRow};
+
 use super::edit::{edit_box_ui, edit_buttons_ui, edit_note_ui};
+use super::editing;
+use super::panel::{age_text, limits_text, value_text};
 use super::refresh::change_glow;
-use super::*;
-use eframe::egui::{Rect, Response, Sense, UiBuilder};
-use egui_extras::TableRow;
+use super::{Browser, Edit};
+use crate::od::backup;
+use crate::od::{Address, DataType, Entry};
+use crate::ui::command::{Command, Said};
+use crate::ui::widgets::{AMBER, GREEN, RED};
 
 /// The scrolled columns, left to right: title and first width.
 const SCROLLED: [(&str, f32); 8] = [
@@ -176,7 +183,7 @@ pub(super) fn table_keys(ui: &Ui, b: &Browser) -> (Option<(Address, RowAction)>,
 pub(super) fn table_ui(
     ui: &mut Ui,
     b: &mut Browser,
-    outbox: &mut Vec<Request>,
+    commands: &mut Vec<Command>,
     (connected, watched): (bool, &[Address]),
     keys: (Option<(Address, RowAction)>, Option<usize>),
 ) {
@@ -238,7 +245,7 @@ pub(super) fn table_ui(
     b.columns = columns;
     b.visible = visible;
     for (address, action) in actions {
-        apply_row_action(b, outbox, address, action);
+        apply_row_action(b, commands, address, action);
     }
 }
 
@@ -602,29 +609,30 @@ fn row_buttons_ui(
     }
 }
 
-fn apply_row_action(
-    b: &mut Browser,
-    outbox: &mut Vec<Request>,
-    address: Address,
-    action: RowAction,
-) {
+fn apply_row_action(b: &mut Browser, commands: &mut Vec<Command>, address: Address, action: RowAction) {
     let Some(entry) = b.catalog().get(address).cloned() else {
         return;
     };
     match action {
         RowAction::Select => b.selected = Some(address),
-        RowAction::Read => b.read_one(outbox, address, entry.dtype),
-        RowAction::Plot => b.plot_request = Some(address),
-        RowAction::Watch => b.watch_request = Some(address),
+        RowAction::Read => b.read_one(address, entry.dtype),
+        RowAction::Plot => commands.push(Command::PlotObject {
+            text: address.to_string(),
+            from: Said::Dictionary,
+        }),
+        RowAction::Watch => commands.push(Command::PinToWatch {
+            address,
+            from: Said::Dictionary,
+        }),
         RowAction::Edit => {
             let connected = !b.link_text.is_empty();
             if connected && entry.access.writable() {
-                edit::start_edit(b, &entry);
+                editing::start_edit(b, &entry);
             }
         }
-        RowAction::Typed(text) => edit::typed(b, &entry, text),
+        RowAction::Typed(text) => editing::typed(b, &entry, text),
         RowAction::CancelEdit => b.edit = None,
-        RowAction::Submit => edit::submit_edit(b, &entry),
+        RowAction::Submit => editing::submit_edit(b, &entry),
         RowAction::Focused => {
             if let Some(edit) = b.edit.as_mut() {
                 edit.focus = false;

@@ -2,13 +2,13 @@
 //! asked on a thread of their own so the window never waits; names that say which device
 //! and when; a confirmation before a file is replaced; and the folder of a saved file
 //! opened in the file manager. Tests answer the dialogs through [`ScriptedPicker`].
+//!
+//! A model: no egui here (a dialog's answer wakes the window through a [`Wake`]).
 
 use std::collections::VecDeque;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
-
-use eframe::egui;
 
 /// What a dialog is asked: open or save, its title, where it starts, the name it
 /// proposes and the kinds of file it lists.
@@ -39,10 +39,13 @@ pub type Answer = Arc<Mutex<Option<Picked>>>;
 /// cancels a dialog in a fifth of a second.
 const NO_DIALOG_WITHIN: std::time::Duration = std::time::Duration::from_millis(200);
 
+/// Wakes the window when a thread left something for it (a dialog's answer).
+pub type Wake = Arc<dyn Fn() + Send + Sync>;
+
 /// Shows the open and save dialogs. `pick` must not block the window: the answer comes
-/// later through `answer`, and `ctx` is asked to repaint when it is there.
+/// later through `answer`, and `wake` is called when it is there.
 pub trait FilePicker: Send + Sync + fmt::Debug {
-    fn pick(&self, ask: Ask, answer: Answer, ctx: egui::Context);
+    fn pick(&self, ask: Ask, answer: Answer, wake: Wake);
 }
 
 /// The system's dialogs (the XDG desktop portal on Linux, no GTK needed), each on a
@@ -51,7 +54,7 @@ pub trait FilePicker: Send + Sync + fmt::Debug {
 pub struct NativePicker;
 
 impl FilePicker for NativePicker {
-    fn pick(&self, ask: Ask, answer: Answer, ctx: egui::Context) {
+    fn pick(&self, ask: Ask, answer: Answer, wake: Wake) {
         let reply = answer.clone();
         let spawned = std::thread::Builder::new()
             .name("file dialog".into())
@@ -79,7 +82,7 @@ impl FilePicker for NativePicker {
                     None => Picked::Cancelled,
                 };
                 put(&answer, picked);
-                ctx.request_repaint();
+                wake();
             });
         if let Err(e) = spawned {
             put(
@@ -149,7 +152,7 @@ impl ScriptedPicker {
 }
 
 impl FilePicker for ScriptedPicker {
-    fn pick(&self, ask: Ask, answer: Answer, ctx: egui::Context) {
+    fn pick(&self, ask: Ask, answer: Answer, wake: Wake) {
         let next = self
             .answers
             .lock()
@@ -160,7 +163,7 @@ impl FilePicker for ScriptedPicker {
             asked.push(ask);
         }
         put(&answer, next.map_or(Picked::Cancelled, Picked::File));
-        ctx.request_repaint();
+        wake();
     }
 }
 
@@ -240,7 +243,7 @@ mod tests {
     fn a_scripted_picker_answers_in_order_then_cancels() {
         let picker = ScriptedPicker::new();
         picker.answer(Some(PathBuf::from("/tmp/a.csv")));
-        let ctx = egui::Context::default();
+        let wake: Wake = Arc::new(|| {});
         let ask = Ask {
             save: true,
             title: "Save".into(),
@@ -249,13 +252,13 @@ mod tests {
             filters: Vec::new(),
         };
         let first: Answer = Arc::default();
-        picker.pick(ask.clone(), first.clone(), ctx.clone());
+        picker.pick(ask.clone(), first.clone(), wake.clone());
         assert_eq!(
             take(&first),
             Some(Picked::File(PathBuf::from("/tmp/a.csv")))
         );
         let second: Answer = Arc::default();
-        picker.pick(ask.clone(), second.clone(), ctx);
+        picker.pick(ask.clone(), second.clone(), wake);
         assert_eq!(take(&second), Some(Picked::Cancelled));
         assert_eq!(picker.asked(), [ask.clone(), ask]);
     }

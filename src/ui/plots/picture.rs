@@ -4,45 +4,32 @@
 //! resolution, and the save dialog asks where it goes.
 
 use std::path::Path;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use eframe::egui::{self, Rect, RichText, Ui};
 
-use super::super::state::AppState;
-use super::capture::{Job, ask};
-
-/// Where the screenshot's picture (or why there is none) arrives.
-pub type PngResult = Arc<Mutex<Option<Result<egui::ColorImage, String>>>>;
-
-/// A picture being taken.
-#[derive(Clone, Debug, Default)]
-pub struct Picture {
-    /// The title band is drawn (from the frame that asks for the screenshot until it
-    /// comes: the screenshot is of a frame after the one that asked).
-    pub due: bool,
-    /// The screenshot was asked for.
-    pub sent: bool,
-    /// The cut picture, from the screenshot callback.
-    pub result: PngResult,
-}
+use super::capture::ask;
+use super::exports::Job;
+use super::model::{Image, Picture, PlotView, shown_scope, time_range};
+use super::view::Plots;
 
 /// Take a picture of the plots in the next frame.
-pub fn request(ctx: &egui::Context, state: &mut AppState) {
-    if state.plot.picture.due {
+pub fn request(ctx: &egui::Context, view: &mut PlotView) {
+    if view.picture.due {
         return;
     }
-    state.plot.picture.due = true;
-    state.plot.message = Some(Ok("taking a picture of the plots…".into()));
+    view.picture.due = true;
+    view.message = Some(Ok("taking a picture of the plots…".into()));
     ctx.request_repaint();
 }
 
 /// The title of the picture, drawn above the plots in the frame it is taken: what and
 /// whose the plots are, and when.
-pub fn title_band_ui(ui: &mut Ui, state: &AppState) -> Option<Rect> {
-    if !state.plot.picture.due {
+pub fn title_band_ui(ui: &mut Ui, p: &Plots<'_>) -> Option<Rect> {
+    if !p.view.picture.due {
         return None;
     }
-    let (title, details) = title_lines(state, std::time::SystemTime::now());
+    let (title, details) = title_lines(p, std::time::SystemTime::now());
     let response = ui
         .vertical(|ui| {
             ui.label(RichText::new(title).heading().strong());
@@ -54,19 +41,20 @@ pub fn title_band_ui(ui: &mut Ui, state: &AppState) -> Option<Rect> {
 
 /// The picture's title ("drivedeck plots — PD4-E601L42") and the line under it (the
 /// identity, the link, the date, the time span).
-pub fn title_lines(state: &AppState, now: std::time::SystemTime) -> (String, String) {
-    let scope = super::shown_scope(state);
+pub fn title_lines(p: &Plots<'_>, now: std::time::SystemTime) -> (String, String) {
+    let scope = shown_scope(p.view, p.drive);
     let meta = &scope.meta;
-    let identity = state
-        .plot
+    let identity = p
+        .drive
+        .link
         .identity
         .as_ref()
-        .filter(|_| state.plot.review.is_none());
+        .filter(|_| p.view.review.is_none());
     let device = identity
         .and_then(|i| i.name.clone())
         .or_else(|| meta.device_name.clone())
         .unwrap_or_else(|| "no device named".into());
-    let title = match &state.plot.review {
+    let title = match &p.view.review {
         Some(review) => format!("drivedeck — {device} — {}", review.base.title),
         None => format!("drivedeck plots — {device}"),
     };
@@ -99,7 +87,7 @@ pub fn title_lines(state: &AppState, now: std::time::SystemTime) -> (String, Str
         ("link", meta.link.clone()),
         (
             "recorded",
-            meta.started.clone().filter(|_| state.plot.review.is_some()),
+            meta.started.clone().filter(|_| p.view.review.is_some()),
         ),
     ];
     let mut parts: Vec<String> = fields
@@ -107,7 +95,7 @@ pub fn title_lines(state: &AppState, now: std::time::SystemTime) -> (String, Str
         .filter_map(|(key, value)| value.map(|v| format!("{key} {v}")))
         .collect();
     parts.push(format!("taken {}", crate::telemetry::utc_text(now)));
-    if let Some((from, to)) = super::time_range(state) {
+    if let Some((from, to)) = time_range(p.view, p.drive, p.settings.window_s) {
         parts.push(format!("t {from:.3} s to {to:.3} s"));
     }
     (title, parts.join(" · "))
@@ -115,21 +103,21 @@ pub fn title_lines(state: &AppState, now: std::time::SystemTime) -> (String, Str
 
 /// After the plots are drawn in the picture's frame: ask for its screenshot, cut to the
 /// title band and the plots.
-pub fn taken(ctx: &egui::Context, state: &mut AppState, band: Option<Rect>, plots: Option<Rect>) {
-    if !state.plot.picture.due || state.plot.picture.sent {
+pub fn taken(ctx: &egui::Context, view: &mut PlotView, band: Option<Rect>, plots: Option<Rect>) {
+    if !view.picture.due || view.picture.sent {
         return;
     }
-    state.plot.picture.sent = true;
+    view.picture.sent = true;
     let area = match (band, plots) {
         (Some(band), Some(plots)) => Some(band.union(plots)),
         (band, plots) => band.or(plots),
     };
     let Some(area) = area else {
-        state.plot.picture = Picture::default();
-        state.plot.message = Some(Err("no plots to take a picture of".into()));
+        view.picture = Picture::default();
+        view.message = Some(Err("no plots to take a picture of".into()));
         return;
     };
-    let result = state.plot.picture.result.clone();
+    let result = view.picture.result.clone();
     let repaint = ctx.clone();
     let pixels_per_point = ctx.pixels_per_point();
     ctx.send_viewport_cmd(egui::ViewportCommand::Screenshot(
@@ -144,11 +132,7 @@ pub fn taken(ctx: &egui::Context, state: &mut AppState, band: Option<Rect>, plot
 }
 
 /// `area` (in points) of the screenshot, in its pixels.
-pub fn cut(
-    image: &egui::ColorImage,
-    area: Rect,
-    pixels_per_point: f32,
-) -> Result<egui::ColorImage, String> {
+pub fn cut(image: &egui::ColorImage, area: Rect, pixels_per_point: f32) -> Result<Image, String> {
     let whole = Rect::from_min_size(
         egui::Pos2::ZERO,
         egui::vec2(image.size[0] as f32, image.size[1] as f32) / pixels_per_point,
@@ -158,34 +142,37 @@ pub fn cut(
     if !area.is_positive() {
         return Err("the plots were not in the window's picture".into());
     }
-    Ok(image.region(&area, Some(pixels_per_point)))
+    let region = image.region(&area, Some(pixels_per_point));
+    Ok(Image {
+        size: region.size,
+        rgba: region.pixels.iter().flat_map(|p| p.to_array()).collect(),
+    })
 }
 
 /// The picture, once taken: the save dialog asks where it goes.
-pub fn poll(ctx: &egui::Context, state: &mut AppState) {
-    let taken = super::files::take(&state.plot.picture.result);
+pub fn poll(ctx: &egui::Context, p: &mut Plots<'_>) {
+    let taken = super::files::take(&p.view.picture.result);
     if taken.is_some() {
-        state.plot.picture.due = false;
-        state.plot.picture.sent = false;
+        p.view.picture.due = false;
+        p.view.picture.sent = false;
     }
     match taken {
-        Some(Ok(image)) => ask(ctx, state, Job::Png(Arc::new(image))),
-        Some(Err(e)) => state.plot.message = Some(Err(e)),
+        Some(Ok(image)) => ask(ctx, p, Job::Png(Arc::new(image))),
+        Some(Err(e)) => p.view.message = Some(Err(e)),
         None => {}
     }
 }
 
 /// An RGBA PNG of `image` at `path`.
-pub fn write_png(image: &egui::ColorImage, path: &str) -> Result<String, String> {
+pub fn write_png(image: &Image, path: &str) -> Result<String, String> {
     let [width, height] = image.size;
     let mut png_bytes = Vec::new();
     let mut encoder = png::Encoder::new(&mut png_bytes, width as u32, height as u32);
     encoder.set_color(png::ColorType::Rgba);
     encoder.set_depth(png::BitDepth::Eight);
-    let bytes: Vec<u8> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
     encoder
         .write_header()
-        .and_then(|mut writer| writer.write_image_data(&bytes))
+        .and_then(|mut writer| writer.write_image_data(&image.rgba))
         .map_err(|e| format!("cannot make the picture for {path}: {e}"))?;
     crate::file::write_whole(Path::new(path), &png_bytes)
         .map_err(|e| format!("cannot write {path}: {e}"))?;
@@ -212,7 +199,10 @@ mod tests {
 
     #[test]
     fn a_png_that_cannot_be_written_names_the_full_path_and_the_reason() {
-        let image = egui::ColorImage::new([4, 3], vec![egui::Color32::RED; 12]);
+        let image = Image {
+            size: [4, 3],
+            rgba: [255, 0, 0, 255].repeat(12),
+        };
         let dir = std::env::temp_dir().join(format!("no-such-dir-{}", std::process::id()));
         let path = dir.join("plots.png").to_string_lossy().into_owned();
         let error = write_png(&image, &path).expect_err("no such directory");

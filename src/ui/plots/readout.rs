@@ -3,20 +3,20 @@
 
 use eframe::egui::Ui;
 
-use super::super::state::AppState;
-use super::{shown_scope, with_turns};
+use super::model::{shown_scope, with_turns};
+use super::view::Plots;
 use crate::telemetry::{Kind, Ring, Scope, format_number};
 
 /// The values under the pointer (or the newest ones) of every signal drawn; the cursors'
 /// read-out instead while one is placed.
-pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
-    if state.plot.cursors.iter().any(Option::is_some) {
-        cursors_ui(ui, state);
+pub fn readout_ui(ui: &mut Ui, p: &mut Plots<'_>) {
+    if p.view.cursors.iter().any(Option::is_some) {
+        cursors_ui(ui, p);
         return;
     }
-    let scope = shown_scope(state);
+    let scope = shown_scope(p.view, p.drive);
     let ring = scope.ring();
-    let at = state.plot.cursor.or(ring.last_time());
+    let at = p.view.cursor.or(ring.last_time());
     let Some(at) = at else {
         ui.weak("no samples yet");
         return;
@@ -25,7 +25,7 @@ pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
         return;
     };
     ui.horizontal_wrapped(|ui| {
-        let what = if state.plot.cursor.is_some() {
+        let what = if p.view.cursor.is_some() {
             "pointer"
         } else {
             "latest"
@@ -50,9 +50,9 @@ pub fn readout_ui(ui: &mut Ui, state: &mut AppState) {
 /// The cursors: "A 1.200 s  B 1.700 s  Δt 0.500 s", then per analog signal the change
 /// from A to B (positions also in degrees and revolutions), its values at A and B on
 /// hover.
-fn cursors_ui(ui: &mut Ui, state: &mut AppState) {
-    let [a, b] = state.plot.cursors;
-    let scope = shown_scope(state);
+fn cursors_ui(ui: &mut Ui, p: &mut Plots<'_>) {
+    let [a, b] = p.view.cursors;
+    let scope = shown_scope(p.view, p.drive);
     let rows = cursor_rows(scope, a, b);
     let mut clear = false;
     // One wrapped line (the plots under it move as little as can be): the times, then
@@ -66,7 +66,7 @@ fn cursors_ui(ui: &mut Ui, state: &mut AppState) {
         }
     });
     if clear {
-        state.plot.cursors = [None; 2];
+        p.view.cursors = [None; 2];
     }
 }
 

@@ -2,17 +2,14 @@
 //! in the plots with no drive connected, a second one overlaid on it aligned on the
 //! triggers or at a chosen offset, and a triggered capture frozen on screen until the
 //! user dismisses it or arms again.
+//!
+//! A model: no egui here.
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-use eframe::egui::{self, Ui};
-
-use super::super::state::AppState;
-use super::super::widgets::AMBER;
-use super::PlotView;
-use super::capture::{Job, ask};
-use super::files::take;
+use super::files::{Wake, take};
+use super::model::PlotView;
 use crate::telemetry::{Recording, Scope};
 
 /// One recording on screen.
@@ -34,7 +31,7 @@ impl Shown {
         })
     }
 
-    fn span(&self) -> Option<(f64, f64)> {
+    pub fn span(&self) -> Option<(f64, f64)> {
         let ring = self.scope.ring();
         Some((ring.first_time()?, ring.last_time()?))
     }
@@ -88,10 +85,9 @@ pub type Loading = (bool, Arc<Mutex<Option<Read>>>);
 
 /// Read `path` on a thread of its own (a large file does not stall the window); `poll`
 /// puts it on screen.
-pub fn load(ctx: &egui::Context, state: &mut AppState, path: PathBuf, overlay: bool) {
+pub fn load(plot: &mut PlotView, wake: Wake, path: PathBuf, overlay: bool) {
     let slot: Arc<Mutex<Option<Read>>> = Arc::default();
     let reply = slot.clone();
-    let repaint = ctx.clone();
     let spawned = std::thread::Builder::new()
         .name("open recording".into())
         .spawn(move || {
@@ -101,23 +97,23 @@ pub fn load(ctx: &egui::Context, state: &mut AppState, path: PathBuf, overlay: b
             if let Ok(mut slot) = reply.lock() {
                 *slot = Some(read);
             }
-            repaint.request_repaint();
+            wake();
         });
     match spawned {
         Ok(_) => {
-            state.plot.loading = Some((overlay, slot));
-            state.plot.message = Some(Ok("reading the recording…".into()));
+            plot.loading = Some((overlay, slot));
+            plot.message = Some(Ok("reading the recording…".into()));
         }
-        Err(e) => state.plot.message = Some(Err(format!("cannot read the recording: {e}"))),
+        Err(e) => plot.message = Some(Err(format!("cannot read the recording: {e}"))),
     }
 }
 
 /// A recording read: on screen (or over the one there), or why not.
-pub fn poll(state: &mut AppState) {
-    let Some(read) = state.plot.loading.as_ref().and_then(|(_, slot)| take(slot)) else {
+pub fn poll(plot: &mut PlotView) {
+    let Some(read) = plot.loading.as_ref().and_then(|(_, slot)| take(slot)) else {
         return;
     };
-    let Some((overlay, _)) = state.plot.loading.take() else {
+    let Some((overlay, _)) = plot.loading.take() else {
         return;
     };
     let shown = read.and_then(|(path, recording)| {
@@ -142,10 +138,10 @@ pub fn poll(state: &mut AppState) {
                 recording.channels.len(),
                 recording.duration()
             );
-            show(&mut state.plot, shown, overlay);
-            state.plot.message = Some(Ok(text));
+            show(plot, shown, overlay);
+            plot.message = Some(Ok(text));
         }
-        Err(e) => state.plot.message = Some(Err(e)),
+        Err(e) => plot.message = Some(Err(e)),
     }
 }
 
@@ -209,89 +205,3 @@ pub fn freeze_capture(plot: &mut PlotView, live: &Scope) {
     plot.shown_range = None;
 }
 
-/// The buttons that open a recording, and overlay one on the recording on screen.
-pub fn open_buttons_ui(ui: &mut Ui, state: &mut AppState) {
-    if ui
-        .button("Open recording…")
-        .on_hover_text("Show a recording saved before (CSV or JSON), with or without a drive")
-        .clicked()
-    {
-        ask(ui.ctx(), state, Job::Open { overlay: false });
-    }
-    if state.plot.review.is_some()
-        && ui
-            .button("Overlay recording…")
-            .on_hover_text("Draw a second recording over this one (before/after a change)")
-            .clicked()
-    {
-        ask(ui.ctx(), state, Job::Open { overlay: true });
-    }
-}
-
-/// What is on screen instead of the live plots, and the ways back: dismiss the capture
-/// or arm again; close the recording; the overlay's alignment.
-pub fn review_ui(ui: &mut Ui, state: &mut AppState) {
-    let Some(review) = &mut state.plot.review else {
-        return;
-    };
-    let mut close_it = false;
-    let mut rearm = false;
-    ui.horizontal_wrapped(|ui| {
-        if review.capture {
-            ui.colored_label(AMBER, egui::RichText::new("Frozen:").strong());
-            ui.strong(format!(
-                "{}; the live plots go on underneath",
-                review.base.title
-            ));
-            close_it = ui
-                .button("Dismiss")
-                .on_hover_text("Back to the live plots (the capture stays for Save recording)")
-                .clicked();
-            rearm = ui
-                .button("Re-arm")
-                .on_hover_text("Back to the live plots, waiting for the trigger again")
-                .clicked();
-        } else {
-            ui.strong(format!("Recording: {}", review.base.title));
-            if let Some(started) = &review.base.scope.meta.started {
-                ui.weak(format!("recorded {started}"));
-            }
-            close_it = ui.button("Close recording").clicked();
-        }
-    });
-    let mut remove = false;
-    if let Some(overlay) = &review.overlay {
-        let title = overlay.title.clone();
-        ui.horizontal_wrapped(|ui| {
-            ui.label(format!("Overlay (dashed): {title}, moved by"));
-            let drag = ui.add(
-                egui::DragValue::new(&mut review.offset_s)
-                    .speed(0.001)
-                    .suffix(" s")
-                    .max_decimals(4),
-            );
-            crate::ui::widgets::name_widget(
-                &drag,
-                egui::accesskit::Role::SpinButton,
-                "Overlay offset",
-            );
-            let (offset, how) = review.aligned();
-            if ui
-                .button("Align")
-                .on_hover_text(format!("Lay it on the recording {how}"))
-                .clicked()
-            {
-                review.offset_s = offset;
-            }
-            remove = ui.button("Remove overlay").clicked();
-        });
-    }
-    if remove {
-        review.overlay = None;
-    }
-    if rearm {
-        super::capture::arm(state);
-    } else if close_it {
-        close(&mut state.plot);
-    }
-}

@@ -9,10 +9,13 @@ use std::cell::RefCell;
 use eframe::egui::{self, Color32, Ui};
 use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
 
-use super::super::state::AppState;
-use super::super::widgets::{AMBER, BLUE, GREEN, RED};
+use super::exports::Beside;
 use super::lanes::{lane_labels_ui, lanes, lanes_plot_ui};
-use super::{Beside, PositionUnit, shown_scope, time_range};
+use super::model::{PositionUnit, live_end, shown_scope, time_range};
+use crate::ui::command::PlotCommand;
+use super::view::Plots;
+use crate::ui::command::Command;
+use crate::ui::widgets::{AMBER, BLUE, GREEN, RED};
 use crate::telemetry::ring::Decimations;
 use crate::telemetry::{Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef};
 
@@ -41,12 +44,12 @@ const GREY: Color32 = Color32::from_gray(150);
 const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
 /// The colours for traces that are no built-in signal, in order.
 pub(super) const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY, SAND, GREEN, BLUE];
-/// Another drive's line in a plot: its legend name, its points, its gaps.
-type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band]);
+/// Another drive's line in a plot: its legend name, its points, its gaps, its colour.
+type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band], Color32);
 
-/// The other drives' lines in a plot, in the list's order (the selected drive's line
-/// keeps the signal's colour).
-const DRIVE_COLORS: [Color32; 4] = [ORANGE, PINK, SKY, LIME];
+/// The drives' lines in a plot beside the shown drive's, by the colour each drive was
+/// given when it was added (the shown drive's line keeps the signal's colour).
+pub const DRIVE_COLORS: [Color32; 4] = [ORANGE, PINK, SKY, LIME];
 /// The cursors' colours (A, B).
 const CURSOR_COLORS: [Color32; 2] = [
     Color32::from_rgb(250, 230, 80),
@@ -134,30 +137,24 @@ pub(super) struct View<'a> {
 }
 
 impl<'a> View<'a> {
-    fn new(
-        state: &'a AppState,
-        from: f64,
-        to: f64,
-        own: &'a str,
-        beside: &'a [Beside<'a>],
-        decimations: Decimations,
-    ) -> Self {
-        let scope = shown_scope(state);
+    fn new(p: &'a Plots<'a>, from: f64, to: f64, decimations: Decimations) -> Self {
+        let (plot, drive, beside) = (&*p.view, &*p.drive, p.beside);
+        let scope = shown_scope(plot, drive);
         let markers = scope
             .markers()
             .filter(|m| m.t >= from && m.t <= to)
             .map(|m| (m.t, m.text.as_str()))
             .collect();
-        let review = state.plot.review.as_ref();
+        let review = plot.review.as_ref();
         let trigger_at = match review {
             Some(review) => review.base.trigger,
-            None => match state.scope.capture_state() {
+            None => match drive.scope.capture_state() {
                 CaptureState::Fired { at } | CaptureState::Complete { at, .. } => Some(at),
                 _ => None,
             },
         };
         // The threshold's column is of the live history (a capture has the same ones).
-        let threshold = state
+        let threshold = drive
             .scope
             .trigger()
             .and_then(|t| match t.condition {
@@ -168,18 +165,18 @@ impl<'a> View<'a> {
         View {
             ring: scope.ring(),
             overlay: review.and_then(|r| r.overlay.as_ref().map(|o| (&o.scope, r.offset_s))),
-            position_unit: state.settings.plot.position_unit,
-            cursors: state.plot.cursors,
+            position_unit: p.settings.position_unit,
+            cursors: plot.cursors,
             from,
             to,
-            follow: state.plot.follow,
+            follow: plot.follow,
             group: egui::Id::unique("plots_time_axis"),
             markers,
-            bands: bands(state, from, to),
-            highlight: state.plot.highlight,
+            bands: bands(p, from, to),
+            highlight: plot.highlight,
             trigger_at,
             threshold,
-            own: (!beside.is_empty()).then_some(own),
+            own: (!beside.is_empty()).then_some(drive.name.as_str()),
             // A recording opened from a file has a time base of its own: nothing beside.
             beside: if review.is_none_or(|r| r.capture) {
                 beside
@@ -271,12 +268,12 @@ fn scope_bands(scope: &Scope, from: f64, to: f64) -> Vec<Band> {
 
 /// The gaps between `from` and `to`; one still open reaches to now (while the link is
 /// lost, the plots run on to show it grow).
-fn bands(state: &AppState, from: f64, to: f64) -> Vec<Band> {
-    if state.plot.review.is_some() {
+fn bands(p: &Plots<'_>, from: f64, to: f64) -> Vec<Band> {
+    if p.view.review.is_some() {
         return Vec::new();
     }
-    let now = super::live_end(state).unwrap_or(to);
-    state
+    let now = live_end(p.drive).unwrap_or(to);
+    p.drive
         .scope
         .gaps()
         .map(|gap| Band {
@@ -310,13 +307,8 @@ fn split_at_bands<'p>(points: &'p [[f64; 2]], bands: &[Band]) -> Vec<&'p [[f64; 
 pub(super) type Seen = (Option<f64>, (f64, f64));
 
 /// The plots; where they were drawn (every axis included), for the picture.
-pub fn traces_ui(
-    ui: &mut Ui,
-    state: &mut AppState,
-    own: &str,
-    beside: &[Beside<'_>],
-) -> Option<egui::Rect> {
-    let Some((from, to)) = time_range(state) else {
+pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
+    let Some((from, to)) = time_range(p.view, p.drive, p.settings.window_s) else {
         ui.add_space(8.0);
         ui.weak(
             "Waiting for samples: connect to a drive (or the simulated one), or open a \
@@ -324,8 +316,8 @@ pub fn traces_ui(
         );
         return None;
     };
-    let mut decimations = std::mem::take(&mut state.plot.decimations);
-    let scope = shown_scope(state);
+    let mut decimations = std::mem::take(&mut p.view.decimations);
+    let scope = shown_scope(p.view, p.drive);
     let colors = colors(scope.signals());
     let analog: Vec<(&SignalDef, Color32)> = scope
         .signals()
@@ -335,7 +327,7 @@ pub fn traces_ui(
         .collect();
     let lanes = lanes(scope, from, to, &mut decimations);
     let (plot_height, lanes_height) = heights(ui.available_height(), analog.len(), lanes.len());
-    let view = View::new(state, from, to, own, beside, decimations);
+    let view = View::new(p, from, to, decimations);
     let mut interaction = Interaction::default();
     let top = ui.cursor().min;
 
@@ -358,8 +350,8 @@ pub fn traces_ui(
     );
     let mut decimations = view.decimations.into_inner();
     decimations.end_frame();
-    state.plot.decimations = decimations;
-    remember_view(state, &interaction, (from, to));
+    p.view.decimations = decimations;
+    remember_view(p, &interaction, (from, to));
     Some(plots)
 }
 
@@ -474,18 +466,18 @@ fn analog_plot_ui(
                         format!("{}: {}", b.name, signal.info.name),
                         points,
                         bands.as_slice(),
+                        DRIVE_COLORS[b.color % DRIVE_COLORS.len()],
                     ))
                 })
                 .collect();
             let mut fit = vec![points.as_slice(), other.as_slice()];
-            fit.extend(drives.iter().map(|(_, theirs, _)| theirs.as_slice()));
+            fit.extend(drives.iter().map(|(_, theirs, _, _)| theirs.as_slice()));
             plot_ui.set_plot_bounds(fit_bounds(&fit, from, to, level));
             draw_bands(plot_ui, &view.bands, first);
             draw_markers(plot_ui, &view.markers, first);
             draw_moments(plot_ui, view, level);
             draw_runs(plot_ui, &label, color, points, &view.bands);
-            for (k, (name, theirs, bands)) in drives.into_iter().enumerate() {
-                let color = DRIVE_COLORS[k % DRIVE_COLORS.len()];
+            for (name, theirs, bands, color) in drives {
                 draw_runs(plot_ui, &name, color, theirs, bands);
             }
             if !other.is_empty() {
@@ -564,24 +556,29 @@ pub(super) fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<
     }
 }
 
-/// What the next frame needs of this one: where the plots were, the cursor, whether to
-/// follow, and the span shown.
-fn remember_view(state: &mut AppState, interaction: &Interaction, (from, to): (f64, f64)) {
-    state.plot.cursor = interaction.cursor;
+/// What the next frame needs of this one: the pointer, the cursor placed, the span shown;
+/// a double click (follow again) and a drag or zoom (show that span) are the user's
+/// commands.
+fn remember_view(p: &mut Plots<'_>, interaction: &Interaction, (from, to): (f64, f64)) {
+    let view = &mut *p.view;
+    view.cursor = interaction.cursor;
     if let Some((k, at)) = interaction.placed
-        && let Some(cursor) = state.plot.cursors.get_mut(k)
+        && let Some(cursor) = view.cursors.get_mut(k)
     {
         *cursor = Some(at);
     }
-    if interaction.follow_again {
-        state.plot.follow = true;
-    } else if interaction.user_moved {
-        state.plot.follow = false;
-    }
-    if !state.plot.follow || interaction.user_moved {
-        state.plot.shown_range = interaction.range;
+    view.shown_range = if view.follow {
+        Some((from, to))
     } else {
-        state.plot.shown_range = Some((from, to));
+        interaction.range
+    };
+    if interaction.follow_again {
+        p.commands.push(Command::Plot(PlotCommand::FollowAgain));
+    } else if interaction.user_moved
+        && let Some((from, to)) = interaction.range
+    {
+        p.commands
+            .push(Command::Plot(PlotCommand::ShowSpan { from, to }));
     }
 }
 

@@ -7,10 +7,12 @@
 //! The panel asks the worker for one `ReadMany` of every pin at a time, never a second
 //! before the first has come back, so a slow bus lowers the refresh rate instead of
 //! queueing reads without end.
+//!
+//! The model (this file): no egui here; the view is `panel`.
 
 mod panel;
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
@@ -27,18 +29,15 @@ pub const RATES: [f64; 6] = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0];
 pub const LOST_AFTER_S: f64 = 5.0;
 /// A value that changed is marked for this long.
 pub const CHANGED_FOR_S: f64 = 1.0;
-/// How many of its last requests the panel remembers (answers to older ones are dropped).
-const REMEMBERED: usize = 8;
 
-/// What of the watch panel is saved with the layout.
+/// What of the watch panel is a drive's: its pins, the rate, the address box. (Whether
+/// the panel is shown is the window's.)
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct WatchSettings {
     pub pins: Vec<Pin>,
     /// Refreshes per second.
     pub rate: f64,
-    /// The panel is shown.
-    pub open: bool,
     /// The address box as typed.
     pub address: String,
 }
@@ -48,7 +47,6 @@ impl Default for WatchSettings {
         Self {
             pins: Vec::new(),
             rate: 2.0,
-            open: false,
             address: String::new(),
         }
     }
@@ -69,12 +67,10 @@ pub struct Reading {
 #[derive(Clone, Debug, Default)]
 pub struct Watch {
     readings: BTreeMap<Address, Reading>,
-    /// The read asked for and not yet given an id.
-    unsent: Option<Request>,
+    /// A read is asked for and not yet handed to the worker.
+    queued: bool,
     /// The read on its way, and how many of its answers are still to come.
     in_flight: Option<(RequestId, usize)>,
-    /// Ids of the panel's latest requests: their answers are the panel's.
-    mine: VecDeque<RequestId>,
     /// When the last read was asked (window clock).
     asked_at: Option<f64>,
     /// Why the last pin or read did not happen.
@@ -115,7 +111,6 @@ impl WatchSettings {
             Format::Bits
         };
         self.pins.push(Pin { address, format });
-        self.open = true;
         Ok(())
     }
 
@@ -157,7 +152,7 @@ impl Watch {
             // Its answers were lost with a link or a worker restart: ask again.
             self.in_flight = None;
         }
-        if self.unsent.is_some() || self.in_flight.is_some() {
+        if self.queued || self.in_flight.is_some() {
             return None;
         }
         if self
@@ -174,44 +169,32 @@ impl Watch {
         if objects.is_empty() {
             return None;
         }
-        let request = Request::ReadMany {
+        self.queued = true;
+        self.asked_at = Some(clock);
+        Some(Request::ReadMany {
             objects,
             path: ObjectPath::Auto,
-        };
-        self.unsent = Some(request.clone());
-        self.asked_at = Some(clock);
-        Some(request)
+        })
     }
 
-    /// The window learned the id of a request: `true` when it is the panel's read.
-    pub fn note_queued(&mut self, id: RequestId, request: &Request) -> bool {
-        if self.unsent.as_ref() != Some(request) {
-            return false;
-        }
-        self.unsent = None;
+    /// The worker took the panel's read as `id`.
+    pub fn sent(&mut self, id: RequestId, request: &Request) {
+        self.queued = false;
         let count = match request {
             Request::ReadMany { objects, .. } => objects.len(),
             _ => 0,
         };
         self.in_flight = Some((id, count));
-        self.mine.push_back(id);
-        if self.mine.len() > REMEMBERED {
-            self.mine.pop_front();
-        }
-        true
     }
 
     /// The panel's read could not be handed to the worker.
-    pub fn note_unsent(&mut self, request: &Request, reason: &str) -> bool {
-        if self.unsent.as_ref() != Some(request) {
-            return false;
-        }
-        self.unsent = None;
+    pub fn unsent(&mut self, reason: &str) {
+        self.queued = false;
         self.message = Some(format!("not read: {reason}"));
-        true
     }
 
-    /// One answer: `true` when it was the panel's.
+    /// One answer to the panel's read `id` (an older one's too, come late): `true` once
+    /// the read `id` has all its answers.
     pub fn on_read(
         &mut self,
         id: RequestId,
@@ -219,9 +202,6 @@ impl Watch {
         result: &Result<Value, ObjectError>,
         clock: f64,
     ) -> bool {
-        if !self.mine.contains(&id) {
-            return false;
-        }
         let result = result.clone().map_err(|e| e.to_string());
         let changed_at = match self.readings.get(&address) {
             Some(before) if before.result.as_ref().ok() != result.as_ref().ok() => Some(clock),
@@ -236,34 +216,32 @@ impl Watch {
                 changed_at,
             },
         );
-        self.answered(id);
         self.message = None;
-        true
+        self.answered(id)
     }
 
     /// A refusal of the panel's read (not connected, the link lost on the way).
-    pub fn on_rejected(&mut self, id: RequestId, rejection: &Rejection) -> bool {
-        if !self.mine.contains(&id) {
-            return false;
-        }
+    pub fn on_rejected(&mut self, id: RequestId, rejection: &Rejection) {
         if *rejection == Rejection::NotConnected {
             self.in_flight = None;
         } else {
             self.answered(id);
         }
         self.message = Some(rejection.to_string());
-        true
     }
 
-    fn answered(&mut self, id: RequestId) {
+    /// An answer to `id` came: `true` once it was the last of the read on its way.
+    fn answered(&mut self, id: RequestId) -> bool {
         if let Some((flying, left)) = self.in_flight.as_mut()
             && *flying == id
         {
             *left = left.saturating_sub(1);
             if *left == 0 {
                 self.in_flight = None;
+                return true;
             }
         }
+        false
     }
 
     pub fn reading(&self, address: Address) -> Option<&Reading> {
@@ -272,7 +250,7 @@ impl Watch {
 
     /// A read is on its way.
     pub fn busy(&self) -> bool {
-        self.unsent.is_some() || self.in_flight.is_some()
+        self.queued || self.in_flight.is_some()
     }
 }
 
@@ -328,7 +306,7 @@ mod tests {
             ..WatchSettings::default()
         };
         assert_eq!(settings.pin_typed(catalog()), Ok(STATUSWORD));
-        assert!(settings.address.is_empty() && settings.open);
+        assert!(settings.address.is_empty());
         assert_eq!(
             settings.pins[0].format,
             Format::Bits,
@@ -370,17 +348,16 @@ mod tests {
         let request = watch.due(&settings, catalog(), 10.0).expect("a first read");
         assert!(matches!(&request, Request::ReadMany { objects, .. } if objects.len() == 2));
         assert_eq!(watch.due(&settings, catalog(), 10.1), None, "not yet sent");
-        assert!(watch.note_queued(7, &request));
+        watch.sent(7, &request);
         assert_eq!(
             watch.due(&settings, catalog(), 11.0),
             None,
             "still on its way"
         );
         let ok = Ok(Value::Uint(0x0637));
-        assert!(watch.on_read(7, STATUSWORD, &ok, 10.2));
-        assert!(watch.busy(), "one of two answers");
-        assert!(!watch.on_read(8, POSITION, &Ok(Value::Int(1)), 10.2));
-        assert!(watch.on_read(7, POSITION, &Ok(Value::Int(5)), 10.3));
+        assert!(!watch.on_read(7, STATUSWORD, &ok, 10.2), "one of two answers");
+        assert!(watch.busy());
+        assert!(watch.on_read(7, POSITION, &Ok(Value::Int(5)), 10.3), "both");
         assert!(!watch.busy());
         assert_eq!(
             watch.due(&settings, catalog(), 10.4),
@@ -388,8 +365,8 @@ mod tests {
             "a period is 0.5 s"
         );
         let next = watch.due(&settings, catalog(), 10.6).expect("due again");
-        assert!(watch.note_queued(9, &next));
-        assert!(watch.on_read(9, POSITION, &Ok(Value::Int(6)), 10.7));
+        watch.sent(9, &next);
+        watch.on_read(9, POSITION, &Ok(Value::Int(6)), 10.7);
         let reading = watch.reading(POSITION).expect("read");
         assert_eq!(reading.changed_at, Some(10.7), "5 → 6 is marked");
         assert_eq!(watch.reading(STATUSWORD).map(|r| r.changed_at), Some(None));
@@ -401,7 +378,7 @@ mod tests {
         settings.pin(POSITION, catalog()).expect("pin");
         let mut watch = Watch::default();
         let request = watch.due(&settings, catalog(), 1.0).expect("read");
-        watch.note_queued(1, &request);
+        watch.sent(1, &request);
         assert_eq!(watch.due(&settings, catalog(), 5.0), None);
         assert!(
             watch.due(&settings, catalog(), 6.5).is_some(),
@@ -409,8 +386,8 @@ mod tests {
         );
         let mut watch = Watch::default();
         let request = watch.due(&settings, catalog(), 1.0).expect("read");
-        watch.note_queued(2, &request);
-        assert!(watch.on_rejected(2, &Rejection::NotConnected));
+        watch.sent(2, &request);
+        watch.on_rejected(2, &Rejection::NotConnected);
         assert!(!watch.busy());
         assert_eq!(watch.message.as_deref(), Some("not connected to a drive"));
     }

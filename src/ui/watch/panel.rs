@@ -7,15 +7,15 @@ use eframe::egui::{self, Color32, RichText, Ui};
 
 use super::{Format, MAX_PINS, RATES, Reading, bits, format_value};
 use crate::od::{Address, Entry};
-use crate::ui::state::AppState;
+use crate::ui::drive::Drive;
 use crate::ui::widgets::{AMBER, GREEN, RED, choice_ui, name_widget, named_text_edit};
 
 /// The watch panel: ask the next read when one is due, then draw.
-pub fn watch_ui(ui: &mut Ui, state: &mut AppState) {
-    refresh(ui.ctx(), state);
-    head_ui(ui, state);
+pub fn watch_ui(ui: &mut Ui, drive: &mut Drive) {
+    refresh(ui.ctx(), drive);
+    head_ui(ui, drive);
     ui.separator();
-    if state.settings.watch.pins.is_empty() {
+    if drive.settings.watch.pins.is_empty() {
         ui.weak(
             "Nothing watched yet. Pin an object by its address above, with Watch in the \
              object dictionary, or from a plotted object in the plots' Signals menu.",
@@ -25,29 +25,23 @@ pub fn watch_ui(ui: &mut Ui, state: &mut AppState) {
     egui::ScrollArea::vertical()
         .id_salt("watch_scroll")
         .auto_shrink([false, false])
-        .show(ui, |ui| pins_ui(ui, state));
+        .show(ui, |ui| pins_ui(ui, drive));
 }
 
 /// Ask the next read when one is due and come back for the one after.
-fn refresh(ctx: &egui::Context, state: &mut AppState) {
-    if !state.is_connected() || state.settings.watch.pins.is_empty() {
+fn refresh(ctx: &egui::Context, drive: &mut Drive) {
+    if !drive.is_connected() || drive.settings.watch.pins.is_empty() {
         return;
     }
-    let settings = &state.settings.watch;
-    let period = settings.period();
-    if let Some(request) = state
-        .watch
-        .due(settings, state.browser.catalog(), state.clock)
-    {
-        state.request(request);
-    }
+    drive.refresh_watch();
+    let period = drive.settings.watch.period();
     ctx.request_repaint_after(Duration::from_secs_f64(period / 2.0));
 }
 
-fn head_ui(ui: &mut Ui, state: &mut AppState) {
+fn head_ui(ui: &mut Ui, drive: &mut Drive) {
     ui.horizontal_wrapped(|ui| {
         ui.label(RichText::new("Watch").strong());
-        let rate = &mut state.settings.watch.rate;
+        let rate = &mut drive.settings.watch.rate;
         let mut picked = RATES
             .iter()
             .position(|r| (r - *rate).abs() < 1e-9)
@@ -65,21 +59,21 @@ fn head_ui(ui: &mut Ui, state: &mut AppState) {
         *rate = RATES[picked];
     });
     ui.horizontal(|ui| {
-        let typed = named_text_edit(ui, &mut state.settings.watch.address, 90.0, "watch address")
+        let typed = named_text_edit(ui, &mut drive.settings.watch.address, 90.0, "watch address")
             .on_hover_text("An object's address: 6041, 6064:00, 1018h:01h");
         let enter = typed.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
-        let full = state.settings.watch.pins.len() >= MAX_PINS;
+        let full = drive.settings.watch.pins.len() >= MAX_PINS;
         if (ui.add_enabled(!full, egui::Button::new("Pin")).clicked() || enter)
-            && !state.settings.watch.address.trim().is_empty()
+            && !drive.settings.watch.address.trim().is_empty()
         {
-            let catalog = state.browser.catalog();
-            state.watch.message = match state.settings.watch.pin_typed(catalog) {
+            let catalog = drive.browser.catalog();
+            drive.watch.message = match drive.settings.watch.pin_typed(catalog) {
                 Ok(_) => None,
                 Err(e) => Some(e.to_string()),
             };
         }
     });
-    if let Some(message) = &state.watch.message {
+    if let Some(message) = &drive.watch.message {
         ui.colored_label(RED, message);
     }
 }
@@ -88,14 +82,14 @@ fn rate_name(index: usize) -> &'static str {
     ["0.5 Hz", "1 Hz", "2 Hz", "5 Hz", "10 Hz", "20 Hz"][index.min(RATES.len() - 1)]
 }
 
-fn pins_ui(ui: &mut Ui, state: &mut AppState) {
-    let clock = state.clock;
-    let stale_after = 3.0 * state.settings.watch.period() + 1.0;
-    let catalog = state.browser.catalog();
+fn pins_ui(ui: &mut Ui, drive: &mut Drive) {
+    let clock = drive.clock;
+    let stale_after = 3.0 * drive.settings.watch.period() + 1.0;
+    let catalog = drive.browser.catalog();
     let mut unpin = None;
-    for pin in state.settings.watch.pins.iter_mut() {
+    for pin in drive.settings.watch.pins.iter_mut() {
         let entry = catalog.get(pin.address);
-        let reading = state.watch.reading(pin.address);
+        let reading = drive.watch.reading(pin.address);
         ui.horizontal(|ui| {
             ui.monospace(pin.address.to_string());
             let name = entry
@@ -140,7 +134,7 @@ fn pins_ui(ui: &mut Ui, state: &mut AppState) {
         ui.separator();
     }
     if let Some(address) = unpin {
-        state.settings.watch.unpin(address);
+        drive.settings.watch.unpin(address);
     }
 }
 

@@ -4,12 +4,14 @@
 
 use eframe::egui::{self, Color32, RichText, TextEdit, Ui};
 
-use super::state::{AppState, TORQUE_SLOPE, TorqueWarning};
-use super::widgets::{
+use super::model::{caution, validate};
+use crate::od::{self, Address, DataType, Value};
+use crate::pdi::{FieldSpec, Opcode};
+use crate::ui::command::Command;
+use crate::ui::drive::{Drive, TORQUE_SLOPE};
+use crate::ui::widgets::{
     AMBER, RED, clipped_label, labelled_text_edit_ui, name_widget, named_text_edit,
 };
-use crate::od::{self, Address, DataType, Value};
-use crate::pdi::{Action, FieldSpec, Opcode};
 use crate::worker::{ObjectPath, Request};
 
 /// The button text of a command.
@@ -60,103 +62,6 @@ fn command_hint(opcode: Opcode, methods: Option<&[i8]>) -> String {
     }
 }
 
-/// A command's inputs, validated: the request to send, or why not.
-fn validate(state: &AppState, opcode: Opcode) -> Result<Request, String> {
-    let specs = opcode.fields();
-    let texts = state
-        .settings
-        .inputs
-        .get(opcode.name())
-        .cloned()
-        .unwrap_or_default();
-    let text = |i: usize| texts.get(i).map(String::as_str).unwrap_or("");
-    match opcode {
-        Opcode::OdRead | Opcode::OdWrite => {
-            let index = specs[0].parse(text(0)).map_err(|e| e.to_string())?;
-            let sub = specs[1].parse(text(1)).map_err(|e| e.to_string())?;
-            let address = Address::new(index as u16, sub as u8);
-            let entry = od::builtin().get(address);
-            if opcode == Opcode::OdRead {
-                return Ok(Request::ReadObject {
-                    address,
-                    dtype: entry.map(|e| e.dtype),
-                    path: ObjectPath::Pdi,
-                });
-            }
-            let (dtype, value) = match entry {
-                Some(entry) => {
-                    if !entry.access.writable() {
-                        return Err(format!("{address} {} is read-only", entry.full_name()));
-                    }
-                    let value =
-                        Value::parse(entry.dtype, text(2)).map_err(|e| format!("Value: {e}"))?;
-                    entry.check(&value).map_err(|e| format!("Value: {e}"))?;
-                    if !entry.dtype.fits_pdi() {
-                        return Err(format!("{} values do not fit the 32-bit PDI", entry.dtype));
-                    }
-                    (entry.dtype, value)
-                }
-                None => {
-                    let raw = specs[2].parse(text(2)).map_err(|e| e.to_string())?;
-                    let value = if raw < 0 {
-                        Value::Int(raw)
-                    } else {
-                        Value::Uint(raw as u64)
-                    };
-                    let dtype = if raw < 0 {
-                        DataType::Integer32
-                    } else {
-                        DataType::Unsigned32
-                    };
-                    (dtype, value)
-                }
-            };
-            Ok(Request::WriteObject {
-                address,
-                dtype,
-                value,
-                path: ObjectPath::Pdi,
-            })
-        }
-        _ => {
-            let mut values = Vec::with_capacity(specs.len());
-            for (i, spec) in specs.iter().enumerate() {
-                values.push(spec.parse(text(i)).map_err(|e| e.to_string())?);
-            }
-            Action::from_inputs(opcode, &values)
-                .map(Request::Command)
-                .map_err(|e| e.to_string())
-        }
-    }
-}
-
-/// A warning shown under a valid command that will not do what one might expect.
-fn caution(state: &AppState, request: &Request) -> Option<String> {
-    match request {
-        Request::Command(Action::MoveAbsolute { speed: 0, .. })
-        | Request::Command(Action::MoveRelative { speed: 0, .. }) => {
-            Some("Max speed 0: the drive will not move.".into())
-        }
-        Request::Command(Action::Torque { max_speed: 0, .. }) => {
-            Some("Max speed 0: the motor will not turn.".into())
-        }
-        Request::Command(Action::Torque { .. }) => match state.torque_slope {
-            Some(0) => Some("Torque slope 6087h is 0: the torque will never build up.".into()),
-            None => Some("Torque slope 6087h unknown: read it before sending.".into()),
-            Some(_) => None,
-        },
-        Request::Command(Action::Homing { method })
-            if state
-                .link_info()
-                .and_then(|i| i.homing_methods.as_ref())
-                .is_some_and(|methods| !methods.contains(method)) =>
-        {
-            Some(format!("Method {method} is not one this device supports."))
-        }
-        _ => None,
-    }
-}
-
 const GROUPS: [(&str, &[Opcode]); 3] = [
     (
         "Motion",
@@ -182,7 +87,7 @@ const GROUPS: [(&str, &[Opcode]); 3] = [
 pub const STRIP_WIDTH: f32 = 34.0;
 
 /// The collapsed command panel: a button to bring it back, and its name, upright.
-pub fn collapsed_strip_ui(ui: &mut Ui, state: &mut AppState) {
+pub fn collapsed_strip_ui(ui: &mut Ui, collapsed: &mut bool) {
     ui.add_space(4.0);
     let expand = ui
         .add(egui::Button::new(RichText::new("«").size(18.0)).min_size(egui::vec2(24.0, 28.0)))
@@ -193,7 +98,7 @@ pub fn collapsed_strip_ui(ui: &mut Ui, state: &mut AppState) {
         "Expand the command panel",
     );
     if expand.clicked() {
-        state.settings.commands_collapsed = false;
+        *collapsed = false;
     }
     let font = egui::FontId::proportional(15.0);
     let color = ui.visuals().text_color();
@@ -206,7 +111,12 @@ pub fn collapsed_strip_ui(ui: &mut Ui, state: &mut AppState) {
     );
 }
 
-pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
+pub fn commands_ui(
+    ui: &mut Ui,
+    drive: &mut Drive,
+    collapsed: &mut bool,
+    commands: &mut Vec<Command>,
+) {
     ui.horizontal(|ui| {
         ui.heading("Commands");
         ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
@@ -219,16 +129,16 @@ pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
                 "Collapse the command panel",
             );
             if collapse.clicked() {
-                state.settings.commands_collapsed = true;
+                *collapsed = true;
             }
         });
     });
     // Why every button below is disabled, on screen as well as in each tooltip.
-    if let Some(reason) = state.offline_reason() {
+    if let Some(reason) = drive.offline_reason() {
         clipped_label(ui, RichText::new(reason).color(AMBER).strong(), 2);
     }
-    halt_ui(ui, state);
-    super::jog::jog_ui(ui, state);
+    halt_ui(ui, drive, commands);
+    crate::ui::jog::jog_ui(ui, drive, commands);
     ui.separator();
     for (title, opcodes) in GROUPS {
         ui.label(RichText::new(title).strong());
@@ -237,13 +147,13 @@ pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
             .spacing([8.0, 4.0])
             .show(ui, |ui| {
                 for opcode in opcodes {
-                    command_row(ui, state, *opcode);
+                    command_row(ui, drive, *opcode, commands);
                 }
             });
         ui.add_space(6.0);
     }
-    object_ui(ui, state);
-    if let Some(read) = &state.last_object {
+    object_ui(ui, drive, commands);
+    if let Some(read) = &drive.motion.last_object {
         let text = match &read.result {
             Ok(value) => {
                 let entry = od::builtin().get(read.address);
@@ -261,15 +171,15 @@ pub fn commands_ui(ui: &mut Ui, state: &mut AppState) {
         };
         ui.label(RichText::new(text).color(color).monospace());
     }
-    torque_warning_ui(ui, state);
+    torque_warning_ui(ui, drive, commands);
 }
 
 /// The halt toggle: "Halt" brakes the running travel command; once halted it says so
 /// and resumes on the next press.
-fn halt_ui(ui: &mut Ui, state: &mut AppState) {
-    let offline = state.offline_reason();
+fn halt_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
+    let offline = drive.offline_reason();
     let connected = offline.is_none();
-    let halted = state.halt_engaged;
+    let halted = drive.motion.halt_engaged;
     ui.horizontal(|ui| {
         let text = if halted {
             RichText::new("Halted — press to resume").size(16.0).strong().color(Color32::BLACK)
@@ -284,11 +194,11 @@ fn halt_ui(ui: &mut Ui, state: &mut AppState) {
             .on_hover_text("Halt bit (PDI-Cmd bit 6): brake to speed 0 with the ramp and stay energised. Press again to continue to the old target.")
             .on_disabled_hover_text(offline.unwrap_or_default());
         if response.clicked() {
-            state.request(if halted {
-                crate::worker::Request::Resume
+            commands.push(Command::Request(if halted {
+                Request::Resume
             } else {
-                crate::worker::Request::Halt
-            });
+                Request::Halt
+            }));
         }
         if halted {
             ui.weak("or send a new travel command");
@@ -298,15 +208,15 @@ fn halt_ui(ui: &mut Ui, state: &mut AppState) {
     });
 }
 
-fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
-    let verdict = validate(state, opcode);
-    command_button_ui(ui, state, opcode, &verdict);
+fn command_row(ui: &mut Ui, drive: &mut Drive, opcode: Opcode, commands: &mut Vec<Command>) {
+    let verdict = validate(drive, opcode);
+    command_button_ui(ui, drive, opcode, &verdict, commands);
     // The inputs beside the button, one per line: label, box, unit.
     ui.vertical(|ui| {
-        set_values_ui(ui, state, opcode);
+        set_values_ui(ui, drive, opcode);
         let note = match &verdict {
             Err(reason) if !opcode.fields().is_empty() => Some((RED, reason.clone())),
-            Ok(request) => caution(state, request).map(|text| (AMBER, text)),
+            Ok(request) => caution(drive, request).map(|text| (AMBER, text)),
             _ => None,
         };
         if let Some((color, text)) = note {
@@ -320,15 +230,16 @@ fn command_row(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
 /// why not; a click sends the request.
 fn command_button_ui(
     ui: &mut Ui,
-    state: &mut AppState,
+    drive: &Drive,
     opcode: Opcode,
     verdict: &Result<Request, String>,
+    commands: &mut Vec<Command>,
 ) {
-    let offline = state.offline_reason();
+    let offline = drive.offline_reason();
     let enabled = offline.is_none() && verdict.is_ok();
     let button = egui::Button::new(button_label(opcode)).min_size(egui::vec2(110.0, 0.0));
     let mut response = ui.add_enabled(enabled, button);
-    let methods = state.link_info().and_then(|i| i.homing_methods.clone());
+    let methods = drive.link_info().and_then(|i| i.homing_methods.clone());
     let hint = command_hint(opcode, methods.as_deref());
     if !hint.is_empty() {
         response = response.on_hover_text(&hint);
@@ -343,15 +254,15 @@ fn command_button_ui(
     if response.clicked()
         && let Ok(request) = verdict
     {
-        send(state, request.clone());
+        commands.push(Command::SendCommand(request.clone()));
     }
 }
 
 /// One line per set value of the command: its label, its box (red while it does not
 /// parse), its unit; the range and the object on hover.
-fn set_values_ui(ui: &mut Ui, state: &mut AppState, opcode: Opcode) {
+fn set_values_ui(ui: &mut Ui, drive: &mut Drive, opcode: Opcode) {
     let specs = opcode.fields();
-    let inputs = state
+    let inputs = drive
         .settings
         .inputs
         .entry(opcode.name().to_owned())
@@ -399,22 +310,11 @@ fn field_hint(spec: &FieldSpec) -> String {
     )
 }
 
-/// Send a command, stopping first to warn about a torque command that cannot work.
-fn send(state: &mut AppState, request: Request) {
-    if let Request::Command(action @ Action::Torque { .. }) = request
-        && state.torque_slope.is_none_or(|slope| slope <= 0)
-    {
-        state.torque_warning = Some(TorqueWarning { action });
-        return;
-    }
-    state.request(request);
-}
-
-fn torque_warning_ui(ui: &mut Ui, state: &mut AppState) {
-    let Some(warning) = state.torque_warning.clone() else {
+fn torque_warning_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
+    let Some(warning) = drive.motion.torque_warning.clone() else {
         return;
     };
-    let slope_text = match state.torque_slope {
+    let slope_text = match drive.motion.torque_slope {
         Some(0) => "The torque slope 6087h is 0 (the factory value): with it the torque never builds up and the motor does not move.".to_owned(),
         Some(v) => format!("The torque slope 6087h is {v} ‰/s."),
         None => "The torque slope 6087h could not be read, so it may still be 0 (the factory value), which never builds up torque.".to_owned(),
@@ -425,11 +325,11 @@ fn torque_warning_ui(ui: &mut Ui, state: &mut AppState) {
         ui.label(slope_text);
         ui.add_space(6.0);
         ui.horizontal(|ui| {
-            let slope = &mut state.settings.torque_slope;
+            let slope = &mut drive.settings.torque_slope;
             labelled_text_edit_ui(ui, "Set 6087h to", slope, 70.0, "Torque slope 6087h");
             ui.label("‰/s");
         });
-        let slope = Value::parse(DataType::Unsigned32, &state.settings.torque_slope)
+        let slope = Value::parse(DataType::Unsigned32, &drive.settings.torque_slope)
             .ok()
             .filter(|v| v.as_i128().is_some_and(|v| v > 0));
         ui.add_space(6.0);
@@ -438,38 +338,38 @@ fn torque_warning_ui(ui: &mut Ui, state: &mut AppState) {
             if set.clicked()
                 && let Some(value) = slope.clone()
             {
-                state.request(Request::WriteObject {
+                commands.push(Command::Request(Request::WriteObject {
                     address: TORQUE_SLOPE,
                     dtype: DataType::Unsigned32,
                     value,
                     path: ObjectPath::Auto,
-                });
-                state.request(Request::Command(warning.action));
-                state.torque_warning = None;
+                }));
+                commands.push(Command::Request(Request::Command(warning.action)));
+                drive.motion.torque_warning = None;
             }
             if ui.button("Send anyway").clicked() {
-                state.request(Request::Command(warning.action));
-                state.torque_warning = None;
+                commands.push(Command::Request(Request::Command(warning.action)));
+                drive.motion.torque_warning = None;
             }
             if ui.button("Cancel").clicked() {
-                state.torque_warning = None;
+                drive.motion.torque_warning = None;
             }
         });
     });
     if modal.should_close() {
-        state.torque_warning = None;
+        drive.motion.torque_warning = None;
     }
 }
 
 /// Read or write any object the way the link does it best (SDO, FC 43, directly on the
 /// simulator; the PDI where nothing else exists): strings and 64-bit values included.
-fn object_ui(ui: &mut Ui, state: &mut AppState) {
+fn object_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
     ui.label(RichText::new("Any object").strong())
         .on_hover_text("Read or write through the link's own object access (SDO, FC 43, direct), any type and length");
-    let offline = state.offline_reason();
+    let offline = drive.offline_reason();
     let connected = offline.is_none();
     let name = ui.horizontal(|ui| {
-        let address_text = &mut state.settings.object_address;
+        let address_text = &mut drive.settings.object_address;
         named_text_edit(ui, address_text, 70.0, "Object address");
         let address = address_text.parse::<Address>();
         let entry = address
@@ -493,22 +393,22 @@ fn object_ui(ui: &mut Ui, state: &mut AppState) {
         if read.clicked()
             && let Ok(address) = address.clone()
         {
-            state.request(Request::ReadObject {
+            commands.push(Command::Request(Request::ReadObject {
                 address,
                 dtype: entry.as_ref().map(|e| e.dtype),
                 path: ObjectPath::Auto,
-            });
+            }));
         }
-        named_text_edit(ui, &mut state.settings.object_value, 120.0, "Object value");
+        named_text_edit(ui, &mut drive.settings.object_value, 120.0, "Object value");
         let parsed = match (&address, &entry) {
             (Ok(_), Some(entry)) if !entry.access.writable() => {
                 Err(format!("{} is read-only", entry.full_name()))
             }
-            (Ok(_), Some(entry)) => Value::parse(entry.dtype, &state.settings.object_value)
+            (Ok(_), Some(entry)) => Value::parse(entry.dtype, &drive.settings.object_value)
                 .and_then(|v| entry.check(&v).map(|()| v))
                 .map(|v| (entry.dtype, v))
                 .map_err(|e| e.to_string()),
-            (Ok(_), None) => Value::parse(DataType::Integer32, &state.settings.object_value)
+            (Ok(_), None) => Value::parse(DataType::Integer32, &drive.settings.object_value)
                 .map(|v| (DataType::Integer32, v))
                 .map_err(|e| e.to_string()),
             (Err(e), _) => Err(e.to_string()),
@@ -523,12 +423,12 @@ fn object_ui(ui: &mut Ui, state: &mut AppState) {
         if write.clicked()
             && let (Ok(address), Ok((dtype, value))) = (address, parsed.clone())
         {
-            state.request(Request::WriteObject {
+            commands.push(Command::Request(Request::WriteObject {
                 address,
                 dtype,
                 value,
                 path: ObjectPath::Auto,
-            });
+            }));
         }
         name
     });

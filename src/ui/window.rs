@@ -1,0 +1,40 @@
+//! What belongs to the window whatever drive it shows: its settings (layout, plot and
+//! dictionary choices, where exports go), the plots' view (one time axis for every
+//! drive), the bottom panel's tab, and the list of drives as being edited.
+//!
+//! A model: no egui here.
+
+use crate::ui::plots::PlotView;
+use crate::ui::settings::WindowSettings;
+
+/// The list of drives as the user edits it: the "+ Add drive" box, the selected drive's
+/// name as typed, and what went wrong with the list.
+#[derive(Clone, Debug, Default)]
+pub struct DriveList {
+    pub add_link: String,
+    /// The selected drive's name as being typed (a name half typed may be empty or taken).
+    pub name_draft: Option<String>,
+    pub message: Option<String>,
+}
+
+/// The window's own state.
+#[derive(Debug)]
+pub struct Window {
+    pub settings: WindowSettings,
+    /// The plot panel's view: one for the window, every drive on its time axis.
+    pub plot: PlotView,
+    /// The log's tab shown (its id, one of `ui::view::BOTTOM`'s).
+    pub bottom: &'static str,
+    pub list: DriveList,
+}
+
+impl Window {
+    pub fn new(settings: WindowSettings) -> Self {
+        Self {
+            settings,
+            plot: PlotView::default(),
+            bottom: crate::ui::log::COMMANDS,
+            list: DriveList::default(),
+        }
+    }
+}
