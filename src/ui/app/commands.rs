@@ -73,7 +73,9 @@ impl App {
             }
             Command::PlotObject { text, from } => {
                 let said = self.plot_object(&text);
-                self.say(from, said);
+                if from != Said::Plots {
+                    self.say(from, said);
+                }
             }
             // The drive's own, applied above.
             Command::Connect(_)
@@ -119,8 +121,15 @@ impl App {
     }
 
     /// Plot an object of the dictionary (typed as an address) on the shown drive: checked
-    /// against its dictionary, then sampled by the worker every cycle.
+    /// against its dictionary, then sampled by the worker every cycle. The plots say how
+    /// it went.
     pub fn plot_object(&mut self, text: &str) -> Result<String, String> {
+        let said = self.add_plotted(text);
+        self.window.plot.say(said.clone());
+        said
+    }
+
+    fn add_plotted(&mut self, text: &str) -> Result<String, String> {
         let drive = self.shown_mut();
         let (object, dtype) = watchable(drive.browser.catalog(), text)?;
         if drive.plotted.iter().any(|(w, _)| w.address == object.address) {

@@ -16,6 +16,8 @@ mod motion;
 mod project;
 mod reads;
 mod requests;
+#[cfg(test)]
+mod tests;
 
 use std::collections::VecDeque;
 
