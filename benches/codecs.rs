@@ -3,6 +3,9 @@
 //!
 //! `cargo bench --bench codecs` (criterion prints time per iteration and elements/s).
 
+// A bench may panic: a set-up that fails ends it (clippy.toml covers only tests).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};

@@ -11,6 +11,9 @@
 //! - SocketCAN on a real `vcan0` where there is one;
 //! - properties of the slcan codec.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use std::future::Future;

@@ -1,5 +1,8 @@
 //! Every one-shot command of the binary against `--link sim`: exit codes, text and JSON.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use common::cli::{fails, json, ok};

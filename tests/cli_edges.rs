@@ -4,6 +4,9 @@
 //! anything is sent, recordings cut short by a signal, a lost link or a failed write (the
 //! file is there, whole, and says why), and `--trace` showing the frames of a failure.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use std::io::Write;

@@ -5,6 +5,9 @@
 //! the plots draw every drive's signals on one time axis, and a trigger on another drive
 //! stops them on its capture.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod window;
 
 use std::time::{Duration, SystemTime};

@@ -5,6 +5,9 @@
 //! `DRIVEDECK_WRITE_EDS=1 cargo test --test eds` rewrites assets/od/drivedeck-sim.eds from
 //! the catalog.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use std::path::{Path, PathBuf};

@@ -7,6 +7,9 @@
 //! (through the serial proxy) count as lost after exactly the configured number of failed
 //! exchanges in a row, never before.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 mod probe;
 mod proxy;

@@ -2,6 +2,9 @@
 //! the O→T producer and T→O consumer run on threads of their own, not as tasks on the
 //! worker's runtime. Behaviour, not speed: only a generous lower bound on the packets.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::time::{Duration, Instant};
 
 use drivedeck::link::enip::client::EnipLink;

@@ -4,6 +4,9 @@
 //! class 1 I/O of both assembly sets, and what a misbehaving client may and may not do to
 //! the others.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use std::io::{ErrorKind, Read, Write};

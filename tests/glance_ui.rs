@@ -5,6 +5,9 @@
 //! a move is named, a quick stop leaves a line saying why; and the window's layout: the
 //! command panel folds to a strip, nothing needed is cut off at 1366×768.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 mod window;
 

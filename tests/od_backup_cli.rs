@@ -4,6 +4,9 @@
 //! diff that finds the drive equal to the file again. Also: a dump over every link reads
 //! the whole configuration without a refusal, and broken files are refused with a reason.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use common::cli::{json, json_run, ok, run};

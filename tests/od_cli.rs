@@ -1,6 +1,9 @@
 //! `drivedeck od list`: the built-in catalog and EDS files offline, and values read from
 //! the simulated drive with `--link`.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use common::cli::{fails, json, ok};

@@ -8,6 +8,9 @@
 //! the peers are there and ran, or a block with each missing peer, why, and how many tests
 //! passed without it. With `DRIVEDECK_REQUIRE_PEERS=1` a missing peer fails it.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use std::process::ExitCode;

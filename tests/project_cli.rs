@@ -5,6 +5,9 @@
 //! backup per drive, `project check` naming a changed device, and the refusals (an unknown
 //! drive name lists the names; a broken project file names its cause).
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use std::path::{Path, PathBuf};

@@ -7,6 +7,9 @@
 //! drives; the "Project" menu saves through the file dialog, asking before it replaces
 //! another file.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod window;
 
 use std::sync::Arc;

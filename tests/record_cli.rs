@@ -2,6 +2,9 @@
 //! an object added by address, a trigger that captures a move made by a second client
 //! of the served simulator, and bad input refused with a reason.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 
 use std::time::Duration;

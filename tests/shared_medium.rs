@@ -20,6 +20,9 @@
 //! `cargo test --test shared_medium -- --ignored --nocapture` prints the cycle rate of
 //! each drive with one, two and three drives on one medium (a measurement, no test).
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 mod probe;
 

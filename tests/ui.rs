@@ -1,6 +1,9 @@
 //! The window, headless: egui_kittest clicks by label, the real worker drives the
 //! simulated drive.
 
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod common;
 mod window;
 

@@ -16,11 +16,11 @@ macro_rules! outln {
 mod bench;
 mod bench_io;
 mod bench_start;
+mod context;
 mod failure;
 mod interrupt;
 mod od;
 mod oneshot;
-mod policy;
 mod progress;
 mod project_cmd;
 mod record;
@@ -34,6 +34,8 @@ use std::time::Duration;
 
 use clap::parser::ValueSource;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
+
+use context::{Context, Policy};
 
 use crate::link::{LinkSpec, spec::FORMS};
 use crate::od::{Address, DataType};
@@ -635,9 +637,13 @@ pub fn main() -> ExitCode {
     let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     init_tracing();
     let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
-    let mut policy = policy::Policy {
-        on_exit: cli.on_exit.action(),
-        lost_after: cli.lost_after,
+    // Built once from the flags and handed to every command that opens a session.
+    let mut context = Context {
+        policy: Policy {
+            on_exit: cli.on_exit.action(),
+            lost_after: cli.lost_after,
+        },
+        expected: None,
     };
     let target = match project_cmd::target(&cli) {
         Ok(target) => target,
@@ -663,21 +669,19 @@ pub fn main() -> ExitCode {
         project_cmd::Target::Drive(drive) => {
             // The drive's own options, unless the command line gives its own.
             if !given("on_exit") {
-                policy.on_exit = drive.options.on_link_loss;
+                context.policy.on_exit = drive.options.on_link_loss;
             }
             if !given("lost_after") {
-                policy.lost_after = drive.options.lost_after;
+                context.policy.lost_after = drive.options.lost_after;
             }
-            project_cmd::expect_device(&drive);
+            context.expect_device(&drive);
             cli.link = Some(drive.link.clone());
             crate::ui::Opening::Link(drive.link)
         }
         project_cmd::Target::Every(project) => {
-            policy::set_policy(policy);
-            return project_cmd::every_drive(&project, &cli);
+            return project_cmd::every_drive(&project, &cli, &context);
         }
     };
-    policy::set_policy(policy);
     match cli.command.clone() {
         None => match crate::ui::run_window(window) {
             Ok(()) => ExitCode::SUCCESS,
@@ -689,20 +693,32 @@ pub fn main() -> ExitCode {
                 ExitCode::from(EXIT_USAGE)
             }
         },
-        Some(Command::Project(args)) => project_cmd::run(&args, &cli),
+        Some(Command::Project(args)) => project_cmd::run(&args, &cli, &context),
         Some(Command::Sim(args)) => serve::run(&args),
         Some(Command::Bench(args)) => bench::run(cli.link.clone(), &args, cli.json),
         Some(Command::Discover(args)) => oneshot::discover(&args, cli.json),
         Some(Command::Record(args)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
-            record::run(&link, &args, cli.json, timeout(&cli), cli.trace)
+            record::run(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
         }
-        Some(Command::Od(args)) => {
-            od::run(cli.link.as_ref(), &args, cli.json, timeout(&cli), cli.trace)
-        }
+        Some(Command::Od(args)) => od::run(
+            cli.link.as_ref(),
+            &args,
+            cli.json,
+            timeout(&cli),
+            cli.trace,
+            &context,
+        ),
         Some(command) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
-            oneshot::run(&link, &command, cli.json, timeout(&cli), cli.trace)
+            oneshot::run(
+                &link,
+                &command,
+                cli.json,
+                timeout(&cli),
+                cli.trace,
+                &context,
+            )
         }
     }
 }

@@ -12,6 +12,7 @@ use std::time::Duration;
 
 use serde::Serialize;
 
+use super::context::Context;
 use super::failure::{Failure, usage};
 use super::session::Session;
 use super::{EXIT_FAILED, OdArgs, OdCommand, OdListArgs, report};
@@ -31,20 +32,23 @@ pub fn run(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> ExitCode {
     // Dump, diff and restore talk to a drive: the built-in simulator without --link, as
     // every other one-shot command.
     let device = link.cloned().unwrap_or(LinkSpec::Sim);
     let outcome = match &args.command {
         OdCommand::List(list) => {
-            list_objects(link, list, timeout, trace).map(|(report, stopped)| {
+            list_objects(link, list, timeout, trace, context).map(|(report, stopped)| {
                 print(&report, json);
                 !stopped
             })
         }
-        OdCommand::Dump(dump) => backup_cmd::dump(&device, dump, json, timeout, trace),
-        OdCommand::Diff(diff) => backup_cmd::diff(&device, diff, json, timeout, trace),
-        OdCommand::Restore(restore) => backup_cmd::restore(&device, restore, json, timeout, trace),
+        OdCommand::Dump(dump) => backup_cmd::dump(&device, dump, json, timeout, trace, context),
+        OdCommand::Diff(diff) => backup_cmd::diff(&device, diff, json, timeout, trace, context),
+        OdCommand::Restore(restore) => {
+            backup_cmd::restore(&device, restore, json, timeout, trace, context)
+        }
     };
     match outcome {
         Ok(true) => ExitCode::SUCCESS,
@@ -118,6 +122,7 @@ fn list_objects(
     args: &OdListArgs,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<(ListReport, bool), Failure> {
     let mut warnings = vec![];
     let mut notes = vec![];
@@ -146,7 +151,9 @@ fn list_objects(
     }
     let mut stopped: Option<String> = None;
     if let Some(link) = link {
-        stopped = read_values(link, &entries, &mut rows, timeout, trace, &mut notes)?;
+        stopped = read_values(
+            link, &entries, &mut rows, timeout, trace, &mut notes, context,
+        )?;
         if let Some(reason) = &stopped {
             warnings.push(format!(
                 "reading stopped: {reason}; the objects after it were not read"
@@ -205,8 +212,9 @@ fn read_values(
     timeout: Duration,
     trace: bool,
     notes: &mut Vec<String>,
+    context: &Context,
 ) -> Result<Option<String>, Failure> {
-    let mut session = Session::open(link, timeout, trace)?;
+    let mut session = Session::open(link, timeout, trace, context)?;
     let readable: Vec<_> = entries
         .iter()
         .filter(|e| e.access.readable())

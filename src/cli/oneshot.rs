@@ -4,8 +4,8 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use super::context::Context;
 use super::failure::{Failure, failed, usage};
-use super::policy::policy;
 use super::report::{self, Report};
 use super::session::Session;
 use super::stop::STOP_WAIT;
@@ -21,8 +21,9 @@ pub fn run(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> ExitCode {
-    match execute(link, command, timeout, trace) {
+    match execute(link, command, timeout, trace, context) {
         Ok(report) => {
             report::print(&report, json);
             ExitCode::SUCCESS
@@ -131,6 +132,7 @@ fn execute(
     command: &Command,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<Report, Failure> {
     // Check the inputs before connecting: a typo never touches the drive.
     let planned = planned_request(command)?;
@@ -139,7 +141,7 @@ fn execute(
         return scan(link, timeout);
     }
     refuse_still_moves(command)?;
-    let mut session = Session::open(link, timeout, trace)?;
+    let mut session = Session::open(link, timeout, trace, context)?;
     if let Some((request, _)) = &planned {
         check_ramps(&mut session, request, timeout)?;
     }
@@ -257,7 +259,7 @@ fn motion(
     match session.command(request, wait, timeout) {
         Ok((what, image, progress)) => Ok(Report::Command(report::command(what, image, &progress))),
         Err(f) if f.stop => {
-            let done = session.stop_drive(policy().on_exit, timeout.min(STOP_WAIT));
+            let done = session.stop_drive(session.on_exit(), timeout.min(STOP_WAIT));
             Err(f.and(done))
         }
         Err(f) => Err(f),

@@ -14,6 +14,7 @@ use std::time::Duration;
 
 use serde::Serialize;
 
+use super::context::Context;
 use super::failure::{Failure, failed, usage};
 use super::od::backup_cmd;
 use super::report::{self, StatusReport, print_error, print_json, print_lines};
@@ -27,35 +28,6 @@ use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::project::check::{self, DriveCheck, Verdict};
 use crate::project::{self, Drive, Project, ProjectError};
 use crate::signal::AT_REST_RPM;
-
-/// The project's drive a one-shot command talks to (`--drive NAME`), when the project
-/// stores its identity: checked once connected ([`check_device`]).
-static EXPECTED: std::sync::OnceLock<Drive> = std::sync::OnceLock::new();
-
-/// Check the device the command connects to against `drive`'s stored identity.
-pub(super) fn expect_device(drive: &Drive) {
-    if drive.identity.is_some() {
-        let _ = EXPECTED.set(drive.clone());
-    }
-}
-
-/// Once connected: the device against the identity the project stores for the drive of
-/// `--drive`. Another device (a replaced drive, a wrong address) is said on stderr, never
-/// passed over; it is not refused, since a replacement of the same product is a normal
-/// case (`project check --update` stores the new identity).
-pub(super) fn check_device(session: &mut Session, timeout: Duration) {
-    let Some(drive) = EXPECTED.get() else {
-        return;
-    };
-    let (reads, failure) = session.read_many(IDENTITY[..4].to_vec(), timeout, |_, _| {});
-    let found = match failure {
-        Some(f) => check::check(drive, Err(&f.message)),
-        None => check::check(drive, Ok(&DeviceIdentity::from_reads(&reads))),
-    };
-    if !found.is_same() {
-        eprintln!("warning: not the device the project saw: {found}");
-    }
-}
 
 /// What `--project` (or `drivedeck PROJECT.json`) asks for.
 pub(super) enum Target {
@@ -182,13 +154,13 @@ pub(super) fn target(cli: &Cli) -> Result<Target, Failure> {
 }
 
 /// `status` or `od dump DIR` on every drive of `project`.
-pub(super) fn every_drive(project: &Project, cli: &Cli) -> ExitCode {
+pub(super) fn every_drive(project: &Project, cli: &Cli, context: &Context) -> ExitCode {
     let timeout = super::timeout(cli);
     match &cli.command {
-        Some(Command::Status) => status(project, cli.json, timeout, cli.trace),
+        Some(Command::Status) => status(project, cli.json, timeout, cli.trace, context),
         Some(Command::Od(OdArgs {
             command: OdCommand::Dump(args),
-        })) => dump(project, args, cli.json, timeout, cli.trace),
+        })) => dump(project, args, cli.json, timeout, cli.trace, context),
         _ => {
             print_error("only status and od dump DIR cover every drive", cli.json);
             ExitCode::from(super::EXIT_USAGE)
@@ -221,8 +193,13 @@ fn each_drive<T: Send>(drives: &[Drive], f: impl Fn(&Drive) -> T + Sync) -> Vec<
 }
 
 /// The identity a drive reports now (1018h and its names), or why it did not answer.
-fn identify(link: &LinkSpec, timeout: Duration, trace: bool) -> Result<DeviceIdentity, String> {
-    let mut session = Session::open(link, timeout, trace).map_err(|f| f.message)?;
+fn identify(
+    link: &LinkSpec,
+    timeout: Duration,
+    trace: bool,
+    context: &Context,
+) -> Result<DeviceIdentity, String> {
+    let mut session = Session::open(link, timeout, trace, context).map_err(|f| f.message)?;
     read_identity(&mut session, timeout)
 }
 
@@ -281,7 +258,7 @@ struct ProjectStatus {
     unreachable: usize,
 }
 
-fn drive_status(drive: &Drive, timeout: Duration, trace: bool) -> DriveStatus {
+fn drive_status(drive: &Drive, timeout: Duration, trace: bool, context: &Context) -> DriveStatus {
     let mut row = DriveStatus {
         name: drive.name.clone(),
         link: drive.link.to_string(),
@@ -296,7 +273,7 @@ fn drive_status(drive: &Drive, timeout: Duration, trace: bool) -> DriveStatus {
         error: None,
         status: None,
     };
-    let mut session = match Session::open(&drive.link, timeout, trace) {
+    let mut session = match Session::open(&drive.link, timeout, trace, context) {
         Ok(session) => session,
         Err(f) => {
             row.error = Some(f.message);
@@ -338,8 +315,16 @@ fn drive_status(drive: &Drive, timeout: Duration, trace: bool) -> DriveStatus {
 }
 
 /// `--project FILE status`: every drive as one table.
-fn status(project: &Project, json: bool, timeout: Duration, trace: bool) -> ExitCode {
-    let drives = each_drive(&project.drives, |d| drive_status(d, timeout, trace));
+fn status(
+    project: &Project,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+    context: &Context,
+) -> ExitCode {
+    let drives = each_drive(&project.drives, |d| {
+        drive_status(d, timeout, trace, context)
+    });
     for row in &drives {
         if let Some(status) = &row.status {
             let name = |line: &String| format!("{}: {line}", row.name);
@@ -449,8 +434,9 @@ fn dump(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> ExitCode {
-    match dump_all(project, args, json, timeout, trace) {
+    match dump_all(project, args, json, timeout, trace, context) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(EXIT_FAILED),
         Err(f) => {
@@ -466,6 +452,7 @@ fn dump_all(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<bool, Failure> {
     let dir = args
         .dir
@@ -489,10 +476,11 @@ fn dump_all(
     let mut drives = vec![];
     for (drive, stem) in project.drives.iter().zip(&stems) {
         let out = dir.join(format!("{stem}.json"));
-        let (dump, error) = match backup_cmd::dump_to(&drive.link, &catalog, &out, timeout, trace) {
-            Ok(dump) => (Some(dump), None),
-            Err(f) => (None, Some(f.message)),
-        };
+        let (dump, error) =
+            match backup_cmd::dump_to(&drive.link, &catalog, &out, timeout, trace, context) {
+                Ok(dump) => (Some(dump), None),
+                Err(f) => (None, Some(f.message)),
+            };
         if let Some(d) = &dump {
             let name = |line: &String| format!("{}: {line}", drive.name);
             print_lines(&d.notes.iter().map(name).collect::<Vec<_>>(), &[]);
@@ -539,16 +527,18 @@ fn dump_all(
 }
 
 /// `drivedeck project …`.
-pub(super) fn run(args: &ProjectArgs, cli: &Cli) -> ExitCode {
+pub(super) fn run(args: &ProjectArgs, cli: &Cli, context: &Context) -> ExitCode {
     let timeout = super::timeout(cli);
     let outcome = match &args.command {
-        ProjectCommand::New(new) => make(new, cli.json, timeout, cli.trace),
-        ProjectCommand::Check(check) => check_drives(check, cli.json, timeout, cli.trace),
+        ProjectCommand::New(new) => make(new, cli.json, timeout, cli.trace, context),
+        ProjectCommand::Check(check) => check_drives(check, cli.json, timeout, cli.trace, context),
         ProjectCommand::Show(show) => load(&show.file).map(|p| {
             show_project(&p, cli.json);
             true
         }),
-        ProjectCommand::Backup(backup) => back_up(&backup.file, cli.json, timeout, cli.trace),
+        ProjectCommand::Backup(backup) => {
+            back_up(&backup.file, cli.json, timeout, cli.trace, context)
+        }
     };
     match outcome {
         Ok(true) => ExitCode::SUCCESS,
@@ -573,12 +563,18 @@ struct DriveBackup {
 
 /// `project backup FILE`: every drive's settings into the project, one drive after the
 /// other (each with its progress bar); written once, after the last.
-fn back_up(file: &Path, json: bool, timeout: Duration, trace: bool) -> Result<bool, Failure> {
+fn back_up(
+    file: &Path,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+    context: &Context,
+) -> Result<bool, Failure> {
     let mut project = load(file)?;
     let catalog = crate::od::builtin().clone();
     let mut rows = vec![];
     for drive in &mut project.drives {
-        let row = match backup_cmd::read_backup(&drive.link, &catalog, timeout, trace) {
+        let row = match backup_cmd::read_backup(&drive.link, &catalog, timeout, trace, context) {
             Ok((backup, _, notes)) => {
                 let name = |line: &String| format!("{}: {line}", drive.name);
                 print_lines(&notes.iter().map(name).collect::<Vec<_>>(), &[]);
@@ -646,6 +642,7 @@ fn make(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<bool, Failure> {
     let drives = args
         .drives
@@ -660,7 +657,9 @@ fn make(
         )));
     }
     if args.identify {
-        let found = each_drive(&project.drives, |d| identify(&d.link, timeout, trace));
+        let found = each_drive(&project.drives, |d| {
+            identify(&d.link, timeout, trace, context)
+        });
         let mut silent = vec![];
         for (drive, identity) in project.drives.iter_mut().zip(found) {
             match identity {
@@ -710,9 +709,12 @@ fn check_drives(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<bool, Failure> {
     let mut project = load(&args.file)?;
-    let found = each_drive(&project.drives, |d| identify(&d.link, timeout, trace));
+    let found = each_drive(&project.drives, |d| {
+        identify(&d.link, timeout, trace, context)
+    });
     let checks: Vec<DriveCheck> = project
         .drives
         .iter()

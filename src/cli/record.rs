@@ -10,6 +10,7 @@ use std::time::{Duration, Instant, SystemTime};
 
 use serde::Serialize;
 
+use super::context::Context;
 use super::failure::{Failure, failed, usage};
 use super::progress;
 use super::session::Session;
@@ -64,8 +65,9 @@ pub fn run(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> ExitCode {
-    match record(link, args, timeout, trace) {
+    match record(link, args, timeout, trace, context) {
         Ok(report) => {
             print(&report, json);
             match report.code {
@@ -259,9 +261,10 @@ fn record(
     args: &RecordArgs,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<RecordReport, Failure> {
     let mut plan = plan(args, timeout)?;
-    let mut session = Session::open_at(link, timeout, trace, args.rate, true)?;
+    let mut session = Session::open_at(link, timeout, trace, args.rate, true, context)?;
     let mut warnings = Vec::new();
     if let Err(e) = session.catch_signals() {
         warnings.push(format!(
@@ -275,7 +278,7 @@ fn record(
     // at once, and must not take the recording with it.
     let interrupted = cut.as_ref().filter(|f| f.signal.is_some());
     let stopping = interrupted.is_some() && session.is_moving_or_unknown();
-    let action = super::policy::on_exit();
+    let action = session.on_exit();
     if stopping && let Some(why) = &mut recording.meta.ended_early {
         why.push_str(&format!(
             "; the drive was being stopped ({}, --on-exit) when this was written",

@@ -5,15 +5,17 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use super::context::Context;
 use super::failure::{Failure, failed, interrupted, usage};
 use super::interrupt;
-use super::policy::policy;
 use super::progress;
 use crate::link::LinkSpec;
+use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::Timing;
+use crate::project::{Drive, check};
 use crate::worker::{
-    self, CommandProgress, Event, ObjectError, ObjectPath, Request, Sample, Worker,
+    self, CommandProgress, Event, LinkLossAction, ObjectError, ObjectPath, Request, Sample, Worker,
 };
 
 /// Objects read, each with its value or why it has none.
@@ -37,6 +39,9 @@ pub(super) struct Session {
     /// Whether the frames are printed (`--trace`): then the link is closed before the
     /// command ends, so that the frames of closing are printed too.
     trace: bool,
+    /// What an interrupted or timed-out command leaves the drive in (`--on-exit`): the
+    /// same action the worker takes on a lost link, since both come from one policy.
+    on_exit: LinkLossAction,
 }
 
 /// How long the end of a traced command waits for the link to close.
@@ -62,12 +67,14 @@ impl Drop for Session {
 }
 
 impl Session {
+    /// A session on `link`, with the run's policy and the device it expects (`context`).
     pub(super) fn open(
         link: &LinkSpec,
         timeout: Duration,
         trace: bool,
+        context: &Context,
     ) -> Result<Session, Failure> {
-        Session::open_at(link, timeout, trace, 200.0, false)
+        Session::open_at(link, timeout, trace, 200.0, false, context)
     }
 
     /// A session whose worker polls (and samples) `poll_rate` times a second; with
@@ -79,8 +86,9 @@ impl Session {
         trace: bool,
         poll_rate: f64,
         keep_samples: bool,
+        context: &Context,
     ) -> Result<Session, Failure> {
-        let policy = policy();
+        let policy = context.policy;
         let config = worker::Config {
             poll_rate,
             timing: Timing {
@@ -106,6 +114,7 @@ impl Session {
             warnings: vec![],
             notes: vec![],
             trace,
+            on_exit: policy.on_exit,
         };
         session.send(Request::Connect(link.clone()))?;
         let deadline = Instant::now() + timeout;
@@ -122,8 +131,31 @@ impl Session {
         while session.latest.is_none() {
             session.next(deadline)?;
         }
-        super::project_cmd::check_device(&mut session, timeout);
+        if let Some(drive) = &context.expected {
+            session.check_device(drive, timeout);
+        }
         Ok(session)
+    }
+
+    /// Once connected: the device against the identity the project stores for `drive`
+    /// (the one of `--drive`). Another device (a replaced drive, a wrong address) is said
+    /// on stderr, never passed over; it is not refused, since a replacement of the same
+    /// product is a normal case (`project check --update` stores the new identity).
+    fn check_device(&mut self, drive: &Drive, timeout: Duration) {
+        let (reads, failure) = self.read_many(IDENTITY[..4].to_vec(), timeout, |_, _| {});
+        let found = match failure {
+            Some(f) => check::check(drive, Err(&f.message)),
+            None => check::check(drive, Ok(&DeviceIdentity::from_reads(&reads))),
+        };
+        if !found.is_same() {
+            eprintln!("warning: not the device the project saw: {found}");
+        }
+    }
+
+    /// What an interrupted or timed-out command leaves the drive in (`--on-exit`, or the
+    /// project drive's own option).
+    pub(super) fn on_exit(&self) -> LinkLossAction {
+        self.on_exit
     }
 
     /// From now on, a signal (Ctrl-C, SIGTERM, SIGHUP) ends the waiting with an

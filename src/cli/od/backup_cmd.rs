@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
+use super::super::context::Context;
 use super::super::failure::{Failure, failed, usage};
 use super::super::report::{print_json, print_lines};
 use super::super::session::{Reads, Session};
@@ -121,6 +122,7 @@ pub fn dump(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<bool, Failure> {
     let out = match (&args.out, &args.dir) {
         (Some(out), _) => out,
@@ -138,7 +140,7 @@ pub fn dump(
     };
     let mut warnings = vec![];
     let catalog = dictionary(args.eds.as_deref(), args.node, &mut warnings)?;
-    let report = dump_to(link, &catalog, out, timeout, trace)?;
+    let report = dump_to(link, &catalog, out, timeout, trace, context)?;
     print_report(&report, &report.notes, &warnings, json, print_dump);
     Ok(report.unreadable.is_empty())
 }
@@ -150,8 +152,9 @@ pub(in crate::cli) fn dump_to(
     out: &Path,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<DumpReport, Failure> {
-    let (file, seconds, notes) = read_backup(link, catalog, timeout, trace)?;
+    let (file, seconds, notes) = read_backup(link, catalog, timeout, trace, context)?;
     crate::file::write_whole(out, file.to_json())
         .map_err(|e| failed(format!("cannot write {}: {e}", out.display())))?;
     Ok(DumpReport {
@@ -171,9 +174,10 @@ pub(in crate::cli) fn read_backup(
     catalog: &Catalog,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<(Backup, f64, Vec<String>), Failure> {
     let mut notes = vec![];
-    let mut session = Session::open(link, timeout, trace)?;
+    let mut session = Session::open(link, timeout, trace, context)?;
     let started = Instant::now();
     let reads = read_all(
         &mut session,
@@ -383,12 +387,13 @@ fn open_and_read(
     judge: &JudgeArgs,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<Opened, Failure> {
     let file = load_backup(path)?;
     let mut warnings = vec![];
     let catalog = dictionary(judge.eds.as_deref(), judge.node, &mut warnings)?;
     let mut notes = vec![];
-    let mut session = Session::open(link, timeout, trace)?;
+    let mut session = Session::open(link, timeout, trace, context)?;
     let reads = read_all(
         &mut session,
         file.objects_to_read(&catalog),
@@ -413,8 +418,9 @@ pub fn diff(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<bool, Failure> {
-    let mut opened = open_and_read(link, &args.file, &args.judge, timeout, trace)?;
+    let mut opened = open_and_read(link, &args.file, &args.judge, timeout, trace, context)?;
     let (file, catalog, reads) = (&opened.file, &opened.catalog, &opened.reads);
     let mut report = diff_report(&args.file, file, catalog, reads, args.all);
     report.notes = opened.take_notes();
@@ -558,8 +564,9 @@ pub fn restore(
     json: bool,
     timeout: Duration,
     trace: bool,
+    context: &Context,
 ) -> Result<bool, Failure> {
-    let mut opened = open_and_read(link, &args.file, &args.judge, timeout, trace)?;
+    let mut opened = open_and_read(link, &args.file, &args.judge, timeout, trace, context)?;
     let (plan, mut report) = plan_restore(args, &mut opened)?;
     if !args.dry_run {
         if let Err(reason) = write_plan(&mut opened.session, &plan, &mut report, timeout) {

@@ -14,7 +14,10 @@ use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use super::CanBus;
 use crate::link::Error;
 use crate::proto::canopen::CanFrame;
-use crate::proto::canopen::slcan::*;
+use crate::proto::canopen::slcan::{
+    AdapterState, LineSplitter, OK, REPLY_TIMEOUT, SERIAL_BAUD, SlcanError, SlcanLine,
+    bitrate_command, encode_frame, rate_text,
+};
 
 // ---------------------------------------------------------------------------------------
 // The byte stream under both ends.

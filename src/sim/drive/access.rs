@@ -1,6 +1,9 @@
 //! Object access as a master sees it, and the PDI process images.
 
-use super::*;
+use super::Drive;
+use crate::cia::AbortCode;
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{PDI_INPUT, RX_OBJECTS, RxImage, SetValues, TxImage};
 
 impl Drive {
     /// Read an object as a master would (SDO, FC 43, CIP 32h…).

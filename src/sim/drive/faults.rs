@@ -1,6 +1,8 @@
 //! Faults: injections, the error history (1003h) and whether a fault's cause is still there.
 
-use super::*;
+use super::{Activity, Drive};
+use crate::cia::{ErrorCode, HistoryEntry, PowerState};
+use crate::injection::Injection;
 
 impl Drive {
     /// Inject a condition of the drive. (Link conditions belong to the link: ignored.)

@@ -22,34 +22,20 @@
 use std::collections::BTreeSet;
 use std::time::Duration;
 
-use crate::cia::{AbortCode, ErrorCode, HistoryEntry, PowerState, power_state::controlword};
-use crate::od::{Address, Catalog, DataType, Value};
-use crate::pdi::{
-    Command, Opcode, PDI_INPUT, PDI_OUTPUT, RX_OBJECTS, RxImage, SetValues, Status, StatusBit,
-    TxImage, set_value2_to_index, set_value3_to_subindex,
-};
+use crate::cia::{ErrorCode, PowerState};
+use crate::od::{Address, Catalog, Value};
 
 use super::dictionary::Dictionary;
-use super::homing::{HomingRun, HomingStep};
-use super::motion::{Demand, rpm_to_units, step_position, step_velocity, units_to_rpm};
+use super::homing::HomingRun;
+use super::motion::{Demand, units_to_rpm};
 use super::world::World;
 use crate::injection::Injection;
 
-mod faults;
-#[allow(unused_imports)]
-pub use faults::*;
 mod access;
-#[allow(unused_imports)]
-pub use access::*;
+mod faults;
 mod pdi;
-#[allow(unused_imports)]
-pub use pdi::*;
 mod physics;
-#[allow(unused_imports)]
-pub use physics::*;
 mod status;
-#[allow(unused_imports)]
-pub use status::*;
 
 /// The simulation step: every `tick` is cut into steps of at most this length.
 pub const STEP: Duration = Duration::from_millis(1);

@@ -1,6 +1,16 @@
 //! The PDI interpreter (2291h:04h commands) and the CiA 402 controlword.
 
-use super::*;
+use std::time::Duration;
+
+use super::{Activity, Drive, ReturnMode};
+use crate::cia::{AbortCode, ErrorCode, PowerState, power_state::controlword};
+use crate::injection::Injection;
+use crate::od::{Address, DataType, Value};
+use crate::pdi::{
+    Command, Opcode, PDI_INPUT, PDI_OUTPUT, SetValues, set_value2_to_index, set_value3_to_subindex,
+};
+use crate::sim::homing::HomingRun;
+use crate::sim::motion::{Demand, rpm_to_units};
 
 impl Drive {
     /// Whether the PDI is active (2290h bit 0, on from the factory).

@@ -1,7 +1,17 @@
 //! Time: the motor, its load and the target conditions, stepped in 1 ms.
 
-use super::super::world::Sensors;
-use super::*;
+use std::time::Duration;
+
+use super::{
+    AUTO_SETUP_TIME, Activity, COULOMB, DAMPING, Drive, LOAD_LAG, STANDSTILL, STEP, TORQUE_GAIN,
+    sign,
+};
+use crate::cia::{AbortCode, ErrorCode, PowerState};
+use crate::injection::Injection;
+use crate::sim::dictionary::Dictionary;
+use crate::sim::homing::{HomingRun, HomingStep};
+use crate::sim::motion::{Demand, rpm_to_units, step_position, step_velocity, units_to_rpm};
+use crate::sim::world::Sensors;
 
 impl Drive {
     /// Advance simulated time.

@@ -1,6 +1,10 @@
 //! What the drive reports: PDI-Status, statusword, return value, and their objects.
 
-use super::*;
+use super::{Drive, ReturnMode, STANDSTILL};
+use crate::cia::{ErrorCode, PowerState, power_state::controlword};
+use crate::injection::Injection;
+use crate::pdi::{Status, StatusBit};
+use crate::sim::motion::units_to_rpm;
 
 impl Drive {
     pub(super) fn reported_error_code(&self) -> ErrorCode {

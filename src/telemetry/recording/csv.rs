@@ -1,6 +1,9 @@
 //! The CSV form of a recording: comment lines, header, rows; written and read back exactly.
 
-use super::*;
+use std::borrow::Cow;
+use std::fmt::{self, Write as _};
+
+use super::{ChannelInfo, Marker, Metadata, Recording, RecordingError, csv_error};
 
 impl Recording {
     /// The recording as CSV (see the module documentation for the layout). A value missing

@@ -1,6 +1,12 @@
 //! The JSON form of a recording, NaN as null.
 
-use super::*;
+use std::fmt;
+
+use serde::de::{SeqAccess, Visitor};
+use serde::ser::SerializeSeq;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use super::{ChannelInfo, Marker, Metadata, Recording, RecordingError};
 
 impl Recording {
     /// The recording as JSON (see the module documentation for the layout).

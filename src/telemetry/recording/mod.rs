@@ -40,19 +40,10 @@
 //! with one array per channel in `columns`; NaN (no sample) is written as `null`. JSON has no
 //! infinities, so an infinite value also comes back as NaN.
 
-use std::borrow::Cow;
-use std::fmt::{self, Write as _};
-
-use serde::de::{SeqAccess, Visitor};
-use serde::ser::SerializeSeq;
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde::{Deserialize, Serialize};
 
 mod csv;
-#[allow(unused_imports)]
-pub use csv::*;
 mod json;
-#[allow(unused_imports)]
-pub use json::*;
 #[cfg(test)]
 mod tests;
 

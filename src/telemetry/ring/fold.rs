@@ -1,6 +1,6 @@
 //! What decimation folds a span of rows into: min/max points for traces, runs of bits for lanes.
 
-use super::*;
+use super::summary::{Summary, as_bits};
 
 /// What a decimation gathers from the rows of one span.
 pub(super) trait Fold: Default {

@@ -17,18 +17,16 @@
 use std::fmt;
 use std::ops::Range;
 
-mod summary;
-#[allow(unused_imports)]
-pub use summary::*;
-mod fold;
-#[allow(unused_imports)]
-pub use fold::*;
-mod scan;
-#[allow(unused_imports)]
-pub use scan::*;
 mod cache;
+mod fold;
 mod grid;
+mod scan;
+mod summary;
+
 pub use cache::Decimations;
+use fold::{Bits, Fold, MinMax};
+use summary::{Column, Summary};
+
 #[cfg(test)]
 mod tests;
 

@@ -1,6 +1,10 @@
 //! Row addressing, time search and the folding of spans from summaries and raw rows.
 
-use super::*;
+use std::ops::Range;
+
+use super::fold::Fold;
+use super::summary::{Column, Summary, slot_of};
+use super::{BIG_BLOCK, BLOCK, Ring, Window};
 
 impl Ring {
     // --- internals ---

@@ -1,6 +1,6 @@
 //! Block summaries of one channel: min, max, OR, AND and the offsets that keep their points' times.
 
-use super::*;
+use super::{BIG_BLOCK, BLOCK};
 
 /// Summary of one block of one channel, ignoring NaN samples. Offsets are row offsets from
 /// the block's first row, so the points they name keep their exact times.

@@ -1,7 +1,11 @@
 //! The PDI's PDO mapping: what it changes is read first, the mapping written as spec
 //! section 3 prescribes, and put back in a safe order on disconnect.
 
-use super::*;
+use super::{CanopenLink, EVENT_TIMER_MS, INHIBIT_100US, Saved};
+use crate::link::canopen::CanBus;
+use crate::link::{Error, Notice};
+use crate::od::Address;
+use crate::proto::canopen::pdo::{self, PdoComm, PdoKind, SdoWrite};
 
 impl<B: CanBus> CanopenLink<B> {
     /// Read the current values of what the mapping will change, for the restore.

@@ -10,7 +10,7 @@ mod sdo;
 
 use super::CanBus;
 use crate::cia::{AbortCode, ErrorCode};
-use crate::link::tries::{TRIES, Trouble, gave_up, silence};
+use crate::link::tries::TRIES;
 use crate::link::{
     Answer, CanopenOptions, Error, Exchange, Link, LinkInfo, LinkSpec, Notice, NoticeKind, Refusal,
     Signals, TraceRecord, TraceRing,
@@ -20,8 +20,8 @@ use crate::pdi::{PDI_OUTPUT, RX_OBJECTS, RxImage, TX_OBJECTS, TxImage};
 use crate::proto::canopen::CanFrame;
 use crate::proto::canopen::emcy::Emcy;
 use crate::proto::canopen::nmt::{self, NmtCommand};
-use crate::proto::canopen::pdo::{self, PdoComm, PdoKind, SdoWrite};
-use crate::proto::canopen::sdo::{SdoClient, SdoEvent};
+use crate::proto::canopen::pdo::SdoWrite;
+use crate::proto::canopen::sdo::SdoClient;
 
 /// How long one SDO request may wait for its answer, all its tries together.
 ///

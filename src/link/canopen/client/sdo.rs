@@ -1,9 +1,16 @@
 //! The link's SDO transfers: one request at a time, sent again within its budget when an
 //! answer is lost, garbled or breaks the protocol (see [`super::SDO_TIMEOUT`]).
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-use super::*;
+use super::{CanopenLink, RECOVERED_KEPT, SDO_TIMEOUT, SDO_TRY};
+use crate::cia::AbortCode;
+use crate::link::Error;
+use crate::link::canopen::CanBus;
+use crate::link::tries::{TRIES, Trouble, gave_up, silence};
+use crate::od::Address;
+use crate::proto::canopen::CanFrame;
+use crate::proto::canopen::sdo::{SdoClient, SdoEvent};
 
 impl<B: CanBus> CanopenLink<B> {
     /// Receive until the SDO client makes something of a frame (`Some`), or `deadline`

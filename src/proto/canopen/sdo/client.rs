@@ -1,6 +1,9 @@
 //! The SDO client: one transfer at a time for one node, expedited and segmented.
 
-use super::*;
+use super::{Initiate, MAX_TRANSFER, Request, Response, Segment, abort_frame};
+use crate::cia::AbortCode;
+use crate::proto::canopen::CanFrame;
+use crate::proto::canopen::nmt::cob;
 
 /// What the client makes of a frame.
 #[derive(Clone, Debug, PartialEq, Eq)]

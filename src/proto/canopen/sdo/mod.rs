@@ -350,8 +350,9 @@ pub fn abort_frame(node: u8, index: u16, sub: u8, code: AbortCode) -> CanFrame {
 }
 
 mod client;
-pub use client::*;
 mod server;
-pub use server::*;
+
+pub use client::{SdoClient, SdoEvent};
+pub use server::{ObjectAccess, SdoServer};
 #[cfg(test)]
 mod tests;

@@ -1,6 +1,9 @@
 //! The SDO server of a simulated node: expedited and segmented, upload and download.
 
-use super::*;
+use super::{Initiate, MAX_TRANSFER, Request, Response, Segment};
+use crate::cia::AbortCode;
+use crate::proto::canopen::CanFrame;
+use crate::proto::canopen::nmt::cob;
 
 /// Object access for an SDO server: bytes little-endian, sized by the object.
 pub trait ObjectAccess {

@@ -1,6 +1,6 @@
 //! FC 43 / MEI 0Dh: CANopen objects over Modbus (CiA 309-2), request and response.
 
-use super::*;
+use super::{MAX_PDU, MEI_CANOPEN, PduError, Reader, fc, push_u16, saturating_u16};
 
 // ---------------------------------------------------------------------------------------------
 // FC 43 / MEI 0Dh: CANopen general reference (CiA 309-2).
@@ -265,9 +265,9 @@ impl CanopenRequest {
 /// master predicts every response length as header + number-of-data and rejects a write
 /// response with fewer than 12 bytes after the function code, which only works if the drive
 /// echoes the data; so
-/// [`CanopenResponse::answering`] echoes it, and [`Response::decode`] accepts a write
-/// response with the data or without it (protocol notes §5.20: tolerant where
-/// the record is unclear).
+/// [`CanopenResponse::answering`] echoes it, and
+/// [`Response::decode`](super::Response::decode) accepts a write response with the data or
+/// without it (protocol notes §5.20: tolerant where the record is unclear).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct CanopenResponse {
     pub header: CanopenHeader,

@@ -1,6 +1,6 @@
 //! FC 101: the whole object dictionary in frames (Nanotec).
 
-use super::*;
+use super::{PduError, Reader};
 
 // ---------------------------------------------------------------------------------------------
 // FC 101: read the complete object dictionary.

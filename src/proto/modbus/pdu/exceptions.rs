@@ -1,6 +1,10 @@
 //! Exceptions: the standard codes and Nanotec's extended one with its abort code.
 
-use super::*;
+use std::fmt;
+
+use super::{MEI_CANOPEN, PduError, Reader, exception, fc};
+use crate::cia::AbortCode;
+use crate::number::hex;
 
 // ---------------------------------------------------------------------------------------------
 // Exceptions.

@@ -11,10 +11,6 @@
 //! A device's refusal is data ([`Exception`]), a malformed answer is an error ([`PduError`]),
 //! hence [`Response::decode`] returns `Result<Result<Response, Exception>, PduError>`.
 
-use std::fmt;
-
-use crate::cia::AbortCode;
-
 /// Function codes drivedeck speaks (protocol notes §1.4).
 pub mod fc {
     pub const READ_HOLDING: u8 = 0x03;
@@ -314,17 +310,17 @@ fn register_range(address: u16, count: usize) -> String {
     }
 }
 
-use crate::number::hex;
-
 mod canopen;
-pub use canopen::*;
 mod dictionary;
-pub use dictionary::*;
-mod request;
-pub use request::*;
 mod exceptions;
-pub use exceptions::*;
+mod request;
 mod response;
-pub use response::*;
+
+pub use canopen::{CanopenHeader, CanopenRequest, CanopenResponse, control};
+pub use dictionary::DictionaryFrame;
+pub use exceptions::{Exception, has_extended_exception};
+pub use request::Request;
+pub use response::Response;
+
 #[cfg(test)]
 pub(crate) mod tests;

@@ -1,6 +1,11 @@
 //! Requests: every function code drivedeck sends, encoded and decoded.
 
-use super::*;
+use super::canopen::CanopenRequest;
+use super::{
+    DICTIONARY_NEXT, DICTIONARY_RESTART, MAX_PDU, MEI_CANOPEN, PduError, Reader, byte_count,
+    check_byte_count, check_quantity, fc, limits, push_registers, push_u16, register_range,
+    registers, saturating_u16,
+};
 
 // ---------------------------------------------------------------------------------------------
 // Requests.

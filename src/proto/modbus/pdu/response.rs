@@ -1,6 +1,15 @@
 //! Responses: decoded against the request they answer.
 
-use super::*;
+use std::fmt;
+
+use super::canopen::CanopenResponse;
+use super::dictionary::DictionaryFrame;
+use super::exceptions::Exception;
+use super::request::Request;
+use super::{
+    MAX_PDU, MEI_CANOPEN, PduError, Reader, byte_count, check_byte_count, fc, push_registers,
+    push_u16, registers, saturating_u16,
+};
 
 // ---------------------------------------------------------------------------------------------
 // Responses.

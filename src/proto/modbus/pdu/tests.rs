@@ -1,6 +1,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::cia::AbortCode;
 
 fn bytes(hex: &str) -> Vec<u8> {
     hex.split_whitespace()

@@ -1,6 +1,20 @@
 //! The adapter's sessions and streams: encapsulation commands, explicit messages and the Message Router.
 
-use super::*;
+use std::collections::BTreeMap;
+use std::net::{Ipv4Addr, SocketAddrV4};
+use std::time::Instant;
+
+use super::images::{common_in, common_out, cpf_data, identity_of, services_item};
+use super::services::{identity_service, od_service};
+use super::{
+    Action, Context, IoConnection, IoInfo, Received, Stream, StreamId, answer, error, malformed,
+};
+use crate::proto::enip::assembly::{self, AssemblySet, CmdOffset};
+use crate::proto::enip::cip::{GeneralStatus, Path, Reply, UnconnectedSend, class, service};
+use crate::proto::enip::cpf::Item;
+use crate::proto::enip::encap::{self, Command, Framed, Packet, RrData, Status};
+use crate::proto::enip::identity::Identity;
+use crate::sim::Drive;
 
 /// The simulated EtherNet/IP adapter, sans IO.
 #[derive(Debug)]

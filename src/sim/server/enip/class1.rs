@@ -1,6 +1,16 @@
 //! Class 1 I/O: O→T datagrams in, due T→O datagrams out, the originator's silence, discovery.
 
-use super::*;
+use std::net::SocketAddrV4;
+use std::time::Instant;
+
+use super::adapter::Adapter;
+use super::images::{common_in, cpf_data, services_item};
+use super::{Datagram, answer, write_int};
+use crate::proto::enip::assembly::{self, AssemblySet, CommonOut};
+use crate::proto::enip::cpf::Item;
+use crate::proto::enip::encap::{Command, Packet, Status};
+use crate::proto::enip::io::{IoPacket, sequence_after};
+use crate::sim::Drive;
 
 impl Adapter {
     /// A datagram on the I/O UDP socket.

@@ -1,6 +1,22 @@
 //! Forward_Open and Forward_Close: the checks a connection request passes, in the documented order.
 
-use super::*;
+use std::net::{Ipv4Addr, SocketAddrV4};
+use std::time::Duration;
+
+use super::adapter::Adapter;
+use super::{
+    CLASS3_PER_SESSION, Class3, Context, IoConnection, RPI_RANGE_US, StreamId, error, malformed,
+};
+use crate::proto::enip::assembly::{AssemblySet, CmdOffset};
+use crate::proto::enip::cip::{GeneralStatus, Path, Reply, Segment, class, service};
+use crate::proto::enip::connection::{
+    ConnectionType, ForwardClose, ForwardOpen, ForwardOpenFailure, ForwardOpenReply,
+    TRANSPORT_CLASS1_CYCLIC, Triad, encode_forward_close_reply, extended,
+};
+use crate::proto::enip::cpf::{Item, SockAddr};
+use crate::proto::enip::encap;
+use crate::proto::enip::identity::NANOTEC_VENDOR;
+use crate::proto::enip::io::{RUN_IDLE_LEN, SEQUENCE_COUNT_LEN};
 
 impl Adapter {
     pub(super) fn forward_open(

@@ -1,6 +1,14 @@
 //! What the adapter's assemblies, identity and ListServices reply hold, read from the drive.
 
-use super::*;
+use std::net::SocketAddrV4;
+
+use super::{DEVICE_TYPE, SERVICE_FLAGS, STATE_OPERATIONAL, STATUS_OWNED, int_of};
+use crate::od::{Address, Value};
+use crate::proto::enip::assembly::{self, CommonIn, CommonOut};
+use crate::proto::enip::cpf::{self, Item, SockAddr};
+use crate::proto::enip::identity::{Identity, NANOTEC_VENDOR};
+use crate::proto::enip::wire::Put;
+use crate::sim::Drive;
 
 /// Assembly 100 from the drive.
 pub fn common_in(drive: &Drive) -> CommonIn {

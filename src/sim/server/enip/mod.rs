@@ -101,52 +101,29 @@
 //! 0–7 (minor) of 1018h:03; serial = 1018h:04; name = 1008h cut to 32 bytes; state 3
 //! (operational); status bit 0 (owned) while a class 1 connection is open.
 
-use std::collections::BTreeMap;
-use std::io;
-use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::net::{Ipv4Addr, SocketAddrV4};
 use std::time::{Duration, Instant};
 
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio::net::{TcpListener, TcpStream, UdpSocket};
-
-use super::SharedDrive;
 use crate::cia::AbortCode;
-use crate::od::{Address, Value};
-use crate::proto::enip::assembly::{self, AssemblySet, CmdOffset, CommonIn, CommonOut};
-use crate::proto::enip::cip::{
-    GeneralStatus, Path, Reply, Segment, UnconnectedSend, class, service,
-};
-use crate::proto::enip::connection::{
-    ConnectionType, ForwardClose, ForwardOpen, ForwardOpenFailure, ForwardOpenReply,
-    TRANSPORT_CLASS1_CYCLIC, Triad, encode_forward_close_reply, extended,
-};
-use crate::proto::enip::cpf::{self, Item, SockAddr};
-use crate::proto::enip::encap::{self, Command, Framed, Packet, RrData, Status};
-use crate::proto::enip::identity::{Identity, NANOTEC_VENDOR};
-use crate::proto::enip::io::{IoPacket, RUN_IDLE_LEN, SEQUENCE_COUNT_LEN, sequence_after};
-use crate::proto::enip::nanotec::{self, Typed};
-use crate::proto::enip::wire::{DecodeError, Put};
+use crate::od::Address;
+use crate::proto::enip::assembly::{AssemblySet, CmdOffset};
+use crate::proto::enip::cip::{GeneralStatus, Reply};
+use crate::proto::enip::connection::Triad;
+use crate::proto::enip::cpf::SockAddr;
+use crate::proto::enip::encap::{self, Packet, Status};
+use crate::proto::enip::wire::DecodeError;
 use crate::sim::{Drive, wrap_integer};
 
-mod images;
-#[allow(unused_imports)]
-pub use images::*;
 mod adapter;
-#[allow(unused_imports)]
-pub use adapter::*;
-mod forward_open;
-#[allow(unused_imports)]
-pub use forward_open::*;
 mod class1;
-#[allow(unused_imports)]
-pub use class1::*;
-mod services;
-#[allow(unused_imports)]
-pub use services::*;
+mod forward_open;
+mod images;
 mod serve;
-#[allow(unused_imports)]
-pub use serve::*;
+mod services;
+
+pub use adapter::Adapter;
+pub use serve::{Sockets, serve};
+
 #[cfg(test)]
 mod tests;
 

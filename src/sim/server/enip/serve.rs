@@ -3,7 +3,17 @@
 //! the RPI (the OS's high-resolution timer, not tokio's millisecond wheel) whatever the
 //! runtime is busy with.
 
-use super::*;
+use std::io;
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream, UdpSocket};
+
+use super::adapter::Adapter;
+use super::{AdapterOptions, StreamId};
+use crate::sim::server::SharedDrive;
 
 // ------------------------------------------------------------------------------ sockets
 

@@ -1,6 +1,12 @@
 //! The objects behind the Message Router: the Nanotec OD (64h) and the Identity (01h).
 
-use super::*;
+use super::{MAX_REPLY_DATA, abort_reply, error};
+use crate::cia::AbortCode;
+use crate::od::Value;
+use crate::proto::enip::cip::{GeneralStatus, Reply, service};
+use crate::proto::enip::identity::Identity;
+use crate::proto::enip::nanotec::{self, Typed};
+use crate::sim::Drive;
 
 pub(super) fn od_service(
     service: u8,

@@ -1,7 +1,16 @@
+use super::images::identity_of;
 use super::*;
+use crate::od::Value;
 use crate::pdi::{Command as PdiCommand, Opcode, RxImage, SetValues};
-use crate::proto::enip::cip::Request;
-use crate::proto::enip::connection::NetworkParams;
+use crate::proto::enip::cip::{Path, Request, UnconnectedSend, class, service};
+use crate::proto::enip::connection::{
+    ForwardClose, ForwardOpen, ForwardOpenReply, NetworkParams, TRANSPORT_CLASS1_CYCLIC,
+    encode_forward_close_reply, extended,
+};
+use crate::proto::enip::cpf::Item;
+use crate::proto::enip::encap::{Command, Framed, RrData};
+use crate::proto::enip::io::IoPacket;
+use crate::proto::enip::nanotec;
 use proptest::prelude::*;
 
 const B_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 2);
