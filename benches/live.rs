@@ -19,9 +19,9 @@
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
-use drivedeck::ui::plots::PlotCommand;
 use drivedeck::ui::Command;
 use drivedeck::ui::pace::{Pace, stat_cpu};
+use drivedeck::ui::plots::PlotCommand;
 use drivedeck::ui::{App, Settings};
 use drivedeck::worker::Notify;
 use eframe::egui;

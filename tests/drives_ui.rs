@@ -60,7 +60,10 @@ fn power(state: &AppState) -> Option<PowerState> {
 }
 
 fn speed(state: &AppState) -> f64 {
-    state.latest().and_then(|s| s.velocity()).unwrap_or(f64::NAN)
+    state
+        .latest()
+        .and_then(|s| s.velocity())
+        .unwrap_or(f64::NAN)
 }
 
 /// Drive `index` told to turn at 30 rpm (slow: the simulated drive's limit switch at
@@ -322,7 +325,10 @@ fn the_plots_draw_every_drive_on_one_time_axis() {
     );
     // Both workers count from the window's start: the drive added later starts later on
     // the same axis (on a clock of its own it would start at 0).
-    let first = drive(&harness, 1).link.connected_at.expect("Y's first sample");
+    let first = drive(&harness, 1)
+        .link
+        .connected_at
+        .expect("Y's first sample");
     assert!(
         first > before,
         "one time base: Y starts at {first} s, X was at {before} s"
@@ -440,7 +446,11 @@ fn exports_write_every_drive_beside_the_selected_one_and_ask_before_replacing_an
     let picker = ScriptedPicker::new();
     picker.answer(Some(chosen.clone()));
     picker.answer(Some(chosen.clone()));
-    harness.state_mut().window_mut().plot.set_files(picker.clone());
+    harness
+        .state_mut()
+        .window_mut()
+        .plot
+        .set_files(picker.clone());
     harness.get_by_label("Export visible…").click();
     harness.run_steps(2);
     // The selected drive's signals in the file chosen, Y axis's beside it, over one span.

@@ -475,7 +475,12 @@ fn the_window_discovers_connects_with_the_common_set_and_moves_the_motor() {
     harness.get_by_label("common").click();
     harness.run();
     // Tests run in parallel: receive I/O on any free port.
-    harness.state_mut().shown_mut().settings.connection.enip_more = "&udp=0".into();
+    harness
+        .state_mut()
+        .shown_mut()
+        .settings
+        .connection
+        .enip_more = "&udp=0".into();
     harness.get_by_label("Discover").click();
     harness.step();
     step_until(

@@ -178,7 +178,12 @@ fn a_superseded_move_is_not_a_fault_but_a_refused_command_is() {
     assert!(
         !has(&harness, Origin::Command, "superseded"),
         "{:#?}",
-        harness.state().shown().timeline.entries().collect::<Vec<_>>()
+        harness
+            .state()
+            .shown()
+            .timeline
+            .entries()
+            .collect::<Vec<_>>()
     );
 
     // A command the drive refuses (travel while a fault is active) still is a fault.

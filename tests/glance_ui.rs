@@ -103,12 +103,15 @@ fn a_quick_stop_says_why_a_fault_shows_its_code_beside_clear_error_and_no_link_i
     let mut harness = app_harness();
     connected(&mut harness);
     // Quick stop option 6: brake on the quick stop ramp and stay in Quick Stop Active.
-    harness.state_mut().shown_mut().request(Request::WriteObject {
-        address: Address::new(0x605A, 0),
-        dtype: DataType::Integer16,
-        value: Value::Int(6),
-        path: ObjectPath::Auto,
-    });
+    harness
+        .state_mut()
+        .shown_mut()
+        .request(Request::WriteObject {
+            address: Address::new(0x605A, 0),
+            dtype: DataType::Integer16,
+            value: Value::Int(6),
+            path: ObjectPath::Auto,
+        });
     harness.get_by_label("Velocity").click();
     harness.step();
     step_until_shown(&mut harness, "MOVING +300 rpm");

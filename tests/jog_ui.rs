@@ -98,11 +98,14 @@ fn escape_sends_quickstop_ahead_of_everything_queued() {
     // busy machine.
     for sub in 1..=4 {
         for _ in 0..7 {
-            harness.state_mut().shown_mut().request(Request::ReadObject {
-                address: Address::new(0x1018, sub),
-                dtype: Some(DataType::Unsigned32),
-                path: ObjectPath::Pdi,
-            });
+            harness
+                .state_mut()
+                .shown_mut()
+                .request(Request::ReadObject {
+                    address: Address::new(0x1018, sub),
+                    dtype: Some(DataType::Unsigned32),
+                    path: ObjectPath::Pdi,
+                });
         }
     }
     harness.key_press(egui::Key::Escape);

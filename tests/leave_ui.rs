@@ -48,7 +48,10 @@ fn turning(server: &ServerThread) -> Harness<'static, App> {
 }
 
 fn disconnected(harness: &Harness<'_, App>) -> bool {
-    matches!(harness.state().shown().link.connection, Connection::Disconnected)
+    matches!(
+        harness.state().shown().link.connection,
+        Connection::Disconnected
+    )
 }
 
 /// Click `label` (Disconnect, or an answer to the question it asks) and wait until the

@@ -537,7 +537,10 @@ fn a_file_naming_an_object_twice_is_refused_with_the_object_named() {
         matches!(&message, Some(m) if m.tone == Tone::Failed && m.text.contains("6081h:00h") && m.text.contains("twice")),
         "{message:?}"
     );
-    assert!(harness.state().shown().browser.bulk.is_none(), "nothing read");
+    assert!(
+        harness.state().shown().browser.bulk.is_none(),
+        "nothing read"
+    );
     assert!(harness.state().shown().browser.restore.is_none());
 }
 
@@ -829,7 +832,10 @@ fn preview_goes_with_a_new_connection(
         Duration::from_secs(10),
         |h| {
             h.state().shown().browser.connection() > before
-                && h.state().shown().link_info().is_some_and(|i| i.spec == spec)
+                && h.state()
+                    .shown()
+                    .link_info()
+                    .is_some_and(|i| i.spec == spec)
         },
     );
     harness.step();

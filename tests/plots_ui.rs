@@ -212,13 +212,7 @@ fn a_trigger_on_target_reached_captures_a_move_with_its_pre_trigger_history() {
     );
 
     // Frozen on screen until dismissed: the capture, not the live history.
-    assert!(
-        harness
-            .state()
-            .plot()
-            .review()
-            .is_some_and(|r| r.capture)
-    );
+    assert!(harness.state().plot().review().is_some_and(|r| r.capture));
     harness.get_by_label("Dismiss");
 
     let dir = common::temp_dir("plots");
@@ -248,7 +242,8 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
     step_until(&mut harness, "samples", Duration::from_secs(5), |h| {
         h.state().shown().scope.ring().len() > 5
     });
-    harness.state_mut().window_mut().settings.central = drivedeck::ui::settings::DICTIONARY.to_owned();
+    harness.state_mut().window_mut().settings.central =
+        drivedeck::ui::settings::DICTIONARY.to_owned();
     harness.step();
     harness
         .get_by_label("Object filter")
@@ -257,7 +252,7 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
     harness.get_by_label("Plot 6044h:00h").click();
     harness.step();
     harness.step();
-    let message = harness.state().plot().message().clone();
+    let message = harness.state().plot().message().cloned();
     assert!(
         matches!(&message, Some(Ok(text)) if text.contains("6044h:00h")),
         "{message:?}"
@@ -280,7 +275,7 @@ fn an_object_plotted_from_the_dictionary_is_sampled_every_cycle() {
     });
     // A string cannot be plotted: refused with the reason.
     let _ = harness.state_mut().plot_object("1008");
-    let message = harness.state().plot().message().clone();
+    let message = harness.state().plot().message().cloned();
     assert!(
         matches!(&message, Some(Err(e)) if e.contains("not a number")),
         "{message:?}"
@@ -345,11 +340,7 @@ fn message(harness: &Harness<'_, Alone>) -> Result<String, String> {
 }
 
 /// Step the panel until `done` holds (a file is read on a thread of its own).
-fn step_panel_until(
-    harness: &mut Harness<'_, Alone>,
-    what: &str,
-    done: impl Fn(&Alone) -> bool,
-) {
+fn step_panel_until(harness: &mut Harness<'_, Alone>, what: &str, done: impl Fn(&Alone) -> bool) {
     let deadline = Instant::now() + Duration::from_secs(10);
     while !done(harness.state()) {
         assert!(
@@ -511,7 +502,16 @@ fn a_triggered_capture_stays_on_screen_until_dismissed_or_re_armed() {
         feed(&mut harness, 200 + k * 100..300 + k * 100);
     }
     assert_eq!(span(&harness), Some(captured));
-    assert!(harness.state().drive.scope.ring().last_time().unwrap_or(0.0) > 11.0);
+    assert!(
+        harness
+            .state()
+            .drive
+            .scope
+            .ring()
+            .last_time()
+            .unwrap_or(0.0)
+            > 11.0
+    );
 
     harness.get_by_label("Dismiss").click();
     harness.step();
@@ -528,7 +528,10 @@ fn a_triggered_capture_stays_on_screen_until_dismissed_or_re_armed() {
     harness.get_by_label("Re-arm").click();
     harness.step();
     assert!(harness.state().view.review().is_none());
-    assert_eq!(harness.state().drive.scope.capture_state(), CaptureState::Armed);
+    assert_eq!(
+        harness.state().drive.scope.capture_state(),
+        CaptureState::Armed
+    );
 }
 
 /// A recording of a move to `to` (0.1°) in 1 s with its trigger at `trigger` s, as our
@@ -626,10 +629,7 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
     });
     assert!(!picker.asked()[0].save);
     harness.get_by_label("Recording: before.csv");
-    assert_eq!(
-        harness.state().time_range(),
-        Some((0.0, 1.0))
-    );
+    assert_eq!(harness.state().time_range(), Some((0.0, 1.0)));
     let shown = harness.state().shown_scope();
     assert_eq!(shown.ring().len(), 101);
     assert!(
@@ -648,10 +648,7 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
     // A chosen offset instead, then back on the triggers.
     harness.state_mut().apply(PlotCommand::MoveOverlay(-0.5));
     harness.step();
-    assert_eq!(
-        harness.state().time_range(),
-        Some((-0.5, 1.0))
-    );
+    assert_eq!(harness.state().time_range(), Some((-0.5, 1.0)));
     harness.get_by_label("Align").click();
     harness.step();
     let offset = overlay_offset(&harness);
@@ -683,11 +680,8 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
     assert!(a < b, "{a} {b}");
     let times = format!("A {a:.3} s  B {b:.3} s  Δt {:.3} s", b - a);
     harness.get_by_label(&times);
-    let rows = drivedeck::ui::plots::readout::cursor_rows(
-        harness.state().shown_scope(),
-        Some(a),
-        Some(b),
-    );
+    let rows =
+        drivedeck::ui::plots::readout::cursor_rows(harness.state().shown_scope(), Some(a), Some(b));
     let [name, at_a, at_b, delta] = &rows[0];
     harness.get_by_label(&format!("| {name}: Δ {delta}"));
     assert!(

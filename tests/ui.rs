@@ -507,7 +507,10 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
             .is_disabled()
     );
 
-    harness.state_mut().drive.apply(Event::Connected(sim_info()));
+    harness
+        .state_mut()
+        .drive
+        .apply(Event::Connected(sim_info()));
     harness.step();
     harness.get_by_label_contains("WAITING FOR DATA");
     harness
@@ -577,7 +580,10 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
 
     // Reconnecting: still the old values until the first sample of the new link.
     harness.get_by_label("Drive status").hover();
-    harness.state_mut().drive.apply(Event::Connecting(LinkSpec::Sim));
+    harness
+        .state_mut()
+        .drive
+        .apply(Event::Connecting(LinkSpec::Sim));
     harness.step();
     harness.get_by_label_contains("NO LINK — last seen at ");
     assert_eq!(
@@ -586,7 +592,10 @@ fn a_lost_link_leaves_the_last_state_dimmed_as_last_seen_and_the_buttons_say_why
             .count(),
         2
     );
-    harness.state_mut().drive.apply(Event::Connected(sim_info()));
+    harness
+        .state_mut()
+        .drive
+        .apply(Event::Connected(sim_info()));
     harness.step();
     harness.get_by_label_contains("WAITING FOR DATA — connected; last seen at ");
     harness

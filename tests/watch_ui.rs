@@ -147,7 +147,9 @@ fn the_pins_are_saved_with_the_layout() {
         address: "6041".into(),
         ..Default::default()
     };
-    watch.pin_typed(drivedeck::od::builtin()).expect("pin 6041h");
+    watch
+        .pin_typed(drivedeck::od::builtin())
+        .expect("pin 6041h");
     settings.watch.pins = watch.pins;
     settings.watch.pins[0].format = Format::Hex;
     settings.watch.rate = 5.0;
@@ -187,7 +189,8 @@ fn objects_are_pinned_from_the_dictionary_and_from_the_plots() {
     let mut harness = app_harness();
     connected(&mut harness);
     // From the dictionary: the row's Watch button pins the object and opens the panel.
-    harness.state_mut().window_mut().settings.central = drivedeck::ui::settings::DICTIONARY.to_owned();
+    harness.state_mut().window_mut().settings.central =
+        drivedeck::ui::settings::DICTIONARY.to_owned();
     harness.step();
     harness
         .get_by_label("Object filter")

@@ -48,10 +48,16 @@ pub enum Command {
     /// Write back every old value the tool changed.
     RestoreChanges,
     /// Inject or withdraw a fault on the simulated drive.
-    Inject { injection: Injection, active: bool },
+    Inject {
+        injection: Injection,
+        active: bool,
+    },
     /// A jog button (or arrow key) is held in `direction` (-1, +1; 0: none) at `speed`
     /// rpm this frame.
-    Jog { direction: i32, speed: i32 },
+    Jog {
+        direction: i32,
+        speed: i32,
+    },
     /// The window lost the focus while a jog was held.
     JogFocusLost,
 
@@ -76,11 +82,17 @@ pub enum Command {
     SetHistory(usize),
     /// Plot an object of the dictionary (its address as typed), sampled every cycle; the
     /// outcome is said where asked.
-    PlotObject { text: String, from: Said },
+    PlotObject {
+        text: String,
+        from: Said,
+    },
     /// Stop plotting an object.
     UnplotObject(Address),
     /// Pin an object to the watch panel (and open it); the outcome is said where asked.
-    PinToWatch { address: Address, from: Said },
+    PinToWatch {
+        address: Address,
+        from: Said,
+    },
 }
 
 /// What the user (or another panel) asks of the plots.
@@ -106,4 +118,3 @@ pub enum PlotCommand {
     /// Move the recording overlaid by this many seconds.
     MoveOverlay(f64),
 }
-

@@ -3,10 +3,10 @@
 
 use eframe::egui::{self, Color32, RichText, Ui};
 
-use super::scan::{discover_ui, scan_button_ui};
 use super::command::Command;
 use super::connection_form::{Bus, ConnectionForm, FormError};
 use super::drive::{Connection, Drive};
+use super::scan::{discover_ui, scan_button_ui};
 use super::settings::DriveSettings;
 use super::widgets::{
     AMBER, GREEN, RED, choice_ui, labelled_text_edit_ui, name_widget, named_text_edit,

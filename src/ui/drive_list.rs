@@ -123,8 +123,12 @@ fn row_ui(
             }
             ui.with_layout(egui::Layout::left_to_right(egui::Align::Center), |ui| {
                 let state = ui.add(
-                    egui::Label::new(RichText::new(&row.state).strong().color(tone_color(row.tone)))
-                        .truncate(),
+                    egui::Label::new(
+                        RichText::new(&row.state)
+                            .strong()
+                            .color(tone_color(row.tone)),
+                    )
+                    .truncate(),
                 );
                 name_widget(
                     &state,
@@ -200,7 +204,6 @@ fn add_menu_ui(
     });
 }
 
-
 /// The "Project" menu beside the list's title: open, save, save as; the project's file
 /// and the last action's outcome under the list.
 fn project_menu_ui(
@@ -252,12 +255,8 @@ fn project_line_ui(ui: &mut Ui, project: &ProjectFiles) {
             ui.add(egui::Label::new(egui::RichText::new(text).small().weak()).wrap());
         }
         Some(Err(text)) => {
-            ui.add(
-                egui::Label::new(egui::RichText::new(text).small().color(RED))
-                    .wrap(),
-            );
+            ui.add(egui::Label::new(egui::RichText::new(text).small().color(RED)).wrap());
         }
         None => {}
     }
 }
-

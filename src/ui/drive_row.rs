@@ -123,4 +123,3 @@ fn fault_words(sample: Option<crate::worker::Sample>) -> String {
         format!("fault {:04X}h {}", code.0, code.meaning())
     }
 }
-

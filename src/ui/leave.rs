@@ -16,10 +16,7 @@ pub fn motor_sentence(drive: &Drive) -> Option<String> {
     if !drive.power_stage_on() {
         return None;
     }
-    let motion = drive
-        .latest()
-        .map(|s| motion_words(&s))
-        .unwrap_or_default();
+    let motion = drive.latest().map(|s| motion_words(&s)).unwrap_or_default();
     let now = std::time::SystemTime::now();
     Some(
         match drive.link.sample_age(now).filter(|_| !drive.is_live(now)) {
@@ -117,10 +114,7 @@ fn leave_question_ui(
         ui.label("What should stay behind?");
     }
     let restorable: usize = drives.iter().map(|d| d.changes.restorable()).sum();
-    let with_changes = drives
-        .iter()
-        .filter(|d| d.changes.restorable() > 0)
-        .count();
+    let with_changes = drives.iter().filter(|d| d.changes.restorable() > 0).count();
     if restorable > 0 {
         let on = if with_changes > 1 {
             format!(" on {with_changes} drives")
@@ -162,4 +156,3 @@ fn leave_question_ui(
     }
     answer
 }
-

@@ -296,13 +296,15 @@ mod tests {
 
     #[test]
     fn the_saved_record_splits_and_joins_back_unchanged() {
-        let mut settings = Settings::default();
-        settings.central = Central::Dictionary;
+        let mut settings = Settings {
+            central: Central::Dictionary,
+            poll_rate: 250.0,
+            jog_speed: "42".into(),
+            ..Settings::default()
+        };
         settings.plot.window_s = 3.0;
-        settings.poll_rate = 250.0;
         settings.watch.open = true;
         settings.watch.rate = 5.0;
-        settings.jog_speed = "42".into();
         let (window, drive) = settings.clone().split();
         assert!(window.watch_open && window.central == DICTIONARY);
         assert_eq!((drive.poll_rate, drive.watch.rate), (250.0, 5.0));

@@ -213,7 +213,9 @@ fn commands_panel_ui(ui: &mut Ui, f: &mut Frame<'_>) {
         if shown {
             egui::ScrollArea::vertical()
                 .id_salt("commands_scroll")
-                .show(ui, |ui| commands::commands_ui(ui, drive, collapsed, commands));
+                .show(ui, |ui| {
+                    commands::commands_ui(ui, drive, collapsed, commands)
+                });
         } else {
             commands::collapsed_strip_ui(ui, collapsed);
         }

@@ -159,12 +159,15 @@ pub fn read_object(
 /// The window's worker writes `value` (UNSIGNED32) to `address`; wait until the window
 /// lists it as the one change made.
 pub fn change(harness: &mut Harness<'_, App>, address: Address, value: u64) {
-    harness.state_mut().shown_mut().request(Request::WriteObject {
-        address,
-        dtype: DataType::Unsigned32,
-        value: Value::Uint(value),
-        path: ObjectPath::Auto,
-    });
+    harness
+        .state_mut()
+        .shown_mut()
+        .request(Request::WriteObject {
+            address,
+            dtype: DataType::Unsigned32,
+            value: Value::Uint(value),
+            path: ObjectPath::Auto,
+        });
     step_until(harness, "the change", Duration::from_secs(3), |h| {
         h.state().shown().changes.len() == 1
     });

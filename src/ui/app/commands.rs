@@ -4,8 +4,8 @@
 use super::App;
 use crate::telemetry::watchable;
 use crate::ui::browser::Tone;
-use crate::ui::command::{Command, Said};
 use crate::ui::command::PlotCommand;
+use crate::ui::command::{Command, Said};
 use crate::ui::project_files::Purpose;
 use crate::ui::settings::PLOTS;
 use crate::worker::MAX_WATCHED;
@@ -41,9 +41,14 @@ impl App {
                 self.window.list.message =
                     self.add_drive_spec(name, spec).err().map(|e| e.to_string());
             }
-            Command::RemoveDrive(index) => self.window.list.message = self.remove_drive(index).err(),
+            Command::RemoveDrive(index) => {
+                self.window.list.message = self.remove_drive(index).err()
+            }
             Command::Rename(index, name) => {
-                let was = self.drive(index).map(|d| d.name.clone()).unwrap_or_default();
+                let was = self
+                    .drive(index)
+                    .map(|d| d.name.clone())
+                    .unwrap_or_default();
                 self.window.list.message = self
                     .rename(index, name)
                     .err()
@@ -132,7 +137,11 @@ impl App {
     fn add_plotted(&mut self, text: &str) -> Result<String, String> {
         let drive = self.shown_mut();
         let (object, dtype) = watchable(drive.browser.catalog(), text)?;
-        if drive.plotted.iter().any(|(w, _)| w.address == object.address) {
+        if drive
+            .plotted
+            .iter()
+            .any(|(w, _)| w.address == object.address)
+        {
             return Err(format!("{} is plotted already", object.address));
         }
         if drive.plotted.len() >= MAX_WATCHED {

@@ -196,7 +196,8 @@ impl App {
     /// drives are left.
     pub(super) fn leave_steps(&mut self, ctx: &eframe::egui::Context) {
         let answered = {
-            let mut drives: Vec<&mut Drive> = self.drives.iter_mut().map(|s| &mut s.drive).collect();
+            let mut drives: Vec<&mut Drive> =
+                self.drives.iter_mut().map(|s| &mut s.drive).collect();
             leave::leave_dialog(ctx, &mut drives)
         };
         match answered {

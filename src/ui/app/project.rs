@@ -318,4 +318,3 @@ impl App {
         self.confirm_project_ui(ctx);
     }
 }
-

@@ -90,12 +90,7 @@ const FILE_READS: [FileRead; 2] = [
 ];
 
 /// The button of `read`: a click loads the file and starts the read.
-fn file_read_button_ui(
-    ui: &mut Ui,
-    b: &mut Browser,
-    enabled: bool,
-    read: &FileRead,
-) {
+fn file_read_button_ui(ui: &mut Ui, b: &mut Browser, enabled: bool, read: &FileRead) {
     if ui
         .add_enabled(enabled, egui::Button::new(read.text))
         .on_hover_text(read.hover)
@@ -288,7 +283,8 @@ fn start_restore(b: &mut Browser) {
         None => vec![],
     };
     for (n, step) in steps.into_iter().enumerate() {
-        b.send(Request::WriteObject {
+        b.send(
+            Request::WriteObject {
                 address: step.address,
                 dtype: step.dtype,
                 value: step.value,

@@ -42,7 +42,8 @@ pub(super) fn confirm_ui(ui: &mut Ui, b: &mut Browser) {
         b.confirm = None;
         b.edit = None;
         b.write_results.remove(&confirm.address);
-        b.send(Request::WriteObject {
+        b.send(
+            Request::WriteObject {
                 address: confirm.address,
                 dtype: confirm.dtype,
                 value: confirm.value,
@@ -142,4 +143,3 @@ pub(super) fn edit_buttons_ui(ui: &mut Ui, entry: &Entry, actions: &mut Vec<(Add
         actions.push((entry.address, RowAction::CancelEdit));
     }
 }
-

@@ -22,8 +22,8 @@ mod panel;
 mod refresh;
 mod table;
 
-pub use message::{Message, Tone};
 pub use editing::parse_edit;
+pub use message::{Message, Tone};
 pub use panel::{browser_ui, tone_color};
 pub use refresh::{
     CHANGED_FOR, DictionarySettings, MOST_READS_PER_SECOND, REFRESH_AFTER, REFRESH_IN_FLIGHT,

@@ -323,4 +323,3 @@ pub(super) fn message_ui(ui: &mut Ui, b: &Browser) {
     }
     ui.add(egui::Label::new(text).wrap());
 }
-

@@ -79,11 +79,7 @@ impl Refresh {
 impl Browser {
     /// Read `objects` outside the bulk read, each answer into its row; `asked` by the
     /// user (a refusal of the request is said), or by the table itself.
-    pub(super) fn read_back(
-        &mut self,
-        objects: Vec<(Address, DataType)>,
-        asked: bool,
-    ) {
+    pub(super) fn read_back(&mut self, objects: Vec<(Address, DataType)>, asked: bool) {
         if objects.is_empty() {
             return;
         }
@@ -91,7 +87,8 @@ impl Browser {
             self.refresh.in_flight.insert(*address, self.now);
         }
         let count = objects.len();
-        self.send(Request::ReadMany {
+        self.send(
+            Request::ReadMany {
                 objects,
                 path: ObjectPath::Auto,
             },
@@ -120,11 +117,7 @@ impl Browser {
     /// The rows on screen due for a read, as many as may go now at `rate` objects a
     /// second. Nothing while a bulk read or a restore runs (they read and write
     /// themselves) or without a link.
-    pub(super) fn refresh_visible(
-        &mut self,
-        connected: bool,
-        rate: f64,
-    ) {
+    pub(super) fn refresh_visible(&mut self, connected: bool, rate: f64) {
         let now = self.now;
         if !connected || rate <= 0.0 {
             self.refresh.forget_all();

@@ -609,7 +609,12 @@ fn row_buttons_ui(
     }
 }
 
-fn apply_row_action(b: &mut Browser, commands: &mut Vec<Command>, address: Address, action: RowAction) {
+fn apply_row_action(
+    b: &mut Browser,
+    commands: &mut Vec<Command>,
+    address: Address,
+    action: RowAction,
+) {
     let Some(entry) = b.catalog().get(address).cloned() else {
         return;
     };

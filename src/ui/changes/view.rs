@@ -67,4 +67,3 @@ pub fn changes_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
                 });
         });
 }
-

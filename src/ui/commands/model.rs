@@ -105,4 +105,3 @@ pub fn caution(drive: &Drive, request: &Request) -> Option<String> {
         _ => None,
     }
 }
-

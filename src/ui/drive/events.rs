@@ -306,10 +306,7 @@ impl Drive {
                 return;
             }
             Some(Owner::Browser(pending)) => {
-                if self
-                    .browser
-                    .on_read(id, pending, address, &result, clock)
-                {
+                if self.browser.on_read(id, pending, address, &result, clock) {
                     self.requests.done(id);
                 }
                 return;

@@ -236,8 +236,7 @@ impl Drive {
             }
             Stage::Disconnecting => {
                 self.leaving = None;
-                if self.is_connected()
-                    || matches!(self.link.connection, Connection::Failed { .. })
+                if self.is_connected() || matches!(self.link.connection, Connection::Failed { .. })
                 {
                     self.request(Request::Disconnect);
                 }

@@ -25,7 +25,9 @@ pub use events::FRAME_LIMIT;
 pub use leave::{Leaving, STOP_TIMEOUT_S, Stage, StopChoice};
 pub use link::{Connection, LinkState, Machine, STALE_AFTER, age_text, clock_text};
 pub use log::{LOG_LIMIT, Log, LogEntry, Outcome};
-pub use motion::{JOG_MAX_SPEED, JogHold, Motion, ReadBack, TORQUE_SLOPE, TorqueWarning, jog_speed};
+pub use motion::{
+    JOG_MAX_SPEED, JogHold, Motion, ReadBack, TORQUE_SLOPE, TorqueWarning, jog_speed,
+};
 pub use project::ProjectRecord;
 pub use requests::{Owner, Requests};
 

@@ -7,9 +7,9 @@
 
 use std::time::SystemTime;
 
+use super::Drive;
 use super::link::clock_text;
 use super::requests::Owner;
-use super::Drive;
 use crate::od::{Address, Value};
 use crate::pdi::Action;
 use crate::ui::command::Command;

@@ -5,7 +5,6 @@
 //! Clear error; under it the limit switch that blocks travel and why the drive last
 //! stopped or refused.
 
-
 pub mod model;
 pub mod view;
 

@@ -112,4 +112,3 @@ fn clear_error_button_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>
         commands.push(Command::Request(Request::Command(Action::ClearError)));
     }
 }
-

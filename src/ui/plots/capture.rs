@@ -443,7 +443,6 @@ pub fn confirm_ui(ctx: &egui::Context, p: &mut Plots<'_>) {
     }
 }
 
-
 enum Confirm {
     Replace,
     Elsewhere,

@@ -17,13 +17,13 @@ mod traces;
 pub mod trigger;
 pub mod view;
 
+pub use crate::ui::command::PlotCommand;
 pub use exports::{Beside, Export, Job};
 pub use files::{Ask, FilePicker, NativePicker, ScriptedPicker};
 pub use model::{
-    FACTORY_POSITION_UNIT, Image, PlotSettings, PlotView, PositionUnit, live_end,
-    shown_scope, time_range, with_turns,
+    FACTORY_POSITION_UNIT, Image, PlotSettings, PlotView, PositionUnit, live_end, shown_scope,
+    time_range, with_turns,
 };
-pub use crate::ui::command::PlotCommand;
 pub use review::Review;
 pub use traces::{DRIVE_COLORS, colors};
 pub use trigger::TriggerForm;

@@ -376,7 +376,11 @@ pub fn time_range(plot: &PlotView, drive: &Drive, window_s: f64) -> Option<(f64,
     {
         return Some(range);
     }
-    let start = if window_s > 0.0 { end - window_s } else { first };
+    let start = if window_s > 0.0 {
+        end - window_s
+    } else {
+        first
+    };
     Some((start.min(end - 0.001), end.max(start + 0.001)))
 }
 
@@ -402,7 +406,10 @@ pub fn live_end(drive: &Drive) -> Option<f64> {
 pub fn capture_span(drive: &Drive) -> Option<(f64, (f64, f64))> {
     let recording = drive.scope.recording()?;
     let (from, to) = (*recording.times.first()?, *recording.times.last()?);
-    Some((recording.meta.trigger_time_s.unwrap_or(f64::NAN), (from, to)))
+    Some((
+        recording.meta.trigger_time_s.unwrap_or(f64::NAN),
+        (from, to),
+    ))
 }
 
 #[cfg(test)]
@@ -417,7 +424,11 @@ mod tests {
         assert!(view.stands_still(Some(13.0)));
         view.apply(PlotCommand::Resume, Some(13.0), 10.0);
         assert!(!view.is_paused() && view.follows());
-        view.apply(PlotCommand::ShowSpan { from: 2.0, to: 4.0 }, Some(13.0), 10.0);
+        view.apply(
+            PlotCommand::ShowSpan { from: 2.0, to: 4.0 },
+            Some(13.0),
+            10.0,
+        );
         assert!(!view.follows());
         assert_eq!(view.shown_range(), Some((2.0, 4.0)));
         assert!(view.stands_still(Some(13.0)));

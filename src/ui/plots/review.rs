@@ -204,4 +204,3 @@ pub fn freeze_capture(plot: &mut PlotView, live: &Scope) {
     plot.follow = true;
     plot.shown_range = None;
 }
-

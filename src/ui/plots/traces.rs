@@ -12,12 +12,12 @@ use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, V
 use super::exports::Beside;
 use super::lanes::{lane_labels_ui, lanes, lanes_plot_ui};
 use super::model::{PositionUnit, live_end, shown_scope, time_range};
-use crate::ui::command::PlotCommand;
 use super::view::Plots;
-use crate::ui::command::Command;
-use crate::ui::widgets::{AMBER, BLUE, GREEN, RED};
 use crate::telemetry::ring::Decimations;
 use crate::telemetry::{Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef};
+use crate::ui::command::Command;
+use crate::ui::command::PlotCommand;
+use crate::ui::widgets::{AMBER, BLUE, GREEN, RED};
 
 /// Height of one digital lane, in points: at most, and at least (the lanes take up to
 /// 40 % of the panel between the two).

@@ -7,13 +7,13 @@ use eframe::egui::{self, Ui};
 use super::capture;
 use super::exports::Beside;
 use super::model::{PlotSettings, PlotView, PositionUnit, shown_scope};
-use crate::ui::command::PlotCommand;
 use super::picture;
 use super::readout;
 use super::review;
 use super::review_view;
 use super::traces;
 use crate::od::Address;
+use crate::ui::command::PlotCommand;
 use crate::ui::command::{Command, Said};
 use crate::ui::drive::Drive;
 
@@ -171,8 +171,7 @@ fn toolbar(ui: &mut Ui, p: &mut Plots<'_>) {
             )
             .clicked()
         {
-            p.commands
-                .push(Command::Plot(PlotCommand::Follow(!follow)));
+            p.commands.push(Command::Plot(PlotCommand::Follow(!follow)));
         }
         ui.label("Window");
         let combo = egui::ComboBox::from_id_salt("plot_window")

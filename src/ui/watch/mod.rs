@@ -355,7 +355,10 @@ mod tests {
             "still on its way"
         );
         let ok = Ok(Value::Uint(0x0637));
-        assert!(!watch.on_read(7, STATUSWORD, &ok, 10.2), "one of two answers");
+        assert!(
+            !watch.on_read(7, STATUSWORD, &ok, 10.2),
+            "one of two answers"
+        );
         assert!(watch.busy());
         assert!(watch.on_read(7, POSITION, &Ok(Value::Int(5)), 10.3), "both");
         assert!(!watch.busy());
