@@ -110,7 +110,12 @@ fn the_changes_tab_lists_what_was_written_and_restores_it() {
     connected(&mut harness);
     let velocity = Address::new(0x6081, 0);
     window::change(&mut harness, velocity, 1234);
-    let before = harness.state().shown().changes.entries[0]
+    let before = harness
+        .state()
+        .shown()
+        .changes()
+        .expect("the Changes tab's model")
+        .entries[0]
         .before
         .clone()
         .expect("read before the write");
@@ -120,7 +125,7 @@ fn the_changes_tab_lists_what_was_written_and_restores_it() {
     harness.get_by_label("Restore what I changed (1)").click();
     harness.step();
     step_until(&mut harness, "the restore", Duration::from_secs(3), |h| {
-        h.state().shown().changes.is_empty()
+        h.state().shown().changes().is_some_and(|c| c.is_empty())
     });
     assert!(
         harness

@@ -113,8 +113,8 @@ fn leave_question_ui(
     if energised {
         ui.label("What should stay behind?");
     }
-    let restorable: usize = drives.iter().map(|d| d.changes.restorable()).sum();
-    let with_changes = drives.iter().filter(|d| d.changes.restorable() > 0).count();
+    let restorable: usize = drives.iter().map(|d| d.restorable()).sum();
+    let with_changes = drives.iter().filter(|d| d.restorable() > 0).count();
     if restorable > 0 {
         let on = if with_changes > 1 {
             format!(" on {with_changes} drives")

@@ -30,6 +30,7 @@ pub mod jog;
 pub mod leave;
 pub mod log;
 pub mod pace;
+pub mod panel;
 pub mod plots;
 pub mod power_state;
 pub mod project_files;

@@ -6,9 +6,11 @@
 
 use eframe::egui::{self, Ui};
 
+use super::changes::Changes;
 use super::command::Command;
 use super::drive::Drive;
 use super::drive_row::DriveRow;
+use super::panel::{PanelModel, Panels};
 use super::plots::{Beside, Plots};
 use super::project_files::ProjectFiles;
 use super::window::Window;
@@ -33,11 +35,29 @@ pub struct Frame<'a> {
 }
 
 /// A panel of the window: its id (kept in the window's settings while shown), its tab's
-/// title for the drive shown, and its view.
+/// title for the drive shown, its view, the model it keeps per drive (made in every
+/// drive the window starts; `None`: what it shows is the drive's own) and how the log's
+/// Clear empties it.
 pub struct Panel {
     pub id: &'static str,
     pub title: fn(&Drive) -> String,
     pub ui: fn(&mut Ui, &mut Frame<'_>),
+    pub model: Option<fn(&mut Panels)>,
+    pub clear: Option<fn(&mut Drive)>,
+}
+
+/// Make the model `M` in a drive's panels (a [`Panel`]'s `model`).
+pub fn model<M: PanelModel + Default>(panels: &mut Panels) {
+    panels.get::<M>();
+}
+
+/// Every registered panel's model, made in a new drive's `panels`.
+pub fn make_models(panels: &mut Panels) {
+    for panel in CENTRAL.iter().chain(BOTTOM) {
+        if let Some(make) = panel.model {
+            make(panels);
+        }
+    }
 }
 
 pub use super::settings::{DICTIONARY, PLOTS};
@@ -48,11 +68,15 @@ pub const CENTRAL: &[Panel] = &[
         id: PLOTS,
         title: |_| "Plots".into(),
         ui: plots_panel_ui,
+        model: None,
+        clear: None,
     },
     Panel {
         id: DICTIONARY,
         title: |_| "Object dictionary".into(),
         ui: |ui, f| browser::browser_ui(ui, f.drive, &mut f.window.settings.dictionary, f.commands),
+        model: None,
+        clear: None,
     },
 ];
 
@@ -62,11 +86,15 @@ pub const BOTTOM: &[Panel] = &[
         id: log::COMMANDS,
         title: |_| "Commands".into(),
         ui: |ui, f| log::commands_ui(ui, f.drive),
+        model: None,
+        clear: Some(|d| d.log.clear()),
     },
     Panel {
         id: log::FRAMES,
         title: |_| "Bus frames".into(),
         ui: |ui, f| log::frames_ui(ui, f.drive, &mut f.window.settings.frame_log_path),
+        model: None,
+        clear: Some(|d| d.frames.clear()),
     },
     Panel {
         id: faults::FAULTS,
@@ -79,11 +107,16 @@ pub const BOTTOM: &[Panel] = &[
                 f.commands,
             )
         },
+        model: None,
+        clear: Some(|d| d.timeline.clear()),
     },
+    // The recipe's example: a model file, a view file, and this entry.
     Panel {
         id: changes::CHANGES,
-        title: |d| counted("Changes", d.changes.len()),
+        title: |d| counted("Changes", d.changes().map_or(0, Changes::len)),
         ui: |ui, f| changes::changes_ui(ui, f.drive, f.commands),
+        model: Some(model::<Changes>),
+        clear: Some(|d| d.panels.get::<Changes>().clear()),
     },
 ];
 

@@ -169,7 +169,7 @@ pub fn change(harness: &mut Harness<'_, App>, address: Address, value: u64) {
             path: ObjectPath::Auto,
         });
     step_until(harness, "the change", Duration::from_secs(3), |h| {
-        h.state().shown().changes.len() == 1
+        h.state().shown().changes().map_or(0, |c| c.len()) == 1
     });
 }
 

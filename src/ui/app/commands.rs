@@ -114,14 +114,14 @@ impl App {
         self.window.plot.apply(command, newest, window_s);
     }
 
-    /// Empty a tab of the shown drive's log.
+    /// Empty a tab of the shown drive's log (as its registration says).
     fn clear_log(&mut self, tab: &str) {
-        let drive = self.shown_mut();
-        match tab {
-            crate::ui::log::FRAMES => drive.frames.clear(),
-            crate::ui::faults::FAULTS => drive.timeline.clear(),
-            crate::ui::changes::CHANGES => drive.changes.clear(),
-            _ => drive.log.clear(),
+        let clear = crate::ui::view::BOTTOM
+            .iter()
+            .find(|p| p.id == tab)
+            .and_then(|p| p.clear);
+        if let Some(clear) = clear {
+            clear(self.shown_mut());
         }
     }
 

@@ -36,6 +36,7 @@ impl App {
         let plot = &self.window.settings.plot;
         let mut drive = Drive::new(name, color, settings, plot.history_rows, &plot.shown);
         drive.clock = self.started.elapsed().as_secs_f64();
+        crate::ui::view::make_models(&mut drive.panels);
         let channel = Channel::spawn(&mut drive, self.notify.clone(), self.started, self.clock);
         self.drives.push(Slot { drive, channel });
         self.drives.len() - 1

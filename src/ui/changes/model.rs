@@ -5,7 +5,8 @@
 
 use crate::link::LinkSpec;
 use crate::od::{Address, DataType, Value};
-use crate::worker::{ObjectPath, Request};
+use crate::ui::panel::PanelModel;
+use crate::worker::{Event, ObjectPath, Request};
 
 /// The changes of one drive, and the link they belong to (another link starts a new list;
 /// a reconnect to the same one keeps the values from before the first write).
@@ -13,6 +14,37 @@ use crate::worker::{ObjectPath, Request};
 pub struct Changes {
     pub entries: Vec<ChangeEntry>,
     pub link: Option<LinkSpec>,
+}
+
+/// The drive's news for the list: what the tool changed, and the link it is connected to
+/// now (another link starts a new list; a reconnect to the same one keeps the values from
+/// before the first write).
+impl PanelModel for Changes {
+    fn on_event(&mut self, event: &Event) {
+        match event {
+            Event::Connected(info) if self.link.as_ref() != Some(&info.spec) => {
+                self.entries.clear();
+                self.link = Some(info.spec.clone());
+            }
+            Event::Changed {
+                address,
+                dtype,
+                before,
+                after,
+            } => note_change(
+                &mut self.entries,
+                ChangeEntry {
+                    address: *address,
+                    dtype: *dtype,
+                    before: before.clone(),
+                    after: after.clone(),
+                },
+            ),
+            _ => {}
+        }
+    }
+
+    crate::panel_model_any!();
 }
 
 impl Changes {

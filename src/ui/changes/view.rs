@@ -3,6 +3,7 @@
 
 use eframe::egui::{self, RichText, Ui};
 
+use super::model::Changes;
 use crate::od;
 use crate::ui::command::Command;
 use crate::ui::drive::Drive;
@@ -11,12 +12,15 @@ use crate::ui::widgets::AMBER;
 /// The id of the log's tab of changes.
 pub const CHANGES: &str = "changes";
 
-pub fn changes_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
-    let restorable = drive.changes.restorable();
+pub fn changes_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
+    let connected = drive.is_connected();
+    let own_changes = drive.link.own_changes.clone();
+    let changes = drive.panels.get::<Changes>();
+    let restorable = changes.restorable();
     ui.horizontal(|ui| {
         let button = ui
             .add_enabled(
-                drive.is_connected() && restorable > 0,
+                connected && restorable > 0,
                 egui::Button::new(format!("Restore what I changed ({restorable})")),
             )
             .on_hover_text("Write every old value back, the newest change first")
@@ -37,16 +41,16 @@ pub fn changes_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
                 .striped(true)
                 .spacing([12.0, 2.0])
                 .show(ui, |ui| {
-                    if drive.changes.is_empty() && drive.link.own_changes.is_empty() {
+                    if changes.is_empty() && own_changes.is_empty() {
                         ui.weak("nothing changed on the drive this session");
                         ui.end_row();
                     }
-                    for change in &drive.link.own_changes {
+                    for change in &own_changes {
                         ui.weak("link");
                         ui.label(change);
                         ui.end_row();
                     }
-                    for change in &drive.changes.entries {
+                    for change in &changes.entries {
                         ui.monospace(change.address.to_string());
                         ui.label(
                             od::builtin()

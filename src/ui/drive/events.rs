@@ -15,7 +15,6 @@ use crate::od::{Address, Value};
 use crate::pdi::{RxImage, StatusBit};
 use crate::telemetry::{Gap, ScopeEvent};
 use crate::ui::browser::Pending;
-use crate::ui::changes::{ChangeEntry, note_change};
 use crate::worker::{CommandProgress, Event, ObjectError, Rejection, Request, RequestId, Sample};
 
 /// Bus frames kept per drive (the export writes what is kept).
@@ -25,6 +24,10 @@ impl Drive {
     /// The reducer: one worker event into the drive's model; what the window must know
     /// of it (a capture to show), if anything.
     pub fn apply(&mut self, event: Event) -> Option<News> {
+        if self.to_panel(&event) {
+            return None;
+        }
+        self.panels.on_event(&event);
         match event {
             Event::Connecting(spec) => self.on_connecting(spec),
             Event::Connected(info) => self.on_connected(info),
@@ -73,20 +76,8 @@ impl Drive {
                 self.on_scanned(result);
             }
             Event::LinkOwnChanges(changes) => self.link.own_changes = changes,
-            Event::Changed {
-                address,
-                dtype,
-                before,
-                after,
-            } => note_change(
-                &mut self.changes.entries,
-                ChangeEntry {
-                    address,
-                    dtype,
-                    before,
-                    after,
-                },
-            ),
+            // The Changes tab's model takes it (`Drive::panels`).
+            Event::Changed { .. } => {}
             Event::Notice(notice) => self.on_notice(notice),
             Event::Cancelled { id, dropped } => {
                 if let Some(Owner::Browser(pending)) = self.requests.owner_mut(id)
@@ -111,7 +102,6 @@ impl Drive {
     fn on_connected(&mut self, info: LinkInfo) {
         self.info(format!("connected: {}", info.description));
         let link = info.spec.to_string();
-        let spec = info.spec.clone();
         self.browser.on_connected(&link);
         // Answers still coming for the browser over the link before are not its now.
         for owner in self.requests.owners_mut() {
@@ -131,12 +121,6 @@ impl Drive {
         self.motion.torque_slope = None;
         self.describe_drive(None, &link);
         self.timeline.reconnected();
-        // Changes belong to a drive: another link starts a new list (a reconnect
-        // to the same one keeps the values from before the first write).
-        if self.changes.link.as_ref() != Some(&spec) {
-            self.changes.entries.clear();
-            self.changes.link = Some(spec);
-        }
         self.read_on_connecting();
     }
 
@@ -213,7 +197,8 @@ impl Drive {
                 self.read_refused(id, &owner);
                 return;
             }
-            Some(Owner::User | Owner::Window) | None => {}
+            // A panel's replies went to it before (`to_panel`).
+            Some(Owner::User | Owner::Window | Owner::Panel { .. }) | None => {}
         }
         if self.motion.halt_request == Some(id) {
             self.motion.halt_request = None;
@@ -311,7 +296,8 @@ impl Drive {
                 }
                 return;
             }
-            Some(Owner::User | Owner::Window) | None => {}
+            // A panel's replies went to it before (`to_panel`).
+            Some(Owner::User | Owner::Window | Owner::Panel { .. }) | None => {}
         }
         if let Some(entry) = self.log.entry(id) {
             entry.outcome = match &result {
@@ -494,6 +480,27 @@ impl Drive {
             .add(t, Severity::Warning, Origin::Command, text);
     }
 
+    /// A reply to a request of a panel the drive keeps the model of, handed to it; `true`
+    /// when the event was such a reply.
+    fn to_panel(&mut self, event: &Event) -> bool {
+        let id = match event {
+            Event::Rejected { id, .. }
+            | Event::Sent { id, .. }
+            | Event::Progress { id, .. }
+            | Event::ObjectRead { id, .. }
+            | Event::ObjectWritten { id, .. }
+            | Event::Cancelled { id, .. } => *id,
+            _ => return false,
+        };
+        let Some(Owner::Panel { panel, tag }) = self.requests.owner(id).cloned() else {
+            return false;
+        };
+        if self.panels.on_reply(panel, tag, event) {
+            self.requests.done(id);
+        }
+        true
+    }
+
     /// The worker took a request as `id` (or could not: `Err` with why).
     pub(super) fn handed_over(
         &mut self,
@@ -522,7 +529,7 @@ impl Drive {
                     outcome: Outcome::Queued,
                 });
             }
-            Owner::TorqueSlope | Owner::Window => {}
+            Owner::TorqueSlope | Owner::Window | Owner::Panel { .. } => {}
         }
         // Only requests with replies need their owner kept.
         if expects_replies(request) {
@@ -536,6 +543,14 @@ impl Drive {
             Owner::Browser(pending) => self.browser.unsent(pending, request, &reason),
             Owner::Watch => self.watch.unsent(&reason),
             Owner::Identity | Owner::Diagnosis | Owner::TorqueSlope => {}
+            Owner::Panel { panel, tag } => {
+                let refused = Event::Rejected {
+                    id: 0,
+                    request: request.to_string(),
+                    reason: Rejection::Refused(reason),
+                };
+                self.panels.on_reply(panel, tag, &refused);
+            }
             Owner::User | Owner::Window => {
                 let at = self.clock;
                 self.log.push(LogEntry {

@@ -118,14 +118,14 @@ impl Drive {
     /// Whether leaving this drive needs the question: connected, and energised or with
     /// objects changed that could be restored.
     pub fn needs_leave_question(&self) -> bool {
-        let restorable = self.changes.restorable() > 0;
+        let restorable = self.restorable() > 0;
         self.is_connected() && (self.power_stage_on() || restorable)
     }
 
     /// The user wants to disconnect (or close the window): ask first when the drive is
     /// energised or objects were changed; otherwise go.
     pub fn ask_to_leave(&mut self, close_window: bool) {
-        let restorable = self.changes.restorable() > 0;
+        let restorable = self.restorable() > 0;
         if self.needs_leave_question() {
             self.leaving = Some(Leaving {
                 close_window,
@@ -220,7 +220,7 @@ impl Drive {
                 false
             }
             Stage::Restoring { since } => {
-                let pending = self.changes.restorable() > 0;
+                let pending = self.restorable() > 0;
                 let late = self.clock - since > RESTORE_TIMEOUT_S;
                 if late {
                     self.info(format!(

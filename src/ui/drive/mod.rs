@@ -37,6 +37,7 @@ use crate::od::DataType;
 use crate::telemetry::{Scope, WatchedObject};
 use crate::ui::browser::Browser;
 use crate::ui::changes::Changes;
+use crate::ui::panel::Panels;
 use crate::ui::settings::DriveSettings;
 use crate::ui::watch::Watch;
 use crate::worker::{Request, RequestId};
@@ -63,8 +64,9 @@ pub struct Drive {
     /// Bus frames recorded (when `settings.record_frames`).
     pub frames: VecDeque<TraceRecord>,
     pub log: Log,
-    /// What the tool changed on the drive, with the values before (for undo).
-    pub changes: Changes,
+    /// The models of the panels registered in `ui::view` that keep their own (the
+    /// Changes tab's, …).
+    pub panels: Panels,
     pub motion: Motion,
     /// The object dictionary browser.
     pub browser: Browser,
@@ -110,7 +112,7 @@ impl Drive {
             timeline: Timeline::default(),
             frames: VecDeque::new(),
             log: Log::default(),
-            changes: Changes::default(),
+            panels: Panels::default(),
             motion: Motion::default(),
             browser: Browser::new(),
             watch: Watch::default(),
@@ -203,6 +205,9 @@ impl Drive {
         for (pending, request) in self.browser.take_asks() {
             self.requests.push(Owner::Browser(pending), request);
         }
+        for (panel, tag, request) in self.panels.take_requests() {
+            self.requests.push(Owner::Panel { panel, tag }, request);
+        }
     }
 
     /// The watch panel is on screen: its next read, when one is due.
@@ -232,9 +237,24 @@ impl Drive {
         }
     }
 
+    /// What the tool changed on the drive, with the values before (for undo): the
+    /// Changes tab's model.
+    pub fn changes(&self) -> Option<&Changes> {
+        self.panels.find::<Changes>()
+    }
+
+    /// How many changes have an old value to write back.
+    pub fn restorable(&self) -> usize {
+        self.changes().map_or(0, Changes::restorable)
+    }
+
     /// Write back every old value the tool changed, newest change first.
     pub fn restore_changes(&mut self) {
-        let requests = crate::ui::changes::restore_requests(&self.changes.entries);
+        let entries = self
+            .changes()
+            .map(|c| c.entries.as_slice())
+            .unwrap_or_default();
+        let requests = crate::ui::changes::restore_requests(entries);
         self.info(format!(
             "restoring {} changed object(s) in reverse order",
             requests.len()

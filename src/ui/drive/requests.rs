@@ -6,6 +6,7 @@
 //!
 //! A model: no egui here.
 
+use std::any::TypeId;
 use std::collections::BTreeMap;
 
 use crate::ui::browser;
@@ -32,6 +33,9 @@ pub enum Owner {
     Browser(browser::Pending),
     /// The watch panel's cyclic read.
     Watch,
+    /// A panel whose model the drive keeps for it (`ui::panel`), by the model's type, with
+    /// the panel's own tag.
+    Panel { panel: TypeId, tag: u64 },
 }
 
 impl Owner {

@@ -1,0 +1,162 @@
+//! A panel's model, one per drive, kept by the drive without the drive knowing its type:
+//! the recipe a new panel follows (see ARCHITECTURE.md, "A new panel"). The model is plain
+//! data with no egui; it hears every event of its drive, the replies to the requests it
+//! asked for (each with the tag it gave), and hands its requests over when the drive
+//! sends. Its view reads it through [`Panels::get`] and pushes the user's intents as
+//! commands; one line in `ui::view` registers the view.
+//!
+//! A model: no egui here.
+
+use std::any::{Any, TypeId};
+use std::fmt::Debug;
+
+use crate::worker::{Event, Request};
+
+/// What a panel's model does with its drive's news. Every method has a default, so a
+/// model that only shows what it is told needs none but `on_event`.
+pub trait PanelModel: Any + Debug {
+    /// Every worker event of its drive, in order.
+    fn on_event(&mut self, _event: &Event) {}
+
+    /// A reply to one of its requests (`Rejected`, `Sent`, `Progress`, `ObjectRead`,
+    /// `ObjectWritten`, `Cancelled`): `tag` is what it said the request was for. `true`
+    /// when the request is over (no more replies are expected).
+    fn on_reply(&mut self, _tag: u64, _event: &Event) -> bool {
+        false
+    }
+
+    /// The requests it wants sent now, each with its tag.
+    fn take_requests(&mut self) -> Vec<(u64, Request)> {
+        Vec::new()
+    }
+
+    fn as_any(&self) -> &dyn Any;
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+/// The panels' models of one drive, one of each type, made when first asked for.
+#[derive(Debug, Default)]
+pub struct Panels {
+    models: Vec<(TypeId, Box<dyn PanelModel>)>,
+}
+
+impl Panels {
+    /// The model of type `M`, made (empty) the first time it is asked for.
+    pub fn get<M: PanelModel + Default>(&mut self) -> &mut M {
+        let id = TypeId::of::<M>();
+        let at = match self.models.iter().position(|(t, _)| *t == id) {
+            Some(at) => at,
+            None => {
+                self.models.push((id, Box::new(M::default())));
+                self.models.len() - 1
+            }
+        };
+        match self.models[at].1.as_any_mut().downcast_mut::<M>() {
+            Some(model) => model,
+            // The box at `id` holds an `M`: put there above, under `M`'s own id.
+            None => unreachable_model(),
+        }
+    }
+
+    /// The model of type `M`, if one was made.
+    pub fn find<M: PanelModel>(&self) -> Option<&M> {
+        let id = TypeId::of::<M>();
+        self.models
+            .iter()
+            .find(|(t, _)| *t == id)
+            .and_then(|(_, m)| m.as_any().downcast_ref::<M>())
+    }
+
+    /// An event of the drive, to every model.
+    pub fn on_event(&mut self, event: &Event) {
+        for (_, model) in &mut self.models {
+            model.on_event(event);
+        }
+    }
+
+    /// A reply to a request of the model of type `panel`; `true` when the request is over.
+    pub fn on_reply(&mut self, panel: TypeId, tag: u64, event: &Event) -> bool {
+        self.models
+            .iter_mut()
+            .find(|(t, _)| *t == panel)
+            .is_some_and(|(_, m)| m.on_reply(tag, event))
+    }
+
+    /// Every model's requests, with the model's type and the request's tag.
+    pub fn take_requests(&mut self) -> Vec<(TypeId, u64, Request)> {
+        let mut out = Vec::new();
+        for (id, model) in &mut self.models {
+            out.extend(
+                model
+                    .take_requests()
+                    .into_iter()
+                    .map(|(tag, r)| (*id, tag, r)),
+            );
+        }
+        out
+    }
+}
+
+/// A model stored under another type's id: `Panels` never does that.
+#[cold]
+fn unreachable_model() -> ! {
+    unreachable!("a panel model is stored under its own type's id")
+}
+
+/// The two methods every [`PanelModel`] needs for [`Panels`] to find it again.
+#[macro_export]
+macro_rules! panel_model_any {
+    () => {
+        fn as_any(&self) -> &dyn std::any::Any {
+            self
+        }
+        fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+            self
+        }
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, Default)]
+    struct Counter {
+        events: usize,
+        asked: Vec<(u64, Request)>,
+        replies: Vec<u64>,
+    }
+
+    impl PanelModel for Counter {
+        fn on_event(&mut self, _event: &Event) {
+            self.events += 1;
+        }
+        fn on_reply(&mut self, tag: u64, _event: &Event) -> bool {
+            self.replies.push(tag);
+            true
+        }
+        fn take_requests(&mut self) -> Vec<(u64, Request)> {
+            std::mem::take(&mut self.asked)
+        }
+        crate::panel_model_any!();
+    }
+
+    #[test]
+    fn a_model_is_made_once_hears_every_event_and_its_own_replies() {
+        let mut panels = Panels::default();
+        assert!(panels.find::<Counter>().is_none());
+        panels
+            .get::<Counter>()
+            .asked
+            .push((7, Request::ListSerialPorts));
+        panels.on_event(&Event::SerialPorts(vec![]));
+        panels.on_event(&Event::Interfaces(vec![]));
+        assert_eq!(panels.find::<Counter>().map(|c| c.events), Some(2));
+        let asked = panels.take_requests();
+        assert_eq!(asked.len(), 1);
+        let (panel, tag, _) = asked[0].clone();
+        assert_eq!((panel, tag), (TypeId::of::<Counter>(), 7));
+        assert!(panels.on_reply(panel, tag, &Event::SerialPorts(vec![])));
+        assert_eq!(panels.get::<Counter>().replies, [7]);
+    }
+}
