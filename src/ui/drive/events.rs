@@ -24,7 +24,7 @@ impl Drive {
     /// The reducer: one worker event into the drive's model; what the window must know
     /// of it (a capture to show), if anything.
     pub fn apply(&mut self, event: Event) -> Option<News> {
-        if self.to_panel(&event) {
+        if self.reply_to_panel(&event) {
             return None;
         }
         self.panels.on_event(&event);
@@ -197,7 +197,7 @@ impl Drive {
                 self.read_refused(id, &owner);
                 return;
             }
-            // A panel's replies went to it before (`to_panel`).
+            // A panel's replies went to it before (`reply_to_panel`).
             Some(Owner::User | Owner::Window | Owner::Panel { .. }) | None => {}
         }
         if self.motion.halt_request == Some(id) {
@@ -296,7 +296,7 @@ impl Drive {
                 }
                 return;
             }
-            // A panel's replies went to it before (`to_panel`).
+            // A panel's replies went to it before (`reply_to_panel`).
             Some(Owner::User | Owner::Window | Owner::Panel { .. }) | None => {}
         }
         if let Some(entry) = self.log.entry(id) {
@@ -482,7 +482,7 @@ impl Drive {
 
     /// A reply to a request of a panel the drive keeps the model of, handed to it; `true`
     /// when the event was such a reply.
-    fn to_panel(&mut self, event: &Event) -> bool {
+    fn reply_to_panel(&mut self, event: &Event) -> bool {
         let id = match event {
             Event::Rejected { id, .. }
             | Event::Sent { id, .. }
