@@ -37,7 +37,12 @@ fn table(text: &str) -> Result<BTreeMap<String, Allowed>, String> {
         if cells.len() < 3 || !cells[1].starts_with('`') {
             continue;
         }
-        let module = cells[1].trim_matches('`').to_owned();
+        // `ui` models: the window's model files (listed under <!-- models -->), a rule of
+        // their own beside the one of `ui`.
+        let module = match cells[1].strip_suffix(" models") {
+            Some(of) => format!("{} models", of.trim_matches('`')),
+            None => cells[1].trim_matches('`').to_owned(),
+        };
         let mut allowed = Allowed::default();
         for item in cells[2].split(',').map(str::trim).filter(|i| !i.is_empty()) {
             let quoted: Vec<&str> = item.split('`').skip(1).step_by(2).collect();
@@ -331,7 +336,7 @@ fn every_import_in_src_is_one_the_architecture_allows() {
         .iter()
         .filter_map(|(rel, _)| module_path(rel).first().cloned())
         .collect();
-    for module in rules.keys() {
+    for module in rules.keys().filter(|m| !m.ends_with(" models")) {
         assert!(
             seen.contains(module),
             "ARCHITECTURE.md lists `{module}`, which src/ does not have"
@@ -420,4 +425,377 @@ fn the_table_is_read_as_written() {
     assert!(rules["b"].types_only.contains("c"));
     assert!(rules["b"].submodules["c"].contains("grammar"));
     assert!(table("| `a` | |").is_err());
+}
+
+// The window: models without egui, and no import circles but a panel's own.
+
+/// The window's model files and folders (under src/), listed between `<!-- models -->` and
+/// `<!-- /models -->` in ARCHITECTURE.md: the first cell of each row.
+fn model_list(text: &str) -> Result<Vec<String>, String> {
+    let start = text
+        .find("<!-- models -->")
+        .ok_or("ARCHITECTURE.md has no <!-- models --> list")?;
+    let end = text
+        .find("<!-- /models -->")
+        .ok_or("ARCHITECTURE.md has no <!-- /models --> end")?;
+    let mut models = vec![];
+    for line in text[start..end].lines() {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if cells.len() < 3 || !cells[1].starts_with('`') {
+            continue;
+        }
+        for path in cells[1].split('`').skip(1).step_by(2) {
+            models.push(path.to_owned());
+        }
+    }
+    Ok(models)
+}
+
+/// Whether `rel` (a file under src/) is one of the window's models.
+fn is_model(rel: &Path, models: &[String]) -> bool {
+    let rel = rel.to_string_lossy().replace('\\', "/");
+    models.iter().any(|m| {
+        if m.ends_with('/') {
+            rel.starts_with(m.as_str())
+        } else {
+            rel == *m
+        }
+    })
+}
+
+/// The file of a module path under src/ (`["ui", "plots", "model"]` → ui/plots/model.rs),
+/// as deep as files go; `None` when even the first is not a module of the crate.
+fn module_file(src: &Path, path: &[String]) -> Option<PathBuf> {
+    let mut dir = src.to_path_buf();
+    let mut file = None;
+    for seg in path {
+        let as_dir = dir.join(seg).join("mod.rs");
+        let as_file = dir.join(format!("{seg}.rs"));
+        if as_dir.exists() {
+            file = Some(as_dir);
+        } else if as_file.exists() {
+            file = Some(as_file);
+        } else {
+            break;
+        }
+        dir = dir.join(seg);
+    }
+    file
+}
+
+/// The folder a file's child modules are in.
+fn children_dir(file: &Path) -> PathBuf {
+    match file.file_name().and_then(|n| n.to_str()) {
+        Some("mod.rs") => file.parent().map(Path::to_path_buf).unwrap_or_default(),
+        _ => file.with_extension(""),
+    }
+}
+
+/// The files of src/ that `file` (its code, `text`) imports: every `crate::` and `super::`
+/// path, and every `use child::…` of one of its own child modules.
+fn imported_files(src: &Path, file: &Path, text: &str) -> BTreeSet<PathBuf> {
+    let rel = file.strip_prefix(src).unwrap_or(file);
+    let own = module_path(rel);
+    let lines = code_lines(text);
+    let mut out = BTreeSet::new();
+    for (_, top, rest) in imports(&own, &lines) {
+        let mut path = vec![top];
+        path.extend(
+            rest.split("::")
+                .filter(|s| !s.is_empty())
+                .map(str::to_owned),
+        );
+        if let Some(target) = module_file(src, &path) {
+            out.insert(target);
+        }
+    }
+    let dir = children_dir(file);
+    for (_, line) in &lines {
+        let line = line
+            .trim()
+            .trim_start_matches("pub ")
+            .trim_start_matches("pub(crate) ");
+        let Some(used) = line.strip_prefix("use ") else {
+            continue;
+        };
+        let first = used.split("::").next().unwrap_or("").trim();
+        if first.is_empty() || !first.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            continue;
+        }
+        let mut path = vec![];
+        path.extend(used.split("::").map(|s| s.trim().to_owned()));
+        let as_dir = dir.join(first).join("mod.rs");
+        let as_file = dir.join(format!("{first}.rs"));
+        if as_dir.exists() || as_file.exists() {
+            let base = dir.strip_prefix(src).unwrap_or(&dir);
+            let mut full: Vec<String> = base
+                .iter()
+                .map(|p| p.to_string_lossy().into_owned())
+                .collect();
+            full.extend(path);
+            if let Some(target) = module_file(src, &full) {
+                out.insert(target);
+            }
+        }
+    }
+    out.remove(file);
+    out
+}
+
+/// The strongly connected groups of more than one file in `edges` (Tarjan).
+fn circles(edges: &BTreeMap<PathBuf, BTreeSet<PathBuf>>) -> Vec<Vec<PathBuf>> {
+    struct Walk<'a> {
+        edges: &'a BTreeMap<PathBuf, BTreeSet<PathBuf>>,
+        index: BTreeMap<&'a PathBuf, usize>,
+        low: BTreeMap<&'a PathBuf, usize>,
+        stack: Vec<&'a PathBuf>,
+        on_stack: BTreeSet<&'a PathBuf>,
+        next: usize,
+        found: Vec<Vec<PathBuf>>,
+    }
+    fn visit<'a>(w: &mut Walk<'a>, v: &'a PathBuf) {
+        w.index.insert(v, w.next);
+        w.low.insert(v, w.next);
+        w.next += 1;
+        w.stack.push(v);
+        w.on_stack.insert(v);
+        if let Some(targets) = w.edges.get(v) {
+            for t in targets {
+                let Some((t, _)) = w.edges.get_key_value(t) else {
+                    continue;
+                };
+                if !w.index.contains_key(t) {
+                    visit(w, t);
+                    let low = w.low[t].min(w.low[v]);
+                    w.low.insert(v, low);
+                } else if w.on_stack.contains(t) {
+                    let low = w.index[t].min(w.low[v]);
+                    w.low.insert(v, low);
+                }
+            }
+        }
+        if w.low[v] == w.index[v] {
+            let mut group = vec![];
+            while let Some(u) = w.stack.pop() {
+                w.on_stack.remove(u);
+                group.push(u.clone());
+                if u == v {
+                    break;
+                }
+            }
+            if group.len() > 1 {
+                group.sort();
+                w.found.push(group);
+            }
+        }
+    }
+    let mut w = Walk {
+        edges,
+        index: BTreeMap::new(),
+        low: BTreeMap::new(),
+        stack: vec![],
+        on_stack: BTreeSet::new(),
+        next: 0,
+        found: vec![],
+    };
+    for v in edges.keys() {
+        if !w.index.contains_key(v) {
+            visit(&mut w, v);
+        }
+    }
+    w.found
+}
+
+/// The panel a file of src/ui is part of: its folder under src/ui (`browser`, `plots`), or
+/// the file itself when it sits in src/ui.
+fn panel_of(rel: &Path) -> String {
+    let parts: Vec<String> = rel
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect();
+    match parts.as_slice() {
+        [ui, dir, _, ..] if ui == "ui" => dir.clone(),
+        _ => rel.to_string_lossy().into_owned(),
+    }
+}
+
+/// Every non-test file of src/ui, with its text.
+fn ui_files() -> Vec<(PathBuf, String)> {
+    let src = root().join("src");
+    let mut paths = vec![];
+    sources(&src.join("ui"), &mut paths);
+    paths.sort();
+    let tests = test_files(&paths);
+    paths
+        .into_iter()
+        .filter(|p| !tests.contains(p))
+        .map(|p| {
+            let text = std::fs::read_to_string(&p).expect("readable source");
+            (p, text)
+        })
+        .collect()
+}
+
+/// What the window's rules find wrong: a model that uses egui or imports a view of another
+/// panel (or the window's index), an import of a model beyond what `ui` models may, and
+/// an import circle between files of different panels.
+fn window_violations(
+    src: &Path,
+    files: &[(PathBuf, String)],
+    models: &[String],
+    rule: &Allowed,
+) -> Vec<String> {
+    let mut bad = vec![];
+    let mut edges = BTreeMap::new();
+    for (file, text) in files {
+        let rel = file.strip_prefix(src).unwrap_or(file).to_path_buf();
+        let targets = imported_files(src, file, text);
+        if is_model(&rel, models) {
+            for (line, code) in code_lines(text) {
+                for gui in ["eframe::", "egui::", "egui_plot::", "egui_extras::"] {
+                    let at = code.find(gui);
+                    let boundary = at.is_some_and(|i| {
+                        i == 0
+                            || !code.as_bytes()[i - 1].is_ascii_alphanumeric()
+                                && code.as_bytes()[i - 1] != b'_'
+                    });
+                    if boundary {
+                        bad.push(format!(
+                            "src/{}:{line}: a model of the window uses `{gui}`",
+                            rel.display()
+                        ));
+                    }
+                }
+            }
+            for (line, top, rest) in imports(&module_path(&rel), &code_lines(text)) {
+                if top == "ui" || rule.whole.contains(&top) {
+                    continue;
+                }
+                let first = rest.split("::").next().unwrap_or("");
+                let types = rule.types_only.contains(&top)
+                    && (is_root_type(&rest)
+                        || rule.submodules.get(&top).is_some_and(|s| s.contains(first)));
+                if !types {
+                    bad.push(format!(
+                        "src/{}:{line}: the `ui` model imports `{top}::{rest}`, which ARCHITECTURE.md does not allow models",
+                        rel.display()
+                    ));
+                }
+            }
+            for target in &targets {
+                let target_rel = target.strip_prefix(src).unwrap_or(target);
+                let same_panel = panel_of(target_rel) == panel_of(&rel);
+                if target_rel.starts_with("ui") && !is_model(target_rel, models) && !same_panel {
+                    bad.push(format!(
+                        "src/{}: a model of the window imports src/{}, which is no model",
+                        rel.display(),
+                        target_rel.display()
+                    ));
+                }
+            }
+        }
+        edges.insert(file.clone(), targets);
+    }
+    for group in circles(&edges) {
+        let rels: Vec<PathBuf> = group
+            .iter()
+            .map(|f| f.strip_prefix(src).unwrap_or(f).to_path_buf())
+            .collect();
+        let panel = panel_of(&rels[0]);
+        if rels
+            .iter()
+            .all(|r| panel_of(r) == panel && r.iter().count() > 2)
+        {
+            // a panel's own files: its views and its model (printed, so a note can cite them)
+            eprintln!(
+                "a circle inside one panel: {}",
+                rels.iter()
+                    .map(|r| format!("src/{}", r.display()))
+                    .collect::<Vec<_>>()
+                    .join(" ↔ ")
+            );
+            continue;
+        }
+        bad.push(format!(
+            "an import circle across panels: {}",
+            rels.iter()
+                .map(|r| format!("src/{}", r.display()))
+                .collect::<Vec<_>>()
+                .join(" → ")
+        ));
+    }
+    bad
+}
+
+#[test]
+fn window_models_use_no_egui_and_ui_has_no_import_circle_across_panels() {
+    let architecture =
+        std::fs::read_to_string(root().join("ARCHITECTURE.md")).expect("ARCHITECTURE.md");
+    let models = model_list(&architecture).unwrap_or_else(|e| panic!("{e}"));
+    let rules = rules();
+    let rule = rules
+        .get("ui models")
+        .expect("ARCHITECTURE.md's layer table has a row for the `ui` models");
+    let src = root().join("src");
+    for model in &models {
+        assert!(
+            src.join(model).exists(),
+            "ARCHITECTURE.md lists {model} as a model, which src/ does not have"
+        );
+    }
+    let bad = window_violations(&src, &ui_files(), &models, rule);
+    assert!(
+        bad.is_empty(),
+        "{} problems:\n{}",
+        bad.len(),
+        bad.join("\n")
+    );
+}
+
+#[test]
+fn a_model_with_egui_and_a_circle_across_panels_are_named() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let src = dir.path();
+    let write = |rel: &str, text: &str| {
+        let path = src.join(rel);
+        std::fs::create_dir_all(path.parent().expect("a folder")).expect("folders");
+        std::fs::write(&path, text).expect("written");
+        path
+    };
+    let files = vec![
+        write("ui/mod.rs", "pub mod a;\npub mod b;\n"),
+        write("ui/a/mod.rs", "mod model;\npub use model::M;\n"),
+        write(
+            "ui/a/model.rs",
+            "use eframe::egui;\nuse crate::ui::b::view::V;\n",
+        ),
+        write("ui/b/mod.rs", "pub mod view;\n"),
+        write("ui/b/view.rs", "use crate::ui::a::model::M;\n"),
+    ];
+    let files: Vec<(PathBuf, String)> = files
+        .into_iter()
+        .map(|p| {
+            let text = std::fs::read_to_string(&p).expect("read");
+            (p, text)
+        })
+        .collect();
+    let models = vec!["ui/a/model.rs".to_owned()];
+    let bad = window_violations(src, &files, &models, &Allowed::default());
+    assert!(
+        bad.iter()
+            .any(|b| b.contains("ui/a/model.rs:1: a model of the window uses `eframe::`")),
+        "{bad:#?}"
+    );
+    assert!(
+        bad.iter()
+            .any(|b| b.contains("imports src/ui/b/view.rs, which is no model")),
+        "{bad:#?}"
+    );
+    assert!(
+        bad.iter()
+            .any(|b| b.starts_with("an import circle across panels")
+                && b.contains("ui/a/model.rs")
+                && b.contains("ui/b/view.rs")),
+        "{bad:#?}"
+    );
 }

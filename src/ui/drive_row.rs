@@ -10,7 +10,7 @@ use crate::cia::PowerState;
 use crate::signal::AT_REST_RPM;
 use crate::ui::drive::{Connection, Drive};
 use crate::ui::glance::model::{Tone, doing};
-use crate::ui::plots::PositionUnit;
+use crate::ui::plots::model::PositionUnit;
 
 /// What a row of the list shows: name, link, CiA 402 state, fault, position, motion.
 #[derive(Clone, Debug, PartialEq)]

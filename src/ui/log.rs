@@ -7,7 +7,7 @@ use super::drive::{Drive, LogEntry, Outcome};
 use super::widgets::{AMBER, GREEN, RED, log_grid_ui};
 
 /// The id of the log's tab of commands.
-pub const COMMANDS: &str = "commands";
+pub use super::window::COMMANDS;
 /// The id of the log's tab of bus frames.
 pub const FRAMES: &str = "frames";
 

@@ -13,26 +13,13 @@ use eframe::egui;
 
 use crate::worker;
 
-/// The live plots' redraw rate unless the user chose another.
-pub const DEFAULT_REDRAW_HZ: f64 = 30.0;
-/// The rates the setting accepts.
-pub const REDRAW_HZ_MIN: f64 = 1.0;
-pub const REDRAW_HZ_MAX: f64 = 240.0;
-/// How often samples wake the window while the plots stand still.
-pub const STILL_REDRAW_HZ: f64 = 1.0;
+pub use super::plots::model::{
+    DEFAULT_REDRAW_HZ, REDRAW_HZ_MAX, REDRAW_HZ_MIN, STILL_REDRAW_HZ, redraw_hz,
+};
+
 /// A frame asked for that has not begun this long after it fell due (at least a period)
 /// is asked for again: egui drops a request made in a pass it then ran again.
 const OVERDUE: Duration = Duration::from_millis(250);
-
-/// The redraw rate as asked, within the accepted range (a bad value in a settings file
-/// gives the default).
-pub fn redraw_hz(asked: f64) -> f64 {
-    if asked.is_finite() {
-        asked.clamp(REDRAW_HZ_MIN, REDRAW_HZ_MAX)
-    } else {
-        DEFAULT_REDRAW_HZ
-    }
-}
 
 /// The window's pace, shared by the window and every worker's wake-up call.
 #[derive(Debug)]

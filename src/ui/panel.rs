@@ -12,9 +12,24 @@ use std::fmt::Debug;
 
 use crate::worker::{Event, Request};
 
+/// Any type as `Any`, so [`Panels`] can find a model again by its type.
+pub trait AsAny: Any {
+    fn as_any(&self) -> &dyn Any;
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+impl<T: Any> AsAny for T {
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
+
 /// What a panel's model does with its drive's news. Every method has a default, so a
 /// model that only shows what it is told needs none but `on_event`.
-pub trait PanelModel: Any + Debug {
+pub trait PanelModel: AsAny + Debug {
     /// Every worker event of its drive, in order.
     fn on_event(&mut self, _event: &Event) {}
 
@@ -29,9 +44,6 @@ pub trait PanelModel: Any + Debug {
     fn take_requests(&mut self) -> Vec<(u64, Request)> {
         Vec::new()
     }
-
-    fn as_any(&self) -> &dyn Any;
-    fn as_any_mut(&mut self) -> &mut dyn Any;
 }
 
 /// The panels' models of one drive, one of each type, made when first asked for.
@@ -51,7 +63,7 @@ impl Panels {
                 self.models.len() - 1
             }
         };
-        match self.models[at].1.as_any_mut().downcast_mut::<M>() {
+        match self.models[at].1.as_mut().as_any_mut().downcast_mut::<M>() {
             Some(model) => model,
             // The box at `id` holds an `M`: put there above, under `M`'s own id.
             None => unreachable_model(),
@@ -64,7 +76,7 @@ impl Panels {
         self.models
             .iter()
             .find(|(t, _)| *t == id)
-            .and_then(|(_, m)| m.as_any().downcast_ref::<M>())
+            .and_then(|(_, m)| m.as_ref().as_any().downcast_ref::<M>())
     }
 
     /// An event of the drive, to every model.
@@ -103,19 +115,6 @@ fn unreachable_model() -> ! {
     unreachable!("a panel model is stored under its own type's id")
 }
 
-/// The two methods every [`PanelModel`] needs for [`Panels`] to find it again.
-#[macro_export]
-macro_rules! panel_model_any {
-    () => {
-        fn as_any(&self) -> &dyn std::any::Any {
-            self
-        }
-        fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
-            self
-        }
-    };
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -138,7 +137,6 @@ mod tests {
         fn take_requests(&mut self) -> Vec<(u64, Request)> {
             std::mem::take(&mut self.asked)
         }
-        crate::panel_model_any!();
     }
 
     #[test]

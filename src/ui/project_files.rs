@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 
 use crate::project::{self, Project};
 use crate::ui::connection_form::ConnectionForm;
-use crate::ui::plots::PlotSettings;
 use crate::ui::plots::files::Answer;
+use crate::ui::plots::model::PlotSettings;
 use crate::ui::settings::DriveSettings;
 
 /// The window's project file: where it is, a dialog being answered, a file waiting for

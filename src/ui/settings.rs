@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::browser::DictionarySettings;
 use super::connection_form::ConnectionForm;
-use super::plots::PlotSettings;
+use super::plots::model::PlotSettings;
 use super::watch::WatchSettings;
 use crate::pdi::Opcode;
 

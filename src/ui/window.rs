@@ -4,8 +4,11 @@
 //!
 //! A model: no egui here.
 
-use crate::ui::plots::PlotView;
+use crate::ui::plots::model::PlotView;
 use crate::ui::settings::WindowSettings;
+
+/// The id of the log's first tab, the commands: what the log shows at first.
+pub const COMMANDS: &str = "commands";
 
 /// The list of drives as the user edits it: the "+ Add drive" box, the selected drive's
 /// name as typed, and what went wrong with the list.
@@ -33,7 +36,7 @@ impl Window {
         Self {
             settings,
             plot: PlotView::default(),
-            bottom: crate::ui::log::COMMANDS,
+            bottom: COMMANDS,
             list: DriveList::default(),
         }
     }

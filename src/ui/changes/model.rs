@@ -43,8 +43,6 @@ impl PanelModel for Changes {
             _ => {}
         }
     }
-
-    crate::panel_model_any!();
 }
 
 impl Changes {

@@ -1,11 +1,12 @@
 //! The plot panel: stacked plots of the sampled signals on one time axis, the status bits
 //! as digital lanes, command markers, a cursor read-out, pause, follow, zoom and pan; the
 //! analog plots live in `traces`, the status-bit lanes in `lanes`, the trigger and the
-//! exports in `capture`, the PNG in `picture`, recordings opened from files (and a frozen
+//! exports in `trigger_view` and `exports_view` (one row: `capture`), the PNG in `picture`, recordings opened from files (and a frozen
 //! capture) in `review`, the dialogs in `files`.
 
 mod capture;
 pub mod exports;
+mod exports_view;
 pub mod files;
 mod lanes;
 pub mod model;
@@ -15,6 +16,7 @@ pub mod review;
 mod review_view;
 mod traces;
 pub mod trigger;
+mod trigger_view;
 pub mod view;
 
 pub use crate::ui::command::PlotCommand;

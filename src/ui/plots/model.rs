@@ -83,6 +83,23 @@ pub fn with_turns(value: f64, unit: &str) -> String {
     }
 }
 
+/// The live plots' redraw rate unless the user chose another.
+pub const DEFAULT_REDRAW_HZ: f64 = 30.0;
+/// The rates the setting accepts.
+pub const REDRAW_HZ_MIN: f64 = 1.0;
+pub const REDRAW_HZ_MAX: f64 = 240.0;
+/// How often samples wake the window while the plots stand still.
+pub const STILL_REDRAW_HZ: f64 = 1.0;
+/// The redraw rate as asked, within the accepted range (a bad value in a settings file
+/// gives the default).
+pub fn redraw_hz(asked: f64) -> f64 {
+    if asked.is_finite() {
+        asked.clamp(REDRAW_HZ_MIN, REDRAW_HZ_MAX)
+    } else {
+        DEFAULT_REDRAW_HZ
+    }
+}
+
 /// What the plot panel remembers between runs.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -112,7 +129,7 @@ impl Default for PlotSettings {
             trigger: TriggerForm::default(),
             shown: Vec::new(),
             position_unit: PositionUnit::default(),
-            redraw_hz: crate::ui::pace::DEFAULT_REDRAW_HZ,
+            redraw_hz: DEFAULT_REDRAW_HZ,
         }
     }
 }

@@ -8,8 +8,8 @@ use std::sync::Arc;
 
 use eframe::egui::{self, Rect, RichText, Ui};
 
-use super::capture::ask;
 use super::exports::Job;
+use super::exports_view::ask;
 use super::model::{Image, Picture, PlotView, shown_scope, time_range};
 use super::view::Plots;
 

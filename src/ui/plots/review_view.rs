@@ -3,9 +3,10 @@
 
 use eframe::egui::{self, Ui};
 
-use super::capture::{arm, ask};
 use super::exports::Job;
+use super::exports_view::ask;
 use super::review::close;
+use super::trigger_view::arm;
 use super::view::Plots;
 use crate::ui::command::{Command, PlotCommand};
 use crate::ui::widgets::AMBER;

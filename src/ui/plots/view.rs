@@ -6,6 +6,7 @@ use eframe::egui::{self, Ui};
 
 use super::capture;
 use super::exports::Beside;
+use super::exports_view;
 use super::model::{PlotSettings, PlotView, PositionUnit, shown_scope};
 use super::picture;
 use super::readout;
@@ -130,9 +131,9 @@ pub fn plots_ui(ui: &mut Ui, p: &mut Plots<'_>) {
     // The answers of this frame's dialogs (a scripted one answers at once) and of those
     // that came in between.
     picture::poll(ui.ctx(), p);
-    capture::poll(ui.ctx(), p);
+    exports_view::poll(ui.ctx(), p);
     review::poll(p.view);
-    capture::confirm_ui(ui.ctx(), p);
+    exports_view::confirm_ui(ui.ctx(), p);
 }
 
 fn toolbar(ui: &mut Ui, p: &mut Plots<'_>) {
