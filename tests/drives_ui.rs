@@ -17,7 +17,7 @@ use drivedeck::injection::Injection;
 use drivedeck::od::Address;
 use drivedeck::pdi::Action;
 use drivedeck::ui::App;
-use drivedeck::ui::Drive as AppState;
+use drivedeck::ui::Drive;
 use drivedeck::ui::drive::Connection;
 use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
@@ -48,18 +48,18 @@ fn two_drives() -> Harness<'static, App> {
     harness
 }
 
-fn drive<'a>(harness: &'a Harness<'_, App>, index: usize) -> &'a AppState {
+fn drive<'a>(harness: &'a Harness<'_, App>, index: usize) -> &'a Drive {
     harness.state().drive(index).expect("the drive")
 }
 
-fn power(state: &AppState) -> Option<PowerState> {
+fn power(state: &Drive) -> Option<PowerState> {
     state
         .latest()
         .and_then(|s| s.statusword())
         .and_then(PowerState::from_statusword)
 }
 
-fn speed(state: &AppState) -> f64 {
+fn speed(state: &Drive) -> f64 {
     state
         .latest()
         .and_then(|s| s.velocity())

@@ -18,7 +18,7 @@ use std::time::Duration;
 use drivedeck::od::Address;
 use drivedeck::od::backup::DeviceIdentity;
 use drivedeck::project::{self, Drive, Format, Pin, Project};
-use drivedeck::ui::Drive as AppState;
+use drivedeck::ui::Drive as DriveModel;
 use drivedeck::ui::drive::Outcome;
 use drivedeck::ui::plots::files::ScriptedPicker;
 use drivedeck::ui::{App, Settings};
@@ -70,12 +70,12 @@ fn harness(app: App) -> Harness<'static, App> {
         .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
 }
 
-fn drive<'a>(harness: &'a Harness<'_, App>, index: usize) -> &'a AppState {
+fn drive<'a>(harness: &'a Harness<'_, App>, index: usize) -> &'a DriveModel {
     harness.state().drive(index).expect("the drive")
 }
 
 /// The outcome of drive `index`'s project check in its log.
-fn check_entry(state: &AppState) -> Option<Outcome> {
+fn check_entry(state: &DriveModel) -> Option<Outcome> {
     state
         .log
         .iter()

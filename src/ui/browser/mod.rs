@@ -35,7 +35,7 @@ pub use table::Columns;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cell {
     pub result: Result<Value, String>,
-    /// `AppState::clock` when it arrived.
+    /// `Drive::clock` when it arrived.
     pub at: f64,
     /// When a read last brought another value than the one before, and that value (the
     /// row is highlighted for [`CHANGED_FOR`] seconds).
