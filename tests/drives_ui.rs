@@ -151,6 +151,20 @@ fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() 
     );
     // A name given twice is refused, and the list says why.
     assert!(harness.state_mut().rename(1, "X axis".into()).is_err());
+    // Each drive keeps the colour it was given when it was added, whichever is shown.
+    let colors = |h: &Harness<'_, App>| -> Vec<usize> {
+        h.state()
+            .drive_rows(SystemTime::now())
+            .iter()
+            .map(|r| r.color)
+            .collect()
+    };
+    assert_eq!(colors(&harness), [0, 1]);
+    harness.get_by_label("Y table").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().selected(), 1);
+    assert_eq!(colors(&harness), [0, 1], "selecting moves no colour");
+    assert_eq!(drive(&harness, 0).color, 0);
 }
 
 #[test]

@@ -7,6 +7,7 @@ use eframe::egui::{self, Color32, RichText, Ui};
 use super::command::Command;
 use super::drive_row::DriveRow;
 use super::glance::tone_color;
+use super::plots::drive_color;
 use super::project_files::ProjectFiles;
 use super::widgets::{AMBER, RED, name_widget, named_text_edit};
 use super::window::DriveList;
@@ -79,6 +80,12 @@ fn row_ui(
     commands: &mut Vec<Command>,
 ) {
     ui.horizontal(|ui| {
+        if several {
+            // The drive's colour, as its lines have it when drives share the plots.
+            let (swatch, _) = ui.allocate_exact_size(egui::vec2(4.0, 16.0), egui::Sense::hover());
+            ui.painter()
+                .rect_filled(swatch, 1.0, drive_color(row.color));
+        }
         if chosen {
             // Typed into a draft: a name half typed may be empty or taken for a moment.
             let mut name = list.name_draft.clone().unwrap_or_else(|| row.name.clone());

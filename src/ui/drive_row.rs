@@ -16,6 +16,9 @@ use crate::ui::plots::model::PositionUnit;
 #[derive(Clone, Debug, PartialEq)]
 pub struct DriveRow {
     pub name: String,
+    /// The colour index the drive was given when it was added (its lines' colour when
+    /// several drives share the plots).
+    pub color: usize,
     /// The connection string, and how the link stands when it is not up.
     pub link: String,
     /// The CiA 402 state (from 6041h, or PDI-Status), or NO LINK while not live.
@@ -94,6 +97,7 @@ impl DriveRow {
         };
         DriveRow {
             name: drive.name.clone(),
+            color: drive.color,
             link,
             state: state_text,
             tone,

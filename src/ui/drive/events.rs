@@ -119,6 +119,9 @@ impl Drive {
         state.identity = None;
         self.motion.halt_engaged = false;
         self.motion.torque_slope = None;
+        // Why the drive stood on the link before is history now (the log and the fault
+        // timeline keep it): the tile tells of this link's drive only.
+        self.motion.why = None;
         self.describe_drive(None, &link);
         self.timeline.reconnected();
         self.read_on_connecting();

@@ -319,3 +319,19 @@ fn another_drive_keeps_the_history_and_is_marked_from_its_first_sample() {
             .is_some_and(|n| n.contains("are of another drive")),
     );
 }
+
+#[test]
+fn why_the_drive_stood_goes_with_the_link_it_stood_on() {
+    let mut state = new_drive();
+    state.apply(Event::Connected(info()));
+    state.motion.why = Some("Quickstop sent from this window at 10:00:00 UTC".into());
+    state.apply(Event::Disconnected {
+        reason: Some("connection reset".into()),
+    });
+    assert!(state.motion.why.is_some(), "kept while the link is down");
+    state.apply(Event::Connected(info()));
+    assert_eq!(
+        state.motion.why, None,
+        "a reconnect starts without the old why"
+    );
+}

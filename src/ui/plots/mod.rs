@@ -27,6 +27,6 @@ pub use model::{
     time_range, with_turns,
 };
 pub use review::Review;
-pub use traces::{DRIVE_COLORS, colors};
+pub use traces::{DRIVE_COLORS, colors, drive_color};
 pub use trigger::TriggerForm;
 pub use view::{Alone, Plots, headless_frame, plots_ui};

@@ -40,6 +40,7 @@ const ORANGE: Color32 = Color32::from_rgb(240, 120, 40);
 const SKY: Color32 = Color32::from_rgb(140, 200, 250);
 const SAND: Color32 = Color32::from_rgb(210, 180, 130);
 const GREY: Color32 = Color32::from_gray(150);
+const WHITE: Color32 = Color32::from_gray(225);
 /// The shade of a stretch without samples.
 const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
 /// The colours for traces that are no built-in signal, in order.
@@ -47,9 +48,15 @@ pub(super) const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY,
 /// Another drive's line in a plot: its legend name, its points, its gaps, its colour.
 type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band], Color32);
 
-/// The drives' lines in a plot beside the shown drive's, by the colour each drive was
-/// given when it was added (the shown drive's line keeps the signal's colour).
-pub const DRIVE_COLORS: [Color32; 4] = [ORANGE, PINK, SKY, LIME];
+/// The drives' lines when several are drawn on one plot: each drive's line in the colour
+/// it was given when it was added, the shown drive's too, so a colour stays with its drive
+/// whichever is selected (alone, the shown drive's lines take the signals' colours).
+pub const DRIVE_COLORS: [Color32; 8] = [ORANGE, PINK, SKY, LIME, SAND, TEAL, PURPLE, WHITE];
+
+/// The colour of the drive given colour index `index` when it was added.
+pub fn drive_color(index: usize) -> Color32 {
+    DRIVE_COLORS[index % DRIVE_COLORS.len()]
+}
 /// The cursors' colours (A, B).
 const CURSOR_COLORS: [Color32; 2] = [
     Color32::from_rgb(250, 230, 80),
@@ -128,8 +135,8 @@ pub(super) struct View<'a> {
     trigger_at: Option<f64>,
     /// The threshold trigger's signal column and level.
     threshold: Option<(usize, f64)>,
-    /// The selected drive's name, when other drives are drawn beside it.
-    own: Option<&'a str>,
+    /// The selected drive's name and colour, when other drives are drawn beside it.
+    own: Option<(&'a str, Color32)>,
     /// The other drives whose signals are drawn on the same time axis, and their gaps.
     beside: Vec<(&'a Beside<'a>, Vec<Band>)>,
     /// The last frames' decimations, reused where the plots have not moved.
@@ -176,7 +183,8 @@ impl<'a> View<'a> {
             highlight: plot.highlight,
             trigger_at,
             threshold,
-            own: (!beside.is_empty()).then_some(drive.name.as_str()),
+            own: (!beside.is_empty() && review.is_none_or(|r| r.capture))
+                .then(|| (drive.name.as_str(), drive_color(drive.color))),
             // A recording opened from a file has a time base of its own: nothing beside.
             beside: if review.is_none_or(|r| r.capture) {
                 beside
@@ -408,9 +416,9 @@ fn analog_plot_ui(
         format!("{} [{unit}]", signal.info.name)
     };
     // With other drives drawn beside it, each line says whose it is.
-    let label = match view.own {
-        Some(own) => format!("{own}: {label}"),
-        None => label,
+    let (label, color) = match view.own {
+        Some((own, theirs)) => (format!("{own}: {label}"), theirs),
+        None => (label, color),
     };
     let column = signal.column;
     let level = view
@@ -466,7 +474,7 @@ fn analog_plot_ui(
                         format!("{}: {}", b.name, signal.info.name),
                         points,
                         bands.as_slice(),
-                        DRIVE_COLORS[b.color % DRIVE_COLORS.len()],
+                        drive_color(b.color),
                     ))
                 })
                 .collect();
