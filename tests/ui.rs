@@ -24,12 +24,13 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT, Queryable};
 use window::{
     app_harness, choose_bus, connected, connected_to, disconnected_harness, fill, lamp, position,
-    read_object, start_turning, step_until, velocity,
+    read_object, sim_time_harness, start_turning, step_until, velocity,
 };
 
 #[test]
 fn the_absolute_move_button_sends_the_command_and_the_lamps_follow() {
-    let mut harness = app_harness();
+    // Only the end state is asserted: on simulated time the move takes no real time.
+    let mut harness = sim_time_harness();
     step_until(
         &mut harness,
         "connecting to the simulator",
@@ -260,13 +261,14 @@ fn escape_sends_quickstop_from_anywhere() {
 
 #[test]
 fn the_poll_rate_box_changes_the_worker_rate() {
-    let mut harness = app_harness();
+    // On simulated time: the health reports' seconds pass without real waiting.
+    let mut harness = sim_time_harness();
     connected(&mut harness);
     harness.get_by_label("Poll rate").set_value_accesskit(25.0);
     harness.step();
     assert_eq!(harness.state().shown().settings.poll_rate, 25.0);
-    // Health comes once a second; the second report after the change shows the new rate.
-    std::thread::sleep(Duration::from_millis(2200));
+    // Health comes once a (simulated) second; a report after the change shows the new
+    // rate.
     step_until(
         &mut harness,
         "a health report at 25 Hz",

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use drivedeck::link::LinkSpec;
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::ui::connection_form::ConnectionForm;
-use drivedeck::ui::{App, Settings};
+use drivedeck::ui::{App, Settings, WorkerClock};
 use drivedeck::worker::{ObjectPath, Request};
 use eframe::egui;
 use egui::accesskit::Toggled;
@@ -23,6 +23,22 @@ pub fn harness_with(settings: Settings, connect: bool, size: egui::Vec2) -> Harn
     let app = App::new(settings, Arc::new(|| {}), connect);
     Harness::builder()
         .with_size(size)
+        .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
+}
+
+/// The window on the built-in simulated drive with its worker on simulated time: waiting
+/// for a move, a ramp or a health report costs no real time (the simulated clock jumps
+/// ahead whenever the worker only waits). For tests that wait for an end state only: the
+/// drive may pass through a state between two frames.
+pub fn sim_time_harness() -> Harness<'static, App> {
+    let app = App::with_clock(
+        Settings::default(),
+        Arc::new(|| {}),
+        true,
+        WorkerClock { simulated: true },
+    );
+    Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
         .build_ui_state(|ui, app: &mut App| app.frame(ui), app)
 }
 
