@@ -518,3 +518,46 @@ fn exports_write_every_drive_beside_the_selected_one_and_ask_before_replacing_an
     harness.run_steps(2);
     assert_eq!(std::fs::read(&beside).expect("Y's file"), before);
 }
+
+#[test]
+fn a_drive_is_added_by_its_connection_string_typed_into_the_menu() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    assert_eq!(harness.state().drive_count(), 1);
+    harness.get_by_label("+ Add drive").click();
+    step_until_shown(&mut harness, "New drive's connection string");
+    // A click into the box (press and release inside the menu) leaves the menu open.
+    harness
+        .get_by_label("New drive's connection string")
+        .click();
+    harness.run_steps(3);
+    let field = harness.get_by_label("New drive's connection string");
+    assert!(field.is_focused(), "the box has the keyboard after the click");
+    field.type_text("canopen+sim://?node=3");
+    harness.run_steps(2);
+    assert_eq!(
+        harness
+            .get_by_label("New drive's connection string")
+            .value()
+            .as_deref(),
+        Some("canopen+sim://?node=3")
+    );
+    harness.get_by_label("Add").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().drive_count(), 2);
+    let links: Vec<String> = harness
+        .state()
+        .drives()
+        .filter_map(|(_, link)| link.map(|l| l.to_string()))
+        .collect();
+    assert!(
+        links.iter().any(|l| l.contains("node=3")),
+        "the new drive is on the link typed: {links:?}"
+    );
+    assert!(
+        harness
+            .query_by_label("New drive's connection string")
+            .is_none(),
+        "Add closes the menu"
+    );
+}

@@ -2,7 +2,8 @@
 //! position, motion, fault, project check), the selected one's name editable, "+ Add
 //! drive" and the "Project" menu; so the plots and the dictionary lose no room to it.
 
-use eframe::egui::{self, Color32, RichText, Ui};
+use eframe::egui::containers::menu::{MenuButton, MenuConfig};
+use eframe::egui::{self, Color32, PopupCloseBehavior, RichText, Ui};
 
 use super::command::Command;
 use super::drive_row::DriveRow;
@@ -173,7 +174,10 @@ fn add_menu_ui(
     list: &mut DriveList,
     commands: &mut Vec<Command>,
 ) {
-    ui.menu_button("+ Add drive", |ui| {
+    // Closed by its buttons or a click outside: a click into the connection string's box
+    // must leave it open (egui's default closes a menu on any click inside it).
+    let config = MenuConfig::new().close_behavior(PopupCloseBehavior::CloseOnClickOutside);
+    MenuButton::new("+ Add drive").config(config).ui(ui, |ui| {
         ui.set_min_width(260.0);
         if ui
             .button("Simulated drive")
