@@ -532,7 +532,10 @@ fn a_drive_is_added_by_its_connection_string_typed_into_the_menu() {
         .click();
     harness.run_steps(3);
     let field = harness.get_by_label("New drive's connection string");
-    assert!(field.is_focused(), "the box has the keyboard after the click");
+    assert!(
+        field.is_focused(),
+        "the box has the keyboard after the click"
+    );
     field.type_text("canopen+sim://?node=3");
     harness.run_steps(2);
     assert_eq!(

@@ -89,6 +89,37 @@ fn arrow_keys_jog_and_escape_stops_a_jog_for_good() {
 }
 
 #[test]
+fn arrow_keys_jog_with_the_command_panel_folded() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    harness.get_by_label("Collapse the command panel").click();
+    harness.run_steps(2);
+    assert!(
+        harness.query_by_label("Jog +").is_none(),
+        "the panel is folded"
+    );
+    harness.key_down(egui::Key::ArrowRight);
+    harness.step();
+    step_until(
+        &mut harness,
+        "the jog forwards, panel folded",
+        Duration::from_secs(3),
+        |h| velocity(h) > 80.0,
+    );
+    harness.key_up(egui::Key::ArrowRight);
+    harness.step();
+    step_until(
+        &mut harness,
+        "the halt on release",
+        Duration::from_secs(3),
+        |h| velocity(h) == 0.0,
+    );
+    let state = harness.state().shown();
+    assert!(state.motion.jog.is_none());
+    assert!(state.log.iter().any(|e| e.what == "Jog released: halt"));
+}
+
+#[test]
 fn escape_sends_quickstop_ahead_of_everything_queued() {
     let mut harness = app_harness();
     connected(&mut harness);

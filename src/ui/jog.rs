@@ -1,8 +1,9 @@
 //! Jog buttons that move only while held: pressing starts Profile Velocity at the jog
 //! speed, holding sends a keep-alive every `JOG_KEEPALIVE`, releasing halts. The Left and
-//! Right arrow keys do the same while no text box has the keyboard. The worker halts the
-//! drive by itself when the keep-alives stop (a frozen window); the window stops the jog
-//! when it loses focus.
+//! Right arrow keys do the same while no text box has the keyboard, whether the command
+//! panel is open or folded ([`jog_input`] runs every frame). The worker halts the drive by
+//! itself when the keep-alives stop (a frozen window); the window stops the jog when it
+//! loses focus.
 
 use eframe::egui::{self, Key, RichText, Sense, Ui};
 
@@ -11,7 +12,9 @@ use super::drive::{Drive, jog_speed};
 use super::widgets::{AMBER, name_widget, named_text_edit};
 use crate::worker::JOG_KEEPALIVE;
 
-pub fn jog_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
+/// The jog row: the buttons, the speed, and what the jog is doing. Which button is held
+/// (-1, +1, or 0): [`jog_input`] acts on it.
+pub fn jog_ui(ui: &mut Ui, drive: &mut Drive) -> i32 {
     let offline = drive.offline_reason();
     let speed = jog_speed(&drive.settings.jog_speed);
     let usable = offline.is_none() && speed.is_ok();
@@ -50,14 +53,25 @@ pub fn jog_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
             (Ok(_), None) => {}
         }
     });
-    // Under the buttons, so the row stays narrow enough for a narrow command panel.
-    if speed.is_ok() && drive.motion.jog.is_none() {
+    // Under the buttons, so the row stays narrow enough for a narrow command panel; the
+    // line stays while jogging, so nothing under it moves.
+    if speed.is_ok() {
         ui.weak("Hold a button, or the Left/Right arrow key.");
     }
-    // The arrow keys, unless a text box is being typed in.
-    let typing = ui.ctx().memory(|m| m.focused().is_some());
+    held
+}
+
+/// The jog of this frame: the button `buttons` held in the command panel (0 when none, or
+/// when the panel is folded), else the arrow keys unless a text box is being typed in;
+/// a keep-alive while held, a halt on release. Runs every frame, panel open or not.
+pub fn jog_input(ctx: &egui::Context, drive: &Drive, buttons: i32, commands: &mut Vec<Command>) {
+    let speed = jog_speed(&drive.settings.jog_speed);
+    let usable = drive.offline_reason().is_none() && speed.is_ok();
+    let mut held = if usable { buttons } else { 0 };
+    let typing = ctx.memory(|m| m.focused().is_some());
     if usable && held == 0 && !typing {
-        let (left, right) = ui.input(|i| (i.key_down(Key::ArrowLeft), i.key_down(Key::ArrowRight)));
+        let (left, right) =
+            ctx.input(|i| (i.key_down(Key::ArrowLeft), i.key_down(Key::ArrowRight)));
         held = match (left, right) {
             (true, false) => -1,
             (false, true) => 1,
@@ -66,7 +80,7 @@ pub fn jog_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
     }
     // A window that loses the focus no longer sees the release: stop now, and wait for
     // the button to be let go before jogging again.
-    let focus_lost = ui.input(|i| {
+    let focus_lost = ctx.input(|i| {
         i.events
             .iter()
             .any(|e| matches!(e, egui::Event::WindowFocused(false)))
@@ -75,12 +89,11 @@ pub fn jog_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
         commands.push(Command::JogFocusLost);
         return;
     }
-    let speed = speed.unwrap_or(0);
     commands.push(Command::Jog {
-        direction: if usable { held } else { 0 },
-        speed,
+        direction: held,
+        speed: speed.unwrap_or(0),
     });
     if drive.motion.jog.is_some() || held != 0 {
-        ui.ctx().request_repaint_after(JOG_KEEPALIVE / 2);
+        ctx.request_repaint_after(JOG_KEEPALIVE / 2);
     }
 }

@@ -142,7 +142,9 @@ pub fn window_ui(ui: &mut Ui, f: &mut Frame<'_>) {
     top_bar_ui(ui, f);
     log_panel_ui(ui, f);
     status_panel_ui(ui, f);
-    commands_panel_ui(ui, f);
+    let jog = commands_panel_ui(ui, f);
+    // The jog keys work with the command panel folded too.
+    super::jog::jog_input(ui.ctx(), f.drive, jog, f.commands);
     egui::CentralPanel::default_margins().show(ui, |ui| central_ui(ui, f));
 }
 
@@ -225,8 +227,9 @@ fn status_panel_ui(ui: &mut Ui, f: &mut Frame<'_>) {
         });
 }
 
-/// The command panel, or the narrow strip it collapses to (the choice is kept).
-fn commands_panel_ui(ui: &mut Ui, f: &mut Frame<'_>) {
+/// The command panel, or the narrow strip it collapses to (the choice is kept); which jog
+/// button is held in it.
+fn commands_panel_ui(ui: &mut Ui, f: &mut Frame<'_>) -> i32 {
     let collapsed = &mut f.window.settings.commands_collapsed;
     let mut expanded = !*collapsed;
     let strip = egui::Panel::right("commands_strip")
@@ -242,12 +245,13 @@ fn commands_panel_ui(ui: &mut Ui, f: &mut Frame<'_>) {
     let asked = expanded;
     let drive = &mut *f.drive;
     let commands = &mut *f.commands;
+    let mut jog = 0;
     egui::Panel::show_switched(ui, &mut expanded, strip, full, |ui, shown| {
         if shown {
             egui::ScrollArea::vertical()
                 .id_salt("commands_scroll")
                 .show(ui, |ui| {
-                    commands::commands_ui(ui, drive, collapsed, commands)
+                    jog = commands::commands_ui(ui, drive, collapsed, commands);
                 });
         } else {
             commands::collapsed_strip_ui(ui, collapsed);
@@ -257,6 +261,7 @@ fn commands_panel_ui(ui: &mut Ui, f: &mut Frame<'_>) {
     if expanded != asked {
         *collapsed = !expanded;
     }
+    jog
 }
 
 /// The middle: the panel picked in its tabs ([`CENTRAL`]), in all the room the others

@@ -111,12 +111,13 @@ pub fn collapsed_strip_ui(ui: &mut Ui, collapsed: &mut bool) {
     );
 }
 
+/// The command panel; which jog button is held (see `jog::jog_input`).
 pub fn commands_ui(
     ui: &mut Ui,
     drive: &mut Drive,
     collapsed: &mut bool,
     commands: &mut Vec<Command>,
-) {
+) -> i32 {
     ui.horizontal(|ui| {
         ui.heading("Commands");
         ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
@@ -138,7 +139,7 @@ pub fn commands_ui(
         clipped_label(ui, RichText::new(reason).color(AMBER).strong(), 2);
     }
     halt_ui(ui, drive, commands);
-    crate::ui::jog::jog_ui(ui, drive, commands);
+    let jog = crate::ui::jog::jog_ui(ui, drive);
     ui.separator();
     for (title, opcodes) in GROUPS {
         ui.label(RichText::new(title).strong());
@@ -172,6 +173,7 @@ pub fn commands_ui(
         ui.label(RichText::new(text).color(color).monospace());
     }
     torque_warning_ui(ui, drive, commands);
+    jog
 }
 
 /// The halt toggle: "Halt" brakes the running travel command; once halted it says so
