@@ -26,6 +26,7 @@ pub mod drive_row;
 pub mod faults;
 pub mod fonts;
 pub mod glance;
+pub mod input;
 pub mod jog;
 pub mod leave;
 pub mod log;

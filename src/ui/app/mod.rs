@@ -18,6 +18,7 @@ pub use drives::DriveError;
 use super::channel::{Channel, WorkerClock};
 use super::command::Command;
 use super::drive::Drive;
+use super::input::InputQueue;
 use super::plots::{Beside, PlotView};
 use super::project_files::ProjectFiles;
 use super::settings::{Settings, WindowSettings};
@@ -62,6 +63,8 @@ pub struct App {
     pace: Arc<pace::Pace>,
     /// Frames per second on stderr (`DRIVEDECK_FRAME_STATS`).
     stats: Option<pace::FrameStats>,
+    /// Input held back so that no frame mixes typing with a change of focus.
+    input: InputQueue,
 }
 
 impl App {
@@ -95,6 +98,7 @@ impl App {
             timings: None,
             pace: Arc::new(pace::Pace::default()),
             stats: pace::FrameStats::from_env(),
+            input: InputQueue::default(),
         };
         let first = app.start_drive("Drive 1".into(), drive);
         if connect {
@@ -320,7 +324,27 @@ fn split_shown(drives: &mut [Slot], selected: usize) -> Option<(&mut Drive, Vec<
     Some((shown?, others))
 }
 
+impl App {
+    /// This frame's share of the input events (`incoming` after those held before): no
+    /// frame mixes typing with a change of focus (see [`InputQueue`]).
+    pub fn take_input_frame(&mut self, incoming: Vec<egui::Event>) -> Vec<egui::Event> {
+        self.input.take_frame(incoming)
+    }
+
+    /// Input is held for the next frame.
+    pub fn input_pending(&self) -> bool {
+        self.input.pending()
+    }
+}
+
 impl eframe::App for App {
+    fn raw_input_hook(&mut self, ctx: &egui::Context, raw_input: &mut egui::RawInput) {
+        raw_input.events = self.take_input_frame(std::mem::take(&mut raw_input.events));
+        if self.input_pending() {
+            ctx.request_repaint();
+        }
+    }
+
     fn logic(&mut self, _ctx: &egui::Context, _frame: &mut eframe::Frame) {
         self.pump_events();
         self.flush_outbox();
