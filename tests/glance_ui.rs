@@ -255,3 +255,63 @@ fn at_1366_by_768_nothing_needed_is_cut_off_and_the_command_panel_folds() {
     assert!(!harness.state().settings().commands_collapsed);
     on_screen(&harness, "Move absolute", screen);
 }
+
+#[test]
+fn at_1024_by_600_the_warning_after_a_link_loss_mid_move_is_seen_whole() {
+    let size = egui::vec2(1024.0, 600.0);
+    let screen = egui::Rect::from_min_size(egui::Pos2::ZERO, size);
+    let mut harness = harness_with(drivedeck::ui::Settings::default(), true, size);
+    connected(&mut harness);
+    window::start_turning(&mut harness, 50.0);
+    // The cable is pulled mid-move: the last halt cannot get through.
+    harness.state_mut().shown_mut().request(Request::Inject {
+        injection: Injection::LinkLoss,
+        active: true,
+    });
+    step_until(
+        &mut harness,
+        "the warning of the halt that got no answer",
+        Duration::from_secs(8),
+        |h| {
+            h.state()
+                .shown()
+                .motion
+                .why
+                .as_deref()
+                .is_some_and(|w| w.contains("may still be moving"))
+        },
+    );
+    harness.run_steps(3);
+    let why = harness
+        .state()
+        .shown()
+        .motion
+        .why
+        .clone()
+        .unwrap_or_default();
+    // What to do leads; the protocol's detail comes after it.
+    assert!(
+        why.starts_with("Stop the drive at the machine: it may still be moving"),
+        "{why}"
+    );
+    // The tile's words, whole where they matter: the lead is on screen, inside the tile.
+    let tile = harness
+        .get_by_label_contains("Why: Stop the drive at the machine")
+        .rect();
+    assert!(screen.contains_rect(tile), "the tile's line at {tile:?}");
+    // The log's line wraps inside the window instead of running off its right edge.
+    let line = harness
+        .get_all_by_label_contains("Stop the drive at the machine")
+        .map(|n| n.rect())
+        .filter(|r| r.top() > size.y * 0.6)
+        .collect::<Vec<_>>();
+    assert!(!line.is_empty(), "the log shows the warning");
+    for rect in line {
+        assert!(
+            rect.right() <= size.x,
+            "the log line ends at {} in a {} px window",
+            rect.right(),
+            size.x
+        );
+    }
+}

@@ -13,18 +13,41 @@ pub const FRAMES: &str = "frames";
 
 /// Every request of the drive with the image it wrote and how the drive answered.
 pub fn commands_ui(ui: &mut Ui, drive: &Drive) {
+    // Long lines wrap within the panel instead of running off its right edge: what was
+    // done gets up to half the width, how the drive answered the rest.
+    let width = ui.available_width();
+    let widths = Widths {
+        what: (width * 0.45).max(160.0),
+        outcome: (width * 0.3).max(160.0),
+    };
     log_grid_ui(ui, "log_grid", 4, |ui| {
         for entry in &drive.log {
-            log_entry_ui(ui, entry);
+            log_entry_ui(ui, entry, widths);
             ui.end_row();
         }
     });
 }
 
+/// The widest the wrapping columns of the log may get.
+#[derive(Clone, Copy)]
+struct Widths {
+    what: f32,
+    outcome: f32,
+}
+
+/// `text` wrapped at `width`.
+fn wrapped(ui: &mut Ui, text: impl Into<egui::WidgetText>, width: f32) -> egui::Response {
+    ui.scope(|ui| {
+        ui.set_max_width(width);
+        ui.add(egui::Label::new(text).wrap())
+    })
+    .inner
+}
+
 /// One request: when, what, the image it wrote, and how the drive answered.
-fn log_entry_ui(ui: &mut Ui, entry: &LogEntry) {
+fn log_entry_ui(ui: &mut Ui, entry: &LogEntry, widths: Widths) {
     ui.monospace(format!("{:8.3}", entry.at));
-    ui.label(&entry.what);
+    wrapped(ui, &entry.what, widths.what);
     match entry.image {
         Some(image) => {
             let bytes: Vec<String> = image
@@ -39,15 +62,15 @@ fn log_entry_ui(ui: &mut Ui, entry: &LogEntry) {
             ui.label("");
         }
     }
+    let w = widths.outcome;
     match &entry.outcome {
         Outcome::Queued => ui.weak("queued"),
         Outcome::Sent => ui.label("sent"),
         Outcome::Accepted => ui.colored_label(AMBER, "accepted, running"),
-        Outcome::Succeeded(text) => ui.colored_label(GREEN, text),
-        Outcome::Failed(text) => ui.colored_label(RED, RichText::new(text).strong()),
-        Outcome::Caution(text) => ui.colored_label(AMBER, text),
-        Outcome::Superseded(text) => ui
-            .weak(text)
+        Outcome::Succeeded(text) => wrapped(ui, RichText::new(text).color(GREEN), w),
+        Outcome::Failed(text) => wrapped(ui, RichText::new(text).color(RED).strong(), w),
+        Outcome::Caution(text) => wrapped(ui, RichText::new(text).color(AMBER), w),
+        Outcome::Superseded(text) => wrapped(ui, RichText::new(text).weak(), w)
             .on_hover_text("A newer command took its place; not a fault"),
         Outcome::Info => ui.weak("·"),
     };

@@ -71,8 +71,13 @@ impl Session {
             error.to_string()
         };
         if self.jog_deadline.is_some() || self.master.travel_running() {
-            let done = self.stop_on_loss(&reason, action, sink).await;
-            format!("{reason}; {done}")
+            // What the technician must do first; the protocol's detail after it.
+            let stop = self.stop_on_loss(&reason, action, sink).await;
+            format!(
+                "{}. Cause: {reason}{}",
+                stop.headline,
+                stop.detail_tail(&reason)
+            )
         } else {
             reason
         }
@@ -95,7 +100,7 @@ impl Session {
         reason: &str,
         action: LinkLossAction,
         sink: &mut EventSink,
-    ) -> String {
+    ) -> LastStop {
         self.jog_deadline = None;
         let running: Vec<RequestId> = [self.master.pending_tag(), self.master.background_tag()]
             .into_iter()
@@ -117,17 +122,25 @@ impl Session {
         } else {
             "a switch-off"
         };
-        let done = match made {
-            None => "as set, the drive is left alone: it may still be moving".to_owned(),
+        let stop = match made {
+            None => LastStop::moving("as set, the drive is left alone".to_owned(), None),
             Some(Err(e)) => {
-                format!("no {what} could be made ({e}): the drive may still be moving")
+                LastStop::moving(format!("no {what} could be made"), Some(e.to_string()))
             }
             Some(Ok(image)) => self.send_last_stop(&image, action, what).await,
         };
+        // The words a technician must act on lead; the protocol's detail comes last, so
+        // that a line cut short by the window still says what to do.
         sink.emit(Event::Notice(Notice::motor_stopped(format!(
-            "the link failed during a move ({reason}); {done}"
+            "{}; the link failed during a move. Cause: {reason}{}",
+            stop.headline,
+            stop.detail_tail(reason)
         ))));
-        let ended = format!("{reason}; {done}");
+        let ended = format!(
+            "{}. Cause: {reason}{}",
+            stop.headline,
+            stop.detail_tail(reason)
+        );
         for id in running {
             self.purposes.remove(&id);
             sink.emit(Event::Progress {
@@ -137,17 +150,17 @@ impl Session {
                 },
             });
         }
-        done
+        stop
     }
 
     /// Send the last halt or switch-off (`what`) once, within [`HALT_ON_LOSS_TIMEOUT`]:
-    /// what came of it, in words.
+    /// what came of it.
     async fn send_last_stop(
         &mut self,
         image: &RxImage,
         action: LinkLossAction,
         what: &str,
-    ) -> String {
+    ) -> LastStop {
         let attempt =
             tokio::time::timeout(HALT_ON_LOSS_TIMEOUT, self.link.exchange(Some(image))).await;
         match attempt {
@@ -158,23 +171,70 @@ impl Session {
                     _ => !status.is_set(StatusBit::OperationEnabled),
                 };
                 if confirmed {
-                    format!("{what} was sent and the drive confirmed it")
+                    LastStop::done(format!("{what} was sent and the drive confirmed it"))
                 } else {
-                    format!("{what} was sent and the drive answered, without showing it yet")
+                    LastStop::done(format!(
+                        "{what} was sent and the drive answered, without showing it yet"
+                    ))
                 }
             }
             // A timeout or replies that made no sense: the request may have gone out, but
             // nothing confirmed it.
-            Ok(Err(e)) if e.is_momentary() => format!(
-                "{what} was sent, but no answer confirmed it ({e}): it may still be moving; stop it at the machine"
+            Ok(Err(e)) if e.is_momentary() => LastStop::moving(
+                format!("{what} was sent, but no answer confirmed it"),
+                Some(e.to_string()),
             ),
-            Ok(Err(e)) => format!(
-                "{what} did not reach the drive ({e}): it may still be moving; stop it at the machine"
+            Ok(Err(e)) => LastStop::moving(
+                format!("{what} did not reach the drive"),
+                Some(e.to_string()),
             ),
-            Err(_) => format!(
-                "{what} got no answer within {:.1} s: the drive may still be moving; stop it at the machine",
-                HALT_ON_LOSS_TIMEOUT.as_secs_f64()
+            Err(_) => LastStop::moving(
+                format!(
+                    "{what} got no answer within {:.1} s",
+                    HALT_ON_LOSS_TIMEOUT.as_secs_f64()
+                ),
+                None,
             ),
         }
+    }
+}
+
+/// What the last try to stop a move did when the link failed: the words that lead (what
+/// to do when the drive may still be moving), and the protocol's detail for the end.
+#[derive(Debug)]
+struct LastStop {
+    headline: String,
+    detail: Option<String>,
+}
+
+impl LastStop {
+    /// Nothing confirmed a stop: the technician must stop the drive themselves.
+    fn moving(outcome: String, detail: Option<String>) -> LastStop {
+        LastStop {
+            headline: format!("Stop the drive at the machine: it may still be moving ({outcome})"),
+            detail,
+        }
+    }
+
+    /// The drive answered the last try.
+    fn done(outcome: String) -> LastStop {
+        let mut chars = outcome.chars();
+        let headline = match chars.next() {
+            Some(first) => first.to_uppercase().chain(chars).collect(),
+            None => outcome,
+        };
+        LastStop {
+            headline,
+            detail: None,
+        }
+    }
+
+    /// The last try's own error, after the cause `reason` (unless it says the same).
+    fn detail_tail(&self, reason: &str) -> String {
+        self.detail
+            .as_ref()
+            .filter(|d| !reason.contains(d.as_str()))
+            .map(|d| format!("; the last try: {d}"))
+            .unwrap_or_default()
     }
 }

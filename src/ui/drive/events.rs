@@ -262,7 +262,13 @@ impl Drive {
                 Origin::Command,
                 format!("{what}: {progress}"),
             );
-            self.motion.why = Some(format!("{what}: {progress}"));
+            // A link lost mid-move: its words lead with what the technician must do.
+            self.motion.why = Some(match &progress {
+                CommandProgress::LinkLost { reason } => {
+                    format!("{reason} ({what}: the link was lost before it finished)")
+                }
+                _ => format!("{what}: {progress}"),
+            });
         }
         if let Some(entry) = self.log.entry(id) {
             entry.outcome = match &progress {

@@ -75,7 +75,9 @@ fn tile_lines_ui(ui: &mut Ui, drive: &Drive) {
         }
     }
     if let Some(why) = &drive.motion.why {
-        clipped_label(ui, RichText::new(format!("Why: {why}")).color(AMBER), 3);
+        // What to do leads the words (the protocol's detail comes last), so the rows shown
+        // say it; the whole text is on hover.
+        clipped_label(ui, RichText::new(format!("Why: {why}")).color(AMBER), 4).on_hover_text(why);
     }
 }
 
