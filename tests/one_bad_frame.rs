@@ -206,7 +206,9 @@ fn a_link_lost_during_a_move_whose_last_halt_gets_through_says_the_drive_took_it
     proxy.drop_next(3);
     let reason = probe.lost(Duration::from_secs(10));
     assert!(
-        reason.to_lowercase().contains("a halt was sent and the drive"),
+        reason
+            .to_lowercase()
+            .contains("a halt was sent and the drive"),
         "the last halt reached the drive: {reason}"
     );
     assert!(!reason.contains("at the machine"), "{reason}");

@@ -594,3 +594,37 @@ fn sample_and_command_times_go_on_across_a_lost_link_and_a_new_connection() {
         next.t
     );
 }
+
+#[test]
+fn a_link_lost_while_a_move_stands_at_a_limit_switch_is_not_said_to_be_during_a_move() {
+    let mut probe = Probe::on_simulated_time();
+    // Beyond the simulated drive's positive limit switch (3600.0°): the move stops there.
+    let id = probe.send(Request::Command(Action::MoveAbsolute {
+        target: 60_000,
+        speed: 300,
+    }));
+    probe.accepted(id);
+    probe.sample_where("the limit switch reached", Duration::from_secs(10), |s| {
+        s.tx.status.is_set(StatusBit::LimitReached) && s.velocity() == Some(0.0)
+    });
+    probe.send(Request::Inject {
+        injection: Injection::LinkLoss,
+        active: true,
+    });
+    let report = probe.wait(
+        "the report of the loss",
+        Duration::from_secs(10),
+        |e| matches!(e, Event::Notice(n) if n.text.contains("the link failed")),
+    );
+    let Event::Notice(notice) = report else {
+        unreachable!()
+    };
+    assert!(
+        notice
+            .text
+            .contains("while a travel command stood at a limit switch"),
+        "{}",
+        notice.text
+    );
+    assert!(!notice.text.contains("during a move"), "{}", notice.text);
+}

@@ -5,6 +5,21 @@ use std::fmt;
 
 use super::Error;
 
+/// What PDI-ReturnValue holds after a command ([`Opcode::return_value`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReturnValue {
+    /// The actual position (0.1° in the drive's user units by default).
+    Position,
+    /// The actual speed (rpm).
+    Velocity,
+    /// The actual torque (‰ of the rated torque).
+    Torque,
+    /// The value of the object read.
+    ObjectRead,
+    /// The spec does not say.
+    NotSpecified,
+}
+
 enum_with_all! {
     /// The 13 PDI commands of spec section 2.2.
     #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -53,6 +68,21 @@ impl Opcode {
             Opcode::MoveRelative => "Profile Position relative",
             Opcode::Velocity => "Profile Velocity",
             Opcode::Torque => "Profile Torque",
+        }
+    }
+
+    /// What PDI-ReturnValue holds while this is the last command sent, as spec section 2.2
+    /// says: the position for the Profile Position commands (2.2.10, 2.2.11), the speed for
+    /// Profile Velocity (2.2.12), the torque for Profile Torque (2.2.13), the object's value
+    /// for OD-Read (2.2.5). For the others the spec is silent (an error code after a
+    /// refusal aside, which PdiStatusError marks).
+    pub fn return_value(self) -> ReturnValue {
+        match self {
+            Opcode::MoveAbsolute | Opcode::MoveRelative => ReturnValue::Position,
+            Opcode::Velocity => ReturnValue::Velocity,
+            Opcode::Torque => ReturnValue::Torque,
+            Opcode::OdRead => ReturnValue::ObjectRead,
+            _ => ReturnValue::NotSpecified,
         }
     }
 

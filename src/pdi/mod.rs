@@ -40,7 +40,7 @@ pub use action::{
     Action, Field, FieldSpec, Radix, SetValues, index_to_set_value2, parse_number,
     set_value2_to_index, set_value3_to_subindex, subindex_to_set_value3,
 };
-pub use command::{Command, Opcode};
+pub use command::{Command, Opcode, ReturnValue};
 pub use error::Error;
 pub use image::{RxImage, TxImage};
 pub use master::{Failure, PdiMaster, Progress, Timing, Travel, Waiting};

@@ -1,6 +1,8 @@
 //! The connection bar: the bus, its fields with the hardware's defaults, connect and
 //! disconnect, the link's health; and the stop strip, always visible.
 
+use std::time::SystemTime;
+
 use eframe::egui::{self, Color32, RichText, Ui};
 
 use super::command::Command;
@@ -252,6 +254,14 @@ fn link_state_ui(ui: &mut Ui, drive: &Drive) {
         Connection::Connecting(spec) => {
             ui.spinner();
             ui.label(format!("connecting to {spec}"));
+        }
+        // Connected but silent: the link is up, the drive is not answering — not green.
+        Connection::Connected(info)
+            if drive.link.sampled_since_connect && !drive.is_live(SystemTime::now()) =>
+        {
+            ui.colored_label(RED, "connected, no data:")
+                .on_hover_text("The link is up but the drive stopped answering");
+            ui.label(&info.description);
         }
         Connection::Connected(info) => {
             ui.colored_label(GREEN, "connected:");

@@ -10,7 +10,7 @@ use super::drive::Drive;
 use super::widgets::{AMBER, BLUE, GREEN, RED, clipped_label, lamp, value_with_unit};
 use crate::cia::{ErrorCode, PowerState};
 use crate::injection::Injection;
-use crate::pdi::{Status, StatusBit};
+use crate::pdi::{Opcode, ReturnValue, Status, StatusBit};
 use crate::signal::Signal;
 use crate::worker::Sample;
 
@@ -23,13 +23,31 @@ fn lamp_color(bit: StatusBit) -> egui::Color32 {
     }
 }
 
-/// The unit of ReturnValue for the mode the drive reports.
-fn return_value_unit(mode: Option<i8>) -> &'static str {
-    match mode {
-        Some(1) | Some(6) => "0.1° (position)",
-        Some(3) => "rpm (velocity)",
-        Some(4) => "‰ (torque)",
-        _ => "",
+/// What ReturnValue holds after the command last sent (PDI spec §2.2), in the words
+/// beside it, and on hover.
+fn return_value_meaning(last: Option<Opcode>) -> (&'static str, String) {
+    let Some(opcode) = last else {
+        return (
+            "",
+            "No command sent from this window yet: what ReturnValue holds depends on the last command".to_owned(),
+        );
+    };
+    let name = opcode.name();
+    match opcode.return_value() {
+        ReturnValue::Position => (
+            "0.1° (position)",
+            format!("The actual position, after {name}"),
+        ),
+        ReturnValue::Velocity => ("rpm (velocity)", format!("The actual speed, after {name}")),
+        ReturnValue::Torque => ("‰ (torque)", format!("The actual torque, after {name}")),
+        ReturnValue::ObjectRead => (
+            "(the object read)",
+            format!("The value of the object, after {name}"),
+        ),
+        ReturnValue::NotSpecified => (
+            "",
+            format!("After {name} the PDI specification does not say what ReturnValue holds"),
+        ),
     }
 }
 
@@ -82,7 +100,7 @@ pub fn status_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
         if stale.is_some() {
             ui.multiply_opacity(STALE_OPACITY);
         }
-        sample_ui(ui, &sample, stale.is_some());
+        sample_ui(ui, &sample, stale.is_some(), drive.last_opcode());
     });
     inject_ui(ui, drive, commands);
 }
@@ -108,7 +126,7 @@ fn stale_banner(ui: &mut Ui, line: &str, reason: Option<&str>) {
 }
 
 /// The sample's status: power state, lamps, 603Fh, ReturnValue, actual values.
-fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
+fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool, last: Option<Opcode>) {
     // The CiA 402 power state first: it says why a command is refused.
     ui.add_space(4.0);
     power_ui(ui, sample, stale);
@@ -120,7 +138,7 @@ fn sample_ui(ui: &mut Ui, sample: &Sample, stale: bool) {
         .spacing([8.0, 3.0])
         .show(ui, |ui| {
             error_code_rows_ui(ui, sample);
-            return_value_rows_ui(ui, sample);
+            return_value_rows_ui(ui, sample, last);
             if let Some(mode) = sample.mode() {
                 ui.label("Mode 6061h");
                 ui.label(format!("{mode} {}", mode_name(mode)));
@@ -222,7 +240,7 @@ fn error_code_rows_ui(ui: &mut Ui, sample: &Sample) {
 
 /// ReturnValue in the unit of the mode, or, after a refused object access, the abort code
 /// and its meaning.
-fn return_value_rows_ui(ui: &mut Ui, sample: &Sample) {
+fn return_value_rows_ui(ui: &mut Ui, sample: &Sample, last: Option<Opcode>) {
     ui.label("ReturnValue");
     let rv = sample.tx.return_value;
     if sample.tx.status.is_set(StatusBit::Error) {
@@ -233,7 +251,15 @@ fn return_value_rows_ui(ui: &mut Ui, sample: &Sample) {
         ui.label("");
         ui.label(abort.text().unwrap_or("not a CiA 301 abort code"));
     } else {
-        value_with_unit(ui, rv.to_string(), return_value_unit(sample.mode()));
+        let (unit, meaning) = return_value_meaning(last);
+        ui.horizontal(|ui| {
+            ui.monospace(rv.to_string());
+            if !unit.is_empty() {
+                ui.weak(unit);
+            }
+        })
+        .response
+        .on_hover_text(meaning);
     }
     ui.end_row();
 }

@@ -129,10 +129,21 @@ impl Session {
             }
             Some(Ok(image)) => self.send_last_stop(&image, action, what).await,
         };
+        // A travel command stopped at a limit switch is still running for the PDI, but
+        // the motor stood: say so rather than "during a move".
+        let at_limit = self
+            .master
+            .last_tx()
+            .is_some_and(|tx| tx.status.is_set(StatusBit::LimitReached));
+        let during = if at_limit {
+            "while a travel command stood at a limit switch"
+        } else {
+            "during a move"
+        };
         // The words a technician must act on lead; the protocol's detail comes last, so
         // that a line cut short by the window still says what to do.
         sink.emit(Event::Notice(Notice::motor_stopped(format!(
-            "{}; the link failed during a move. Cause: {reason}{}",
+            "{}; the link failed {during}. Cause: {reason}{}",
             stop.headline,
             stop.detail_tail(reason)
         ))));

@@ -6,7 +6,7 @@ use eframe::egui::{self, Color32, RichText, TextEdit, Ui};
 
 use super::model::{caution, validate};
 use crate::od::{self, Address, DataType, Value};
-use crate::pdi::{FieldSpec, Opcode};
+use crate::pdi::{FieldSpec, Opcode, StatusBit};
 use crate::ui::command::Command;
 use crate::ui::drive::{Drive, TORQUE_SLOPE};
 use crate::ui::widgets::{
@@ -182,19 +182,32 @@ fn halt_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
     let offline = drive.offline_reason();
     let connected = offline.is_none();
     let halted = drive.motion.halt_engaged;
+    // Halted, but not by this button (a jog's release, another master): the button says
+    // so as the tile does, and offers no resume — that would start a move nobody holds.
+    let halted_elsewhere = !halted
+        && connected
+        && drive.bit(StatusBit::OperationEnabled)
+        && drive.bit(StatusBit::QsHaltBit);
     ui.horizontal(|ui| {
         let text = if halted {
             RichText::new("Halted — press to resume").size(16.0).strong().color(Color32::BLACK)
+        } else if halted_elsewhere {
+            RichText::new("Halted").size(16.0).strong().color(Color32::BLACK)
         } else {
             RichText::new("Halt").size(20.0).strong().color(AMBER)
         };
-        let button = egui::Button::selectable(halted, text)
-            .min_size(egui::vec2(110.0, 36.0))
-            .fill(if halted { AMBER } else { ui.visuals().widgets.inactive.bg_fill });
+        let lit = halted || halted_elsewhere;
+        // One width in every state: nothing beside or under it moves when it changes.
+        let button = egui::Button::selectable(lit, text)
+            .min_size(egui::vec2(HALT_WIDTH, 36.0))
+            .fill(if lit { AMBER } else { ui.visuals().widgets.inactive.bg_fill });
         let response = ui
-            .add_enabled(connected, button)
+            .add_enabled(connected && !halted_elsewhere, button)
             .on_hover_text("Halt bit (PDI-Cmd bit 6): brake to speed 0 with the ramp and stay energised. Press again to continue to the old target.")
-            .on_disabled_hover_text(offline.unwrap_or_default());
+            .on_disabled_hover_text(match &offline {
+                Some(offline) => offline.clone(),
+                None => "Halted, not by this button (a jog's release): send a travel command to move again".to_owned(),
+            });
         if response.clicked() {
             commands.push(Command::Request(if halted {
                 Request::Resume
@@ -202,13 +215,19 @@ fn halt_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
                 Request::Halt
             }));
         }
-        if halted {
-            ui.weak("or send a new travel command");
+        let hint = if halted {
+            "or send a new travel command"
+        } else if halted_elsewhere {
+            "Send a travel command to move again."
         } else {
-            ui.weak("Brakes the running travel command.");
-        }
+            "Brakes the running travel command."
+        };
+        ui.add(egui::Label::new(RichText::new(hint).weak()).wrap());
     });
 }
+
+/// The halt toggle's width, the same halted or not.
+const HALT_WIDTH: f32 = 200.0;
 
 fn command_row(ui: &mut Ui, drive: &mut Drive, opcode: Opcode, commands: &mut Vec<Command>) {
     let verdict = validate(drive, opcode);

@@ -28,6 +28,15 @@ impl Drive {
                 }
                 Connection::Connected(_) => format!("NO DATA ({seen})"),
                 Connection::Connecting(_) if latest.is_none() => "CONNECTING…".to_owned(),
+                // Disconnected on purpose: nothing is wrong, so no alarm.
+                Connection::Disconnected if self.link.lost.is_none() && latest.is_some() => {
+                    return Glance {
+                        headline: "DISCONNECTED".to_owned(),
+                        tone: Tone::Off,
+                        detail: format!("{last_known} ({seen})"),
+                        fault: false,
+                    };
+                }
                 _ => format!("NO LINK ({seen})"),
             };
             return Glance {

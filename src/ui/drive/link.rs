@@ -176,6 +176,10 @@ impl LinkState {
                 }
             }
             Connection::Connected(_) => format!("NO DATA — the drive stopped answering; {seen}"),
+            // Disconnected on purpose after a session: nothing is wrong.
+            Connection::Disconnected if self.lost.is_none() && self.latest.is_some() => {
+                format!("DISCONNECTED — {seen}")
+            }
             _ => format!("NO LINK — {seen}"),
         })
     }

@@ -135,6 +135,18 @@ impl Drive {
     }
 
     /// The newest known value of every signal.
+    /// The PDI command last written to the drive from this window (its opcode, the halt
+    /// and toggle bits aside): what PDI-ReturnValue holds follows it.
+    pub fn last_opcode(&self) -> Option<crate::pdi::Opcode> {
+        self.log
+            .iter()
+            .rev()
+            .filter(|e| e.outcome != log::Outcome::Queued)
+            .find_map(|e| e.image)
+            .and_then(|image| image.command().ok())
+            .map(|c| c.opcode)
+    }
+
     pub fn latest(&self) -> Option<crate::worker::Sample> {
         self.link.latest
     }
