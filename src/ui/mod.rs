@@ -32,6 +32,7 @@ pub mod leave;
 pub mod log;
 pub mod pace;
 pub mod panel;
+pub mod path_prompt;
 pub mod plots;
 pub mod power_state;
 pub mod project_files;

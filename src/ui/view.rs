@@ -142,6 +142,7 @@ pub fn window_ui(ui: &mut Ui, f: &mut Frame<'_>) {
     top_bar_ui(ui, f);
     log_panel_ui(ui, f);
     status_panel_ui(ui, f);
+    super::path_prompt::prompt_ui(ui.ctx(), &f.window.prompts);
     let jog = commands_panel_ui(ui, f);
     // The jog keys work with the command panel folded too.
     super::jog::jog_input(ui.ctx(), f.drive, jog, f.commands);

@@ -4,6 +4,9 @@
 //!
 //! A model: no egui here.
 
+use std::sync::Arc;
+
+use crate::ui::plots::files::{FilePicker, PromptingPicker, Prompts};
 use crate::ui::plots::model::PlotView;
 use crate::ui::settings::WindowSettings;
 
@@ -29,15 +32,28 @@ pub struct Window {
     /// The log's tab shown (its id, one of `ui::view::BOTTOM`'s).
     pub bottom: &'static str,
     pub list: DriveList,
+    /// Open and save questions no system dialog could show, asked in the window.
+    pub prompts: Prompts,
 }
 
 impl Window {
     pub fn new(settings: WindowSettings) -> Self {
-        Self {
+        let mut window = Self {
             settings,
             plot: PlotView::default(),
             bottom: COMMANDS,
             list: DriveList::default(),
-        }
+            prompts: Prompts::default(),
+        };
+        let files = window.plot.files();
+        window.use_files(files);
+        window
+    }
+
+    /// Open and save through `files`, with the window's path field where they cannot
+    /// show a dialog.
+    pub fn use_files(&mut self, files: Arc<dyn FilePicker>) {
+        let prompting = PromptingPicker::new(files, self.prompts.clone());
+        self.plot.set_files(prompting);
     }
 }

@@ -129,7 +129,7 @@ pub fn picker() -> Arc<dyn FilePicker> {
 /// asked.
 #[derive(Debug, Default)]
 pub struct ScriptedPicker {
-    answers: Mutex<VecDeque<Option<PathBuf>>>,
+    answers: Mutex<VecDeque<Picked>>,
     asked: Mutex<Vec<Ask>>,
 }
 
@@ -141,7 +141,14 @@ impl ScriptedPicker {
     /// The next dialog picks `path` (`None`: the user cancels it).
     pub fn answer(&self, path: Option<PathBuf>) {
         if let Ok(mut answers) = self.answers.lock() {
-            answers.push_back(path);
+            answers.push_back(path.map_or(Picked::Cancelled, Picked::File));
+        }
+    }
+
+    /// The next dialog cannot be shown (no desktop portal), for `why`.
+    pub fn answer_no_dialog(&self, why: &str) {
+        if let Ok(mut answers) = self.answers.lock() {
+            answers.push_back(Picked::NoDialog(why.to_owned()));
         }
     }
 
@@ -158,12 +165,108 @@ impl FilePicker for ScriptedPicker {
             .lock()
             .ok()
             .and_then(|mut answers| answers.pop_front())
-            .flatten();
+            .unwrap_or(Picked::Cancelled);
         if let Ok(mut asked) = self.asked.lock() {
             asked.push(ask);
         }
-        put(&answer, next.map_or(Picked::Cancelled, Picked::File));
+        put(&answer, next);
         wake();
+    }
+}
+
+/// A dialog that could not be shown, asked in the window instead: what it was asked, why
+/// the system's could not show, the path as typed, and where the answer goes.
+pub struct Prompt {
+    pub ask: Ask,
+    pub why: String,
+    pub text: String,
+    answer: Answer,
+    wake: Wake,
+}
+
+impl fmt::Debug for Prompt {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Prompt")
+            .field("ask", &self.ask)
+            .field("why", &self.why)
+            .field("text", &self.text)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Prompt {
+    /// The path typed: the dialog's answer.
+    pub fn pick(self) -> Option<PathBuf> {
+        let text = self.text.trim();
+        if text.is_empty() {
+            return None;
+        }
+        let path = PathBuf::from(text);
+        put(&self.answer, Picked::File(path.clone()));
+        (self.wake)();
+        Some(path)
+    }
+
+    /// Nothing: the dialog's answer is "cancelled".
+    pub fn cancel(self) {
+        put(&self.answer, Picked::Cancelled);
+        (self.wake)();
+    }
+}
+
+/// The prompts waiting to be shown, oldest first.
+pub type Prompts = Arc<Mutex<VecDeque<Prompt>>>;
+
+/// The system's dialogs, with the window's own path field where none can be shown (no
+/// desktop portal, no zenity): the question goes to [`Prompts`] and the answer comes from
+/// there, so every open and save works the same without a portal.
+#[derive(Debug)]
+pub struct PromptingPicker {
+    inner: Arc<dyn FilePicker>,
+    prompts: Prompts,
+}
+
+impl PromptingPicker {
+    pub fn new(inner: Arc<dyn FilePicker>, prompts: Prompts) -> Arc<PromptingPicker> {
+        Arc::new(PromptingPicker { inner, prompts })
+    }
+}
+
+impl FilePicker for PromptingPicker {
+    fn pick(&self, ask: Ask, answer: Answer, wake: Wake) {
+        let between = Answer::default();
+        let prompts = self.prompts.clone();
+        let asked = ask.clone();
+        let slot = between.clone();
+        let forward: Wake = Arc::new(move || {
+            let Some(picked) = take(&slot) else {
+                return;
+            };
+            match picked {
+                Picked::NoDialog(why) => {
+                    let text = match &asked.directory {
+                        Some(dir) if asked.save => {
+                            dir.join(&asked.name).to_string_lossy().into_owned()
+                        }
+                        Some(dir) => format!("{}/", dir.to_string_lossy().trim_end_matches('/')),
+                        None if asked.save => asked.name.clone(),
+                        None => String::new(),
+                    };
+                    if let Ok(mut waiting) = prompts.lock() {
+                        waiting.push_back(Prompt {
+                            ask: asked.clone(),
+                            why,
+                            text,
+                            answer: answer.clone(),
+                            wake: wake.clone(),
+                        });
+                    }
+                }
+                other => put(&answer, other),
+            }
+            wake();
+        });
+        self.inner.pick(ask, between, forward);
     }
 }
 
