@@ -675,3 +675,54 @@ fn the_window_shows_a_drive_whose_server_died_as_last_seen_and_comes_back_live()
             .is_disabled()
     );
 }
+
+#[test]
+fn escape_with_a_drop_down_open_stops_and_closes_it() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    start_turning(&mut harness, 50.0);
+    harness.get_by_label("Bus").click();
+    harness.run_steps(2);
+    assert!(
+        harness.query_by_label("Modbus TCP").is_some(),
+        "the drop-down is open"
+    );
+    harness.key_press(egui::Key::Escape);
+    harness.run_steps(2);
+    assert!(
+        harness.query_by_label("Modbus TCP").is_none(),
+        "Esc closed the drop-down"
+    );
+    step_until(
+        &mut harness,
+        "the quick stop",
+        Duration::from_secs(3),
+        |h| !lamp(h, "Operation enabled"),
+    );
+}
+
+#[test]
+fn jogging_or_halting_moves_nothing_in_the_command_panel() {
+    let mut harness = commands_harness();
+    harness.run();
+    let before = harness.get_by_label("Move absolute").rect();
+    let halt = harness.get_by_label("Halt").rect();
+    harness.state_mut().drive.motion.jog = Some(drivedeck::ui::drive::JogHold {
+        direction: 1,
+        speed: 100,
+        sent_at: 0.0,
+    });
+    harness.run_steps(2);
+    assert_eq!(
+        harness.get_by_label("Move absolute").rect(),
+        before,
+        "a jog moves nothing under it"
+    );
+    harness.state_mut().drive.motion.jog = None;
+    harness.state_mut().drive.motion.halt_engaged = true;
+    harness.run_steps(2);
+    let halted = harness.get_by_label("Halted — press to resume").rect();
+    assert_eq!(halted.width(), halt.width(), "the toggle keeps its width");
+    assert_eq!(harness.get_by_label("Move absolute").rect(), before);
+    harness.get_by_label("or send a new travel command");
+}

@@ -149,7 +149,8 @@ const MAX_SPEED: FieldSpec = FieldSpec::new(Field::SetValue2, "Max speed", "rpm"
     "PDI-SetValue2 is 16 bits wide; choose a coarser speed unit (user-defined units) for higher speeds",
 );
 const VELOCITY: FieldSpec = FieldSpec::new(Field::SetValue1, "Target speed", "rpm");
-const TORQUE: FieldSpec = FieldSpec::new(Field::SetValue1, "Target torque", "‰ of rated torque");
+const TORQUE: FieldSpec = FieldSpec::new(Field::SetValue1, "Target torque", "‰")
+    .hint("Thousandths of the motor's rated torque (6076h)");
 const HOME_POSITION: FieldSpec = FieldSpec::new(Field::SetValue1, "Actual position", "0.1°");
 const HOMING_METHOD: FieldSpec = FieldSpec::new(Field::SetValue3, "Homing method", "");
 const OD_INDEX: FieldSpec = FieldSpec::new(Field::SetValue2, "Index", "hex")

@@ -379,6 +379,10 @@ pub fn stop_keys(ctx: &egui::Context, connected: bool) -> Option<Action> {
         let quickstop = i.consume_key(egui::Modifiers::NONE, egui::Key::Escape);
         (quickstop, switch_off)
     });
+    // Esc would have closed an open drop-down or menu: it still does, beside the stop.
+    if switch_off || quickstop {
+        egui::Popup::close_all(ctx);
+    }
     if switch_off {
         Some(Action::SwitchOff)
     } else if quickstop {

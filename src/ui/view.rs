@@ -249,8 +249,10 @@ fn commands_panel_ui(ui: &mut Ui, f: &mut Frame<'_>) -> i32 {
     let mut jog = 0;
     egui::Panel::show_switched(ui, &mut expanded, strip, full, |ui, shown| {
         if shown {
+            // The bar always shows: a panel cut off at the bottom says there is more.
             egui::ScrollArea::vertical()
                 .id_salt("commands_scroll")
+                .scroll_bar_visibility(egui::scroll_area::ScrollBarVisibility::AlwaysVisible)
                 .show(ui, |ui| {
                     jog = commands::commands_ui(ui, drive, collapsed, commands);
                 });

@@ -227,7 +227,7 @@ fn halt_ui(ui: &mut Ui, drive: &Drive, commands: &mut Vec<Command>) {
 }
 
 /// The halt toggle's width, the same halted or not.
-const HALT_WIDTH: f32 = 200.0;
+const HALT_WIDTH: f32 = 216.0;
 
 fn command_row(ui: &mut Ui, drive: &mut Drive, opcode: Opcode, commands: &mut Vec<Command>) {
     let verdict = validate(drive, opcode);
@@ -307,8 +307,8 @@ fn set_values_ui(ui: &mut Ui, drive: &mut Drive, opcode: Opcode) {
                 &field_label(opcode, spec),
             );
             field.on_hover_text(field_hint(spec));
-            // A long unit ("‰ of rated torque") is cut short (whole on hover) rather
-            // than widen the panel.
+            // Units are short ("‰", the rest in the box's hint); one that is not is cut
+            // short (whole on hover) rather than widen the panel.
             ui.add(egui::Label::new(RichText::new(spec.unit).weak()).truncate());
         });
     }
