@@ -197,6 +197,7 @@ impl Decimations {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn ring(rows: usize, capacity: usize) -> Ring {
         let mut ring = Ring::new(capacity, 2);
@@ -390,5 +391,128 @@ mod tests {
         let points = cache.points(&ring, 0, to - 10.0, to, 600);
         let spikes = points.iter().filter(|p| p[1] >= 900.0).count();
         assert!(spikes >= 1, "{spikes} spikes");
+    }
+
+    /// How the view moves from one frame to the next: panned by a fraction of its width,
+    /// or zoomed by a factor about a point at a fraction of it.
+    #[derive(Debug, Clone, Copy)]
+    enum Move {
+        Pan(f64),
+        Zoom(f64, f64),
+    }
+
+    fn moved((from, to): (f64, f64), how: Move) -> (f64, f64) {
+        let width = to - from;
+        match how {
+            Move::Pan(fraction) => (from + fraction * width, to + fraction * width),
+            Move::Zoom(factor, at) => {
+                let about = from + at * width;
+                (
+                    about - (about - from) / factor,
+                    about + (to - about) / factor,
+                )
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// A view panned or zoomed (maybe while rows come in and the ring wraps) draws what
+        /// a cache that never saw the earlier spans draws: nothing kept for one span leaks
+        /// into another. (Not `Ring::decimate` of the span itself: what is not reused is
+        /// decimated on a grid fixed in time, whose columns are up to 1.6 % narrower and
+        /// aligned to multiples of their width, not to the span's start.)
+        #[test]
+        fn a_panned_or_zoomed_view_draws_what_a_fresh_cache_draws(
+            rows in 50usize..4_000,
+            capacity in 500usize..5_000,
+            step in 0.0005f64..0.02,
+            start in -0.2f64..1.2,
+            width in 0.01f64..1.5,
+            columns in 1usize..900,
+            moves in prop::collection::vec(
+                (
+                    prop_oneof![
+                        (-1.5f64..1.5).prop_map(Move::Pan),
+                        ((0.05f64..20.0), (0.0f64..1.0)).prop_map(|(z, a)| Move::Zoom(z, a)),
+                    ],
+                    0usize..300,
+                ),
+                1..6,
+            ),
+        ) {
+            let mut ring = Ring::new(capacity, 2);
+            let mut pushed = 0usize;
+            let mut push = |ring: &mut Ring, n: usize| {
+                for _ in 0..n {
+                    let i = pushed;
+                    let v = if i % 37 == 5 { f64::NAN } else { ((i * 7919) % 101) as f64 };
+                    ring.push(i as f64 * step, &[v, (i / 13 % 4) as f64]).expect("forward");
+                    pushed += 1;
+                }
+            };
+            push(&mut ring, rows);
+            let total = rows as f64 * step;
+            let mut span = (start * total, (start + width) * total);
+            let mut cache = Decimations::default();
+            cache.points(&ring, 0, span.0, span.1, columns);
+            cache.bits(&ring, 1, span.0, span.1, columns);
+            cache.end_frame();
+            for (how, new_rows) in moves {
+                push(&mut ring, new_rows);
+                span = moved(span, how);
+                let (from, to) = span;
+                prop_assume!(to > from);
+                prop_assert_eq!(
+                    cache.points(&ring, 0, from, to, columns),
+                    afresh(&ring, from, to, columns),
+                    "{:?} to {:?}", how, span
+                );
+                prop_assert_eq!(
+                    cache.bits(&ring, 1, from, to, columns),
+                    afresh_bits(&ring, from, to, columns),
+                    "{:?} to {:?}", how, span
+                );
+                // The same span again in the next frame: kept, still the same.
+                cache.end_frame();
+                prop_assert_eq!(
+                    cache.points(&ring, 0, from, to, columns),
+                    afresh(&ring, from, to, columns)
+                );
+                cache.end_frame();
+            }
+        }
+    }
+
+    #[test]
+    fn a_fresh_cache_draws_the_rings_rows_across_the_span_and_its_peaks() {
+        // Ring::decimate and the grid agree on what matters on screen: the line reaches both
+        // edges, the highest and lowest samples well inside the span are drawn, and every
+        // point is a sample of the ring.
+        let ring = ring(20_000, 30_000);
+        for (from, to, columns) in [(2.0, 9.0, 300), (2.345, 2.9, 1000), (0.5, 19.0, 77)] {
+            let grid = afresh(&ring, from, to, columns);
+            let plain = ring.decimate(0, from, to, columns);
+            // Both carry the line past the edges (the grid's outer columns may reach a
+            // little further out).
+            for line in [&grid, &plain] {
+                let (first, last) = (line[0][0], line[line.len() - 1][0]);
+                assert!(first <= from && last >= to, "{from}..{to}: {first} {last}");
+            }
+            let inner = |p: &[[f64; 2]]| {
+                let margin = 2.0 * (to - from) / columns as f64;
+                p.iter()
+                    .filter(|q| q[0] >= from + margin && q[0] <= to - margin)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                        (lo.min(q[1]), hi.max(q[1]))
+                    })
+            };
+            assert_eq!(inner(&grid), inner(&plain), "{from}..{to}");
+            assert!(grid.iter().all(|p| {
+                ring.index_at_or_before(p[0])
+                    .is_some_and(|i| ring.time(i) == Some(p[0]))
+            }));
+        }
     }
 }

@@ -7,9 +7,10 @@
 use eframe::egui::{self, Color32, Ui};
 use egui_plot::{FilledArea, Line, Plot, PlotBounds, PlotUi};
 
+use super::navigate;
 use super::traces::{
-    Band, PALETTE, Seen, View, Y_AXIS_WIDTH, draw_bands, draw_markers, draw_moments, time_axis,
-    time_steps, visible,
+    Band, PALETTE, View, Y_AXIS_WIDTH, draw_bands, draw_markers, draw_moments, time_axis,
+    time_steps,
 };
 use crate::telemetry::ring::Decimations;
 use crate::telemetry::{BitSpan, Builtin, Kind, Scope, bit_name};
@@ -82,20 +83,17 @@ pub(super) fn lanes(scope: &Scope, from: f64, to: f64, decimations: &mut Decimat
     lanes
 }
 
-/// The digital lanes, one plot under the analog ones, on the same time axis.
+/// The digital lanes, one plot under the analog ones, on the same time axis; the span
+/// their bits were decimated for, and their labels.
 pub(super) fn lanes_plot_ui(
     ui: &mut Ui,
     view: &View<'_>,
     lanes: &[Lane],
     height: f32,
-) -> egui_plot::PlotResponse<(Seen, LaneLabels)> {
-    Plot::new("plot_lanes")
+) -> egui_plot::PlotResponse<((f64, f64), LaneLabels)> {
+    navigate::fixed(Plot::new("plot_lanes"))
         .height(height - 8.0)
-        .link_axis(view.group, [true, false])
         .link_cursor(view.group, [true, false])
-        .allow_double_click_reset(false)
-        .allow_zoom([true, false])
-        .allow_drag([true, false])
         .show_grid([true, false])
         .y_axis_min_width(Y_AXIS_WIDTH)
         .y_axis_formatter(|_, _| String::new())
@@ -103,7 +101,7 @@ pub(super) fn lanes_plot_ui(
         .custom_x_axes(time_axis())
         .x_grid_spacer(time_steps)
         .show(ui, |plot_ui| {
-            let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
+            let (from, to) = (view.from, view.to);
             // Lane k from the top: its low line at (n - 1 - k) * 1.5, its high one 1 above.
             plot_ui.set_plot_bounds(PlotBounds::from_min_max(
                 [from, -0.35],
@@ -113,10 +111,7 @@ pub(super) fn lanes_plot_ui(
             draw_markers(plot_ui, &view.markers, false);
             draw_moments(plot_ui, view, None);
             let labels = draw_lanes(plot_ui, view, lanes, from, to);
-            (
-                (plot_ui.pointer_coordinate().map(|p| p.x), (from, to)),
-                labels,
-            )
+            ((from, to), labels)
         })
 }
 
@@ -131,7 +126,8 @@ fn draw_lanes(
     from: f64,
     to: f64,
 ) -> LaneLabels {
-    let columns = plot_ui.transform().frame().width().max(1.0) as usize;
+    // This frame's width (the transform is the last frame's).
+    let columns = plot_ui.response().rect.width().max(1.0) as usize;
     let mut last_column = None;
     let mut spans: Vec<BitSpan> = Vec::new();
     let mut rows = Vec::new();

@@ -1,6 +1,7 @@
 //! The plot panel: stacked plots of the sampled signals on one time axis, the status bits
 //! as digital lanes, command markers, a cursor read-out, pause, follow, zoom and pan; the
-//! analog plots live in `traces`, the status-bit lanes in `lanes`, the trigger and the
+//! analog plots live in `traces`, the status-bit lanes in `lanes`, pan and zoom of their
+//! one time axis in `navigate`, the trigger and the
 //! exports in `trigger_view` and `exports_view` (one row: `capture`), the PNG in `picture`, recordings opened from files (and a frozen
 //! capture) in `review`, the dialogs in `files`.
 
@@ -10,6 +11,7 @@ mod exports_view;
 pub mod files;
 mod lanes;
 pub mod model;
+mod navigate;
 mod picture;
 pub mod readout;
 pub mod review;
@@ -23,8 +25,8 @@ pub use crate::ui::command::PlotCommand;
 pub use exports::{Beside, Export, Job};
 pub use files::{Ask, FilePicker, NativePicker, ScriptedPicker};
 pub use model::{
-    FACTORY_POSITION_UNIT, Image, PlotSettings, PlotView, PositionUnit, live_end, shown_scope,
-    time_range, with_turns,
+    DrawnPlot, FACTORY_POSITION_UNIT, Image, LineExtent, PlotSettings, PlotView, PositionUnit,
+    live_end, shown_scope, time_range, with_turns,
 };
 pub use review::Review;
 pub use traces::{DRIVE_COLORS, colors, drive_color};

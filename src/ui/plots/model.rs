@@ -157,6 +157,67 @@ pub struct Picture {
     pub result: PngResult,
 }
 
+/// One plot as drawn in the last frame: where, on which span of the time axis, and what
+/// it drew there; the read-out reads the pointer's time from where the plots were.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DrawnPlot {
+    /// The signal's id; "lanes" for the digital lanes.
+    pub id: String,
+    /// Its data area (axes left out), in points: left, top, right, bottom.
+    pub frame: [f32; 4],
+    /// The span its time axis showed, as egui_plot drew it (the items and the labels).
+    pub axis: (f64, f64),
+    /// The span its points were decimated for.
+    pub decimated: (f64, f64),
+    /// Its own line (not the overlay's or another drive's): none for the lanes, or with
+    /// no samples near the span.
+    pub line: Option<LineExtent>,
+}
+
+/// Where a line drawn reaches and what it holds in view.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineExtent {
+    /// The first and last point's time (the neighbours that carry it to the edges
+    /// included).
+    pub first: f64,
+    pub last: f64,
+    /// The lowest and highest value among its points inside the axis's span (NaN: none).
+    pub low: f64,
+    pub high: f64,
+}
+
+impl LineExtent {
+    /// The extent of `points` (in time order), the values looked at inside `from..=to`.
+    pub fn of(points: &[[f64; 2]], (from, to): (f64, f64)) -> Option<LineExtent> {
+        let (first, last) = (points.first()?[0], points.last()?[0]);
+        let (low, high) = points
+            .iter()
+            .filter(|p| p[0] >= from && p[0] <= to)
+            .fold((f64::NAN, f64::NAN), |(lo, hi), p| {
+                (lo.min(p[1]), hi.max(p[1]))
+            });
+        Some(LineExtent {
+            first,
+            last,
+            low,
+            high,
+        })
+    }
+}
+
+/// The time at the point (`x`, `y`) on one of the plots `drawn` (where they were in the last
+/// frame), when they show `span`: the time their axis puts there.
+pub fn time_under(drawn: &[DrawnPlot], (x, y): (f32, f32), (from, to): (f64, f64)) -> Option<f64> {
+    let [left, _, right, _] = drawn
+        .iter()
+        .find(|p| {
+            let [left, top, right, bottom] = p.frame;
+            (left..=right).contains(&x) && (top..=bottom).contains(&y)
+        })?
+        .frame;
+    (right > left).then(|| from + f64::from(x - left) / f64::from(right - left) * (to - from))
+}
+
 /// The plot panel's view in this run.
 #[derive(Clone, Debug)]
 pub struct PlotView {
@@ -164,8 +225,6 @@ pub struct PlotView {
     pub(super) paused_at: Option<f64>,
     /// The time axis follows the newest sample; zooming or panning turns it off.
     pub(super) follow: bool,
-    /// Where the pointer is on the time axis, over any plot.
-    pub(super) cursor: Option<f64>,
     /// A moment to mark (a timeline entry shown on the plots).
     pub(super) highlight: Option<f64>,
     /// The time range drawn in the last frame.
@@ -199,6 +258,8 @@ pub struct PlotView {
     pub(super) cursors: [Option<f64>; 2],
     /// The last frames' decimations, drawn again while the plots have not moved.
     pub(super) decimations: Decimations,
+    /// The plots drawn in the last frame, top to bottom.
+    pub(super) drawn: Vec<DrawnPlot>,
 }
 
 impl Default for PlotView {
@@ -206,7 +267,6 @@ impl Default for PlotView {
         Self {
             paused_at: None,
             follow: true,
-            cursor: None,
             shown_range: None,
             highlight: None,
             message: None,
@@ -223,6 +283,7 @@ impl Default for PlotView {
             loading: None,
             cursors: [None; 2],
             decimations: Decimations::default(),
+            drawn: Vec::new(),
         }
     }
 }
@@ -312,6 +373,11 @@ impl PlotView {
     /// Where the plots were drawn in the last frame (left, top, right, bottom, in points).
     pub fn plots_area(&self) -> Option<[f32; 4]> {
         self.plots_area
+    }
+
+    /// The plots drawn in the last frame, top to bottom: where, on which span, what.
+    pub fn drawn(&self) -> &[DrawnPlot] {
+        &self.drawn
     }
 
     /// The open and save dialogs the plots (and the project menu) use.
@@ -453,5 +519,24 @@ mod tests {
         assert_eq!((view.paused_at(), view.highlight()), (Some(8.0), Some(3.0)));
         view.apply(PlotCommand::Follow(true), Some(13.0), 10.0);
         assert!(!view.is_paused());
+    }
+
+    #[test]
+    fn the_time_under_the_pointer_is_the_axis_time_there() {
+        let plot = |top: f32| DrawnPlot {
+            id: String::new(),
+            frame: [100.0, top, 1100.0, top + 90.0],
+            axis: (0.0, 1.0),
+            decimated: (0.0, 1.0),
+            line: None,
+        };
+        let drawn = [plot(0.0), plot(100.0)];
+        // On the span drawn now, wherever the plots were.
+        assert_eq!(time_under(&drawn, (350.0, 150.0), (20.0, 30.0)), Some(22.5));
+        assert_eq!(time_under(&drawn, (100.0, 10.0), (20.0, 30.0)), Some(20.0));
+        assert_eq!(time_under(&drawn, (1100.0, 10.0), (20.0, 30.0)), Some(30.0));
+        // On the y axis or between two plots: none.
+        assert_eq!(time_under(&drawn, (90.0, 10.0), (20.0, 30.0)), None);
+        assert_eq!(time_under(&drawn, (350.0, 95.0), (20.0, 30.0)), None);
     }
 }

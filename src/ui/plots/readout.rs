@@ -3,7 +3,7 @@
 
 use eframe::egui::Ui;
 
-use super::model::{shown_scope, with_turns};
+use super::model::{shown_scope, time_range, time_under, with_turns};
 use super::view::Plots;
 use crate::telemetry::{Kind, Ring, Scope, format_number};
 
@@ -14,9 +14,10 @@ pub fn readout_ui(ui: &mut Ui, p: &mut Plots<'_>) {
         cursors_ui(ui, p);
         return;
     }
+    let pointer = pointer_time(ui, p);
     let scope = shown_scope(p.view, p.drive);
     let ring = scope.ring();
-    let at = p.view.cursor.or(ring.last_time());
+    let at = pointer.or(ring.last_time());
     let Some(at) = at else {
         ui.weak("no samples yet");
         return;
@@ -25,7 +26,7 @@ pub fn readout_ui(ui: &mut Ui, p: &mut Plots<'_>) {
         return;
     };
     ui.horizontal_wrapped(|ui| {
-        let what = if p.view.cursor.is_some() {
+        let what = if pointer.is_some() {
             "pointer"
         } else {
             "latest"
@@ -45,6 +46,19 @@ pub fn readout_ui(ui: &mut Ui, p: &mut Plots<'_>) {
         // How to place the cursors is said on the time's hover: a line of its own, or a
         // wrapped tail, would come off the plots' height.
     });
+}
+
+/// The time on the axis under the pointer, when it is over a plot (and no menu or dialog
+/// covers it): where the plots were drawn in the last frame, on the span they are drawn on
+/// in this one. The read-out comes before the plots, and a pan or zoom asked in the last
+/// frame is drawn in this one: the time is the one the axis shows under the pointer now.
+fn pointer_time(ui: &Ui, p: &Plots<'_>) -> Option<f64> {
+    let pos = ui.input(|i| i.pointer.hover_pos())?;
+    if ui.ctx().layer_id_at(pos) != Some(ui.layer_id()) {
+        return None;
+    }
+    let span = time_range(p.view, p.drive, p.settings.window_s)?;
+    time_under(&p.view.drawn, (pos.x, pos.y), span)
 }
 
 /// The cursors: "A 1.200 s  B 1.700 s  Δt 0.500 s", then per analog signal the change

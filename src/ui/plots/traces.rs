@@ -1,8 +1,9 @@
 //! The stacked plots: one per analog signal, then the digital lanes (drawn by `lanes`),
-//! all on one linked time axis, each drawn from the history's min/max decimation at one
-//! point group per pixel column, so the whole history draws without dropping a peak. The y axes always
-//! fit what is in view (zoom and pan move the time axis only, no trace is clipped); a
-//! recording overlaid is drawn dashed over the one it is compared with.
+//! all on one time axis (the plot view's span; `navigate` turns a drag or the wheel into a
+//! new one), each drawn from the history's min/max decimation at one point group per pixel
+//! column, so the whole history draws without dropping a peak. The y axes always fit what
+//! is in view (zoom and pan move the time axis only, no trace is clipped); a recording
+//! overlaid is drawn dashed over the one it is compared with.
 
 use std::cell::RefCell;
 
@@ -11,7 +12,8 @@ use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, V
 
 use super::exports::Beside;
 use super::lanes::{lane_labels_ui, lanes, lanes_plot_ui};
-use super::model::{PositionUnit, live_end, shown_scope, time_range};
+use super::model::{DrawnPlot, LineExtent, PositionUnit, live_end, shown_scope, time_range};
+use super::navigate;
 use super::view::Plots;
 use crate::telemetry::ring::Decimations;
 use crate::telemetry::{Builtin, CaptureState, Condition, Kind, Ring, Scope, SignalDef};
@@ -106,18 +108,19 @@ pub(super) struct Band {
 /// What the plots report back for the next frame.
 #[derive(Default)]
 struct Interaction {
-    cursor: Option<f64>,
-    range: Option<(f64, f64)>,
-    user_moved: bool,
+    /// The span a drag, the wheel or a right drag over a plot asked for.
+    asked: Option<(f64, f64)>,
     follow_again: bool,
     /// A click placed cursor A (0) or B (1) here.
     placed: Option<(usize, f64)>,
     /// The right edge of the plots drawn.
     right: f32,
+    /// The plots drawn, top to bottom.
+    drawn: Vec<DrawnPlot>,
 }
 
-/// What every plot of one frame shares: the time span, whether it follows the newest
-/// sample, the linked axis, and the marks drawn across all plots.
+/// What every plot of one frame shares: the time span, the pointer's line across them, and
+/// the marks drawn across all plots.
 pub(super) struct View<'a> {
     pub(super) ring: &'a Ring,
     /// The recording drawn over this one, and the seconds its times are moved by.
@@ -126,7 +129,7 @@ pub(super) struct View<'a> {
     cursors: [Option<f64>; 2],
     pub(super) from: f64,
     pub(super) to: f64,
-    pub(super) follow: bool,
+    /// The plots that draw the pointer's time as a line where it is over one of them.
     pub(super) group: egui::Id,
     pub(super) markers: Vec<(f64, &'a str)>,
     /// The gaps in view, oldest first.
@@ -176,8 +179,7 @@ impl<'a> View<'a> {
             cursors: plot.cursors,
             from,
             to,
-            follow: plot.follow,
-            group: egui::Id::unique("plots_time_axis"),
+            group: egui::Id::unique("plots_pointer_line"),
             markers,
             bands: bands(p, from, to),
             highlight: plot.highlight,
@@ -311,9 +313,6 @@ fn split_at_bands<'p>(points: &'p [[f64; 2]], bands: &[Band]) -> Vec<&'p [[f64; 
     runs
 }
 
-/// Where the pointer is on the time axis, and the span the plot showed.
-pub(super) type Seen = (Option<f64>, (f64, f64));
-
 /// The plots; where they were drawn (every axis included), for the picture.
 pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
     let Some((from, to)) = time_range(p.view, p.drive, p.settings.window_s) else {
@@ -343,12 +342,14 @@ pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
         // The time labels once, under the lowest plot.
         let time_labels = n + 1 == analog.len() && lanes.is_empty();
         let response = analog_plot_ui(ui, &view, signal, *color, plot_height, n == 0, time_labels);
-        interaction.absorb(ui, &response.response, response.inner);
+        let (decimated, line) = response.inner;
+        interaction.absorb(ui, &response, &signal.info.id, (from, to), decimated, line);
     }
     if !lanes.is_empty() {
         let response = lanes_plot_ui(ui, &view, &lanes, lanes_height);
-        interaction.absorb(ui, &response.response, response.inner.0);
-        lane_labels_ui(ui, &response.inner.1, &response.transform);
+        let (decimated, labels) = &response.inner;
+        interaction.absorb(ui, &response, "lanes", (from, to), *decimated, None);
+        lane_labels_ui(ui, labels, &response.transform);
     }
 
     let bottom = ui.cursor().min;
@@ -359,7 +360,7 @@ pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
     let mut decimations = view.decimations.into_inner();
     decimations.end_frame();
     p.view.decimations = decimations;
-    remember_view(p, &interaction, (from, to));
+    remember_view(ui.ctx(), p, interaction, (from, to));
     Some(plots)
 }
 
@@ -408,7 +409,7 @@ fn analog_plot_ui(
     height: f32,
     first: bool,
     time_labels: bool,
-) -> egui_plot::PlotResponse<Seen> {
+) -> egui_plot::PlotResponse<((f64, f64), Option<LineExtent>)> {
     let (scale, unit) = view.position_unit.drawn(&signal.info.unit);
     let label = if unit.is_empty() {
         signal.info.name.clone()
@@ -432,15 +433,12 @@ fn analog_plot_ui(
             .filter(|s| s.kind == Kind::Analog)
             .map(|s| (scope.ring(), s.column, offset))
     });
-    Plot::new(("plot", signal.info.id.as_str()))
+    // The time axis shows the view's span (a pan or zoom asks for another, see
+    // `navigate`); the value axis always fits what is in view.
+    navigate::fixed(Plot::new(("plot", signal.info.id.as_str())))
         .height(height)
-        .link_axis(view.group, [true, false])
         .link_cursor(view.group, [true, false])
         .legend(legend(view.own.is_some()))
-        .allow_double_click_reset(false)
-        // The time axis zooms and pans; the value axis always fits what is in view.
-        .allow_zoom([true, false])
-        .allow_drag([true, false])
         // Three or four labelled values on a low plot (egui_plot's decades give one).
         .custom_y_axes(vec![
             egui_plot::AxisHints::new_y().label_spacing(10.0..=16.0),
@@ -451,8 +449,9 @@ fn analog_plot_ui(
         .x_grid_spacer(time_steps)
         .show_axes([time_labels, true])
         .show(ui, |plot_ui| {
-            let (from, to) = visible(plot_ui, view.follow, view.from, view.to);
-            let columns = plot_ui.transform().frame().width().max(1.0) as usize;
+            let (from, to) = (view.from, view.to);
+            // This frame's width (the transform is the last frame's).
+            let columns = plot_ui.response().rect.width().max(1.0) as usize;
             let mut points = view.points(view.ring, column, from, to, columns);
             scale_values(&mut points, scale, 0.0);
             let mut other = overlay
@@ -478,6 +477,7 @@ fn analog_plot_ui(
                     ))
                 })
                 .collect();
+            let extent = LineExtent::of(&points, (from, to));
             let mut fit = vec![points.as_slice(), other.as_slice()];
             fit.extend(drives.iter().map(|(_, theirs, _, _)| theirs.as_slice()));
             plot_ui.set_plot_bounds(fit_bounds(&fit, from, to, level));
@@ -498,7 +498,7 @@ fn analog_plot_ui(
                         .width(1.5),
                 );
             }
-            (plot_ui.pointer_coordinate().map(|p| p.x), (from, to))
+            ((from, to), extent)
         })
 }
 
@@ -564,29 +564,31 @@ pub(super) fn draw_moments(plot_ui: &mut PlotUi, view: &View<'_>, level: Option<
     }
 }
 
-/// What the next frame needs of this one: the pointer, the cursor placed, the span shown;
-/// a double click (follow again) and a drag or zoom (show that span) are the user's
-/// commands.
-fn remember_view(p: &mut Plots<'_>, interaction: &Interaction, (from, to): (f64, f64)) {
+/// What the next frame needs of this one: where the plots were (the read-out's pointer),
+/// the cursor placed, the span shown; a double click (follow again) and a pan or zoom
+/// (show that span) are the user's commands.
+fn remember_view(
+    ctx: &egui::Context,
+    p: &mut Plots<'_>,
+    interaction: Interaction,
+    (from, to): (f64, f64),
+) {
     let view = &mut *p.view;
-    view.cursor = interaction.cursor;
     if let Some((k, at)) = interaction.placed
         && let Some(cursor) = view.cursors.get_mut(k)
     {
         *cursor = Some(at);
     }
-    view.shown_range = if view.follow {
-        Some((from, to))
-    } else {
-        interaction.range
-    };
+    view.shown_range = Some((from, to));
+    view.drawn = interaction.drawn;
     if interaction.follow_again {
         p.commands.push(Command::Plot(PlotCommand::FollowAgain));
-    } else if interaction.user_moved
-        && let Some((from, to)) = interaction.range
-    {
+    } else if let Some((from, to)) = interaction.asked {
         p.commands
             .push(Command::Plot(PlotCommand::ShowSpan { from, to }));
+        // The span asked for is drawn in the next frame, also when no input comes to
+        // wake it (the last step of a drag, the wheel's last bit).
+        ctx.request_repaint();
     }
 }
 
@@ -670,50 +672,42 @@ fn steps_between(min: f64, max: f64, sizes: &[(f64, i64)]) -> Vec<egui_plot::Gri
 }
 
 impl Interaction {
-    fn absorb(&mut self, ui: &Ui, response: &egui::Response, (cursor, range): Seen) {
-        if cursor.is_some() && response.hovered() {
-            self.cursor = cursor;
-        }
+    /// One plot drawn on `span` (its points decimated for `decimated`): where it was, a
+    /// cursor placed by a click, a double click, the span a pan or zoom over it asks for.
+    /// Times under the pointer come from the transform the plot was drawn with (egui_plot's
+    /// `pointer_coordinate` is the last frame's).
+    fn absorb<R>(
+        &mut self,
+        ui: &Ui,
+        plot: &egui_plot::PlotResponse<R>,
+        id: &str,
+        span: (f64, f64),
+        decimated: (f64, f64),
+        line: Option<LineExtent>,
+    ) {
+        let (response, transform) = (&plot.response, &plot.transform);
         self.right = self.right.max(response.rect.right());
-        if let Some(at) = cursor {
-            // A right click on a plot starts egui_plot's box zoom, so the plot's
-            // response does not report it: the pointer's own click, inside this plot.
-            let right_click = ui.input(|i| {
-                i.pointer.button_clicked(egui::PointerButton::Secondary)
-                    && i.pointer
-                        .latest_pos()
-                        .is_some_and(|p| response.rect.contains(p))
-            });
+        let (frame, bounds) = (transform.frame(), transform.bounds());
+        self.drawn.push(DrawnPlot {
+            id: id.to_owned(),
+            frame: [frame.min.x, frame.min.y, frame.max.x, frame.max.y],
+            axis: (bounds.min()[0], bounds.max()[0]),
+            decimated,
+            line,
+        });
+        let time_at = |pos: egui::Pos2| transform.value_from_position(pos).x;
+        if let Some(pos) = response.interact_pointer_pos() {
             if response.clicked() {
-                self.placed = Some((0, at));
-            } else if response.secondary_clicked() || right_click {
-                self.placed = Some((1, at));
+                self.placed = Some((0, time_at(pos)));
+            } else if response.secondary_clicked() {
+                self.placed = Some((1, time_at(pos)));
             }
         }
-        self.range.get_or_insert(range);
         if response.double_clicked() {
             self.follow_again = true;
-        } else if response.dragged()
-            || (response.hovered()
-                && ui.input(|i| i.smooth_scroll_delta != egui::Vec2::ZERO || i.zoom_delta() != 1.0))
-        {
-            self.user_moved = true;
+        } else if self.asked.is_none() {
+            self.asked = navigate::asked(ui, response, transform, span);
         }
-    }
-}
-
-/// The time span this plot shows: ours while following, the plot's own (zoomed, panned)
-/// otherwise.
-pub(super) fn visible(plot_ui: &PlotUi, follow: bool, from: f64, to: f64) -> (f64, f64) {
-    if follow {
-        return (from, to);
-    }
-    let b = plot_ui.plot_bounds();
-    let (min, max) = (b.min()[0], b.max()[0]);
-    if min.is_finite() && max.is_finite() && max > min {
-        (min, max)
-    } else {
-        (from, to)
     }
 }
 

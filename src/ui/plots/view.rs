@@ -167,8 +167,9 @@ fn toolbar(ui: &mut Ui, p: &mut Plots<'_>) {
         if ui
             .add(egui::Button::selectable(follow, "Follow latest"))
             .on_hover_text(
-                "Keep the newest samples in view. Dragging or zooming a plot stops following; \
-                 double-click a plot to follow again.",
+                "Keep the newest samples in view. Moving the time axis stops following: drag a \
+                 plot to pan, turn the wheel over it to zoom (Shift+wheel pans), right-drag \
+                 across the span to show; double-click a plot to follow again.",
             )
             .clicked()
         {
