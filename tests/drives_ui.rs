@@ -348,6 +348,10 @@ fn the_plots_draw_every_drive_on_one_time_axis() {
         "one time base: Y starts at {first} s, X was at {before} s"
     );
     harness.step();
+    // Only the drive shown, until another is ticked in the list.
+    assert!(harness.query_by_label_contains("Y axis: Position").is_none());
+    harness.get_by_label("Plot Y axis beside").click();
+    harness.run_steps(2);
     // Each plot's legend names the drive of each line.
     harness.get_by_label_contains("Drive 1: Position");
     harness.get_by_label_contains("Y axis: Position");
@@ -465,6 +469,9 @@ fn exports_write_every_drive_beside_the_selected_one_and_ask_before_replacing_an
         .window_mut()
         .plot
         .set_files(picker.clone());
+    // Y axis drawn beside X axis: its file goes beside X axis's.
+    harness.get_by_label("Plot Y axis beside").click();
+    harness.run_steps(2);
     harness.get_by_label("Export visible…").click();
     harness.run_steps(2);
     // The selected drive's signals in the file chosen, Y axis's beside it, over one span.
@@ -563,4 +570,45 @@ fn a_drive_is_added_by_its_connection_string_typed_into_the_menu() {
             .is_none(),
         "Add closes the menu"
     );
+}
+
+#[test]
+fn a_sixteen_drive_machine_fits_a_laptop_screen_in_one_line_each() {
+    let size = egui::vec2(1366.0, 768.0);
+    let screen = egui::Rect::from_min_size(egui::Pos2::ZERO, size);
+    let mut harness = window::harness_with(drivedeck::ui::Settings::default(), true, size);
+    connected(&mut harness);
+    for n in 2..=16 {
+        harness
+            .state_mut()
+            .add_drive(format!("D{n}"), "sim://")
+            .expect("another drive");
+    }
+    harness.run_steps(3);
+    // The list: one line per drive; the rows that show are a line high.
+    let d2 = harness.get_by_label_contains("D2: ").rect();
+    let d3 = harness.get_by_label_contains("D3: ").rect();
+    assert!(d3.top() - d2.top() < 30.0, "one line a drive: {d2:?} {d3:?}");
+    // The Machine tab: every drive, whole, on screen at once.
+    harness.get_by_label("Machine").click();
+    harness.run_steps(3);
+    for n in 2..=16 {
+        let name = harness.get_by_label(&format!("Show D{n}")).rect();
+        assert!(screen.contains_rect(name), "D{n} at {name:?}");
+    }
+    // Sorted by name, descending: D9 leads (names sort as text).
+    harness.get_by_label("Sort by Drive").click();
+    harness.run_steps(2);
+    harness.get_by_label("Sort by Drive").click();
+    harness.run_steps(2);
+    let top = |h: &Harness<'_, App>, name: &str| h.get_by_label(name).rect().top();
+    assert!(top(&harness, "Show D9") < top(&harness, "Show D16"));
+    // A click on a name shows that drive.
+    harness.get_by_label("Show D7").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().selected(), 6);
+    // The plots draw the drive shown only, until others are ticked.
+    harness.get_by_label("Plots").click();
+    harness.run_steps(3);
+    assert!(harness.query_by_label_contains("D2: Position").is_none());
 }

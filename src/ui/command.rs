@@ -34,6 +34,8 @@ pub enum Command {
     RemoveDrive(usize),
     /// Rename drive `index` (as typed: a name half typed may be empty or taken).
     Rename(usize, String),
+    /// Draw drive `index` in the plots beside the drive shown, or not.
+    PlotBeside(usize, bool),
 
     // The drive shown.
     /// Connect to this link.

@@ -18,6 +18,12 @@ use crate::link::LinkSpec;
 const ROWS_SHOWN: f32 = 4.0;
 /// Height of one row (two lines).
 const ROW_HEIGHT: f32 = 38.0;
+/// More drives than this and each takes one line (the details on hover, and whole in the
+/// Machine tab): a 16-axis machine fits a laptop screen.
+pub const COMPACT_ABOVE: usize = 4;
+/// Compact rows shown before the list scrolls, and their height.
+const COMPACT_SHOWN: f32 = 8.0;
+const COMPACT_HEIGHT: f32 = 24.0;
 
 /// What the list shows and offers: a row per drive, the one selected, the link the
 /// connection bar describes (for "Another on the bar's bus"), and the project's menu.
@@ -49,9 +55,15 @@ pub fn drive_list_ui(
         ui.colored_label(RED, message);
     }
     let several = rows.len() > 1;
+    let compact = rows.len() > COMPACT_ABOVE;
+    let height = if compact {
+        COMPACT_SHOWN * COMPACT_HEIGHT
+    } else {
+        ROWS_SHOWN * ROW_HEIGHT
+    };
     egui::ScrollArea::vertical()
         .id_salt("drive_list")
-        .max_height(ROWS_SHOWN * ROW_HEIGHT)
+        .max_height(height)
         .show(ui, |ui| {
             for (i, row) in rows.iter().enumerate() {
                 let chosen = i == selected;
@@ -64,28 +76,46 @@ pub fn drive_list_ui(
                         Color32::TRANSPARENT
                     });
                 frame.show(ui, |ui| {
-                    row_ui(ui, list, i, row, chosen, several, commands);
+                    let at = Row {
+                        index: i,
+                        chosen,
+                        several,
+                        compact,
+                    };
+                    row_ui(ui, list, row, at, commands);
                 });
             }
         });
 }
 
-/// One drive: name (editable when selected) and state; link, position and motion under it.
-fn row_ui(
-    ui: &mut Ui,
-    list: &mut DriveList,
+/// Where a row stands in the list.
+#[derive(Clone, Copy)]
+struct Row {
     index: usize,
-    row: &DriveRow,
+    /// The drive shown.
     chosen: bool,
+    /// More than one drive in the list.
     several: bool,
-    commands: &mut Vec<Command>,
-) {
+    /// One line per drive.
+    compact: bool,
+}
+
+/// One drive: name (editable when selected) and state; link, position and motion under it
+/// (on hover only, when the list is compact).
+fn row_ui(ui: &mut Ui, list: &mut DriveList, row: &DriveRow, at: Row, commands: &mut Vec<Command>) {
+    let Row {
+        index,
+        chosen,
+        several,
+        compact,
+    } = at;
     ui.horizontal(|ui| {
         if several {
             // The drive's colour, as its lines have it when drives share the plots.
             let (swatch, _) = ui.allocate_exact_size(egui::vec2(4.0, 16.0), egui::Sense::hover());
             ui.painter()
                 .rect_filled(swatch, 1.0, drive_color(row.color));
+            plot_tick_ui(ui, row, index, chosen, commands);
         }
         if chosen {
             // Typed into a draft: a name half typed may be empty or taken for a moment.
@@ -143,9 +173,18 @@ fn row_ui(
                     egui::accesskit::Role::Label,
                     &format!("{}: {}", row.name, row.state),
                 );
+                if compact {
+                    let mut words = vec![row.details()];
+                    words.extend(row.fault.clone());
+                    words.extend(row.check.as_ref().map(|(c, _)| c.clone()));
+                    state.on_hover_text(words.join("\n"));
+                }
             });
         });
     });
+    if compact {
+        return;
+    }
     ui.horizontal(|ui| {
         ui.add_space(4.0);
         let details =
@@ -269,5 +308,32 @@ fn project_line_ui(ui: &mut Ui, project: &ProjectFiles) {
             ui.add(egui::Label::new(egui::RichText::new(text).small().color(RED)).wrap());
         }
         None => {}
+    }
+}
+
+/// The box that draws a drive in the plots beside the drive shown (the shown one is always
+/// drawn: its box is ticked and cannot be changed).
+fn plot_tick_ui(
+    ui: &mut Ui,
+    row: &DriveRow,
+    index: usize,
+    chosen: bool,
+    commands: &mut Vec<Command>,
+) {
+    let mut on = chosen || row.in_plots;
+    let tick = ui
+        .add_enabled(!chosen, egui::Checkbox::without_text(&mut on))
+        .on_hover_text(format!(
+            "Draw {}'s signals in the plots beside the drive shown",
+            row.name
+        ))
+        .on_disabled_hover_text("The drive shown: always in the plots");
+    name_widget(
+        &tick,
+        egui::accesskit::Role::CheckBox,
+        &format!("Plot {} beside", row.name),
+    );
+    if tick.changed() {
+        commands.push(Command::PlotBeside(index, on));
     }
 }

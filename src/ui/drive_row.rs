@@ -27,6 +27,11 @@ pub struct DriveRow {
     /// The fault active, with its code and meaning.
     pub fault: Option<String>,
     pub position: Option<String>,
+    /// The position and the velocity as numbers, for sorting.
+    pub position_value: Option<f64>,
+    pub velocity: Option<f64>,
+    /// Drawn in the plots beside the drive shown.
+    pub in_plots: bool,
     /// "moving +300 rpm", "still", or nothing known.
     pub motion: String,
     pub connected: bool,
@@ -103,6 +108,9 @@ impl DriveRow {
             tone,
             fault: (fault && live).then(|| fault_words(sample)),
             position,
+            position_value: sample.and_then(|s| s.position()).map(|p| p * unit.scale()),
+            velocity: sample.and_then(|s| s.velocity()),
+            in_plots: drive.in_plots,
             motion,
             connected: drive.is_connected(),
             check: drive.project_warning(),

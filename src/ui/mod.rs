@@ -30,6 +30,8 @@ pub mod input;
 pub mod jog;
 pub mod leave;
 pub mod log;
+pub mod machine;
+pub mod machine_table;
 pub mod pace;
 pub mod panel;
 pub mod path_prompt;

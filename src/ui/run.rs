@@ -70,6 +70,12 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
                         // The demo: two simulated drives, so the list shows what it is for.
                         let named = app.rename(0, "X axis".into());
                         let added = app.add_drive("Y axis".into(), "sim://");
+                        // Drawn beside X axis in the plots, as a machine's axes are compared.
+                        if let Ok(index) = &added
+                            && let Some(y) = app.drive_mut(*index)
+                        {
+                            y.in_plots = true;
+                        }
                         if let Err(e) = named.and(added.map(|_| ())) {
                             app.shown_mut()
                                 .info(format!("the demo's second drive: {e}"));

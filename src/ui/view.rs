@@ -15,8 +15,8 @@ use super::plots::{Beside, Plots};
 use super::project_files::ProjectFiles;
 use super::window::Window;
 use super::{
-    browser, changes, commands, connection, drive_list, faults, glance, log, plots, scan, status,
-    watch,
+    browser, changes, commands, connection, drive_list, faults, glance, log, machine, plots, scan,
+    status, watch,
 };
 
 /// What one frame of the window draws from, and where the user's intents go.
@@ -75,6 +75,14 @@ pub const CENTRAL: &[Panel] = &[
         id: DICTIONARY,
         title: |_| "Object dictionary".into(),
         ui: |ui, f| browser::browser_ui(ui, f.drive, &mut f.window.settings.dictionary, f.commands),
+        model: None,
+        clear: None,
+    },
+    // Every drive on one line: the machine at a glance.
+    Panel {
+        id: machine::MACHINE,
+        title: |_| "Machine".into(),
+        ui: |ui, f| machine::machine_ui(ui, f.rows, f.selected, &mut f.window.machine, f.commands),
         model: None,
         clear: None,
     },

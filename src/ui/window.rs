@@ -6,6 +6,7 @@
 
 use std::sync::Arc;
 
+use crate::ui::machine_table::MachineSort;
 use crate::ui::plots::files::{FilePicker, PromptingPicker, Prompts};
 use crate::ui::plots::model::PlotView;
 use crate::ui::settings::WindowSettings;
@@ -34,6 +35,8 @@ pub struct Window {
     pub list: DriveList,
     /// Open and save questions no system dialog could show, asked in the window.
     pub prompts: Prompts,
+    /// How the Machine tab's overview of every drive is sorted.
+    pub machine: MachineSort,
 }
 
 impl Window {
@@ -44,6 +47,7 @@ impl Window {
             bottom: COMMANDS,
             list: DriveList::default(),
             prompts: Prompts::default(),
+            machine: MachineSort::default(),
         };
         let files = window.plot.files();
         window.use_files(files);

@@ -54,6 +54,11 @@ impl App {
                     .err()
                     .map(|e| format!("{e}; the name stays '{was}'"));
             }
+            Command::PlotBeside(index, on) => {
+                if let Some(drive) = self.drive_mut(index) {
+                    drive.in_plots = on;
+                }
+            }
             Command::StopAll(action) => self.stop_all(action),
             Command::ClearLog(tab) => self.clear_log(tab),
             Command::OpenProject => self.ask_project_file(Purpose::Open),

@@ -267,8 +267,10 @@ impl App {
         let Some((selected, others)) = split_shown(&mut self.drives, selected_index) else {
             return;
         };
+        // The drives the user ticked, not every drive: sixteen lines a plot read as none.
         let beside: Vec<Beside<'_>> = others
             .iter()
+            .filter(|d| d.in_plots)
             .map(|d| Beside {
                 name: d.name.as_str(),
                 scope: &d.scope,

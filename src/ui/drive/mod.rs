@@ -55,6 +55,8 @@ pub struct Drive {
     pub name: String,
     /// Its colour in plots beside other drives, fixed when it was added.
     pub color: usize,
+    /// Drawn in the plots beside the drive shown (the user ticked it in the list).
+    pub in_plots: bool,
     pub settings: DriveSettings,
     pub link: LinkState,
     /// The plots' history, markers, trigger and recording.
@@ -106,6 +108,7 @@ impl Drive {
         Self {
             name,
             color,
+            in_plots: false,
             settings,
             link: LinkState::default(),
             scope,
