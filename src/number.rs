@@ -58,8 +58,52 @@ pub fn hex_cut(bytes: &[u8], max: usize) -> String {
 
 const HEX_DIGITS: &[u8; 16] = b"0123456789ABCDEF";
 
+/// A decimal integer as people read it: its digits in groups of three from the right when
+/// there are five or more ("4294967295" → "4 294 967 295", "-32768" → "-32 768"; "1000"
+/// stays). Text that is not a plain integer comes back as it was.
+pub fn grouped(text: &str) -> String {
+    let (sign, digits) = match text.strip_prefix('-') {
+        Some(rest) => ("-", rest),
+        None => ("", text),
+    };
+    if digits.len() < 5 || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return text.to_owned();
+    }
+    let mut out = String::with_capacity(text.len() + digits.len() / 3);
+    out.push_str(sign);
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push(' ');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// A range of values for messages: "0 … 4 294 967 295" (not Rust's "0..=4294967295").
+pub fn range_text(min: impl std::fmt::Display, max: impl std::fmt::Display) -> String {
+    format!(
+        "{} … {}",
+        grouped(&min.to_string()),
+        grouped(&max.to_string())
+    )
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn numbers_are_grouped_and_ranges_written_for_people() {
+        assert_eq!(super::grouped("4294967295"), "4 294 967 295");
+        assert_eq!(super::grouped("-32768"), "-32 768");
+        assert_eq!(super::grouped("1000"), "1000");
+        assert_eq!(super::grouped("12.5"), "12.5");
+        assert_eq!(super::range_text(0, 4_294_967_295u32), "0 … 4 294 967 295");
+        assert_eq!(
+            super::range_text(-2_147_483_648i64, 7),
+            "-2 147 483 648 … 7"
+        );
+    }
+
     use super::{hex, hex_cut, parse_integer};
 
     #[test]

@@ -349,7 +349,11 @@ fn the_plots_draw_every_drive_on_one_time_axis() {
     );
     harness.step();
     // Only the drive shown, until another is ticked in the list.
-    assert!(harness.query_by_label_contains("Y axis: Position").is_none());
+    assert!(
+        harness
+            .query_by_label_contains("Y axis: Position")
+            .is_none()
+    );
     harness.get_by_label("Plot Y axis beside").click();
     harness.run_steps(2);
     // Each plot's legend names the drive of each line.
@@ -588,7 +592,10 @@ fn a_sixteen_drive_machine_fits_a_laptop_screen_in_one_line_each() {
     // The list: one line per drive; the rows that show are a line high.
     let d2 = harness.get_by_label_contains("D2: ").rect();
     let d3 = harness.get_by_label_contains("D3: ").rect();
-    assert!(d3.top() - d2.top() < 30.0, "one line a drive: {d2:?} {d3:?}");
+    assert!(
+        d3.top() - d2.top() < 30.0,
+        "one line a drive: {d2:?} {d3:?}"
+    );
     // The Machine tab: every drive, whole, on screen at once.
     harness.get_by_label("Machine").click();
     harness.run_steps(3);

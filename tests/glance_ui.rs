@@ -320,3 +320,32 @@ fn at_1024_by_600_the_warning_after_a_link_loss_mid_move_is_seen_whole() {
         );
     }
 }
+
+#[test]
+fn secondary_text_is_legible() {
+    let mut harness = app_harness();
+    connected(&mut harness);
+    harness.run_steps(2);
+    let style = harness.ctx.global_style();
+    let small = style
+        .text_styles
+        .get(&egui::TextStyle::Small)
+        .map_or(0.0, |f| f.size);
+    assert!(small >= 12.0, "small text is {small} points");
+    // Weak text against the panel's background: at least 4.5:1 (WCAG AA).
+    let luminance = |c: egui::Color32| {
+        let channel = |v: u8| {
+            let v = f32::from(v) / 255.0;
+            if v <= 0.040_45 {
+                v / 12.92
+            } else {
+                ((v + 0.055) / 1.055).powf(2.4)
+            }
+        };
+        0.2126 * channel(c.r()) + 0.7152 * channel(c.g()) + 0.0722 * channel(c.b())
+    };
+    let weak = luminance(style.visuals.weak_text_color());
+    let background = luminance(style.visuals.panel_fill);
+    let contrast = (weak.max(background) + 0.05) / (weak.min(background) + 0.05);
+    assert!(contrast >= 4.5, "weak text contrast {contrast:.1}:1");
+}

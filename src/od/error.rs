@@ -9,7 +9,10 @@ pub enum Error {
     #[error("'{text}' is not a valid {dtype} value")]
     NotANumber { text: String, dtype: DataType },
 
-    #[error("{value} is out of range for {dtype}: {min}..={max}")]
+    #[error(
+        "{value} is out of range for {dtype}: {}",
+        crate::number::range_text(min, max)
+    )]
     OutOfRange {
         value: String,
         dtype: DataType,

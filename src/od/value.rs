@@ -262,7 +262,7 @@ mod tests {
             Ok(Value::Uint(255))
         );
         let err = Value::parse(DataType::Unsigned8, "256").unwrap_err();
-        assert_eq!(err.to_string(), "256 is out of range for U8: 0..=255");
+        assert_eq!(err.to_string(), "256 is out of range for U8: 0 … 255");
         assert!(Value::parse(DataType::Unsigned16, "-1").is_err());
         assert_eq!(
             Value::parse(DataType::Integer16, "-32768"),

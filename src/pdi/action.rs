@@ -436,7 +436,7 @@ mod tests {
         let text = err.to_string();
         assert!(text.contains("PDI-SetValue2"), "{text}");
         assert!(text.contains("40000"), "{text}");
-        assert!(text.contains("-32768..=32767"), "{text}");
+        assert!(text.contains("-32 768 … 32 767"), "{text}");
         assert!(text.contains("speed unit"), "{text}");
     }
 

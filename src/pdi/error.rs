@@ -9,7 +9,8 @@ pub enum Error {
     UnknownOpcode(u8),
 
     #[error(
-        "{label} = {value} does not fit {field}: allowed {min}..={max}{}",
+        "{label} = {value} does not fit {field}: allowed {}{}",
+        crate::number::range_text(min, max),
         hint_suffix(hint)
     )]
     OutOfRange {

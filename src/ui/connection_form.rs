@@ -539,7 +539,7 @@ mod tests {
         enip.enip_more = "cmd_at=9".into();
         assert_eq!(
             problem(&enip),
-            "options 'cmd_at=9': cmd_at=9 is out of range 7..=8"
+            "options 'cmd_at=9': cmd_at=9 is out of range 7 … 8"
         );
         enip.enip_more = "udp".into();
         assert_problem_says(&enip, "has no value");

@@ -3,10 +3,29 @@
 //! "T→O" (EtherNet/IP's directions, in the log and link errors) draws its arrow as an
 //! empty box.
 
-use eframe::egui::{FontDefinitions, FontFamily};
+use eframe::egui::{self, Color32, FontDefinitions, FontFamily, FontId, TextStyle};
 
 /// Hack's name in egui's default font definitions.
 const HACK: &str = "Hack";
+
+/// The size of secondary text (egui's `Small`, 9 points by default: too small to read on
+/// a laptop beside a machine).
+pub const SMALL_SIZE: f32 = 12.0;
+/// Weak (secondary) text on the dark theme: light enough to read (about 8:1 against the
+/// panels' background), still quieter than the text beside it.
+const WEAK_TEXT: Color32 = Color32::from_gray(168);
+
+/// The window's text styles: secondary text legible.
+pub fn style(ctx: &egui::Context) {
+    ctx.all_styles_mut(|style| {
+        style
+            .text_styles
+            .insert(TextStyle::Small, FontId::proportional(SMALL_SIZE));
+        if style.visuals.dark_mode {
+            style.visuals.weak_text_color = Some(WEAK_TEXT);
+        }
+    });
+}
 
 /// egui's default fonts, with Hack as the last fallback of the proportional family.
 pub fn definitions() -> FontDefinitions {

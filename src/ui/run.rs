@@ -89,6 +89,7 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
             }
             // Installed before the first frame, so that it is not laid out twice.
             cc.egui_ctx.set_fonts(fonts::definitions());
+            fonts::style(&cc.egui_ctx);
             app.started_in_window(timings::Timings::from_env(), pace);
             Ok(Box::new(app))
         }),

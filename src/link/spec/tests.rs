@@ -139,7 +139,7 @@ fn malformed_strings_say_what_is_wrong() {
     assert!(err("profibus://x").contains("unknown scheme 'profibus'"));
     assert!(err("modbus-tcp://").contains("host is missing"));
     assert!(err("modbus-tcp://h:99999").contains("port '99999'"));
-    assert!(err("modbus-tcp://h?unit=300").contains("unit=300 is out of range 0..=255"));
+    assert!(err("modbus-tcp://h?unit=300").contains("unit=300 is out of range 0 … 255"));
     assert!(
         err("modbus-tcp://h?unti=3")
             .contains("unknown parameter 'unti' (this bus takes unit, words)")
@@ -150,12 +150,12 @@ fn malformed_strings_say_what_is_wrong() {
     assert!(err("modbus-tcp://::1:502").contains("brackets"));
     assert!(err("modbus-rtu://?baud=9600").contains("serial port path is missing"));
     assert!(err("modbus-rtu://COM1?parity=mark").contains("use none, even or odd"));
-    assert!(err("modbus-rtu://COM1?slave=0").contains("slave=0 is out of range 1..=247"));
+    assert!(err("modbus-rtu://COM1?slave=0").contains("slave=0 is out of range 1 … 247"));
     assert!(err("canopen+socketcan://can0?node=128").contains("node=128"));
-    assert!(err("canopen+sim://?pdo=5").contains("pdo=5 is out of range 1..=4"));
+    assert!(err("canopen+sim://?pdo=5").contains("pdo=5 is out of range 1 … 4"));
     assert!(err("canopen+slcan://COM1?bitrate=300000").contains("not a CAN bit rate"));
     assert!(err("enip://h?io=both").contains("use pdi, common or explicit"));
-    assert!(err("enip://h?cmd_at=9").contains("cmd_at=9 is out of range 7..=8"));
+    assert!(err("enip://h?cmd_at=9").contains("cmd_at=9 is out of range 7 … 8"));
     assert!(err("enip://h?udp=x").contains("udp='x'"));
     assert!(err("sim://x").contains("no target"));
     let full = "x".parse::<LinkSpec>().unwrap_err().to_string();
@@ -175,7 +175,7 @@ fn a_query_replaces_what_it_names_by_the_rules_of_a_whole_string() {
     assert_eq!(base.with_query(""), Ok(base.clone()));
     assert_eq!(
         base.with_query("cmd_at=9"),
-        Err("cmd_at=9 is out of range 7..=8".to_owned())
+        Err("cmd_at=9 is out of range 7 … 8".to_owned())
     );
     assert_eq!(
         base.with_query("udp=1&udp=2"),
@@ -248,7 +248,7 @@ fn a_spec_built_in_code_is_checked_by_reading_its_string_back() {
     };
     assert_eq!(
         zero.check(),
-        Err("node=0 is out of range 1..=127".to_owned())
+        Err("node=0 is out of range 1 … 127".to_owned())
     );
     let path = LinkSpec::CanopenSlcan {
         path: "COM5?x=1".into(),

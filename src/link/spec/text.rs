@@ -150,9 +150,8 @@ impl Query {
             Some(text) => number(&text, &range).map_err(|bad| match bad {
                 BadNumber::NotANumber => format!("{key}='{text}' is not a number"),
                 BadNumber::OutOfRange(value) => format!(
-                    "{key}={value} is out of range {}..={}",
-                    range.start(),
-                    range.end()
+                    "{key}={value} is out of range {}",
+                    crate::number::range_text(range.start(), range.end())
                 ),
             }),
         }

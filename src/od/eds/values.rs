@@ -133,7 +133,10 @@ struct IntType {
 impl IntType {
     fn out_of_range(self, v: i128, type_name: &str) -> String {
         let IntType { min, max, .. } = self;
-        format!("{v} is out of range for {type_name}: {min}..={max}")
+        format!(
+            "{v} is out of range for {type_name}: {}",
+            crate::number::range_text(min, max)
+        )
     }
 
     fn contains(self, v: i128) -> bool {

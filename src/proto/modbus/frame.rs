@@ -29,7 +29,7 @@ pub enum FrameError {
     TcpProtocol(u16),
 
     #[error(
-        "MBAP length {0} is outside 2..=255 (unit id plus a PDU of 1 to 254 bytes): the stream is out of step"
+        "MBAP length {0} is outside 2 … 255 (unit id plus a PDU of 1 to 254 bytes): the stream is out of step"
     )]
     TcpLength(u16),
 
@@ -460,7 +460,7 @@ mod tests {
         );
         assert_eq!(
             FrameError::TcpLength(256).to_string(),
-            "MBAP length 256 is outside 2..=255 (unit id plus a PDU of 1 to 254 bytes): the stream is out of step"
+            "MBAP length 256 is outside 2 … 255 (unit id plus a PDU of 1 to 254 bytes): the stream is out of step"
         );
     }
 

@@ -247,6 +247,7 @@ impl App {
         let ctx = ui.ctx().clone();
         if !self.fonts_set {
             ctx.set_fonts(super::fonts::definitions());
+            super::fonts::style(&ctx);
             self.fonts_set = true;
         }
         if let Some(stop) = super::connection::stop_keys(&ctx, self.any_connected()) {

@@ -249,9 +249,11 @@ pub(super) fn table_ui(
     }
 }
 
-/// The Name column's width in a table `width` wide: a fifth (130 to 300 points).
+/// The Name column's width in a table `width` wide: three tenths (130 to 420 points), so
+/// that on a wide screen the objects' names ("Modes of operation display", "Following
+/// error window") show whole.
 fn name_width(width: f32) -> f32 {
-    (width * 0.2).clamp(130.0, 300.0)
+    (width * 0.3).clamp(130.0, 420.0)
 }
 
 /// The Value column's width in a table `width` wide: a little more than a fifth (110 to

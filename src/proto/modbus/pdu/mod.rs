@@ -89,7 +89,10 @@ pub enum PduError {
         after: &'static str,
     },
 
-    #[error("FC {function}: {what} is {value}, the Modbus limit is {min}..={max}")]
+    #[error(
+        "FC {function}: {what} is {value}, the Modbus limit is {}",
+        crate::number::range_text(min, max)
+    )]
     Quantity {
         function: u8,
         what: &'static str,

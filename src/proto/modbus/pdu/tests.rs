@@ -368,21 +368,21 @@ fn quantity_limits_are_checked_both_ways() {
                 address: 0,
                 count: 126,
             },
-            "FC 3: register count is 126, the Modbus limit is 1..=125",
+            "FC 3: register count is 126, the Modbus limit is 1 … 125",
         ),
         (
             Request::ReadInput {
                 address: 0,
                 count: 0,
             },
-            "FC 4: register count is 0, the Modbus limit is 1..=125",
+            "FC 4: register count is 0, the Modbus limit is 1 … 125",
         ),
         (
             Request::WriteMultiple {
                 address: 0,
                 values: vec![0; 124],
             },
-            "FC 16: register count is 124, the Modbus limit is 1..=123",
+            "FC 16: register count is 124, the Modbus limit is 1 … 123",
         ),
         (
             Request::ReadWrite {
@@ -391,7 +391,7 @@ fn quantity_limits_are_checked_both_ways() {
                 write_address: 0,
                 values: vec![0],
             },
-            "FC 23: read count is 126, the Modbus limit is 1..=125",
+            "FC 23: read count is 126, the Modbus limit is 1 … 125",
         ),
         (
             Request::ReadWrite {
@@ -400,7 +400,7 @@ fn quantity_limits_are_checked_both_ways() {
                 write_address: 0,
                 values: vec![0; 122],
             },
-            "FC 23: write count is 122, the Modbus limit is 1..=121",
+            "FC 23: write count is 122, the Modbus limit is 1 … 121",
         ),
     ];
     for (request, message) in cases {
