@@ -37,6 +37,9 @@ struct Scenario {
     drives: usize,
     poll_hz: f64,
     paused: bool,
+    /// Every drive ticked to be drawn in the plots beside the one shown (the worst case;
+    /// by default the plots draw the drive shown only).
+    all_in_plots: bool,
 }
 
 /// When the next frame is due, as eframe's event loop keeps it.
@@ -110,6 +113,7 @@ struct Figures {
     ui_ms_per_s: f64,
     workers_ms_per_s: Vec<f64>,
     other_ms_per_s: f64,
+    samples_lost: u64,
 }
 
 fn run(scenario: &Scenario, warm_up: Duration, seconds: Duration) -> Figures {
@@ -136,8 +140,12 @@ fn run(scenario: &Scenario, warm_up: Duration, seconds: Duration) -> Figures {
         app.set_pace(Arc::clone(&pace));
     }
     for k in 1..scenario.drives {
-        if let Err(e) = app.add_drive(format!("Drive {}", k + 1), "sim://") {
-            eprintln!("drive {}: {e}", k + 1);
+        match app.add_drive(format!("Drive {}", k + 1), "sim://") {
+            Ok(index) if scenario.all_in_plots => {
+                app.apply_command(Command::PlotBeside(index, true));
+            }
+            Ok(_) => {}
+            Err(e) => eprintln!("drive {}: {e}", k + 1),
         }
     }
     let started = Instant::now();
@@ -174,6 +182,12 @@ fn run(scenario: &Scenario, warm_up: Duration, seconds: Duration) -> Figures {
     }
     let elapsed = t0.elapsed().as_secs_f64();
     let after = threads();
+    // Samples a worker could not hand the window (its channel was full), all drives.
+    let samples_lost: u64 = (0..app.drive_count())
+        .filter_map(|i| app.drive(i))
+        .filter_map(|d| d.link.health)
+        .map(|h| h.dropped_samples)
+        .sum();
     let pid = std::process::id().to_string();
     let mut ui = 0.0;
     let mut workers = Vec::new();
@@ -198,11 +212,13 @@ fn run(scenario: &Scenario, warm_up: Duration, seconds: Duration) -> Figures {
         ui_ms_per_s: ui,
         workers_ms_per_s: workers,
         other_ms_per_s: other,
+        samples_lost,
     }
 }
 
 fn main() {
     let mut seconds = 10.0;
+    let mut machine = false;
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
         if arg == "--seconds"
@@ -210,30 +226,47 @@ fn main() {
         {
             seconds = s;
         }
+        // The machine sizes only: 1, 4, 16 and 32 drives at 100 Hz, paced.
+        if arg == "--machine" {
+            machine = true;
+        }
     }
-    let scenarios = [
-        (Policy::EveryWake, 1, 100.0, false),
-        (Policy::Paced, 1, 100.0, false),
-        (Policy::EveryWake, 1, 1000.0, false),
-        (Policy::Paced, 1, 1000.0, false),
-        (Policy::EveryWake, 4, 100.0, false),
-        (Policy::Paced, 4, 100.0, false),
-        (Policy::EveryWake, 1, 1000.0, true),
-        (Policy::Paced, 1, 1000.0, true),
-    ];
+    let scenarios: Vec<(Policy, usize, f64, bool, bool)> = if machine {
+        vec![
+            (Policy::Paced, 1, 100.0, false, false),
+            (Policy::Paced, 4, 100.0, false, false),
+            (Policy::Paced, 4, 100.0, false, true),
+            (Policy::Paced, 16, 100.0, false, false),
+            (Policy::Paced, 16, 100.0, false, true),
+            (Policy::Paced, 32, 100.0, false, false),
+            (Policy::Paced, 32, 100.0, false, true),
+        ]
+    } else {
+        vec![
+            (Policy::EveryWake, 1, 100.0, false, false),
+            (Policy::Paced, 1, 100.0, false, false),
+            (Policy::EveryWake, 1, 1000.0, false, false),
+            (Policy::Paced, 1, 1000.0, false, false),
+            (Policy::EveryWake, 4, 100.0, false, true),
+            (Policy::Paced, 4, 100.0, false, true),
+            (Policy::EveryWake, 1, 1000.0, true, false),
+            (Policy::Paced, 1, 1000.0, true, false),
+        ]
+    };
     println!(
         "live window, headless 1366x768, layout + tessellation, no GPU; {seconds} s each after 3 s"
     );
     println!(
-        "| policy | drives × poll | plots | frames/s | UI thread ms/s | workers ms/s (each) | other threads ms/s |"
+        "| policy | drives × poll | plots | frames/s | UI ms/frame | UI thread ms/s | workers ms/s (each) | other threads ms/s | samples lost |"
     );
-    println!("| --- | --- | --- | ---: | ---: | ---: | ---: |");
-    for (policy, drives, poll_hz, paused) in scenarios {
+    println!("| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+    for (policy, drives, poll_hz, paused, all_in_plots) in scenarios {
         let scenario = Scenario {
             policy,
             drives,
             poll_hz,
             paused,
+            all_in_plots,
         };
         let f = run(
             &scenario,
@@ -245,18 +278,24 @@ fn main() {
             .iter()
             .map(|ms| format!("{ms:.0}"))
             .collect();
+        let plots = match (paused, all_in_plots && drives > 1) {
+            (true, _) => "paused",
+            (false, true) => "live, every drive drawn",
+            (false, false) => "live, the drive shown",
+        };
         println!(
-            "| {} | {drives} × {poll_hz:.0} Hz | {} | {:.1} | {:.0} | {:.0} ({}) | {:.0} |",
+            "| {} | {drives} × {poll_hz:.0} Hz | {plots} | {:.1} | {:.1} | {:.0} | {:.0} ({}) | {:.0} | {} |",
             match policy {
                 Policy::EveryWake => "every wake, new frame code",
                 Policy::Paced => "paced, 30 Hz (after)",
             },
-            if paused { "paused" } else { "live" },
             f.frames_per_s,
+            f.ui_ms_per_s / f.frames_per_s.max(f64::MIN_POSITIVE),
             f.ui_ms_per_s,
             f.workers_ms_per_s.iter().sum::<f64>(),
             each.join(" + "),
             f.other_ms_per_s,
+            f.samples_lost,
         );
     }
 }

@@ -121,3 +121,16 @@ fn typing_then_tab_then_typing_in_one_frame_lands_where_typed() {
     assert_eq!(value(&harness, "Connection: Host"), "192.168.2.100");
     assert_eq!(value(&harness, "Connection: Port"), "502");
 }
+
+#[test]
+fn tab_into_a_box_that_holds_text_selects_it_so_typing_replaces_it() {
+    let mut harness = modbus_bar();
+    let before = value(&harness, "Connection: Port");
+    assert!(!before.is_empty(), "the port box holds its default");
+    text(&mut harness, "10.0.0.5");
+    key(&mut harness, egui::Key::Tab);
+    text(&mut harness, "1502");
+    step_as_the_window_does(&mut harness);
+    assert_eq!(value(&harness, "Connection: Host"), "10.0.0.5");
+    assert_eq!(value(&harness, "Connection: Port"), "1502");
+}

@@ -60,6 +60,31 @@ pub fn named_text_edit(ui: &mut Ui, text: &mut String, width: f32, name: &str) -
     response
 }
 
+/// A text box the keyboard reached with Tab has its text selected, so what is typed
+/// replaces it, as in any desktop form (egui puts the cursor at the end: Tab into a port
+/// box holding "1502", type "502", and it read "1502502"). `before`: the widget that had
+/// the focus when the frame began.
+pub fn select_all_on_tab(ctx: &egui::Context, before: Option<egui::Id>) {
+    if !ctx.input(|i| i.key_pressed(egui::Key::Tab)) {
+        return;
+    }
+    let Some(now) = ctx.memory(|m| m.focused()) else {
+        return;
+    };
+    if Some(now) == before {
+        return;
+    }
+    if let Some(mut state) = egui::TextEdit::load_state(ctx, now) {
+        // The end is clamped to the text's length where the range is used.
+        let all = egui::text::CCursorRange::two(
+            egui::text::CCursor::new(0),
+            egui::text::CCursor::new(usize::MAX),
+        );
+        state.cursor.set_char_range(Some(all));
+        state.store(ctx, now);
+    }
+}
+
 /// A wrapped label of at most `max_rows` rows, elided with "…" beyond; the whole text on
 /// hover (and to screen readers). For reasons that can run long (a link's error text).
 pub fn clipped_label(ui: &mut Ui, text: RichText, max_rows: usize) -> Response {

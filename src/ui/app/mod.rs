@@ -288,7 +288,9 @@ impl App {
             any_connected,
             commands: &mut self.commands,
         };
+        let focused = ctx.memory(|m| m.focused());
         view::window_ui(ui, &mut frame);
+        super::widgets::select_all_on_tab(&ctx, focused);
         drop(beside);
         self.apply_commands();
     }
