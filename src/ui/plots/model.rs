@@ -6,6 +6,7 @@
 //!
 //! A model: no egui here.
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
@@ -118,6 +119,25 @@ pub struct PlotSettings {
     /// Frames per second at most while the live plots move (new samples wake the window
     /// no more often).
     pub redraw_hz: f64,
+    /// Signals drawn in another signal's plot (a scope's channels): the id of the signal
+    /// that joins, and the id of the one whose plot it joins. Each keeps its colour and a
+    /// y axis of its own there.
+    pub together: BTreeMap<String, String>,
+    /// The digital lanes the user hid, as "signal id:bit" (see [`lane_key`]).
+    pub hidden_lanes: Vec<String>,
+}
+
+/// The plots' layout when the user has chosen none: the following error (of the same
+/// unit and meaning as the position, a small value beside a large one) in the position's
+/// plot on an axis of its own, so that position, velocity, torque and the status lanes
+/// read at 1366×768 without scrolling.
+pub fn default_together() -> BTreeMap<String, String> {
+    BTreeMap::from([("following_error".to_owned(), "position".to_owned())])
+}
+
+/// How a lane is named in the settings: its signal's id and its bit ("pdi_status:10").
+pub fn lane_key(signal: &str, bit: u8) -> String {
+    format!("{signal}:{bit}")
 }
 
 impl Default for PlotSettings {
@@ -130,6 +150,8 @@ impl Default for PlotSettings {
             shown: Vec::new(),
             position_unit: PositionUnit::default(),
             redraw_hz: DEFAULT_REDRAW_HZ,
+            together: default_together(),
+            hidden_lanes: Vec::new(),
         }
     }
 }
@@ -170,8 +192,11 @@ pub struct DrawnPlot {
     /// The span its points were decimated for.
     pub decimated: (f64, f64),
     /// Its own line (not the overlay's or another drive's): none for the lanes, or with
-    /// no samples near the span.
+    /// no samples near the span. Of the first signal where several share the plot.
     pub line: Option<LineExtent>,
+    /// Every signal drawn in it (the first is `id`; several when signals share a plot),
+    /// each with its own line's extent in its true values.
+    pub lines: Vec<(String, Option<LineExtent>)>,
 }
 
 /// Where a line drawn reaches and what it holds in view.
@@ -260,6 +285,9 @@ pub struct PlotView {
     pub(super) decimations: Decimations,
     /// The plots drawn in the last frame, top to bottom.
     pub(super) drawn: Vec<DrawnPlot>,
+    /// The lanes there were to draw in the last frame (hidden ones too): each one's key
+    /// and name, for the Signals menu.
+    pub(super) lanes_seen: Vec<(String, String)>,
 }
 
 impl Default for PlotView {
@@ -284,6 +312,7 @@ impl Default for PlotView {
             cursors: [None; 2],
             decimations: Decimations::default(),
             drawn: Vec::new(),
+            lanes_seen: Vec::new(),
         }
     }
 }
@@ -529,6 +558,7 @@ mod tests {
             axis: (0.0, 1.0),
             decimated: (0.0, 1.0),
             line: None,
+            lines: Vec::new(),
         };
         let drawn = [plot(0.0), plot(100.0)];
         // On the span drawn now, wherever the plots were.
