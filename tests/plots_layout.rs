@@ -350,3 +350,71 @@ fn with_three_drives_every_legend_stays_within_its_plot() {
         );
     }
 }
+
+/// The window on the simulated drive at `size` (its default settings), `zoom` as after
+/// Ctrl+Plus, samples drawn.
+fn window_at(size: egui::Vec2, zoom: f32) -> Harness<'static, App> {
+    let mut harness = window::harness_with(Settings::default(), true, size);
+    harness.ctx.set_zoom_factor(zoom);
+    window::connected(&mut harness);
+    window::step_until(
+        &mut harness,
+        "the plots drawn",
+        Duration::from_secs(5),
+        |h| h.state().plot().drawn().len() >= 3,
+    );
+    harness.run_steps(4);
+    harness
+}
+
+#[test]
+fn the_default_layout_reads_at_1366x768_and_the_time_axis_stays_in_view_at_zoom_1_5() {
+    for (size, zoom) in [
+        (egui::vec2(1366.0, 768.0), 1.0),
+        (egui::vec2(1024.0, 600.0), 1.0),
+        (egui::vec2(1366.0, 768.0), 1.5),
+    ] {
+        let harness = window_at(size, zoom);
+        let plots = harness.state().plot().drawn().to_vec();
+        let screen = size / zoom;
+        println!(
+            "default layout at {}×{} zoom {zoom}: {:?}",
+            size.x,
+            size.y,
+            plots
+                .iter()
+                .map(|p| format!("{} {:.0}", p.id, height(p)))
+                .collect::<Vec<_>>()
+        );
+        for plot in analog(&plots) {
+            assert!(
+                height(&plot) >= PLOT_HEIGHT_MIN - 0.5,
+                "{} is {} points high at {size:?} zoom {zoom}",
+                plot.id,
+                height(&plot)
+            );
+        }
+        // The time axis's labels (under the lowest plot's area) are on the screen.
+        let lowest = plots.last().expect("plots");
+        assert!(
+            lowest.frame[3] + 30.0 <= screen.y,
+            "the time axis under {:?} is off the {screen:?} screen at zoom {zoom}",
+            lowest.frame
+        );
+        if zoom == 1.0 && size.y >= 768.0 {
+            // The default signals (position with the following error, velocity, torque)
+            // and the status lanes all fit at 1366×768, no scrolling: every plot's area
+            // ends above the time axis.
+            let stacked: Vec<&DrawnPlot> = plots.iter().filter(|p| p.id != "time").collect();
+            let time = plots
+                .iter()
+                .find(|p| p.id == "time")
+                .expect("the time axis");
+            assert!(
+                stacked.iter().all(|p| p.frame[3] <= time.frame[1]),
+                "{plots:?}"
+            );
+            assert!(stacked.iter().any(|p| p.id == "lanes"), "{plots:?}");
+        }
+    }
+}

@@ -24,7 +24,7 @@ use drivedeck::ui::plots::{Alone, PlotCommand, PlotView};
 use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use window::{connected_to, harness_with, start_turning, step_for, step_until, step_until_shown};
 
 /// The window on the simulator, wide enough for the dictionary's Plot buttons.
@@ -115,8 +115,8 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
     let recording = Recording::from_csv(&text).expect("our own CSV reads back");
     assert!(recording.len() > 10, "{} rows", recording.len());
     let ids: Vec<&str> = recording.channels.iter().map(|c| c.id.as_str()).collect();
-    // The signals drawn: the defaults, and those the simulator delivers that appear by
-    // themselves (following error, analog input); not ReturnValue or the inputs.
+    // The signals drawn: the defaults, and the one the simulator delivers that appears
+    // by itself (the following error); not ReturnValue or the inputs.
     assert_eq!(ids[..3], ["position", "velocity", "torque"]);
     assert!(ids.contains(&"pdi_status"), "{ids:?}");
     assert!(!ids.contains(&"return_value"), "{ids:?}");
@@ -643,6 +643,16 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
         s.view.review().is_some_and(|r| r.overlay.is_some())
     });
     harness.get_by_label("Overlay (dashed): after.json, moved by");
+    // The legend names the overlaid recording's line after its file, inside the top plot.
+    harness.step();
+    let entry = harness
+        .get_by_role_and_label(egui::accesskit::Role::CheckBox, "after.json (dashed)")
+        .rect();
+    let top = harness.state().view.drawn()[0].frame;
+    assert!(
+        entry.top() >= top[1] && entry.bottom() <= top[3],
+        "{entry:?} outside the top plot {top:?}"
+    );
     let offset = overlay_offset(&harness);
     assert!((offset - 0.2).abs() < 1e-9, "trigger on trigger: {offset}");
     // A chosen offset instead, then back on the triggers.

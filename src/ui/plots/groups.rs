@@ -61,6 +61,14 @@ impl Scale {
 
 /// About as many grid steps as a plot shows of one signal alone.
 const STEPS: f64 = 3.0;
+/// The most grid steps a plot shows.
+const MAX_STEPS: f64 = 4.0;
+
+/// The grid of `step` that holds `low..=high`: its first line, and how many steps.
+fn grid(low: f64, high: f64, step: f64) -> (f64, f64) {
+    let origin = (low / step).floor() * step;
+    (origin, ((high - origin) / step).ceil().max(1.0))
+}
 
 /// The scales of the signals of one plot, from each one's lowest and highest value in view
 /// (NaN: nothing in view), and the number of grid steps the plot shows (the most any of
@@ -82,9 +90,14 @@ pub fn scales(ranges: &[(f64, f64)]) -> (Vec<Scale>, u32) {
                 (low - 1.0, high + 1.0)
             };
             let span = high - low;
-            let step = nice_step(span / STEPS);
-            let origin = (low / step).floor() * step;
-            let needed = ((high - origin) / step).ceil().max(1.0);
+            let mut step = nice_step(span / STEPS);
+            let (mut origin, mut needed) = grid(low, high, step);
+            // No more than four steps: on a plot at its least height each label keeps
+            // a text line of room (egui_plot leaves out labels closer than that).
+            while needed > MAX_STEPS {
+                step = nice_step(step * 1.01);
+                (origin, needed) = grid(low, high, step);
+            }
             steps = steps.max(needed as u32);
             Scale { origin, step }
         })
@@ -155,8 +168,13 @@ mod tests {
     #[test]
     fn each_signal_fills_the_plot_on_round_values_of_its_own() {
         let (scales, steps) = scales(&[(-1000.0, 1000.0), (0.2, 0.9), (f64::NAN, f64::NAN)]);
-        // Three to six labelled grid lines.
-        assert!((2..=5).contains(&steps), "{steps}");
+        // Three to five labelled grid lines.
+        assert!((2..=4).contains(&steps), "{steps}");
+        // However the range falls on the grid.
+        for (low, high) in [(-0.9, 3.1), (0.1, 1.05), (-101.0, 299.0), (7.0, 7.5)] {
+            let (_, steps) = self::scales(&[(low, high)]);
+            assert!((2..=4).contains(&steps), "{low} {high}: {steps}");
+        }
         for (scale, (low, high)) in scales.iter().zip([(-1000.0, 1000.0), (0.2, 0.9)]) {
             // Inside the grid, filling at least half of it.
             let (a, b) = (scale.to_drawn(low), scale.to_drawn(high));

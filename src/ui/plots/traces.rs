@@ -32,9 +32,11 @@ const LANE_HEIGHT_MIN: f32 = 16.0;
 pub(super) const Y_AXIS_WIDTH: f32 = 56.0;
 /// The lowest an analog plot gets: three labelled values on its y axis and a line of
 /// legend fit (when the plots do not all fit at this height, they scroll).
-pub const PLOT_HEIGHT_MIN: f32 = 90.0;
+pub const PLOT_HEIGHT_MIN: f32 = 80.0;
 /// The height of the time axis's labels under the plots.
-const TIME_AXIS_HEIGHT: f32 = 44.0;
+const TIME_AXIS_HEIGHT: f32 = 38.0;
+/// The least height of the plots' scroll area.
+const SCROLL_HEIGHT_MIN: f32 = 24.0;
 /// What the lanes' plot takes beyond its lanes (its margins), in points.
 const LANES_FRAME: f32 = 20.0;
 /// The space egui leaves between two plots, in points.
@@ -365,7 +367,9 @@ pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
     let scrolled = egui::ScrollArea::vertical()
         .id_salt("plots_scroll")
         .auto_shrink([false, true])
-        .max_height(room.max(PLOT_HEIGHT_MIN))
+        // However little room the window leaves (a zoomed-in window, a small screen),
+        // the time axis under the area stays in view: the area shrinks, its plots scroll.
+        .max_height(room.max(SCROLL_HEIGHT_MIN))
         .show(ui, |ui| {
             for (n, group) in groups.iter().enumerate() {
                 let signals: Vec<(&SignalDef, Color32)> =
@@ -430,11 +434,12 @@ fn time_axis_ui(ui: &mut Ui, view: &View<'_>, axes: Axes) -> egui_plot::PlotResp
 }
 
 /// The height of each analog plot and of the lanes' plot: the lanes take what they need
-/// (up to 40 % while analog plots share the panel), the analog plots share the rest; none
-/// lower than its minimum (then the plots scroll).
+/// (up to 40 % while analog plots share the panel), the analog plots share the rest; when
+/// that leaves the analog plots too little the lanes give way, down to their least height;
+/// none lower than its minimum (then the plots scroll).
 fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
     // Between plots egui puts its item spacing; below them a little air.
-    let spacing = PLOT_SPACING * (analog + usize::from(lanes > 0)) as f32 + 8.0;
+    let spacing = PLOT_SPACING * (analog + usize::from(lanes > 0)) as f32 + 4.0;
     let room = (available - spacing).max(0.0);
     let lanes_height = if lanes == 0 {
         0.0
@@ -442,7 +447,9 @@ fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
         let share = if analog == 0 { 1.0 } else { 0.4 };
         let lane =
             ((room * share - LANES_FRAME) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
-        lanes as f32 * lane + LANES_FRAME
+        let least = lanes as f32 * LANE_HEIGHT_MIN + LANES_FRAME;
+        let left = room - analog as f32 * PLOT_HEIGHT_MIN;
+        (lanes as f32 * lane + LANES_FRAME).min(left.max(least))
     };
     let plot_height = if analog == 0 {
         0.0
@@ -548,7 +555,7 @@ fn remember_view(
 pub(super) fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
     vec![
         egui_plot::AxisHints::new_x()
-            .label("time [s]")
+            .label(egui::RichText::new("time [s]").small())
             .label_spacing(40.0..=60.0)
             .formatter(|mark, _| time_label(mark.value, mark.step_size)),
     ]
@@ -770,7 +777,7 @@ mod tests {
                 + lanes as f32 * LANE_HEIGHT_MIN
                 + LANES_FRAME
                 + PLOT_SPACING * (analog + 1) as f32
-                + 8.0;
+                + 4.0;
             if least <= available {
                 assert!(
                     used <= available,

@@ -101,6 +101,11 @@ impl Alone {
     }
 }
 
+/// The share of the plot panel's height the rows above the plots take at most.
+const CONTROLS_SHARE: f32 = 0.45;
+/// … but never less than this, in points (a toolbar row and the read-out).
+const CONTROLS_HEIGHT_MIN: f32 = 60.0;
+
 /// One frame of the plot panel alone, drawn through `ctx` without a window at 1600×1000
 /// (layout, decimation, plot items and tessellation; no GPU): what the benches and
 /// `drivedeck bench`'s plotting load measure. The number of clipped primitives.
@@ -120,10 +125,20 @@ pub fn headless_frame(ctx: &egui::Context, alone: &mut Alone) -> usize {
 /// each plot: live, and over a triggered capture's span (a recording opened from a file
 /// has a time base of its own and is drawn alone).
 pub fn plots_ui(ui: &mut Ui, p: &mut Plots<'_>) {
-    toolbar(ui, p);
-    review_view::review_ui(ui, p);
-    capture::capture_ui(ui, p);
-    readout::readout_ui(ui, p);
+    // The rows above the plots take at most part of the panel (scrolling within it
+    // beyond): in a narrow or zoomed-in window they wrap into many lines, and would
+    // otherwise leave the plots, and their time axis, no room at all.
+    let controls = (ui.available_height() * CONTROLS_SHARE).max(CONTROLS_HEIGHT_MIN);
+    egui::ScrollArea::vertical()
+        .id_salt("plot_controls")
+        .auto_shrink([false, true])
+        .max_height(controls)
+        .show(ui, |ui| {
+            toolbar(ui, p);
+            review_view::review_ui(ui, p);
+            capture::capture_ui(ui, p);
+            readout::readout_ui(ui, p);
+        });
     let band = picture::title_band_ui(ui, p);
     let plots = traces::traces_ui(ui, p);
     p.view.plots_area = plots.map(|r| [r.min.x, r.min.y, r.max.x, r.max.y]);
