@@ -24,7 +24,7 @@ use drivedeck::ui::plots::{Alone, PlotCommand, PlotView};
 use drivedeck::ui::{App, Settings};
 use eframe::egui;
 use egui_kittest::Harness;
-use egui_kittest::kittest::{NodeT, Queryable};
+use egui_kittest::kittest::Queryable;
 use window::{connected_to, harness_with, start_turning, step_for, step_until, step_until_shown};
 
 /// The window on the simulator, wide enough for the dictionary's Plot buttons.
