@@ -183,10 +183,13 @@ pub struct Picture {
 /// it drew there; the read-out reads the pointer's time from where the plots were.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DrawnPlot {
-    /// The signal's id; "lanes" for the digital lanes.
+    /// The signal's id (the first one's where several share the plot); "lanes" for the
+    /// digital lanes, "time" for the time axis's labels under the plots.
     pub id: String,
     /// Its data area (axes left out), in points: left, top, right, bottom.
     pub frame: [f32; 4],
+    /// The part of it in view (the plots scroll): the pointer reads times there only.
+    pub visible: [f32; 4],
     /// The span its time axis showed, as egui_plot drew it (the items and the labels).
     pub axis: (f64, f64),
     /// The span its points were decimated for.
@@ -236,7 +239,7 @@ pub fn time_under(drawn: &[DrawnPlot], (x, y): (f32, f32), (from, to): (f64, f64
     let [left, _, right, _] = drawn
         .iter()
         .find(|p| {
-            let [left, top, right, bottom] = p.frame;
+            let [left, top, right, bottom] = p.visible;
             (left..=right).contains(&x) && (top..=bottom).contains(&y)
         })?
         .frame;
@@ -555,6 +558,7 @@ mod tests {
         let plot = |top: f32| DrawnPlot {
             id: String::new(),
             frame: [100.0, top, 1100.0, top + 90.0],
+            visible: [100.0, top.max(20.0), 1100.0, top + 90.0],
             axis: (0.0, 1.0),
             decimated: (0.0, 1.0),
             line: None,
@@ -563,10 +567,12 @@ mod tests {
         let drawn = [plot(0.0), plot(100.0)];
         // On the span drawn now, wherever the plots were.
         assert_eq!(time_under(&drawn, (350.0, 150.0), (20.0, 30.0)), Some(22.5));
-        assert_eq!(time_under(&drawn, (100.0, 10.0), (20.0, 30.0)), Some(20.0));
-        assert_eq!(time_under(&drawn, (1100.0, 10.0), (20.0, 30.0)), Some(30.0));
+        assert_eq!(time_under(&drawn, (100.0, 30.0), (20.0, 30.0)), Some(20.0));
+        assert_eq!(time_under(&drawn, (1100.0, 30.0), (20.0, 30.0)), Some(30.0));
         // On the y axis or between two plots: none.
         assert_eq!(time_under(&drawn, (90.0, 10.0), (20.0, 30.0)), None);
+        // Over the part of a plot scrolled out of view: none.
+        assert_eq!(time_under(&drawn, (350.0, 15.0), (20.0, 30.0)), None);
         assert_eq!(time_under(&drawn, (350.0, 95.0), (20.0, 30.0)), None);
     }
 }

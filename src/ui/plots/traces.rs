@@ -624,9 +624,11 @@ impl Interaction {
         let (response, transform) = (&plot.response, &plot.transform);
         self.right = self.right.max(response.rect.right());
         let (frame, bounds) = (transform.frame(), transform.bounds());
+        let visible = frame.intersect(ui.clip_rect());
         self.drawn.push(DrawnPlot {
             id: id.to_owned(),
             frame: [frame.min.x, frame.min.y, frame.max.x, frame.max.y],
+            visible: [visible.min.x, visible.min.y, visible.max.x, visible.max.y],
             axis: (bounds.min()[0], bounds.max()[0]),
             decimated,
             line: lines.first().and_then(|(_, line)| *line),
