@@ -317,34 +317,45 @@ fn drives_at_1024x600(drives: usize) -> Harness<'static, App> {
 }
 
 #[test]
-fn with_three_drives_every_legend_stays_within_its_plot() {
-    let harness = drives_at_1024x600(3);
+fn with_four_drives_every_legend_stays_within_its_plot() {
+    let harness = drives_at_1024x600(4);
     let plots = harness.state().plot().drawn().to_vec();
-    let entries: Vec<egui::Rect> = harness
+    // The legend entries ("Axis 2: Velocity 606Ch"): each fully inside the plot it
+    // starts in, and a signal's entries (one per drive) all in one plot (a legend taller
+    // than its plot runs on into the next plot down).
+    let entries: Vec<(String, egui::Rect)> = harness
         .query_all_by_role(egui::accesskit::Role::CheckBox)
-        .filter(|node| {
-            node.accesskit_node()
-                .label()
-                .is_some_and(|l| l.contains("Axis 1: ") || l.contains("Drive 1: "))
+        .filter_map(|node| {
+            let label = node.accesskit_node().label()?.to_string();
+            let (drive, signal) = label.split_once(": ")?;
+            (drive.starts_with("Axis ") || drive == "Drive 1").then(|| {
+                let signal = signal.split_whitespace().next().unwrap_or("").to_owned();
+                (signal, node.rect())
+            })
         })
-        .map(|node| node.rect())
         .collect();
-    assert!(!entries.is_empty(), "no legend entries found");
-    for entry in entries {
+    assert!(entries.len() >= 3, "{entries:?}");
+    let mut plot_of: std::collections::HashMap<String, String> = Default::default();
+    for (signal, entry) in &entries {
+        let own = plots
+            .iter()
+            .find(|p| entry.top() >= p.frame[1] && entry.top() <= p.frame[3])
+            .unwrap_or_else(|| panic!("a legend entry at {entry:?} is in no plot: {plots:?}"));
         assert!(
-            plots.iter().any(|p| {
-                let [left, top, right, bottom] = p.frame;
-                entry.left() >= left
-                    && entry.right() <= right
-                    && entry.top() >= top
-                    && entry.bottom() <= bottom
-            }),
-            "a legend entry at {entry:?} is outside every plot: {plots:?}"
+            entry.bottom() <= own.frame[3] && entry.right() <= own.frame[2],
+            "{signal}'s legend entry at {entry:?} runs out of {} {:?}",
+            own.id,
+            own.frame
+        );
+        let first = plot_of.entry(signal.clone()).or_insert(own.id.clone());
+        assert_eq!(
+            *first, own.id,
+            "{signal}'s legend entries are spread over two plots: {entries:?}"
         );
     }
     for plot in analog(&plots) {
         println!(
-            "three drives at 1024×600: {} {:.0} points high",
+            "four drives at 1024×600: {} {:.0} points high",
             plot.id,
             height(&plot)
         );
