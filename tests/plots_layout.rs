@@ -429,3 +429,42 @@ fn the_default_layout_reads_at_1366x768_and_the_time_axis_stays_in_view_at_zoom_
         }
     }
 }
+
+#[test]
+fn a_png_at_twice_the_resolution_draws_the_plots_at_their_size_with_the_zoom_doubled() {
+    let mut harness = panel(egui::vec2(1366.0, 768.0));
+    let [left, top, right, bottom] = harness.state().view.plots_area().expect("plots");
+    let on_screen = egui::vec2(right - left, bottom - top);
+    harness.get_by_label("PNG at twice the resolution").click();
+    harness.step();
+    assert_eq!(harness.state().settings.picture_scale, 2.0);
+    harness.get_by_label("Save PNG…").click();
+    harness.run_steps(3);
+    // The window's zoom doubled for the picture, the plots drawn over it at their size on
+    // screen (at most the whole window): twice as many pixels each way.
+    assert_eq!(harness.ctx.zoom_factor(), 2.0);
+    assert_eq!(harness.ctx.pixels_per_point(), 2.0);
+    let [left, top, right, bottom] = harness.state().view.plots_area().expect("plots");
+    let enlarged = egui::vec2(right - left, bottom - top);
+    let screen = harness.ctx.content_rect().size();
+    assert!(
+        (enlarged.x - on_screen.x.min(screen.x)).abs() <= 2.0 && enlarged.y <= screen.y,
+        "{on_screen:?} on screen, {enlarged:?} for the picture in {screen:?}"
+    );
+    let said = harness
+        .state()
+        .view
+        .message()
+        .cloned()
+        .expect("a message")
+        .expect("taking it");
+    let pixels = format!("{:.0}×", enlarged.x * 2.0);
+    assert!(
+        said.contains("2× picture") && said.contains(&pixels),
+        "{said}"
+    );
+    // No screenshot comes headless: given up after a while, the zoom put back.
+    harness.run_steps(130);
+    assert_eq!(harness.ctx.zoom_factor(), 1.0);
+    assert!(harness.state().view.message().is_some_and(Result::is_err));
+}
