@@ -413,9 +413,9 @@ fn the_default_layout_reads_at_1366x768_and_the_time_axis_stays_in_view_at_zoom_
             lowest.frame
         );
         if zoom == 1.0 && size.y >= 768.0 {
-            // The default signals (position with the following error, velocity, torque)
-            // and the status lanes all fit at 1366×768, no scrolling: every plot's area
-            // ends above the time axis.
+            // The default signals (position with the following error, velocity with the
+            // analog input, torque) and the status lanes all fit at 1366×768, no
+            // scrolling: every plot's area ends above the time axis.
             let stacked: Vec<&DrawnPlot> = plots.iter().filter(|p| p.id != "time").collect();
             let time = plots
                 .iter()
@@ -426,6 +426,15 @@ fn the_default_layout_reads_at_1366x768_and_the_time_axis_stays_in_view_at_zoom_
                 "{plots:?}"
             );
             assert!(stacked.iter().any(|p| p.id == "lanes"), "{plots:?}");
+            let shared: Vec<Vec<&str>> = plots
+                .iter()
+                .map(|p| p.lines.iter().map(|(id, _)| id.as_str()).collect())
+                .collect();
+            assert!(
+                shared.contains(&vec!["position", "following_error"])
+                    && shared.contains(&vec!["velocity", "analog_input"]),
+                "{shared:?}"
+            );
         }
     }
 }

@@ -115,8 +115,8 @@ fn the_plot_panel_pauses_resumes_and_exports_the_visible_window() {
     let recording = Recording::from_csv(&text).expect("our own CSV reads back");
     assert!(recording.len() > 10, "{} rows", recording.len());
     let ids: Vec<&str> = recording.channels.iter().map(|c| c.id.as_str()).collect();
-    // The signals drawn: the defaults, and the one the simulator delivers that appears
-    // by itself (the following error); not ReturnValue or the inputs.
+    // The signals drawn: the defaults, and those the simulator delivers that appear by
+    // themselves (following error, analog input); not ReturnValue or the inputs.
     assert_eq!(ids[..3], ["position", "velocity", "torque"]);
     assert!(ids.contains(&"pdi_status"), "{ids:?}");
     assert!(!ids.contains(&"return_value"), "{ids:?}");

@@ -268,11 +268,7 @@ impl Scope {
                 kind: b.kind(),
                 column,
                 shown: b.shown_by_default(),
-                // The following error appears by itself when the drive delivers it (in
-                // the position's plot by default); the analog input only when asked for
-                // in the Signals menu: with it the default plots no longer fit a
-                // 1366×768 window.
-                auto: matches!(b, Builtin::FollowingError),
+                auto: matches!(b, Builtin::FollowingError | Builtin::AnalogInput),
             })
             .collect();
         Scope {

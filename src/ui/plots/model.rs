@@ -129,12 +129,17 @@ pub struct PlotSettings {
     pub hidden_lanes: Vec<String>,
 }
 
-/// The plots' layout when the user has chosen none: the following error (of the same
-/// unit and meaning as the position, a small value beside a large one) in the position's
-/// plot on an axis of its own, so that position, velocity, torque and the status lanes
-/// read at 1366×768 without scrolling.
+/// The plots' layout when the user has chosen none: the signals that appear by
+/// themselves when the drive delivers them share a plot with the one they go with, each
+/// on a y axis of its own, so that position, velocity, torque and the status lanes read
+/// at 1366×768 without scrolling: the following error (a small value in the position's
+/// unit) in the position's plot, the analog input (often the speed's set value) in the
+/// velocity's.
 pub fn default_together() -> BTreeMap<String, String> {
-    BTreeMap::from([("following_error".to_owned(), "position".to_owned())])
+    BTreeMap::from([
+        ("following_error".to_owned(), "position".to_owned()),
+        ("analog_input".to_owned(), "velocity".to_owned()),
+    ])
 }
 
 /// How a lane is named in the settings: its signal's id and its bit ("pdi_status:10").
