@@ -98,7 +98,6 @@ struct Channel<'s> {
 /// One plot of `signals` (one, or several sharing it), on the shared time axis; the first
 /// plot labels the markers and names the overlaid recording. What it answers: the span its
 /// points were decimated for and each signal's id and line (in its true values).
-#[allow(clippy::too_many_arguments)]
 pub(super) fn analog_plot_ui(
     ui: &mut Ui,
     view: &View<'_>,

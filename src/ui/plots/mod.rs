@@ -1,10 +1,10 @@
 //! The plot panel: stacked plots of the sampled signals on one time axis, the status bits
 //! as digital lanes, command markers, a cursor read-out, pause, follow, zoom and pan; the
-//! stacked plots live in `traces` (each analog one in `analog`, several signals sharing
-//! one by `groups`), the status-bit lanes in `lanes`, pan and zoom of their
-//! one time axis in `navigate`, the trigger and the
-//! exports in `trigger_view` and `exports_view` (one row: `capture`), the PNG in `picture`, recordings opened from files (and a frozen
-//! capture) in `review`, the dialogs in `files`.
+//! stacked plots live in `traces` (each analog one in `analog`, which signals share a plot
+//! and on which scales in `groups`), the status-bit lanes in `lanes`, pan and zoom of
+//! their one time axis in `navigate`, the trigger and the exports in `trigger_view` and
+//! `exports_view` (one row: `capture`), the PNG in `picture`, recordings opened from files
+//! (and a frozen capture) in `review`, the dialogs in `files`.
 
 mod analog;
 mod capture;

@@ -1,9 +1,10 @@
-//! The stacked plots: one per analog signal, then the digital lanes (drawn by `lanes`),
-//! all on one time axis (the plot view's span; `navigate` turns a drag or the wheel into a
-//! new one), each drawn from the history's min/max decimation at one point group per pixel
-//! column, so the whole history draws without dropping a peak. The y axes always fit what
-//! is in view (zoom and pan move the time axis only, no trace is clipped); a recording
-//! overlaid is drawn dashed over the one it is compared with.
+//! The stacked plots: one per analog signal (or per group of signals sharing one, drawn
+//! by `analog`), then the digital lanes (drawn by `lanes`), in a scroll area with the time
+//! axis's labels under it, all on one time axis (the plot view's span; `navigate` turns a
+//! drag or the wheel into a new one), each drawn from the history's min/max decimation at
+//! one point group per pixel column, so the whole history draws without dropping a peak.
+//! The y axes always fit what is in view (zoom and pan move the time axis only, no trace
+//! is clipped); a recording overlaid is drawn dashed over the one it is compared with.
 
 use std::cell::RefCell;
 
