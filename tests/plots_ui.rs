@@ -643,6 +643,16 @@ fn a_recording_opens_with_no_drive_and_a_second_one_overlays_it_on_the_trigger()
         s.view.review().is_some_and(|r| r.overlay.is_some())
     });
     harness.get_by_label("Overlay (dashed): after.json, moved by");
+    // The legend names the overlaid recording's line after its file, inside the top plot.
+    harness.step();
+    let entry = harness
+        .get_by_role_and_label(egui::accesskit::Role::CheckBox, "after.json (dashed)")
+        .rect();
+    let top = harness.state().view.drawn()[0].frame;
+    assert!(
+        entry.top() >= top[1] && entry.bottom() <= top[3],
+        "{entry:?} outside the top plot {top:?}"
+    );
     let offset = overlay_offset(&harness);
     assert!((offset - 0.2).abs() < 1e-9, "trigger on trigger: {offset}");
     // A chosen offset instead, then back on the triggers.

@@ -7,10 +7,10 @@
 use eframe::egui::{self, Color32, Ui};
 use egui_plot::{FilledArea, Line, Plot, PlotBounds, PlotUi};
 
+use super::analog::{Axes, blank_y_axes};
 use super::navigate;
 use super::traces::{
-    Band, PALETTE, View, Y_AXIS_WIDTH, draw_bands, draw_markers, draw_moments, time_axis,
-    time_steps,
+    Band, PALETTE, View, draw_bands, draw_markers, draw_moments, time_axis, time_steps,
 };
 use crate::telemetry::ring::Decimations;
 use crate::telemetry::{BitSpan, Builtin, Kind, Scope, bit_name};
@@ -35,6 +35,8 @@ pub(super) struct Lane {
     column: usize,
     bit: u8,
     name: String,
+    /// "signal id:bit", how a hidden lane is remembered.
+    key: String,
 }
 
 /// What the lanes say, for their labels: each lane's name, the value of its middle on
@@ -78,9 +80,25 @@ pub(super) fn lanes(scope: &Scope, from: f64, to: f64, decimations: &mut Decimat
             column: signal.column,
             bit,
             name: bit_name(builtin, bit),
+            key: super::model::lane_key(&signal.info.id, bit),
         }));
     }
     lanes
+}
+
+/// The lanes to draw of `candidates`: those the user did not hide (`hidden`, by key).
+pub(super) fn shown_lanes(candidates: Vec<Lane>, hidden: &[String]) -> Vec<Lane> {
+    candidates
+        .into_iter()
+        .filter(|lane| !hidden.contains(&lane.key))
+        .collect()
+}
+
+impl Lane {
+    /// Its key in the settings and its name, for the Signals menu.
+    pub(super) fn key_and_name(&self) -> (String, String) {
+        (self.key.clone(), self.name.clone())
+    }
 }
 
 /// The digital lanes, one plot under the analog ones, on the same time axis; the span
@@ -90,16 +108,18 @@ pub(super) fn lanes_plot_ui(
     view: &View<'_>,
     lanes: &[Lane],
     height: f32,
+    axes: Axes,
 ) -> egui_plot::PlotResponse<((f64, f64), LaneLabels)> {
     navigate::fixed(Plot::new("plot_lanes"))
         .height(height - 8.0)
         .link_cursor(view.group, [true, false])
         .show_grid([true, false])
-        .y_axis_min_width(Y_AXIS_WIDTH)
-        .y_axis_formatter(|_, _| String::new())
+        .custom_y_axes(blank_y_axes(axes))
         .y_grid_spacer(|_| Vec::new())
         .custom_x_axes(time_axis())
         .x_grid_spacer(time_steps)
+        // The time labels are under the plots' scroll area.
+        .show_axes([false, true])
         .show(ui, |plot_ui| {
             let (from, to) = (view.from, view.to);
             // Lane k from the top: its low line at (n - 1 - k) * 1.5, its high one 1 above.

@@ -6,6 +6,7 @@
 //!
 //! A model: no egui here.
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
@@ -115,9 +116,35 @@ pub struct PlotSettings {
     pub shown: Vec<String>,
     /// How positions in the factory unit are drawn.
     pub position_unit: PositionUnit,
+    /// The picture of the plots at the screen's resolution (1) or twice it (2).
+    pub picture_scale: f32,
     /// Frames per second at most while the live plots move (new samples wake the window
     /// no more often).
     pub redraw_hz: f64,
+    /// Signals drawn in another signal's plot (a scope's channels): the id of the signal
+    /// that joins, and the id of the one whose plot it joins. Each keeps its colour and a
+    /// y axis of its own there.
+    pub together: BTreeMap<String, String>,
+    /// The digital lanes the user hid, as "signal id:bit" (see [`lane_key`]).
+    pub hidden_lanes: Vec<String>,
+}
+
+/// The plots' layout when the user has chosen none: the signals that appear by
+/// themselves when the drive delivers them share a plot with the one they go with, each
+/// on a y axis of its own, so that position, velocity, torque and the status lanes read
+/// at 1366×768 without scrolling: the following error (a small value in the position's
+/// unit) in the position's plot, the analog input (often the speed's set value) in the
+/// velocity's.
+pub fn default_together() -> BTreeMap<String, String> {
+    BTreeMap::from([
+        ("following_error".to_owned(), "position".to_owned()),
+        ("analog_input".to_owned(), "velocity".to_owned()),
+    ])
+}
+
+/// How a lane is named in the settings: its signal's id and its bit ("pdi_status:10").
+pub fn lane_key(signal: &str, bit: u8) -> String {
+    format!("{signal}:{bit}")
 }
 
 impl Default for PlotSettings {
@@ -129,7 +156,10 @@ impl Default for PlotSettings {
             trigger: TriggerForm::default(),
             shown: Vec::new(),
             position_unit: PositionUnit::default(),
+            picture_scale: 1.0,
             redraw_hz: DEFAULT_REDRAW_HZ,
+            together: default_together(),
+            hidden_lanes: Vec::new(),
         }
     }
 }
@@ -146,7 +176,7 @@ pub struct Image {
 pub type PngResult = Arc<Mutex<Option<Result<Image, String>>>>;
 
 /// A picture of the plots being taken.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Picture {
     /// The title band is drawn (from the frame that asks for the screenshot until it
     /// comes: the screenshot is of a frame after the one that asked).
@@ -155,23 +185,59 @@ pub struct Picture {
     pub sent: bool,
     /// The cut picture, from the screenshot callback.
     pub result: PngResult,
+    /// Taken at this many times the screen's resolution (1 or 2).
+    pub scale: f32,
+    /// While a picture is taken at a higher resolution: the window's zoom to return to,
+    /// and the size (in points) the plots are drawn at for it.
+    pub enlarged: Option<Enlarged>,
+    /// Frames drawn since the picture was asked for (one that never comes is given up).
+    pub frames: u32,
+}
+
+impl Default for Picture {
+    fn default() -> Self {
+        Picture {
+            due: false,
+            sent: false,
+            result: PngResult::default(),
+            scale: 1.0,
+            enlarged: None,
+            frames: 0,
+        }
+    }
+}
+
+/// A picture of the plots taken at a higher resolution: for its frames the window's zoom
+/// is raised by the scale and the title and plots are drawn over the window, as many
+/// points as they had on screen (at most the whole window), so they come out as many
+/// times larger in pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Enlarged {
+    pub zoom_before: f32,
+    pub size: [f32; 2],
 }
 
 /// One plot as drawn in the last frame: where, on which span of the time axis, and what
 /// it drew there; the read-out reads the pointer's time from where the plots were.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DrawnPlot {
-    /// The signal's id; "lanes" for the digital lanes.
+    /// The signal's id (the first one's where several share the plot); "lanes" for the
+    /// digital lanes, "time" for the time axis's labels under the plots.
     pub id: String,
     /// Its data area (axes left out), in points: left, top, right, bottom.
     pub frame: [f32; 4],
+    /// The part of it in view (the plots scroll): the pointer reads times there only.
+    pub visible: [f32; 4],
     /// The span its time axis showed, as egui_plot drew it (the items and the labels).
     pub axis: (f64, f64),
     /// The span its points were decimated for.
     pub decimated: (f64, f64),
     /// Its own line (not the overlay's or another drive's): none for the lanes, or with
-    /// no samples near the span.
+    /// no samples near the span. Of the first signal where several share the plot.
     pub line: Option<LineExtent>,
+    /// Every signal drawn in it (the first is `id`; several when signals share a plot),
+    /// each with its own line's extent in its true values.
+    pub lines: Vec<(String, Option<LineExtent>)>,
 }
 
 /// Where a line drawn reaches and what it holds in view.
@@ -211,7 +277,7 @@ pub fn time_under(drawn: &[DrawnPlot], (x, y): (f32, f32), (from, to): (f64, f64
     let [left, _, right, _] = drawn
         .iter()
         .find(|p| {
-            let [left, top, right, bottom] = p.frame;
+            let [left, top, right, bottom] = p.visible;
             (left..=right).contains(&x) && (top..=bottom).contains(&y)
         })?
         .frame;
@@ -260,6 +326,9 @@ pub struct PlotView {
     pub(super) decimations: Decimations,
     /// The plots drawn in the last frame, top to bottom.
     pub(super) drawn: Vec<DrawnPlot>,
+    /// The lanes there were to draw in the last frame (hidden ones too): each one's key
+    /// and name, for the Signals menu.
+    pub(super) lanes_seen: Vec<(String, String)>,
 }
 
 impl Default for PlotView {
@@ -284,6 +353,7 @@ impl Default for PlotView {
             cursors: [None; 2],
             decimations: Decimations::default(),
             drawn: Vec::new(),
+            lanes_seen: Vec::new(),
         }
     }
 }
@@ -526,17 +596,21 @@ mod tests {
         let plot = |top: f32| DrawnPlot {
             id: String::new(),
             frame: [100.0, top, 1100.0, top + 90.0],
+            visible: [100.0, top.max(20.0), 1100.0, top + 90.0],
             axis: (0.0, 1.0),
             decimated: (0.0, 1.0),
             line: None,
+            lines: Vec::new(),
         };
         let drawn = [plot(0.0), plot(100.0)];
         // On the span drawn now, wherever the plots were.
         assert_eq!(time_under(&drawn, (350.0, 150.0), (20.0, 30.0)), Some(22.5));
-        assert_eq!(time_under(&drawn, (100.0, 10.0), (20.0, 30.0)), Some(20.0));
-        assert_eq!(time_under(&drawn, (1100.0, 10.0), (20.0, 30.0)), Some(30.0));
+        assert_eq!(time_under(&drawn, (100.0, 30.0), (20.0, 30.0)), Some(20.0));
+        assert_eq!(time_under(&drawn, (1100.0, 30.0), (20.0, 30.0)), Some(30.0));
         // On the y axis or between two plots: none.
         assert_eq!(time_under(&drawn, (90.0, 10.0), (20.0, 30.0)), None);
+        // Over the part of a plot scrolled out of view: none.
+        assert_eq!(time_under(&drawn, (350.0, 15.0), (20.0, 30.0)), None);
         assert_eq!(time_under(&drawn, (350.0, 95.0), (20.0, 30.0)), None);
     }
 }

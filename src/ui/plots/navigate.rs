@@ -33,7 +33,7 @@ pub(super) fn fixed(plot: Plot<'_>) -> Plot<'_> {
 
 /// The span asked for over one plot in this frame, from its response and the transform it
 /// was drawn with on `span`: a drag pans (the time grabbed stays under the pointer), the
-/// wheel zooms about the pointer (sideways, or with Shift, it pans), Ctrl+wheel or a pinch
+/// wheel over the data area zooms about the pointer (sideways, or with Shift, it pans), Ctrl+wheel or a pinch
 /// zooms, a right drag picks the span to show (shaded while dragged). `None`: not moved.
 pub(super) fn asked(
     ui: &Ui,
@@ -55,10 +55,18 @@ pub(super) fn asked(
     if response.dragged_by(PointerButton::Primary) {
         asked = pan(asked, -f64::from(response.drag_delta().x) * per_point);
     }
+    // The wheel over the data area moves the time axis, and is taken so that the scroll
+    // area around the plots does not scroll too; over the y axes' labels (and the lanes'
+    // names) it is left to the scroll area.
     if response.hovered()
         && let Some(pos) = response.hover_pos()
+        && frame.contains(pos)
     {
-        let (scroll, zoom) = ui.input(|i| (i.smooth_scroll_delta, i.zoom_delta()));
+        let (scroll, zoom) = ui.input_mut(|i| {
+            let taken = (i.smooth_scroll_delta, i.zoom_delta());
+            i.smooth_scroll_delta = egui::Vec2::ZERO;
+            taken
+        });
         asked = pan(asked, -f64::from(scroll.x) * per_point);
         let factor = f64::from(zoom) * (f64::from(scroll.y) * WHEEL_ZOOM).exp();
         asked = zoom_about(asked, factor, time_at(pos.x));

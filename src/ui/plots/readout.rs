@@ -41,11 +41,36 @@ pub fn readout_ui(ui: &mut Ui, p: &mut Plots<'_>) {
                 Kind::Analog => format!("{} {}", format_number(v), signal.info.unit),
                 Kind::Bits => format!("{:04X}h", v as u32),
             };
-            ui.monospace(format!("| {}: {}", signal.info.id, text.trim_end()));
+            ui.monospace(format!(
+                "| {}: {}",
+                shown_id(&signal.info.id),
+                text.trim_end()
+            ));
         }
         // How to place the cursors is said on the time's hover: a line of its own, or a
         // wrapped tail, would come off the plots' height.
     });
+}
+
+/// A signal's id as the read-out says it: an object of the dictionary as the rest of the
+/// window writes it ("6041h:00"; its id in files stays "6041h_00h"), the built-in ones as
+/// they are ("position").
+pub fn shown_id(id: &str) -> String {
+    let object = id
+        .strip_suffix('h')
+        .and_then(|rest| rest.split_once("h_"))
+        .filter(|(index, sub)| {
+            index.len() == 4
+                && sub.len() == 2
+                && index
+                    .chars()
+                    .chain(sub.chars())
+                    .all(|c| c.is_ascii_hexdigit())
+        });
+    match object {
+        Some((index, sub)) => format!("{index}h:{sub}"),
+        None => id.to_owned(),
+    }
 }
 
 /// The time on the axis under the pointer, when it is over a plot (and no menu or dialog
@@ -131,6 +156,15 @@ fn value_near(ring: &Ring, row: usize, column: usize) -> Option<f64> {
 mod tests {
     use super::*;
     use crate::telemetry::{ChannelInfo, Metadata, Recording};
+
+    #[test]
+    fn an_object_is_read_out_as_the_window_writes_it() {
+        assert_eq!(shown_id("6041h_00h"), "6041h:00");
+        assert_eq!(shown_id("2031h_0Ah"), "2031h:0A");
+        assert_eq!(shown_id("position"), "position");
+        assert_eq!(shown_id("pdi_status"), "pdi_status");
+        assert_eq!(shown_id("60xxh_00h"), "60xxh_00h");
+    }
 
     #[test]
     fn the_cursors_say_the_time_between_them_and_each_signals_change() {

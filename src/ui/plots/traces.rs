@@ -1,17 +1,21 @@
-//! The stacked plots: one per analog signal, then the digital lanes (drawn by `lanes`),
-//! all on one time axis (the plot view's span; `navigate` turns a drag or the wheel into a
-//! new one), each drawn from the history's min/max decimation at one point group per pixel
-//! column, so the whole history draws without dropping a peak. The y axes always fit what
-//! is in view (zoom and pan move the time axis only, no trace is clipped); a recording
-//! overlaid is drawn dashed over the one it is compared with.
+//! The stacked plots: one per analog signal (or per group of signals sharing one, drawn
+//! by `analog`), then the digital lanes (drawn by `lanes`), in a scroll area with the time
+//! axis's labels under it, all on one time axis (the plot view's span; `navigate` turns a
+//! drag or the wheel into a new one), each drawn from the history's min/max decimation at
+//! one point group per pixel column, so the whole history draws without dropping a peak.
+//! The y axes always fit what is in view (zoom and pan move the time axis only, no trace
+//! is clipped); a recording overlaid is drawn dashed over the one it is compared with.
 
 use std::cell::RefCell;
 
 use eframe::egui::{self, Color32, Ui};
-use egui_plot::{Legend, Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
+use egui_plot::{Line, LineStyle, Plot, PlotBounds, PlotUi, Span, Text, VLine};
+
+use super::analog::{Axes, analog_plot_ui, blank_y_axes};
+use super::groups::plot_groups;
 
 use super::exports::Beside;
-use super::lanes::{lane_labels_ui, lanes, lanes_plot_ui};
+use super::lanes::{lane_labels_ui, lanes, lanes_plot_ui, shown_lanes};
 use super::model::{DrawnPlot, LineExtent, PositionUnit, live_end, shown_scope, time_range};
 use super::navigate;
 use super::view::Plots;
@@ -27,8 +31,15 @@ const LANE_HEIGHT: f32 = 26.0;
 const LANE_HEIGHT_MIN: f32 = 16.0;
 /// Width of every plot's y axis, so the time axes line up.
 pub(super) const Y_AXIS_WIDTH: f32 = 56.0;
-/// The lowest an analog plot gets (only when many share a low window).
-const PLOT_HEIGHT_MIN: f32 = 28.0;
+/// The lowest an analog plot gets: three labelled values on its y axis and a line of
+/// legend fit (when the plots do not all fit at this height, they scroll).
+pub const PLOT_HEIGHT_MIN: f32 = 80.0;
+/// The height of the time axis's labels under the plots.
+const TIME_AXIS_HEIGHT: f32 = 38.0;
+/// The least height of the plots' scroll area.
+const SCROLL_HEIGHT_MIN: f32 = 24.0;
+/// What the lanes' plot takes beyond its lanes (its margins), in points.
+const LANES_FRAME: f32 = 20.0;
 /// The space egui leaves between two plots, in points.
 const PLOT_SPACING: f32 = 4.0;
 /// Marker labels drawn per plot at most (all markers get their line).
@@ -48,7 +59,7 @@ const GAP_FILL: Color32 = Color32::from_rgba_premultiplied(60, 40, 40, 60);
 /// The colours for traces that are no built-in signal, in order.
 pub(super) const PALETTE: [Color32; 9] = [PURPLE, TEAL, PINK, LIME, ORANGE, SKY, SAND, GREEN, BLUE];
 /// Another drive's line in a plot: its legend name, its points, its gaps, its colour.
-type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band], Color32);
+pub(super) type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band], Color32);
 
 /// The drives' lines when several are drawn on one plot: each drive's line in the colour
 /// it was given when it was added, the shown drive's too, so a colour stays with its drive
@@ -124,8 +135,8 @@ struct Interaction {
 pub(super) struct View<'a> {
     pub(super) ring: &'a Ring,
     /// The recording drawn over this one, and the seconds its times are moved by.
-    overlay: Option<(&'a Scope, f64)>,
-    position_unit: PositionUnit,
+    pub(super) overlay: Option<(&'a Scope, f64)>,
+    pub(super) position_unit: PositionUnit,
     cursors: [Option<f64>; 2],
     pub(super) from: f64,
     pub(super) to: f64,
@@ -137,11 +148,11 @@ pub(super) struct View<'a> {
     highlight: Option<f64>,
     trigger_at: Option<f64>,
     /// The threshold trigger's signal column and level.
-    threshold: Option<(usize, f64)>,
+    pub(super) threshold: Option<(usize, f64)>,
     /// The selected drive's name and colour, when other drives are drawn beside it.
-    own: Option<(&'a str, Color32)>,
+    pub(super) own: Option<(&'a str, Color32)>,
     /// The other drives whose signals are drawn on the same time axis, and their gaps.
-    beside: Vec<(&'a Beside<'a>, Vec<Band>)>,
+    pub(super) beside: Vec<(&'a Beside<'a>, Vec<Band>)>,
     /// The last frames' decimations, reused where the plots have not moved.
     pub(super) decimations: RefCell<Decimations>,
 }
@@ -202,7 +213,7 @@ impl<'a> View<'a> {
 
     /// [`Ring::decimate`] of `ring` (reused from the last frame when it still holds),
     /// thinned to what a line shows of each pixel column.
-    fn points(
+    pub(super) fn points(
         &self,
         ring: &Ring,
         column: usize,
@@ -313,7 +324,11 @@ fn split_at_bands<'p>(points: &'p [[f64; 2]], bands: &[Band]) -> Vec<&'p [[f64; 
     runs
 }
 
-/// The plots; where they were drawn (every axis included), for the picture.
+/// The plots; where they were drawn (every axis included), for the picture. Stacked in a
+/// scroll area: each keeps a height where its labels and a line of legend fit, and when
+/// they do not all fit the area scrolls (its bar, or the wheel over the y axes' labels;
+/// the wheel over a plot's data moves the time axis). The time axis's labels sit under the
+/// scroll area, always in view.
 pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
     let Some((from, to)) = time_range(p.view, p.drive, p.settings.window_s) else {
         ui.add_space(8.0);
@@ -332,25 +347,63 @@ pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
         .zip(colors)
         .filter(|(s, _)| scope.is_drawn(s) && s.kind == Kind::Analog)
         .collect();
-    let lanes = lanes(scope, from, to, &mut decimations);
-    let (plot_height, lanes_height) = heights(ui.available_height(), analog.len(), lanes.len());
+    let ids: Vec<&str> = analog.iter().map(|(s, _)| s.info.id.as_str()).collect();
+    let groups = plot_groups(&ids, &p.settings.together);
+    let candidates = lanes(scope, from, to, &mut decimations);
+    let lanes_seen: Vec<(String, String)> = candidates.iter().map(|l| l.key_and_name()).collect();
+    let lanes = shown_lanes(candidates, &p.settings.hidden_lanes);
+    let room = ui.available_height() - TIME_AXIS_HEIGHT - PLOT_SPACING;
+    let (plot_height, lanes_height) = heights(room, groups.len(), lanes.len());
+    let axes = Axes::for_sizes(groups.iter().map(Vec::len));
+    let overlay_name = p
+        .view
+        .review
+        .as_ref()
+        .and_then(|r| r.overlay.as_ref())
+        .map(|o| o.title.clone());
     let view = View::new(p, from, to, decimations);
     let mut interaction = Interaction::default();
     let top = ui.cursor().min;
 
-    for (n, (signal, color)) in analog.iter().enumerate() {
-        // The time labels once, under the lowest plot.
-        let time_labels = n + 1 == analog.len() && lanes.is_empty();
-        let response = analog_plot_ui(ui, &view, signal, *color, plot_height, n == 0, time_labels);
-        let (decimated, line) = response.inner;
-        interaction.absorb(ui, &response, &signal.info.id, (from, to), decimated, line);
-    }
-    if !lanes.is_empty() {
-        let response = lanes_plot_ui(ui, &view, &lanes, lanes_height);
-        let (decimated, labels) = &response.inner;
-        interaction.absorb(ui, &response, "lanes", (from, to), *decimated, None);
-        lane_labels_ui(ui, labels, &response.transform);
-    }
+    let scrolled = egui::ScrollArea::vertical()
+        .id_salt("plots_scroll")
+        .auto_shrink([false, true])
+        // However little room the window leaves (a zoomed-in window, a small screen),
+        // the time axis under the area stays in view: the area shrinks, its plots scroll.
+        .max_height(room.max(SCROLL_HEIGHT_MIN))
+        .show(ui, |ui| {
+            for (n, group) in groups.iter().enumerate() {
+                let signals: Vec<(&SignalDef, Color32)> =
+                    group.iter().map(|&k| analog[k]).collect();
+                let response = analog_plot_ui(
+                    ui,
+                    &view,
+                    &signals,
+                    plot_height,
+                    n == 0,
+                    axes,
+                    overlay_name.as_deref(),
+                );
+                let (decimated, lines) = &response.inner;
+                let id = lines.first().map_or("", |(id, _)| id.as_str());
+                interaction.absorb(ui, &response, id, (from, to), *decimated, lines.clone());
+            }
+            if !lanes.is_empty() {
+                let response = lanes_plot_ui(ui, &view, &lanes, lanes_height, axes);
+                let (decimated, labels) = &response.inner;
+                interaction.absorb(ui, &response, "lanes", (from, to), *decimated, Vec::new());
+                lane_labels_ui(ui, labels, &response.transform);
+            }
+        });
+    // As wide as the plots in the scroll area (its bar may take room at the right).
+    let width = scrolled.inner_rect.width();
+    let response = ui
+        .allocate_ui(egui::vec2(width, TIME_AXIS_HEIGHT), |ui| {
+            ui.set_width(width);
+            time_axis_ui(ui, &view, axes)
+        })
+        .inner;
+    interaction.absorb(ui, &response, "time", (from, to), (from, to), Vec::new());
 
     let bottom = ui.cursor().min;
     let plots = egui::Rect::from_min_max(
@@ -360,22 +413,44 @@ pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
     let mut decimations = view.decimations.into_inner();
     decimations.end_frame();
     p.view.decimations = decimations;
+    p.view.lanes_seen = lanes_seen;
     remember_view(ui.ctx(), p, interaction, (from, to));
     Some(plots)
 }
 
+/// The time axis's labels under the plots' scroll area, on their span: always in view,
+/// however many plots there are and whatever the zoom of the window. A drag or the wheel
+/// over it moves the time axis as over a plot.
+fn time_axis_ui(ui: &mut Ui, view: &View<'_>, axes: Axes) -> egui_plot::PlotResponse<()> {
+    navigate::fixed(Plot::new("plot_time_axis"))
+        .height(TIME_AXIS_HEIGHT)
+        .show_grid([false, false])
+        .show_background(false)
+        .custom_y_axes(blank_y_axes(axes))
+        .custom_x_axes(time_axis())
+        .x_grid_spacer(time_steps)
+        .show(ui, |plot_ui| {
+            plot_ui.set_plot_bounds(PlotBounds::from_min_max([view.from, 0.0], [view.to, 1.0]));
+        })
+}
+
 /// The height of each analog plot and of the lanes' plot: the lanes take what they need
-/// (up to 40 % while analog plots share the panel), the analog plots share the rest.
+/// (up to 40 % while analog plots share the panel), the analog plots share the rest; when
+/// that leaves the analog plots too little the lanes give way, down to their least height;
+/// none lower than its minimum (then the plots scroll).
 fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
     // Between plots egui puts its item spacing; below them a little air.
-    let spacing = PLOT_SPACING * (analog + usize::from(lanes > 0)) as f32 + 8.0;
+    let spacing = PLOT_SPACING * (analog + usize::from(lanes > 0)) as f32 + 4.0;
     let room = (available - spacing).max(0.0);
     let lanes_height = if lanes == 0 {
         0.0
     } else {
         let share = if analog == 0 { 1.0 } else { 0.4 };
-        let lane = ((room * share - 40.0) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
-        lanes as f32 * lane + 40.0
+        let lane =
+            ((room * share - LANES_FRAME) / lanes as f32).clamp(LANE_HEIGHT_MIN, LANE_HEIGHT);
+        let least = lanes as f32 * LANE_HEIGHT_MIN + LANES_FRAME;
+        let left = room - analog as f32 * PLOT_HEIGHT_MIN;
+        (lanes as f32 * lane + LANES_FRAME).min(left.max(least))
     };
     let plot_height = if analog == 0 {
         0.0
@@ -385,126 +460,9 @@ fn heights(available: f32, analog: usize, lanes: usize) -> (f32, f32) {
     (plot_height, lanes_height)
 }
 
-/// The legend, top left (the newest samples come in on the right). With other drives
-/// drawn beside, a line each: small and see-through, so that on a low plot the traces
-/// under it still show.
-fn legend(several: bool) -> Legend {
-    let legend = Legend::default().position(egui_plot::Corner::LeftTop);
-    if several {
-        legend
-            .text_style(egui::TextStyle::Small)
-            .background_alpha(0.45)
-    } else {
-        legend
-    }
-}
-
-/// One analog signal's plot, on the shared time axis; the first labels the markers, the
-/// lowest the time axis.
-fn analog_plot_ui(
-    ui: &mut Ui,
-    view: &View<'_>,
-    signal: &SignalDef,
-    color: Color32,
-    height: f32,
-    first: bool,
-    time_labels: bool,
-) -> egui_plot::PlotResponse<((f64, f64), Option<LineExtent>)> {
-    let (scale, unit) = view.position_unit.drawn(&signal.info.unit);
-    let label = if unit.is_empty() {
-        signal.info.name.clone()
-    } else {
-        format!("{} [{unit}]", signal.info.name)
-    };
-    // With other drives drawn beside it, each line says whose it is.
-    let (label, color) = match view.own {
-        Some((own, theirs)) => (format!("{own}: {label}"), theirs),
-        None => (label, color),
-    };
-    let column = signal.column;
-    let level = view
-        .threshold
-        .filter(|(c, _)| *c == column)
-        .map(|(_, l)| l * scale);
-    // The same signal in the overlaid recording, if it has it.
-    let overlay = view.overlay.and_then(|(scope, offset)| {
-        scope
-            .signal(&signal.info.id)
-            .filter(|s| s.kind == Kind::Analog)
-            .map(|s| (scope.ring(), s.column, offset))
-    });
-    // The time axis shows the view's span (a pan or zoom asks for another, see
-    // `navigate`); the value axis always fits what is in view.
-    navigate::fixed(Plot::new(("plot", signal.info.id.as_str())))
-        .height(height)
-        .link_cursor(view.group, [true, false])
-        .legend(legend(view.own.is_some()))
-        // Three or four labelled values on a low plot (egui_plot's decades give one).
-        .custom_y_axes(vec![
-            egui_plot::AxisHints::new_y().label_spacing(10.0..=16.0),
-        ])
-        .y_grid_spacer(nice_steps)
-        .y_axis_min_width(Y_AXIS_WIDTH)
-        .custom_x_axes(time_axis())
-        .x_grid_spacer(time_steps)
-        .show_axes([time_labels, true])
-        .show(ui, |plot_ui| {
-            let (from, to) = (view.from, view.to);
-            // This frame's width (the transform is the last frame's).
-            let columns = plot_ui.response().rect.width().max(1.0) as usize;
-            let mut points = view.points(view.ring, column, from, to, columns);
-            scale_values(&mut points, scale, 0.0);
-            let mut other = overlay
-                .map(|(ring, column, offset)| {
-                    let mut points = view.points(ring, column, from - offset, to - offset, columns);
-                    scale_values(&mut points, scale, offset);
-                    points
-                })
-                .unwrap_or_default();
-            // The same signal of the other drives, on the same time axis.
-            let drives: Vec<DriveLine<'_>> = view
-                .beside
-                .iter()
-                .filter_map(|(b, bands)| {
-                    let theirs = b.scope.signal(&signal.info.id)?;
-                    let mut points = view.points(b.scope.ring(), theirs.column, from, to, columns);
-                    scale_values(&mut points, scale, 0.0);
-                    Some((
-                        format!("{}: {}", b.name, signal.info.name),
-                        points,
-                        bands.as_slice(),
-                        drive_color(b.color),
-                    ))
-                })
-                .collect();
-            let extent = LineExtent::of(&points, (from, to));
-            let mut fit = vec![points.as_slice(), other.as_slice()];
-            fit.extend(drives.iter().map(|(_, theirs, _, _)| theirs.as_slice()));
-            plot_ui.set_plot_bounds(fit_bounds(&fit, from, to, level));
-            draw_bands(plot_ui, &view.bands, first);
-            draw_markers(plot_ui, &view.markers, first);
-            draw_moments(plot_ui, view, level);
-            draw_runs(plot_ui, &label, color, points, &view.bands);
-            for (name, theirs, bands, color) in drives {
-                draw_runs(plot_ui, &name, color, theirs, bands);
-            }
-            if !other.is_empty() {
-                // Unnamed: the row above the plots says which file is dashed; a legend
-                // entry per plot would cover the traces.
-                plot_ui.line(
-                    Line::new("", std::mem::take(&mut other))
-                        .color(color.gamma_multiply(0.75))
-                        .style(LineStyle::dashed_loose())
-                        .width(1.5),
-                );
-            }
-            ((from, to), extent)
-        })
-}
-
 /// A signal's line, broken where a band (a stretch without samples) cuts it; the points
 /// handed over as they are when nothing cuts them.
-fn draw_runs(
+pub(super) fn draw_runs(
     plot_ui: &mut PlotUi,
     name: &str,
     color: Color32,
@@ -522,7 +480,7 @@ fn draw_runs(
 }
 
 /// Values times `scale` (positions in degrees or revolutions), times moved by `offset`.
-fn scale_values(points: &mut [[f64; 2]], scale: f64, offset: f64) {
+pub(super) fn scale_values(points: &mut [[f64; 2]], scale: f64, offset: f64) {
     if scale != 1.0 || offset != 0.0 {
         for p in points {
             p[0] += offset;
@@ -592,24 +550,13 @@ fn remember_view(
     }
 }
 
-/// Grid marks at 1, 2 or 5 × 10ⁿ, about three per plot, with finer unlabelled lines.
-fn nice_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
-    let (min, max) = input.bounds;
-    let span = max - min;
-    if !span.is_finite() || span <= 0.0 {
-        return Vec::new();
-    }
-    let step = nice_step(span / 3.0);
-    steps_between(min, max, &[(step, 16), (step / 5.0, 80)])
-}
-
 /// The time axis: a label every 1, 2 or 5 × 10ⁿ s, about one per 90 points whatever the
 /// zoom (egui_plot's decades show one label per 10 s on a 10 s window, none when zoomed
 /// in between two), each with the decimals its step needs.
 pub(super) fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
     vec![
         egui_plot::AxisHints::new_x()
-            .label("time [s]")
+            .label(egui::RichText::new("time [s]").small())
             .label_spacing(40.0..=60.0)
             .formatter(|mark, _| time_label(mark.value, mark.step_size)),
     ]
@@ -640,18 +587,8 @@ pub(super) fn time_steps(input: egui_plot::GridInput) -> Vec<egui_plot::GridMark
         return Vec::new();
     }
     // base_step_size is the time of egui_plot's smallest grid spacing (8 points).
-    let step = nice_step(input.base_step_size / 8.0 * 90.0);
+    let step = super::groups::nice_step(input.base_step_size / 8.0 * 90.0);
     steps_between(min, max, &[(step, 200), (step / 5.0, 1000)])
-}
-
-/// The smallest 1, 2 or 5 × 10ⁿ at or above `raw`.
-fn nice_step(raw: f64) -> f64 {
-    let decade = 10f64.powf(raw.log10().floor());
-    [1.0, 2.0, 5.0, 10.0]
-        .into_iter()
-        .map(|m| m * decade)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * decade)
 }
 
 /// Marks every `size` between `min` and `max`, for each (size, most marks) that fits.
@@ -683,17 +620,20 @@ impl Interaction {
         id: &str,
         span: (f64, f64),
         decimated: (f64, f64),
-        line: Option<LineExtent>,
+        lines: Vec<(String, Option<LineExtent>)>,
     ) {
         let (response, transform) = (&plot.response, &plot.transform);
         self.right = self.right.max(response.rect.right());
         let (frame, bounds) = (transform.frame(), transform.bounds());
+        let visible = frame.intersect(ui.clip_rect());
         self.drawn.push(DrawnPlot {
             id: id.to_owned(),
             frame: [frame.min.x, frame.min.y, frame.max.x, frame.max.y],
+            visible: [visible.min.x, visible.min.y, visible.max.x, visible.max.y],
             axis: (bounds.min()[0], bounds.max()[0]),
             decimated,
-            line,
+            line: lines.first().and_then(|(_, line)| *line),
+            lines,
         });
         let time_at = |pos: egui::Pos2| transform.value_from_position(pos).x;
         if let Some(pos) = response.interact_pointer_pos() {
@@ -709,32 +649,6 @@ impl Interaction {
             self.asked = navigate::asked(ui, response, transform, span);
         }
     }
-}
-
-/// The time span on x, the data's range with a margin on y (a flat line is not squeezed
-/// into nothing); a trigger level stays in view.
-fn fit_bounds(lines: &[&[[f64; 2]]], from: f64, to: f64, level: Option<f64>) -> PlotBounds {
-    let (mut low, mut high) = lines
-        .iter()
-        .flat_map(|points| points.iter())
-        .filter(|p| p[0] >= from && p[0] <= to)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p[1]), hi.max(p[1]))
-        });
-    if let Some(level) = level {
-        low = low.min(level);
-        high = high.max(level);
-    }
-    if !low.is_finite() || !high.is_finite() {
-        (low, high) = (-1.0, 1.0);
-    }
-    let span = (high - low).max(2.0);
-    let margin = span * 0.08;
-    let middle = (high + low) / 2.0;
-    PlotBounds::from_min_max(
-        [from, middle - span / 2.0 - margin],
-        [to, middle + span / 2.0 + margin],
-    )
 }
 
 /// Every stretch without samples shaded, with its edges; labelled ("no link 12.3 s") on
@@ -798,8 +712,8 @@ mod tests {
         assert_eq!(time_label(12.35, 0.05), "12.35");
         assert_eq!(time_label(12.3456, 0.0002), "12.3456");
         assert_eq!(time_label(-0.0, 0.5), "0.0");
-        assert_eq!(nice_step(0.37), 0.5);
-        assert_eq!(nice_step(3.0), 5.0);
+        assert_eq!(super::super::groups::nice_step(0.37), 0.5);
+        assert_eq!(super::super::groups::nice_step(3.0), 5.0);
         // A 2 ms window 1000 points wide: a label every 0.2 ms, each one different.
         let marks = time_steps(egui_plot::GridInput {
             bounds: (100.0, 100.002),
@@ -845,28 +759,38 @@ mod tests {
     }
 
     #[test]
-    fn the_plots_and_lanes_fit_the_height_there_is() {
+    fn the_plots_and_lanes_fit_the_height_there_is_or_keep_their_minimum() {
         for (available, analog, lanes) in [
             (320.0, 5, 3),
             (320.0, 3, 6),
             (700.0, 3, 5),
             (400.0, 0, 11),
             (250.0, 4, 4),
+            (900.0, 4, 6),
         ] {
             let (plot, lane_plot) = heights(available, analog, lanes);
             let used = plot * analog as f32 + lane_plot + PLOT_SPACING * (analog + 1) as f32;
-            assert!(
-                used <= available,
-                "{available} {analog} {lanes}: {plot} {lane_plot}"
-            );
+            // Every plot at its minimum at least; all of them within the height there is
+            // unless that is less than their minimums (then the plots scroll).
             assert!(plot >= PLOT_HEIGHT_MIN || analog == 0);
             if lanes > 0 {
-                assert!((lane_plot - 40.0) / lanes as f32 >= LANE_HEIGHT_MIN);
+                assert!((lane_plot - LANES_FRAME) / lanes as f32 >= LANE_HEIGHT_MIN);
+            }
+            let least = PLOT_HEIGHT_MIN * analog as f32
+                + lanes as f32 * LANE_HEIGHT_MIN
+                + LANES_FRAME
+                + PLOT_SPACING * (analog + 1) as f32
+                + 4.0;
+            if least <= available {
+                assert!(
+                    used <= available,
+                    "{available} {analog} {lanes}: {plot} {lane_plot}"
+                );
             }
         }
         // Room to spare: lanes at their full height, the analog plots share the rest.
-        let (plot, lanes) = heights(700.0, 3, 5);
-        assert_eq!(lanes, 5.0 * LANE_HEIGHT + 40.0);
+        let (plot, lanes) = heights(900.0, 3, 5);
+        assert_eq!(lanes, 5.0 * LANE_HEIGHT + LANES_FRAME);
         assert!(plot > 150.0, "{plot}");
     }
 

@@ -101,6 +101,11 @@ impl Alone {
     }
 }
 
+/// The share of the plot panel's height the rows above the plots take at most.
+const CONTROLS_SHARE: f32 = 0.45;
+/// … but never less than this, in points (a toolbar row and the read-out).
+const CONTROLS_HEIGHT_MIN: f32 = 60.0;
+
 /// One frame of the plot panel alone, drawn through `ctx` without a window at 1600×1000
 /// (layout, decimation, plot items and tessellation; no GPU): what the benches and
 /// `drivedeck bench`'s plotting load measure. The number of clipped primitives.
@@ -120,12 +125,28 @@ pub fn headless_frame(ctx: &egui::Context, alone: &mut Alone) -> usize {
 /// each plot: live, and over a triggered capture's span (a recording opened from a file
 /// has a time base of its own and is drawn alone).
 pub fn plots_ui(ui: &mut Ui, p: &mut Plots<'_>) {
-    toolbar(ui, p);
-    review_view::review_ui(ui, p);
-    capture::capture_ui(ui, p);
-    readout::readout_ui(ui, p);
-    let band = picture::title_band_ui(ui, p);
-    let plots = traces::traces_ui(ui, p);
+    // The rows above the plots take at most part of the panel (scrolling within it
+    // beyond): in a narrow or zoomed-in window they wrap into many lines, and would
+    // otherwise leave the plots, and their time axis, no room at all.
+    let controls = (ui.available_height() * CONTROLS_SHARE).max(CONTROLS_HEIGHT_MIN);
+    egui::ScrollArea::vertical()
+        .id_salt("plot_controls")
+        .auto_shrink([false, true])
+        .max_height(controls)
+        .show(ui, |ui| {
+            toolbar(ui, p);
+            review_view::review_ui(ui, p);
+            capture::capture_ui(ui, p);
+            readout::readout_ui(ui, p);
+        });
+    let (band, plots) = match picture::enlarged(ui.ctx(), p.view) {
+        // A picture at twice the resolution: drawn over the window instead.
+        Some(enlarged) => picture::enlarged_ui(ui, p, enlarged),
+        None => {
+            let band = picture::title_band_ui(ui, p);
+            (band, traces::traces_ui(ui, p))
+        }
+    };
     p.view.plots_area = plots.map(|r| [r.min.x, r.min.y, r.max.x, r.max.y]);
     picture::taken(ui.ctx(), p.view, band, plots);
     // The answers of this frame's dialogs (a scripted one answers at once) and of those
@@ -169,7 +190,9 @@ fn toolbar(ui: &mut Ui, p: &mut Plots<'_>) {
             .on_hover_text(
                 "Keep the newest samples in view. Moving the time axis stops following: drag a \
                  plot to pan, turn the wheel over it to zoom (Shift+wheel pans), right-drag \
-                 across the span to show; double-click a plot to follow again.",
+                 across the span to show; double-click a plot to follow again. When the plots \
+                 do not all fit they scroll: drag the scroll bar at their right, or turn the \
+                 wheel over their y axes' labels.",
             )
             .clicked()
         {
@@ -256,6 +279,7 @@ fn signals_menu_body(ui: &mut Ui, p: &mut Plots<'_>) {
                 }
             });
         }
+        together_ui(ui, scope.signals(), &mut p.settings.together);
         if changed && !reviewing {
             p.settings.shown = p
                 .drive
@@ -267,6 +291,7 @@ fn signals_menu_body(ui: &mut Ui, p: &mut Plots<'_>) {
                 .collect();
         }
     }
+    lanes_ui(ui, &p.view.lanes_seen, &mut p.settings.hidden_lanes);
     ui.separator();
     ui.horizontal(|ui| {
         ui.label("Positions in");
@@ -328,6 +353,86 @@ fn signals_menu_body(ui: &mut Ui, p: &mut Plots<'_>) {
             });
         }
     }
+}
+
+/// Which plot each analog signal is drawn in: its own, or with another's (a scope's
+/// channels, each on a y axis of its own).
+fn together_ui(
+    ui: &mut Ui,
+    signals: &[crate::telemetry::SignalDef],
+    together: &mut std::collections::BTreeMap<String, String>,
+) {
+    let analog: Vec<&crate::telemetry::SignalDef> = signals
+        .iter()
+        .filter(|s| s.kind == crate::telemetry::Kind::Analog)
+        .collect();
+    ui.separator();
+    ui.label("Plot with …").on_hover_text(
+        "Draw a signal in another's plot, each in its colour on a y axis of its own",
+    );
+    egui::Grid::new("plot_together").show(ui, |ui| {
+        for signal in &analog {
+            let id = &signal.info.id;
+            let name_of = |id: &str| {
+                analog
+                    .iter()
+                    .find(|s| s.info.id == id)
+                    .map_or_else(|| id.to_owned(), |s| s.info.name.clone())
+            };
+            let chosen = together.get(id).cloned();
+            ui.label(&signal.info.name);
+            // A submenu (a combo box's popup would close the menu around it).
+            let current = chosen
+                .as_deref()
+                .map_or_else(|| "own plot".to_owned(), name_of);
+            let hosts: Vec<&&crate::telemetry::SignalDef> = analog
+                .iter()
+                .filter(|h| h.info.id != *id && !together.contains_key(&h.info.id))
+                .collect();
+            let menu = ui.menu_button(current, |ui| {
+                if ui.selectable_label(chosen.is_none(), "own plot").clicked() {
+                    together.remove(id);
+                    ui.close();
+                }
+                // Only a signal with a plot of its own takes another.
+                for host in hosts {
+                    let this = chosen.as_deref() == Some(host.info.id.as_str());
+                    if ui.selectable_label(this, &host.info.name).clicked() {
+                        together.insert(id.clone(), host.info.id.clone());
+                        ui.close();
+                    }
+                }
+            });
+            crate::ui::widgets::name_widget(
+                &menu.response,
+                egui::accesskit::Role::Button,
+                &format!("Plot {} with", signal.info.name),
+            );
+            ui.end_row();
+        }
+    });
+}
+
+/// The digital lanes there are to draw, each shown or hidden.
+fn lanes_ui(ui: &mut Ui, seen: &[(String, String)], hidden: &mut Vec<String>) {
+    if seen.is_empty() && hidden.is_empty() {
+        return;
+    }
+    ui.separator();
+    ui.label("Lanes").on_hover_text(
+        "The status bits and inputs drawn as lanes (a bit appears when it was high in view)",
+    );
+    ui.horizontal_wrapped(|ui| {
+        for (key, name) in seen {
+            let mut shown = !hidden.contains(key);
+            if ui.checkbox(&mut shown, name).changed() {
+                hidden.retain(|k| k != key);
+                if !shown {
+                    hidden.push(key.clone());
+                }
+            }
+        }
+    });
 }
 
 /// The live plots' redraw rate: a box in frames per second.
