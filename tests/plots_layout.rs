@@ -296,15 +296,19 @@ fn the_signals_menu_puts_a_signal_in_anothers_plot_and_hides_a_lane() {
     assert!(old.hidden_lanes.is_empty());
 }
 
-/// The window with `drives` simulated drives at 1024×600, every one sampled.
+/// The window with `drives` simulated drives at 1024×600, every one sampled and drawn.
 fn drives_at_1024x600(drives: usize) -> Harness<'static, App> {
     let mut harness = window::harness_with(Settings::default(), true, egui::vec2(1024.0, 600.0));
     window::connected(&mut harness);
     for k in 1..drives {
-        harness
+        let index = harness
             .state_mut()
             .add_drive(format!("Axis {k}"), "sim://")
             .expect("another drive");
+        // Drawn in the plots beside the drive shown.
+        harness
+            .state_mut()
+            .apply_command(drivedeck::ui::Command::PlotBeside(index, true));
     }
     window::step_until(
         &mut harness,
