@@ -60,25 +60,12 @@ pub(super) fn export_ui(ui: &mut Ui, p: &mut Plots<'_>) {
     if ui
         .button("Save PNG…")
         .on_hover_text(
-            "A picture of the whole plot area with a title (the device, the date and the \
-             time span), at the screen's resolution or twice it (2×)",
+            "A picture of the whole plot area at the screen's resolution, with a title: \
+             the device, the date and the time span",
         )
         .clicked()
     {
-        super::picture::request(ui.ctx(), p.view, p.settings.picture_scale);
-    }
-    let twice = p.settings.picture_scale >= 2.0;
-    let toggle = ui.add(egui::Button::selectable(twice, "2×")).on_hover_text(
-        "Take the PNG at twice the screen's resolution: for a moment the plots are drawn \
-             over the whole window, at double size",
-    );
-    crate::ui::widgets::name_widget(
-        &toggle,
-        egui::accesskit::Role::Button,
-        "PNG at twice the resolution",
-    );
-    if toggle.clicked() {
-        p.settings.picture_scale = if twice { 1.0 } else { 2.0 };
+        super::picture::request(ui.ctx(), p.view);
     }
 }
 

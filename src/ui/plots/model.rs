@@ -116,8 +116,6 @@ pub struct PlotSettings {
     pub shown: Vec<String>,
     /// How positions in the factory unit are drawn.
     pub position_unit: PositionUnit,
-    /// The picture of the plots at the screen's resolution (1) or twice it (2).
-    pub picture_scale: f32,
     /// Frames per second at most while the live plots move (new samples wake the window
     /// no more often).
     pub redraw_hz: f64,
@@ -156,7 +154,6 @@ impl Default for PlotSettings {
             trigger: TriggerForm::default(),
             shown: Vec::new(),
             position_unit: PositionUnit::default(),
-            picture_scale: 1.0,
             redraw_hz: DEFAULT_REDRAW_HZ,
             together: default_together(),
             hidden_lanes: Vec::new(),
@@ -176,7 +173,7 @@ pub struct Image {
 pub type PngResult = Arc<Mutex<Option<Result<Image, String>>>>;
 
 /// A picture of the plots being taken.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Picture {
     /// The title band is drawn (from the frame that asks for the screenshot until it
     /// comes: the screenshot is of a frame after the one that asked).
@@ -185,36 +182,6 @@ pub struct Picture {
     pub sent: bool,
     /// The cut picture, from the screenshot callback.
     pub result: PngResult,
-    /// Taken at this many times the screen's resolution (1 or 2).
-    pub scale: f32,
-    /// While a picture is taken at a higher resolution: the window's zoom to return to,
-    /// and the size (in points) the plots are drawn at for it.
-    pub enlarged: Option<Enlarged>,
-    /// Frames drawn since the picture was asked for (one that never comes is given up).
-    pub frames: u32,
-}
-
-impl Default for Picture {
-    fn default() -> Self {
-        Picture {
-            due: false,
-            sent: false,
-            result: PngResult::default(),
-            scale: 1.0,
-            enlarged: None,
-            frames: 0,
-        }
-    }
-}
-
-/// A picture of the plots taken at a higher resolution: for its frames the window's zoom
-/// is raised by the scale and the title and plots are drawn over the window, as many
-/// points as they had on screen (at most the whole window), so they come out as many
-/// times larger in pixels.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Enlarged {
-    pub zoom_before: f32,
-    pub size: [f32; 2],
 }
 
 /// One plot as drawn in the last frame: where, on which span of the time axis, and what

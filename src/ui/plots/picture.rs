@@ -1,9 +1,7 @@
 //! The plots as a PNG: for one frame a title band (the device, the link, the date, the
 //! time span) is drawn above the plots, the window's screenshot of that frame is cut to
 //! the band and the whole plot area (every axis and its labels) at the screen's full
-//! resolution (or twice it: for those frames the window's zoom is doubled and the band
-//! and plots are drawn over the whole window at their size on screen), and the save
-//! dialog asks where it goes.
+//! resolution, and the save dialog asks where it goes.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -12,102 +10,17 @@ use eframe::egui::{self, Rect, RichText, Ui};
 
 use super::exports::Job;
 use super::exports_view::ask;
-use super::model::{Enlarged, Image, Picture, PlotView, shown_scope, time_range};
+use super::model::{Image, Picture, PlotView, shown_scope, time_range};
 use super::view::Plots;
 
-/// Frames a picture may take to come before it is given up (and the window's zoom put
-/// back).
-const PICTURE_FRAMES_MAX: u32 = 120;
-/// The room the title band takes above the plots, in points (for the enlarged picture's
-/// size).
-const BAND_HEIGHT: f32 = 48.0;
-
-/// Take a picture of the plots in the next frame, at `scale` times the screen's
-/// resolution (1 or 2).
-pub fn request(ctx: &egui::Context, view: &mut PlotView, scale: f32) {
+/// Take a picture of the plots in the next frame.
+pub fn request(ctx: &egui::Context, view: &mut PlotView) {
     if view.picture.due {
         return;
     }
     view.picture.due = true;
-    view.picture.frames = 0;
-    view.picture.scale = if scale >= 2.0 { 2.0 } else { 1.0 };
     view.message = Some(Ok("taking a picture of the plots…".into()));
-    if view.picture.scale > 1.0
-        && let Some([left, top, right, bottom]) = view.plots_area
-    {
-        let zoom = ctx.zoom_factor();
-        let size = enlarged_size(
-            [right - left, bottom - top + BAND_HEIGHT],
-            ctx.content_rect().size().into(),
-            view.picture.scale,
-        );
-        let pixels = ctx.pixels_per_point() * view.picture.scale;
-        view.picture.enlarged = Some(Enlarged {
-            zoom_before: zoom,
-            size,
-        });
-        ctx.set_zoom_factor(zoom * view.picture.scale);
-        view.message = Some(Ok(format!(
-            "taking a {:.0}× picture of the plots (about {:.0}×{:.0} px)…",
-            view.picture.scale,
-            size[0] * pixels,
-            size[1] * pixels
-        )));
-    }
     ctx.request_repaint();
-}
-
-/// The size in points the title and plots are drawn at for a picture at `scale`: as on
-/// screen (`plots`), at most the whole window (`screen`, in points now) once its zoom is
-/// raised by the scale.
-pub fn enlarged_size(plots: [f32; 2], screen: [f32; 2], scale: f32) -> [f32; 2] {
-    [
-        plots[0].min(screen[0] / scale),
-        plots[1].min(screen[1] / scale),
-    ]
-}
-
-/// The picture being taken at a higher resolution, once the window's zoom is raised for
-/// it (the frame after it was asked for).
-pub fn enlarged(ctx: &egui::Context, view: &PlotView) -> Option<Enlarged> {
-    let enlarged = view.picture.enlarged.filter(|_| view.picture.due)?;
-    (ctx.zoom_factor() >= enlarged.zoom_before * view.picture.scale - 1e-3).then_some(enlarged)
-}
-
-/// The title band and the plots drawn over the whole window for a picture at a higher
-/// resolution: where each was.
-pub fn enlarged_ui(
-    ui: &mut Ui,
-    p: &mut Plots<'_>,
-    enlarged: Enlarged,
-) -> (Option<Rect>, Option<Rect>) {
-    let ctx = ui.ctx().clone();
-    let origin = ctx.content_rect().min;
-    egui::Area::new(egui::Id::unique("plots_picture"))
-        .order(egui::Order::Foreground)
-        .fixed_pos(origin)
-        .show(&ctx, |ui| {
-            egui::Frame::NONE
-                .fill(ui.visuals().panel_fill)
-                .show(ui, |ui| {
-                    let size = egui::vec2(enlarged.size[0], enlarged.size[1]);
-                    ui.set_min_size(size);
-                    ui.set_max_size(size);
-                    let band = title_band_ui(ui, p);
-                    let plots = super::traces::traces_ui(ui, p);
-                    (band, plots)
-                })
-                .inner
-        })
-        .inner
-}
-
-/// The picture is done (taken, failed or given up): the window's zoom as it was.
-fn finish(ctx: &egui::Context, view: &mut PlotView) {
-    if let Some(enlarged) = view.picture.enlarged.take() {
-        ctx.set_zoom_factor(enlarged.zoom_before);
-    }
-    view.picture = Picture::default();
 }
 
 /// The title of the picture, drawn above the plots in the frame it is taken: what and
@@ -191,18 +104,7 @@ pub fn title_lines(p: &Plots<'_>, now: std::time::SystemTime) -> (String, String
 /// After the plots are drawn in the picture's frame: ask for its screenshot, cut to the
 /// title band and the plots.
 pub fn taken(ctx: &egui::Context, view: &mut PlotView, band: Option<Rect>, plots: Option<Rect>) {
-    if !view.picture.due {
-        return;
-    }
-    view.picture.frames += 1;
-    if view.picture.frames > PICTURE_FRAMES_MAX {
-        finish(ctx, view);
-        view.message = Some(Err("no picture came from the window; try again".into()));
-        return;
-    }
-    // A picture at a higher resolution waits for the window's raised zoom.
-    let waiting = view.picture.enlarged.is_some() && enlarged(ctx, view).is_none();
-    if view.picture.sent || waiting {
+    if !view.picture.due || view.picture.sent {
         return;
     }
     view.picture.sent = true;
@@ -211,7 +113,7 @@ pub fn taken(ctx: &egui::Context, view: &mut PlotView, band: Option<Rect>, plots
         (band, plots) => band.or(plots),
     };
     let Some(area) = area else {
-        finish(ctx, view);
+        view.picture = Picture::default();
         view.message = Some(Err("no plots to take a picture of".into()));
         return;
     };
@@ -251,7 +153,8 @@ pub fn cut(image: &egui::ColorImage, area: Rect, pixels_per_point: f32) -> Resul
 pub fn poll(ctx: &egui::Context, p: &mut Plots<'_>) {
     let taken = super::files::take(&p.view.picture.result);
     if taken.is_some() {
-        finish(ctx, p.view);
+        p.view.picture.due = false;
+        p.view.picture.sent = false;
     }
     match taken {
         Some(Ok(image)) => ask(ctx, p, Job::Png(Arc::new(image))),
@@ -292,23 +195,6 @@ mod tests {
         assert_eq!(cut(&image, beyond, 2.0).map(|i| i.size), Ok([100, 100]));
         let outside = Rect::from_min_max(egui::pos2(300.0, 300.0), egui::pos2(400.0, 400.0));
         assert!(cut(&image, outside, 2.0).is_err());
-    }
-
-    #[test]
-    fn a_picture_at_twice_the_resolution_keeps_the_plots_size_within_the_window() {
-        // 657×357 points of plots (and the band) on a 1366×768 window: all of it, 2×.
-        assert_eq!(
-            enlarged_size([657.0, 405.0], [1366.0, 768.0], 2.0),
-            [657.0, 384.0]
-        );
-        assert_eq!(
-            enlarged_size([600.0, 300.0], [1920.0, 1080.0], 2.0),
-            [600.0, 300.0]
-        );
-        // Cut from a screenshot at 2 pixels a point: twice as many pixels each way.
-        let image = egui::ColorImage::new([1366, 768], vec![egui::Color32::RED; 1366 * 768]);
-        let area = Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(600.0, 300.0));
-        assert_eq!(cut(&image, area, 2.0).map(|i| i.size), Ok([1200, 600]));
     }
 
     #[test]

@@ -139,14 +139,8 @@ pub fn plots_ui(ui: &mut Ui, p: &mut Plots<'_>) {
             capture::capture_ui(ui, p);
             readout::readout_ui(ui, p);
         });
-    let (band, plots) = match picture::enlarged(ui.ctx(), p.view) {
-        // A picture at twice the resolution: drawn over the window instead.
-        Some(enlarged) => picture::enlarged_ui(ui, p, enlarged),
-        None => {
-            let band = picture::title_band_ui(ui, p);
-            (band, traces::traces_ui(ui, p))
-        }
-    };
+    let band = picture::title_band_ui(ui, p);
+    let plots = traces::traces_ui(ui, p);
     p.view.plots_area = plots.map(|r| [r.min.x, r.min.y, r.max.x, r.max.y]);
     picture::taken(ui.ctx(), p.view, band, plots);
     // The answers of this frame's dialogs (a scripted one answers at once) and of those
