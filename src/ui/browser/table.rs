@@ -662,8 +662,9 @@ mod tests {
         assert_eq!(columns.widths[VALUE], 176.0);
         assert!(columns.fit(2000.0));
         assert_eq!(columns.widths[VALUE], 220.0);
-        assert_eq!(name_width(2000.0), 300.0);
-        assert_eq!(name_width(500.0), 130.0);
+        assert_eq!(name_width(2000.0), 420.0);
+        assert_eq!(name_width(1000.0), 300.0);
+        assert_eq!(name_width(400.0), 130.0);
         // The Name column as fitted, then dragged by the user: the fitting stops.
         columns.name_drawn(300.0, true);
         columns.name_drawn(300.0, false);
