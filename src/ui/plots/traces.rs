@@ -64,7 +64,25 @@ pub(super) type DriveLine<'b> = (String, Vec<[f64; 2]>, &'b [Band], Color32);
 /// The drives' lines when several are drawn on one plot: each drive's line in the colour
 /// it was given when it was added, the shown drive's too, so a colour stays with its drive
 /// whichever is selected (alone, the shown drive's lines take the signals' colours).
-pub const DRIVE_COLORS: [Color32; 8] = [ORANGE, PINK, SKY, LIME, SAND, TEAL, PURPLE, WHITE];
+pub const DRIVE_COLORS: [Color32; 16] = [
+    ORANGE,
+    PINK,
+    SKY,
+    LIME,
+    SAND,
+    TEAL,
+    PURPLE,
+    WHITE,
+    // A machine of sixteen axes: each its own colour still.
+    Color32::from_rgb(235, 205, 60),  // gold
+    Color32::from_rgb(250, 130, 115), // coral
+    Color32::from_rgb(150, 230, 180), // mint
+    Color32::from_rgb(190, 170, 250), // lavender
+    Color32::from_rgb(195, 95, 55),   // rust
+    Color32::from_rgb(160, 160, 70),  // olive
+    Color32::from_rgb(110, 145, 190), // steel
+    Color32::from_rgb(210, 120, 150), // rose
+];
 
 /// The colour of the drive given colour index `index` when it was added.
 pub fn drive_color(index: usize) -> Color32 {
@@ -705,6 +723,19 @@ pub(super) fn draw_markers(plot_ui: &mut PlotUi, markers: &[(f64, &str)], labels
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sixteen_drives_have_sixteen_colours() {
+        let mut seen: Vec<Color32> = (0..16).map(drive_color).collect();
+        seen.sort_by_key(|c| c.to_array());
+        seen.dedup();
+        assert_eq!(seen.len(), 16);
+        assert_eq!(
+            drive_color(16),
+            drive_color(0),
+            "then they come round again"
+        );
+    }
 
     #[test]
     fn time_labels_keep_the_decimals_their_step_needs_at_every_zoom() {
