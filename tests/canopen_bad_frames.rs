@@ -464,14 +464,16 @@ fn slcan_a_garbled_line_during_a_move_is_skipped_and_named() {
 
 // (c) lost after the configured count of missed TPDO periods
 
-/// "N exchanges failed in a row; the last: …: no answer within X ms; a halt …": N and X.
+/// "…Cause: N exchanges failed in a row; the last: …: no answer within X ms…" (what to do
+/// leads the reason, the cause follows): N and X.
 fn failed_and_silence(reason: &str) -> (u32, u64) {
-    let count = reason
+    let cause = reason.rsplit("Cause: ").next().unwrap_or(reason);
+    let count = cause
         .split(" exchanges failed in a row")
         .next()
         .and_then(|n| n.trim().parse().ok())
         .unwrap_or_else(|| panic!("no count in {reason:?}"));
-    let silence = reason
+    let silence = cause
         .split("; the last: ")
         .nth(1)
         .and_then(|last| last.split("no answer within ").nth(1))
