@@ -349,3 +349,33 @@ fn secondary_text_is_legible() {
     let contrast = (weak.max(background) + 0.05) / (weak.min(background) + 0.05);
     assert!(contrast >= 4.5, "weak text contrast {contrast:.1}:1");
 }
+
+#[test]
+fn the_first_start_on_a_narrow_screen_folds_the_command_panel() {
+    for (size, folded) in [
+        (egui::vec2(1024.0, 600.0), true),
+        (egui::vec2(1366.0, 768.0), false),
+    ] {
+        let mut app = App::new(
+            drivedeck::ui::Settings::default(),
+            std::sync::Arc::new(|| {}),
+            false,
+        );
+        app.first_start();
+        let mut harness = Harness::builder()
+            .with_size(size)
+            .build_ui_state(|ui, app: &mut App| app.frame(ui), app);
+        harness.run_steps(2);
+        assert_eq!(
+            harness.state().settings().commands_collapsed,
+            folded,
+            "at {size:?}"
+        );
+        // Later starts keep what the user chose: one click brings the panel back.
+        if folded {
+            harness.get_by_label("Expand the command panel").click();
+            harness.run_steps(2);
+            assert!(!harness.state().settings().commands_collapsed);
+        }
+    }
+}

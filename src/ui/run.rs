@@ -42,10 +42,11 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
         "drivedeck",
         options,
         Box::new(move |cc| {
-            let mut settings: Settings = cc
+            let saved: Option<Settings> = cc
                 .storage
-                .and_then(|s| eframe::get_value(s, app::SETTINGS_KEY))
-                .unwrap_or_default();
+                .and_then(|s| eframe::get_value(s, app::SETTINGS_KEY));
+            let first_start = saved.is_none();
+            let mut settings = saved.unwrap_or_default();
             // The workers' news wakes the window at the redraw rate, not at every burst.
             let pace = pace::Pace::new(cc.egui_ctx.clone());
             let notify: worker::Notify = pace.notify();
@@ -86,6 +87,9 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
             };
             if let Some(note) = note {
                 app.shown_mut().info(note);
+            }
+            if first_start {
+                app.first_start();
             }
             // Installed before the first frame, so that it is not laid out twice.
             cc.egui_ctx.set_fonts(fonts::definitions());

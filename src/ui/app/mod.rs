@@ -65,6 +65,8 @@ pub struct App {
     stats: Option<pace::FrameStats>,
     /// Input held back so that no frame mixes typing with a change of focus.
     input: InputQueue,
+    /// No settings were saved before: the first frame fits the layout to the screen.
+    first_start: bool,
 }
 
 impl App {
@@ -99,6 +101,7 @@ impl App {
             pace: Arc::new(pace::Pace::default()),
             stats: pace::FrameStats::from_env(),
             input: InputQueue::default(),
+            first_start: false,
         };
         let first = app.start_drive("Drive 1".into(), drive);
         if connect {
@@ -124,6 +127,21 @@ impl App {
 
     /// The window is open: its fonts are in, the start is timed when asked, and the
     /// workers' news wakes it at `pace`.
+    /// The window opens for the first time (no settings saved): its first frame folds
+    /// the command panel on a narrow screen, so the plots get the room.
+    pub fn first_start(&mut self) {
+        self.first_start = true;
+    }
+
+    /// On the first start, a screen narrower than [`NARROW`] points starts with the
+    /// command panel folded (to the strip; one click brings it back): at 1024×600 the
+    /// panel's 390 points would leave the plots a third of the width.
+    fn fit_first_start(&mut self, ctx: &egui::Context) {
+        if std::mem::take(&mut self.first_start) && ctx.content_rect().width() < NARROW {
+            self.window.settings.commands_collapsed = true;
+        }
+    }
+
     pub(super) fn started_in_window(
         &mut self,
         timings: Option<timings::Timings>,
@@ -262,6 +280,7 @@ impl App {
         }
         self.leave_steps(&ctx);
         self.project_steps(&ctx);
+        self.fit_first_start(&ctx);
         let rows = self.drive_rows(std::time::SystemTime::now());
         let any_connected = self.any_connected();
         let selected_index = self.selected;
@@ -328,6 +347,9 @@ fn split_shown(drives: &mut [Slot], selected: usize) -> Option<(&mut Drive, Vec<
     }
     Some((shown?, others))
 }
+
+/// Narrower than this (points), the first start folds the command panel.
+pub const NARROW: f32 = 1200.0;
 
 impl App {
     /// This frame's share of the input events (`incoming` after those held before): no
