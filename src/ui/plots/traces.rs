@@ -580,20 +580,10 @@ pub(super) fn time_axis<'a>() -> Vec<egui_plot::AxisHints<'a>> {
     ]
 }
 
-/// A time at `step`'s precision: "12 s" steps give "12", "0.05 s" steps "12.35".
+/// A time at `step`'s precision: "12 s" steps give "12", "0.05 s" steps "12.35" (the
+/// y axes' rule, `groups::value_label`).
 fn time_label(value: f64, step: f64) -> String {
-    let decimals = if step > 0.0 && step < 1.0 {
-        (-step.log10()).ceil().clamp(0.0, 9.0) as usize
-    } else {
-        0
-    };
-    let text = format!("{value:.decimals$}");
-    // No "-0" at the origin.
-    if text.trim_start_matches(['-', '0', '.']).is_empty() {
-        text.trim_start_matches('-').to_owned()
-    } else {
-        text
-    }
+    super::groups::value_label(value, step)
 }
 
 /// The time axis's marks: labelled ones at 1, 2 or 5 × 10ⁿ s about 90 points apart, and
