@@ -11,7 +11,7 @@ use crate::worker::{ObjectPath, Request};
 pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, connected: bool) {
     ui.horizontal_wrapped(|ui| {
         ui.label(RichText::new("Backup").strong());
-        crate::ui::widgets::named_text_edit(ui, &mut b.backup_path, 200.0, "Backup file");
+        crate::ui::widgets::named_text_edit(ui, &mut b.files.backup, 200.0, "Backup file");
         let idle = connected && b.bulk.is_none() && !b.restore.as_ref().is_some_and(|r| r.running);
         if ui
             .add_enabled(idle, egui::Button::new("Save backup"))
@@ -19,7 +19,7 @@ pub(super) fn backup_ui(ui: &mut Ui, b: &mut Browser, connected: bool) {
             .clicked()
         {
             let objects = backup::objects_to_read(b.catalog());
-            let path = b.backup_path.trim().to_owned();
+            let path = b.files.backup.trim().to_owned();
             b.comparison = None;
             b.restore = None;
             b.read_many(objects, Purpose::Backup { path });

@@ -43,8 +43,8 @@ impl Browser {
         Message {
             tone,
             text: text.into(),
-            link: self.link_text.clone(),
-            connection: self.connection,
+            link: self.source.text.clone(),
+            connection: self.source.connection,
         }
     }
 
@@ -55,7 +55,7 @@ impl Browser {
 
     /// How many connections the window made so far: what is shown belongs to the last.
     pub fn connection(&self) -> u64 {
-        self.connection
+        self.source.connection
     }
 
     /// A new connection, to `link`: what was judged against the drive as it was goes (the
@@ -65,8 +65,8 @@ impl Browser {
     /// shown), they go with the write results for another one. The message stays, marked
     /// as from the earlier connection.
     pub fn on_connected(&mut self, link: &str) {
-        self.connection += 1;
-        self.link_text = link.to_owned();
+        self.source.connection += 1;
+        self.source.text = link.to_owned();
         self.comparison = None;
         self.restore = None;
         self.confirm = None;
@@ -74,8 +74,8 @@ impl Browser {
         self.edit = None;
         self.bulk = None;
         self.refresh.forget_all();
-        if self.drive != link {
-            self.drive = link.to_owned();
+        if self.source.values_of != link {
+            self.source.values_of = link.to_owned();
             self.values.clear();
             self.write_results.clear();
         }
@@ -179,7 +179,7 @@ mod tests {
             "a reconnect is another connection"
         );
         // Said while no link was up: it belongs to none.
-        b.link_text.clear();
+        b.source.text.clear();
         b.say(Tone::Failed, "cannot read x.json");
         let offline = b.message.clone().expect("said");
         b.on_connected("sim");

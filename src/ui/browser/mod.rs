@@ -144,25 +144,52 @@ pub struct Browser {
     pub columns: Columns,
     /// The reads the table makes by itself, rate-limited.
     pub refresh: Refresh,
-    pub backup_path: String,
+    /// The backup and EDS files as typed.
+    pub files: Files,
     /// What the browser says about the last thing done (read, saved, loaded, failed).
     pub message: Option<Message>,
     pub comparison: Option<(Box<Backup>, Vec<Difference>)>,
     pub restore: Option<Restore>,
     /// A dictionary loaded from an EDS instead of the built-in catalog.
     pub eds: Option<(String, Catalog)>,
-    pub eds_path: String,
-    /// The connection string, for backup files and to know whose values are shown ("" when
-    /// not connected).
-    pub link_text: String,
-    /// The link the values came from: the last one connected.
-    drive: String,
-    /// How many connections were made so far (see [`Browser::on_connected`]).
-    connection: u64,
+    /// The link connected now and the one the values came from.
+    pub source: Source,
     /// The window's clock as last seen.
     now: f64,
     /// Requests for the worker, each with what it is for.
     asks: Vec<(Pending, Request)>,
+}
+
+/// The files the browser's boxes name.
+#[derive(Clone, Debug)]
+pub struct Files {
+    /// Where "Save backup" writes and "Load backup" reads.
+    pub backup: String,
+    /// The EDS to load instead of the built-in catalog.
+    pub eds: String,
+}
+
+impl Default for Files {
+    fn default() -> Self {
+        Self {
+            backup: "drive-backup.json".into(),
+            eds: String::new(),
+        }
+    }
+}
+
+/// Whose values the browser shows: the link connected now, the one the values came from,
+/// and how many connections were made (answers and messages of an earlier one are told
+/// apart by it).
+#[derive(Clone, Debug, Default)]
+pub struct Source {
+    /// The connection string, for backup files and to know whose values are shown ("" when
+    /// not connected).
+    pub text: String,
+    /// The link the values came from: the last one connected.
+    values_of: String,
+    /// How many connections were made so far (see [`Browser::on_connected`]).
+    connection: u64,
 }
 
 /// A value with the unit `catalog` gives its object (as it is, for an object it lacks).
@@ -175,10 +202,7 @@ pub(super) fn shown_in(catalog: &Catalog, address: Address, value: &Value) -> St
 
 impl Browser {
     pub fn new() -> Self {
-        Self {
-            backup_path: "drive-backup.json".into(),
-            ..Default::default()
-        }
+        Self::default()
     }
 
     /// The dictionary shown: an EDS's, or the built-in catalog.
@@ -612,7 +636,7 @@ impl Browser {
             .duration_since(std::time::UNIX_EPOCH)
             .map(|d| d.as_secs())
             .unwrap_or(0);
-        let file = Backup::new(&self.link_text, self.catalog(), reads, saved_at);
+        let file = Backup::new(&self.source.text, self.catalog(), reads, saved_at);
         match crate::file::write_whole(std::path::Path::new(path), file.to_json()) {
             Ok(()) => {
                 let unreadable = file.unreadable.len();
@@ -639,7 +663,7 @@ impl Browser {
 
     /// Load a backup file for a comparison or a restore.
     fn load(&mut self) -> Option<Box<Backup>> {
-        let path = self.backup_path.trim().to_owned();
+        let path = self.files.backup.trim().to_owned();
         match std::fs::read_to_string(&path) {
             Err(e) => {
                 self.say(Tone::Failed, format!("cannot read {path}: {e}"));

@@ -57,7 +57,7 @@ pub fn browser_ui(
         .collect();
     let b = &mut drive.browser;
     // "" while not connected; a new connection is `Browser::on_connected`'s.
-    b.link_text = link;
+    b.source.text = link;
     b.set_clock(drive.clock);
     // Before any text box can take them.
     let keys = table_keys(ui, b);
@@ -81,7 +81,7 @@ pub fn browser_ui(
         together(ui, 300.0, |ui| bulk_ui(ui, b));
         together(ui, 360.0, |ui| {
             dictionary_ui(ui, b);
-            labelled_text_edit_ui(ui, "EDS", &mut b.eds_path, 160.0, "EDS path");
+            labelled_text_edit_ui(ui, "EDS", &mut b.files.eds, 160.0, "EDS path");
             if ui
                 .button("Load EDS")
                 .on_hover_text("Use a device's EDS file (CiA 306) instead of the built-in catalog")
@@ -183,13 +183,13 @@ fn dictionary_ui(ui: &mut Ui, b: &mut Browser) {
 const EDS_WARNINGS_SHOWN: usize = 3;
 
 fn load_eds(b: &mut Browser) {
-    let path = b.eds_path.trim().to_owned();
+    let path = b.files.eds.trim().to_owned();
     if path.is_empty() {
         b.say(Tone::Failed, "give the path of an EDS or DCF file first");
         return;
     }
     // A CANopen link's node id resolves the file's $NODEID formulas (COB-IDs).
-    let node_id = match b.link_text.parse::<crate::link::LinkSpec>() {
+    let node_id = match b.source.text.parse::<crate::link::LinkSpec>() {
         Ok(
             crate::link::LinkSpec::CanopenSocketcan { can, .. }
             | crate::link::LinkSpec::CanopenSlcan { can, .. }
@@ -303,7 +303,7 @@ pub(super) fn message_ui(ui: &mut Ui, b: &Browser) {
     let Some(message) = &b.message else {
         return;
     };
-    let earlier = message.earlier(b.connection);
+    let earlier = message.earlier(b.connection());
     let mut text = if earlier {
         RichText::new(format!(
             "[{}, earlier connection] {}",

@@ -632,7 +632,7 @@ fn apply_row_action(
             from: Said::Dictionary,
         }),
         RowAction::Edit => {
-            let connected = !b.link_text.is_empty();
+            let connected = !b.source.text.is_empty();
             if connected && entry.access.writable() {
                 editing::start_edit(b, &entry);
             }
