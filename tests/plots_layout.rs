@@ -442,3 +442,116 @@ fn the_default_layout_reads_at_1366x768_and_the_time_axis_stays_in_view_at_zoom_
         }
     }
 }
+
+/// The plots' rectangle in the window's last frame, in points.
+fn plots_size(harness: &Harness<'_, drivedeck::ui::App>) -> egui::Vec2 {
+    harness.state().plots_rect().expect("plots drawn").size()
+}
+
+/// Ask the whole window for a PNG at up to twice the resolution; the message it gives.
+fn larger_png(harness: &mut Harness<'_, drivedeck::ui::App>) -> String {
+    harness
+        .get_by_label("PNG at up to twice the resolution")
+        .click();
+    harness.step();
+    assert_eq!(harness.state().settings().plot.picture_scale, 2.0);
+    harness.get_by_label("Save PNG…").click();
+    harness.run_steps(3);
+    harness
+        .state()
+        .plot()
+        .message()
+        .cloned()
+        .expect("a message")
+        .expect("taking it")
+}
+
+#[test]
+fn a_hi_res_png_draws_the_plots_alone_at_their_size_with_the_zoom_raised() {
+    let mut harness = window::harness_with(Settings::default(), true, egui::vec2(1920.0, 1080.0));
+    window::step_for(&mut harness, Duration::from_millis(300));
+    let on_screen = plots_size(&harness);
+    let said = larger_png(&mut harness);
+    // The window's zoom raised as far as it holds the plots (1.4× on 1920×1080 with the
+    // default panels), the plots drawn alone (no panel over them: in the real window one
+    // would come out in the picture) at their size on screen: the same layout with more
+    // pixels each way.
+    let zoom = harness.ctx.zoom_factor();
+    assert!(zoom > 1.3 && zoom <= 2.0, "{zoom}");
+    assert_eq!(harness.ctx.pixels_per_point(), zoom);
+    let enlarged = plots_size(&harness);
+    assert!(
+        (enlarged - on_screen).length() <= 2.0,
+        "{on_screen:?} on screen, {enlarged:?} for the picture"
+    );
+    for elsewhere in [
+        "QUICKSTOP (Esc)",
+        "Drive status",
+        "Halt",
+        "Object dictionary",
+    ] {
+        assert!(
+            harness.query_by_label(elsewhere).is_none(),
+            "{elsewhere} drawn with the plots for the picture"
+        );
+    }
+    let width: f32 = said
+        .split("about ")
+        .nth(1)
+        .and_then(|rest| rest.split('×').next())
+        .and_then(|w| w.parse().ok())
+        .expect("the picture's width in the message");
+    assert!(
+        said.contains(&format!("{zoom:.1}× picture")) && (width - on_screen.x * zoom).abs() < 3.0,
+        "{said}: {on_screen:?} at {zoom}"
+    );
+    // No screenshot comes headless: given up after a while, the zoom and the panels back.
+    harness.run_steps(130);
+    assert_eq!(harness.ctx.zoom_factor(), 1.0);
+    assert!(harness.state().plot().message().is_some_and(Result::is_err));
+    assert!(harness.query_by_label("QUICKSTOP (Esc)").is_some());
+}
+
+#[test]
+fn a_png_larger_than_the_window_holds_is_taken_as_large_as_it_holds_and_says_so() {
+    let mut harness = window::harness_with(Settings::default(), true, egui::vec2(1366.0, 768.0));
+    window::step_for(&mut harness, Duration::from_millis(300));
+    let on_screen = plots_size(&harness);
+    let said = larger_png(&mut harness);
+    // Not 2× (the plots would have to be laid out anew), but as much as the height holds,
+    // the plots at their size on screen.
+    let zoom = harness.ctx.zoom_factor();
+    assert!(zoom > 1.1 && zoom < 2.0, "{zoom}");
+    let enlarged = plots_size(&harness);
+    assert!(
+        (enlarged - on_screen).length() <= 2.0,
+        "{on_screen:?} on screen, {enlarged:?} for the picture"
+    );
+    assert!(
+        said.contains(&format!("{zoom:.1}× picture"))
+            && said.contains("the most this window holds"),
+        "{said}"
+    );
+}
+
+#[test]
+fn a_png_from_a_small_screen_shows_every_plot_whole_not_the_scrolled_part() {
+    // 1024×600: the plots scroll on screen, some (or part of one) out of view.
+    let mut harness = window::harness_with(Settings::default(), true, egui::vec2(1024.0, 600.0));
+    window::step_for(&mut harness, Duration::from_millis(300));
+    let clipped = |plots: &[DrawnPlot]| {
+        plots
+            .iter()
+            .filter(|p| (p.visible[3] - p.visible[1]) < (p.frame[3] - p.frame[1]) - 1.0)
+            .count()
+    };
+    let on_screen = harness.state().plot().drawn().to_vec();
+    assert!(clipped(&on_screen) > 0, "{on_screen:?}");
+    harness.get_by_label("Save PNG…").click();
+    harness.run_steps(3);
+    // For the picture the plots are drawn alone, with the room to show every one whole.
+    let for_picture = harness.state().plot().drawn().to_vec();
+    assert_eq!(for_picture.len(), on_screen.len());
+    assert_eq!(clipped(&for_picture), 0, "{for_picture:?}");
+    assert!(harness.query_by_label("QUICKSTOP (Esc)").is_none());
+}

@@ -147,6 +147,17 @@ fn panel<'p>(panels: &'p [Panel], id: &str) -> Option<&'p Panel> {
 
 /// The whole window.
 pub fn window_ui(ui: &mut Ui, f: &mut Frame<'_>) {
+    if plots::fills_window(ui.ctx(), &f.window.plot) {
+        // A picture of the plots at twice the resolution, for a frame or two: the plots
+        // alone (a panel drawn as well would come out over them). The jog keys still work.
+        super::jog::jog_input(ui.ctx(), f.drive, 0, f.commands);
+        // No margin of its own: the plots get every point the window's zoom was raised for.
+        let fill = egui::Frame::NONE.fill(ui.visuals().panel_fill);
+        egui::CentralPanel::default_margins()
+            .frame(fill)
+            .show(ui, |ui| plots_panel_ui(ui, f));
+        return;
+    }
     top_bar_ui(ui, f);
     log_panel_ui(ui, f);
     status_panel_ui(ui, f);

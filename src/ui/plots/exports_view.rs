@@ -60,12 +60,27 @@ pub(super) fn export_ui(ui: &mut Ui, p: &mut Plots<'_>) {
     if ui
         .button("Save PNG…")
         .on_hover_text(
-            "A picture of the whole plot area at the screen's resolution, with a title: \
-             the device, the date and the time span",
+            "A picture of the whole plot area with a title (the device, the date and the \
+             time span), at the screen's resolution or up to twice it (Hi-res)",
         )
         .clicked()
     {
-        super::picture::request(ui.ctx(), p.view);
+        super::picture::request(ui, p);
+    }
+    let twice = p.settings.picture_scale >= 2.0;
+    let toggle = ui
+        .add(egui::Button::selectable(twice, "Hi-res"))
+        .on_hover_text(
+            "Take the PNG at up to twice the screen's resolution: for a moment the plots are \
+             drawn alone in the window, as large as it holds them (the message says the size)",
+        );
+    crate::ui::widgets::name_widget(
+        &toggle,
+        egui::accesskit::Role::Button,
+        "PNG at up to twice the resolution",
+    );
+    if toggle.clicked() {
+        p.settings.picture_scale = if twice { 1.0 } else { 2.0 };
     }
 }
 

@@ -34,4 +34,4 @@ pub use model::{
 pub use review::Review;
 pub use traces::{DRIVE_COLORS, PLOT_HEIGHT_MIN, colors, drive_color};
 pub use trigger::TriggerForm;
-pub use view::{Alone, Plots, headless_frame, plots_ui};
+pub use view::{Alone, Plots, fills_window, headless_frame, plots_ui};

@@ -116,6 +116,9 @@ pub struct PlotSettings {
     pub shown: Vec<String>,
     /// How positions in the factory unit are drawn.
     pub position_unit: PositionUnit,
+    /// The picture of the plots at the screen's resolution (1) or up to twice it (2: as
+    /// large as the window holds the plots at their size on screen).
+    pub picture_scale: f32,
     /// Frames per second at most while the live plots move (new samples wake the window
     /// no more often).
     pub redraw_hz: f64,
@@ -154,6 +157,7 @@ impl Default for PlotSettings {
             trigger: TriggerForm::default(),
             shown: Vec::new(),
             position_unit: PositionUnit::default(),
+            picture_scale: 1.0,
             redraw_hz: DEFAULT_REDRAW_HZ,
             together: default_together(),
             hidden_lanes: Vec::new(),
@@ -173,7 +177,7 @@ pub struct Image {
 pub type PngResult = Arc<Mutex<Option<Result<Image, String>>>>;
 
 /// A picture of the plots being taken.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Picture {
     /// The title band is drawn (from the frame that asks for the screenshot until it
     /// comes: the screenshot is of a frame after the one that asked).
@@ -182,6 +186,39 @@ pub struct Picture {
     pub sent: bool,
     /// The cut picture, from the screenshot callback.
     pub result: PngResult,
+    /// Taken at this many times the screen's resolution (1 or 2).
+    pub scale: f32,
+    /// While a picture is taken at a higher resolution: the window's zoom to return to,
+    /// and the size (in points) the plots are drawn at for it.
+    pub enlarged: Option<Enlarged>,
+    /// Frames drawn since the picture was asked for (one that never comes is given up).
+    pub frames: u32,
+}
+
+impl Default for Picture {
+    fn default() -> Self {
+        Picture {
+            due: false,
+            sent: false,
+            result: PngResult::default(),
+            scale: 1.0,
+            enlarged: None,
+            frames: 0,
+        }
+    }
+}
+
+/// A picture of the plots taken at a higher resolution: for its frames the window's zoom
+/// is raised by the scale and the title and plots are drawn over the window, as many
+/// points as they had on screen (at most the whole window), so they come out as many
+/// times larger in pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Enlarged {
+    pub zoom_before: f32,
+    /// The title band's and the plots' room, in points.
+    pub size: [f32; 2],
+    /// The title band's height in it.
+    pub band: f32,
 }
 
 /// One plot as drawn in the last frame: where, on which span of the time axis, and what
@@ -270,6 +307,12 @@ pub struct PlotView {
     /// Where the plots (every axis included) were drawn in the last frame, in points:
     /// left, top, right, bottom.
     pub(super) plots_area: Option<[f32; 4]>,
+    /// The room the plots were given in the last frame drawn as usual (width and height,
+    /// in points): what a larger picture lays them out in again.
+    pub(super) plots_room: Option<[f32; 2]>,
+    /// The height the plots needed in the last frame to show whole, none scrolled out of
+    /// view (points; the picture gives them that much when the window holds it).
+    pub(super) plots_need: f32,
     /// The picture of the plots being taken.
     pub(super) picture: Picture,
     /// The files the export buttons wrote this session, and which button (the newest
@@ -309,6 +352,8 @@ impl Default for PlotView {
             watch_text: String::new(),
             rows_text: String::new(),
             plots_area: None,
+            plots_room: None,
+            plots_need: 0.0,
             picture: Picture::default(),
             written: Vec::new(),
             saved: None,

@@ -1,7 +1,9 @@
 //! The plots as a PNG: for one frame a title band (the device, the link, the date, the
 //! time span) is drawn above the plots, the window's screenshot of that frame is cut to
 //! the band and the whole plot area (every axis and its labels) at the screen's full
-//! resolution, and the save dialog asks where it goes.
+//! resolution (or up to twice it: for those frames the window's zoom is raised and the
+//! band and plots are drawn alone in the window at their size on screen, so they come out
+//! with the same layout and more pixels), and the save dialog asks where it goes.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -10,17 +12,126 @@ use eframe::egui::{self, Rect, RichText, Ui};
 
 use super::exports::Job;
 use super::exports_view::ask;
-use super::model::{Image, Picture, PlotView, shown_scope, time_range};
+use super::model::{Enlarged, Image, Picture, PlotView, shown_scope, time_range};
 use super::view::Plots;
 
-/// Take a picture of the plots in the next frame.
-pub fn request(ctx: &egui::Context, view: &mut PlotView) {
+/// Frames a picture may take to come before it is given up (and the window's zoom put
+/// back).
+const PICTURE_FRAMES_MAX: u32 = 120;
+/// The room kept around the plots drawn alone, in points: the window's own margin, if
+/// any, and a little for rounding.
+const PANEL_MARGIN: f32 = 10.0;
+/// A picture is taken larger only when it comes out at least this many times larger.
+const ENLARGED_MIN: f32 = 1.1;
+
+/// Take a picture of the plots in the next frames, at up to `scale` times the screen's
+/// resolution (1 or 2): the title band and the plots are drawn alone in the window, laid
+/// out in the room they had on screen, as many times larger as the window holds them.
+pub fn request(ui: &Ui, p: &mut Plots<'_>) {
+    let ctx = ui.ctx();
+    let scale = p.settings.picture_scale;
+    let band = p
+        .view
+        .plots_room
+        .map(|[width, _]| band_height(ui, p, width));
+    let view = &mut *p.view;
     if view.picture.due {
         return;
     }
+    let asked = if scale >= 2.0 { 2.0 } else { 1.0 };
     view.picture.due = true;
+    view.picture.frames = 0;
+    view.picture.scale = 1.0;
     view.message = Some(Ok("taking a picture of the plots…".into()));
+    // No plots drawn yet: the band alone says there is nothing to take.
+    let (Some([width, height]), Some(band)) = (view.plots_room, band) else {
+        ctx.request_repaint();
+        return;
+    };
+    // Laid out as on screen, the title band above them.
+    let size = [width, height + band];
+    let fits = enlarged_scale(size, ctx.content_rect().size().into(), asked);
+    let most = if fits >= ENLARGED_MIN { fits } else { 1.0 };
+    let zoom = ctx.zoom_factor();
+    view.picture.scale = most;
+    view.picture.enlarged = Some(Enlarged {
+        zoom_before: zoom,
+        size,
+        band,
+    });
+    if most > 1.0 {
+        ctx.set_zoom_factor(zoom * most);
+        let short = if most < asked - 0.05 {
+            format!(" (the most this window holds; {asked:.0}× needs a larger window)")
+        } else {
+            String::new()
+        };
+        // The picture is cut to the band and the plots' axes, within that room.
+        let [left, top, right, bottom] = view.plots_area.unwrap_or([0.0, 0.0, width, height]);
+        let pixels = ctx.pixels_per_point() * most;
+        view.message = Some(Ok(format!(
+            "taking a {most:.1}× picture of the plots, about {:.0}×{:.0} px{short}…",
+            (right - left) * pixels,
+            (bottom - top + band) * pixels
+        )));
+    } else if asked > 1.0 {
+        view.message = Some(Ok(format!(
+            "taking a picture of the plots at the screen's resolution: the window has no room \
+             to draw them {asked:.0}× larger (make the window larger or the plots smaller)…"
+        )));
+    }
     ctx.request_repaint();
+}
+
+/// How many times larger the title and plots (`size`, in points) can be drawn, at most
+/// `most`: at their size in points, in the whole window (`screen`, in points now, less
+/// the panel's margins) once its zoom is raised by that factor.
+pub fn enlarged_scale(size: [f32; 2], screen: [f32; 2], most: f32) -> f32 {
+    // The margins are in points too: zoomed with the plots.
+    let room = |screen: f32, size: f32| screen / (size + 2.0 * PANEL_MARGIN).max(1.0);
+    most.min(room(screen[0], size[0]))
+        .min(room(screen[1], size[1]))
+}
+
+/// The picture being taken at a higher resolution, once the window's zoom is raised for
+/// it (the frame after it was asked for).
+pub fn enlarged(ctx: &egui::Context, view: &PlotView) -> Option<Enlarged> {
+    let enlarged = view.picture.enlarged.filter(|_| view.picture.due)?;
+    (ctx.zoom_factor() >= enlarged.zoom_before * view.picture.scale - 1e-3).then_some(enlarged)
+}
+
+/// The title band and the plots alone in `ui` (the whole window while the picture is
+/// taken) for a picture at a higher resolution, at most their size on screen: where each
+/// was.
+pub fn enlarged_ui(
+    ui: &mut Ui,
+    p: &mut Plots<'_>,
+    enlarged: Enlarged,
+) -> (Option<Rect>, Option<Rect>) {
+    let size = egui::vec2(enlarged.size[0], enlarged.size[1]).min(ui.available_size());
+    ui.allocate_ui_with_layout(size, egui::Layout::top_down(egui::Align::Min), |ui| {
+        ui.set_min_size(size);
+        ui.set_max_size(size);
+        let band = title_band_ui(ui, p);
+        // The plots in the room they had on screen (the band may take less than its share).
+        let room = egui::vec2(size.x, size.y - enlarged.band).min(ui.available_size());
+        let plots = ui
+            .allocate_ui_with_layout(room, egui::Layout::top_down(egui::Align::Min), |ui| {
+                ui.set_max_size(room);
+                super::traces::traces_ui(ui, p)
+            })
+            .inner;
+        (band, plots)
+    })
+    .inner
+}
+
+/// The picture is done (taken, failed or given up): the window's zoom as it was.
+fn finish(ctx: &egui::Context, view: &mut PlotView) {
+    if let Some(enlarged) = view.picture.enlarged.take() {
+        ctx.set_zoom_factor(enlarged.zoom_before);
+    }
+    view.picture = Picture::default();
 }
 
 /// The title of the picture, drawn above the plots in the frame it is taken: what and
@@ -29,14 +140,43 @@ pub fn title_band_ui(ui: &mut Ui, p: &Plots<'_>) -> Option<Rect> {
     if !p.view.picture.due {
         return None;
     }
-    let (title, details) = title_lines(p, std::time::SystemTime::now());
+    let [title, details] = band_texts(p);
     let response = ui
         .vertical(|ui| {
-            ui.label(RichText::new(title).heading().strong());
+            ui.label(title);
             ui.label(details);
         })
         .response;
     Some(response.rect)
+}
+
+/// The title band's two texts, as drawn.
+fn band_texts(p: &Plots<'_>) -> [RichText; 2] {
+    let (title, details) = title_lines(p, std::time::SystemTime::now());
+    [
+        RichText::new(title).heading().strong(),
+        RichText::new(details),
+    ]
+}
+
+/// The height in points the title band takes at `width` (its lines wrap in a narrow one).
+fn band_height(ui: &Ui, p: &Plots<'_>, width: f32) -> f32 {
+    let spacing = ui.spacing().item_spacing.y;
+    band_texts(p)
+        .into_iter()
+        .map(|text| {
+            egui::WidgetText::from(text)
+                .into_galley(
+                    ui,
+                    Some(egui::TextWrapMode::Wrap),
+                    width,
+                    egui::TextStyle::Body,
+                )
+                .size()
+                .y
+                + spacing
+        })
+        .sum()
 }
 
 /// The picture's title ("drivedeck plots — PD4-E601L42") and the line under it (the
@@ -103,8 +243,25 @@ pub fn title_lines(p: &Plots<'_>, now: std::time::SystemTime) -> (String, String
 
 /// After the plots are drawn in the picture's frame: ask for its screenshot, cut to the
 /// title band and the plots.
-pub fn taken(ctx: &egui::Context, view: &mut PlotView, band: Option<Rect>, plots: Option<Rect>) {
-    if !view.picture.due || view.picture.sent {
+pub fn taken(
+    ctx: &egui::Context,
+    view: &mut PlotView,
+    band: Option<Rect>,
+    plots: Option<Rect>,
+    alone: bool,
+) {
+    if !view.picture.due {
+        return;
+    }
+    view.picture.frames += 1;
+    if view.picture.frames > PICTURE_FRAMES_MAX {
+        finish(ctx, view);
+        view.message = Some(Err("no picture came from the window; try again".into()));
+        return;
+    }
+    // The picture waits for a frame with the plots drawn alone (at the raised zoom).
+    let waiting = view.picture.enlarged.is_some() && !alone;
+    if view.picture.sent || waiting {
         return;
     }
     view.picture.sent = true;
@@ -113,7 +270,7 @@ pub fn taken(ctx: &egui::Context, view: &mut PlotView, band: Option<Rect>, plots
         (band, plots) => band.or(plots),
     };
     let Some(area) = area else {
-        view.picture = Picture::default();
+        finish(ctx, view);
         view.message = Some(Err("no plots to take a picture of".into()));
         return;
     };
@@ -153,8 +310,7 @@ pub fn cut(image: &egui::ColorImage, area: Rect, pixels_per_point: f32) -> Resul
 pub fn poll(ctx: &egui::Context, p: &mut Plots<'_>) {
     let taken = super::files::take(&p.view.picture.result);
     if taken.is_some() {
-        p.view.picture.due = false;
-        p.view.picture.sent = false;
+        finish(ctx, p.view);
     }
     match taken {
         Some(Ok(image)) => ask(ctx, p, Job::Png(Arc::new(image))),
@@ -195,6 +351,22 @@ mod tests {
         assert_eq!(cut(&image, beyond, 2.0).map(|i| i.size), Ok([100, 100]));
         let outside = Rect::from_min_max(egui::pos2(300.0, 300.0), egui::pos2(400.0, 400.0));
         assert!(cut(&image, outside, 2.0).is_err());
+    }
+
+    #[test]
+    fn a_larger_picture_is_as_large_as_the_window_holds_the_plots_at_their_size() {
+        // 657×405 points of plots and band (and the margins) on a 1366×768 window: 768
+        // points high take them 1.81× larger, not 2× (the layout would have to change).
+        let scale = enlarged_scale([657.0, 405.0], [1366.0, 768.0], 2.0);
+        assert!((scale - 768.0 / 425.0).abs() < 1e-4, "{scale}");
+        // On 1920×1080 there is room for twice.
+        assert_eq!(enlarged_scale([600.0, 300.0], [1920.0, 1080.0], 2.0), 2.0);
+        // Plots filling a window: no room at all (taken at the screen's resolution).
+        assert!(enlarged_scale([1000.0, 700.0], [1024.0, 600.0], 2.0) < ENLARGED_MIN);
+        // Cut from a screenshot at 2 pixels a point: twice as many pixels each way.
+        let image = egui::ColorImage::new([1366, 768], vec![egui::Color32::RED; 1366 * 768]);
+        let area = Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(600.0, 300.0));
+        assert_eq!(cut(&image, area, 2.0).map(|i| i.size), Ok([1200, 600]));
     }
 
     #[test]

@@ -415,6 +415,7 @@ pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
         });
     // As wide as the plots in the scroll area (its bar may take room at the right).
     let width = scrolled.inner_rect.width();
+    let need = scrolled.content_size.y + TIME_AXIS_HEIGHT + PLOT_SPACING;
     let response = ui
         .allocate_ui(egui::vec2(width, TIME_AXIS_HEIGHT), |ui| {
             ui.set_width(width);
@@ -426,12 +427,18 @@ pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
     let bottom = ui.cursor().min;
     let plots = egui::Rect::from_min_max(
         top,
-        egui::pos2(interaction.right.max(top.x + 1.0), bottom.y),
+        // The plots' right axes are outside their frames: the scroll area's width holds
+        // them (the picture is cut to this).
+        egui::pos2(
+            interaction.right.max(top.x + width).max(top.x + 1.0),
+            bottom.y,
+        ),
     );
     let mut decimations = view.decimations.into_inner();
     decimations.end_frame();
     p.view.decimations = decimations;
     p.view.lanes_seen = lanes_seen;
+    p.view.plots_need = need;
     remember_view(ui.ctx(), p, interaction, (from, to));
     Some(plots)
 }

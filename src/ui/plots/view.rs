@@ -125,30 +125,53 @@ pub fn headless_frame(ctx: &egui::Context, alone: &mut Alone) -> usize {
 /// each plot: live, and over a triggered capture's span (a recording opened from a file
 /// has a time base of its own and is drawn alone).
 pub fn plots_ui(ui: &mut Ui, p: &mut Plots<'_>) {
-    // The rows above the plots take at most part of the panel (scrolling within it
-    // beyond): in a narrow or zoomed-in window they wrap into many lines, and would
-    // otherwise leave the plots, and their time axis, no room at all.
-    let controls = (ui.available_height() * CONTROLS_SHARE).max(CONTROLS_HEIGHT_MIN);
-    egui::ScrollArea::vertical()
-        .id_salt("plot_controls")
-        .auto_shrink([false, true])
-        .max_height(controls)
-        .show(ui, |ui| {
-            toolbar(ui, p);
-            review_view::review_ui(ui, p);
-            capture::capture_ui(ui, p);
-            readout::readout_ui(ui, p);
-        });
-    let band = picture::title_band_ui(ui, p);
-    let plots = traces::traces_ui(ui, p);
+    let alone = picture::enlarged(ui.ctx(), p.view);
+    let (band, plots) = match alone {
+        // A picture: the title and the plots alone, in all the room there is (the window
+        // draws nothing else meanwhile: `fills_window`), at up to twice the resolution.
+        Some(enlarged) => picture::enlarged_ui(ui, p, enlarged),
+        None => {
+            // The rows above the plots take at most part of the panel (scrolling within
+            // it beyond): in a narrow or zoomed-in window they wrap into many lines, and
+            // would otherwise leave the plots, and their time axis, no room at all.
+            let controls = (ui.available_height() * CONTROLS_SHARE).max(CONTROLS_HEIGHT_MIN);
+            egui::ScrollArea::vertical()
+                .id_salt("plot_controls")
+                .auto_shrink([false, true])
+                .max_height(controls)
+                .show(ui, |ui| {
+                    toolbar(ui, p);
+                    review_view::review_ui(ui, p);
+                    capture::capture_ui(ui, p);
+                    readout::readout_ui(ui, p);
+                });
+            let room = ui.available_size();
+            // Drawn here only when there are no plots to draw alone (it says so).
+            let band = if p.view.picture.enlarged.is_none() {
+                picture::title_band_ui(ui, p)
+            } else {
+                None
+            };
+            let plots = traces::traces_ui(ui, p);
+            // The picture shows every plot whole, none scrolled out of view.
+            p.view.plots_room = plots.map(|_| [room.x, room.y.max(p.view.plots_need)]);
+            (band, plots)
+        }
+    };
     p.view.plots_area = plots.map(|r| [r.min.x, r.min.y, r.max.x, r.max.y]);
-    picture::taken(ui.ctx(), p.view, band, plots);
+    picture::taken(ui.ctx(), p.view, band, plots, alone.is_some());
     // The answers of this frame's dialogs (a scripted one answers at once) and of those
     // that came in between.
     picture::poll(ui.ctx(), p);
     exports_view::poll(ui.ctx(), p);
     review::poll(p.view);
     exports_view::confirm_ui(ui.ctx(), p);
+}
+
+/// A picture of the plots at a higher resolution is being drawn: the window shows the
+/// plots alone until it is taken (nothing else may be drawn over them).
+pub fn fills_window(ctx: &egui::Context, view: &PlotView) -> bool {
+    picture::enlarged(ctx, view).is_some()
 }
 
 fn toolbar(ui: &mut Ui, p: &mut Plots<'_>) {
