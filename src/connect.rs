@@ -168,6 +168,7 @@ impl Link for AnyLink {
             // The node on the simulated bus is the simulated drive: its methods are known.
             AnyLink::CanopenSim(l) => LinkInfo {
                 homing_methods: Some(crate::sim::SUPPORTED_METHODS.to_vec()),
+                commands_refused: None,
                 ..l.info()
             },
             other => each_link!(other, l => l.info()),

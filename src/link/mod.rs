@@ -47,6 +47,10 @@ pub struct LinkInfo {
     /// The homing methods the device is known to support (the simulated drive's list);
     /// `None` when the link cannot tell, and any CiA 402 method may work.
     pub homing_methods: Option<Vec<i8>>,
+    /// Why PDI commands are refused on this link while its status is still read (another
+    /// scanner owns the drive's I/O connection, whose image would overwrite every command
+    /// from here); `None` when commands may be sent.
+    pub commands_refused: Option<String>,
 }
 
 impl fmt::Display for LinkInfo {

@@ -46,6 +46,13 @@ impl Default for Timing {
     }
 }
 
+/// How often the drive's RX image is read back while a command runs, and while idle.
+pub const READ_BACK_RUNNING: Duration = Duration::from_millis(250);
+pub const READ_BACK_IDLE: Duration = Duration::from_secs(1);
+
+/// How often commands the drive took from another master are reported at most.
+pub const FOREIGN_REPORT_EVERY: Duration = Duration::from_secs(5);
+
 /// Why a command did not succeed, from the drive's own images.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Failure {
@@ -58,6 +65,10 @@ pub enum Failure {
     /// The drive left Operation enabled while a travel command ran (switched off or quick
     /// stopped by someone else, or a fault reaction).
     PowerLost,
+    /// PdiStatusToggleCmd flipped although we sent no new command: the drive took a
+    /// command from somewhere else (another master writing the PDI image), or a frame
+    /// carrying the status was forged or corrupted. `flips` counts them so far.
+    AnotherMaster { flips: u32 },
 }
 
 impl Failure {
@@ -90,6 +101,15 @@ impl fmt::Display for Failure {
             ),
             Failure::PowerLost => f.write_str(
                 "the drive left Operation enabled while the command ran (switched off, quick stop or fault)",
+            ),
+            Failure::AnotherMaster { flips } => write!(
+                f,
+                "another master writes the PDI image: the drive took {flips} command(s) this \
+                 master did not send (PdiStatusToggleCmd flipped on its own, or 2291h read \
+                 back held another image), so what it does is not what was asked, and this \
+                 master leaves it to the other (no halt sent over its command); stop the other \
+                 master (a PLC, Plug & Drive Studio, a second drivedeck) or command the drive \
+                 from it (or a frame carrying the status was forged or corrupted)"
             ),
         }
     }
@@ -286,6 +306,22 @@ pub struct PdiMaster {
     background: Option<Pending>,
     travel: Option<Travel>,
     progress: Vec<Progress>,
+    /// PdiStatusToggleCmd in the last image, to see it flip.
+    status_toggle: Option<bool>,
+    /// Flips of PdiStatusToggleCmd our own commands may still cause (each new command
+    /// byte sent, a halt or resume too in case the drive counts it as new), until the
+    /// acknowledgement timeout after the last one sent: later flips are not ours.
+    flips_expected: u32,
+    expect_flips_until: Option<Instant>,
+    /// Flips seen that no command of ours explains, since the last `take_foreign`.
+    foreign: u32,
+    /// When the flips were last reported by [`PdiMaster::foreign_report`].
+    foreign_said: Option<Instant>,
+    /// The image sent before `last_sent` (a bus that applies images late may still show
+    /// it when read back).
+    sent_before: Option<RxImage>,
+    /// When the drive's RX image was last read back to compare with ours.
+    read_back_at: Option<Instant>,
 }
 
 impl PdiMaster {
@@ -299,7 +335,66 @@ impl PdiMaster {
             background: None,
             travel: None,
             progress: Vec::new(),
+            status_toggle: None,
+            flips_expected: 0,
+            expect_flips_until: None,
+            foreign: 0,
+            foreign_said: None,
+            sent_before: None,
+            read_back_at: None,
         }
+    }
+
+    /// How many commands the drive took since the last call that this master did not
+    /// send (PdiStatusToggleCmd flipped on its own): another master writes the PDI image,
+    /// or a status frame was forged. Also reported to a running command as
+    /// [`Failure::AnotherMaster`].
+    pub fn take_foreign(&mut self) -> u32 {
+        std::mem::take(&mut self.foreign)
+    }
+
+    /// Whether the drive's RX image (2291h) should be read back now and given to
+    /// [`PdiMaster::on_read_back`]: every [`READ_BACK_RUNNING`] while a command of ours
+    /// runs or a travel command is not halted, every [`READ_BACK_IDLE`] otherwise, once
+    /// something was sent. Another master that writes its image every cycle right before
+    /// it reads the status sees its own toggle echoed each time; only the image read
+    /// between two of its writes shows it.
+    pub fn read_back_due(&self, now: Instant) -> bool {
+        if self.last_sent.is_none() || !self.device_cmd_known {
+            return false;
+        }
+        let busy = self.pending.is_some() || self.background.is_some() || self.travel_running();
+        let every = if busy { READ_BACK_RUNNING } else { READ_BACK_IDLE };
+        self.read_back_at
+            .is_none_or(|at| now.saturating_duration_since(at) >= every)
+    }
+
+    /// The RX image the drive holds, read back after our last write: an image that is
+    /// neither ours nor the one before it was written by somebody else (counted like a
+    /// flip of the toggle, and fails the commands running).
+    pub fn on_read_back(&mut self, rx: RxImage, now: Instant) {
+        self.read_back_at = Some(now);
+        let ours = [self.last_sent, self.sent_before];
+        if ours.iter().flatten().any(|sent| *sent == rx) || self.last_sent.is_none() {
+            return;
+        }
+        self.foreign += 1;
+        self.fail_on_foreign();
+    }
+
+    /// The commands taken from elsewhere, to tell the user: at most every
+    /// [`FOREIGN_REPORT_EVERY`] (another master writing cyclically flips the toggle in
+    /// every cycle), the count since the last report.
+    pub fn foreign_report(&mut self, now: Instant) -> Option<u32> {
+        if self.foreign == 0
+            || self
+                .foreign_said
+                .is_some_and(|said| now.saturating_duration_since(said) < FOREIGN_REPORT_EVERY)
+        {
+            return None;
+        }
+        self.foreign_said = Some(now);
+        Some(self.take_foreign())
     }
 
     pub fn timing(&self) -> Timing {
@@ -315,7 +410,10 @@ impl PdiMaster {
     /// is replayed.
     pub fn adopt(&mut self, rx: RxImage) {
         self.last_sent = Some(rx);
+        self.sent_before = None;
         self.device_cmd_known = true;
+        self.status_toggle = None;
+        self.flips_expected = 0;
         // A travel command the drive holds (e.g. from another master, or a script that
         // exited) can be halted and resumed from here.
         if let Ok(command) = rx.command()
@@ -413,8 +511,9 @@ impl PdiMaster {
             self.travel = None;
         }
         let kind = Kind::Command(action);
+        self.expect_flip(now);
         self.pending = Some(Pending::sent(tag, kind, goal_of(opcode), status, now));
-        self.last_sent = Some(image);
+        self.sent_before = self.last_sent.replace(image);
         Ok(image)
     }
 
@@ -451,6 +550,9 @@ impl PdiMaster {
             },
         );
         self.make_way(None);
+        // The halt bit alone is no new command (spec 2.2.14), but a drive that counts it as
+        // one is not taken for another master.
+        self.expect_flip(now);
         self.travel = Some(Travel {
             halted: halt,
             ..travel
@@ -461,13 +563,16 @@ impl PdiMaster {
             (Kind::Resume, goal_of(opcode))
         };
         self.pending = Some(Pending::sent(tag, kind, goal, status, now));
-        self.last_sent = Some(image);
+        self.sent_before = self.last_sent.replace(image);
         Ok(image)
     }
 
     /// Forget the commands in flight without a verdict (the link was lost). Returns their
     /// tags.
     pub fn abandon(&mut self) -> Vec<u64> {
+        // The drive may have taken anything while the link was down: judge flips afresh.
+        self.status_toggle = None;
+        self.flips_expected = 0;
         [self.pending.take(), self.background.take()]
             .into_iter()
             .flatten()
@@ -478,6 +583,10 @@ impl PdiMaster {
     /// Judge one TX image from the drive.
     pub fn on_tx(&mut self, tx: TxImage, now: Instant) {
         self.last_tx = Some(tx);
+        if self.foreign_flip(tx.status, now) {
+            self.foreign += 1;
+            self.fail_on_foreign();
+        }
         if let Some(mut p) = self.background.take() {
             // A move still running under a later OD access: judge its completion only
             // (PdiStatusError now belongs to the later command).
@@ -531,9 +640,11 @@ impl PdiMaster {
             if !self.device_cmd_known && !p.resent && waited >= self.timing.ack_timeout / 2 {
                 // The drive may hold our exact byte from before we connected: flip
                 // ToggleCmd once so it sees a new command.
+                self.sent_before = self.last_sent;
                 if let Some(last) = self.last_sent.as_mut() {
                     last.cmd ^= Command::TOGGLE_BIT;
                 }
+                self.expect_flip(now);
                 p.resent = true;
                 self.progress.push(Progress::Resent { tag: p.tag });
             }
@@ -541,6 +652,45 @@ impl PdiMaster {
         match self.overdue(&p, now) {
             Some(verdict) => self.progress.push(verdict),
             None => self.pending = Some(p),
+        }
+    }
+
+    /// Whether PdiStatusToggleCmd flipped in this status without a command of ours to
+    /// explain it.
+    fn foreign_flip(&mut self, status: Status, now: Instant) -> bool {
+        let toggle = status.is_set(StatusBit::ToggleCmd);
+        let before = self.status_toggle.replace(toggle);
+        if before.is_none_or(|before| before == toggle) {
+            return false;
+        }
+        if self.expect_flips_until.is_none_or(|until| now > until) {
+            self.flips_expected = 0;
+        }
+        if self.flips_expected > 0 {
+            self.flips_expected -= 1;
+            return false;
+        }
+        true
+    }
+
+    /// A command of ours was sent: the drive may flip PdiStatusToggleCmd once more for it,
+    /// within the acknowledgement timeout.
+    fn expect_flip(&mut self, now: Instant) {
+        self.flips_expected += 1;
+        self.expect_flips_until = Some(now + self.timing.ack_timeout);
+    }
+
+    /// A command the drive took from elsewhere: the commands of ours still running can no
+    /// longer be judged by the images (a done bit may be the other master's).
+    fn fail_on_foreign(&mut self) {
+        let failure = Failure::AnotherMaster {
+            flips: self.foreign,
+        };
+        for p in [self.pending.take(), self.background.take()]
+            .into_iter()
+            .flatten()
+        {
+            self.progress.push(Progress::Failed { tag: p.tag, failure });
         }
     }
 

@@ -415,3 +415,103 @@ fn an_adopted_travel_command_can_be_halted() {
     assert_eq!(halt.cmd, 20 | 0x40 | 0x80);
     assert_eq!(halt.values.value1, 5000);
 }
+
+#[test]
+fn a_command_the_drive_takes_from_another_master_fails_the_running_move_and_is_counted() {
+    let mut bench = Bench::new();
+    bench.start(1, move_by(30_000, 100));
+    // Our move acknowledged: one flip, expected.
+    assert_eq!(
+        bench.detect(&[StatusBit::OperationEnabled], 0),
+        vec![Progress::Accepted { tag: 1 }]
+    );
+    bench.tick(10);
+    assert!(bench.answer(&[StatusBit::OperationEnabled], 0).is_empty());
+    // Another master writes its own command: the status toggle flips on its own.
+    bench.tick(10);
+    let said = bench.detect(&[StatusBit::OperationEnabled], 0);
+    assert_eq!(
+        said,
+        vec![Progress::Failed {
+            tag: 1,
+            failure: Failure::AnotherMaster { flips: 1 }
+        }]
+    );
+    assert!(
+        Failure::AnotherMaster { flips: 1 }
+            .to_string()
+            .starts_with("another master writes the PDI image")
+    );
+    // It writes every cycle: every flip is counted, idle or not.
+    bench.tick(10);
+    bench.detect(&[StatusBit::OperationEnabled], 0);
+    assert_eq!(bench.master.take_foreign(), 2);
+    assert_eq!(bench.master.take_foreign(), 0);
+}
+
+#[test]
+fn our_own_commands_halts_and_a_resend_are_never_taken_for_another_master() {
+    let mut bench = Bench::new();
+    for tag in 1..=3 {
+        bench.start(tag, move_by(1000, 100));
+        bench.tick(5);
+        bench.detect(&[StatusBit::OperationEnabled], 0);
+        bench.tick(5);
+        bench.answer(&[StatusBit::OperationEnabled], 0);
+    }
+    // Two commands sent before the first is seen: the drive may take both.
+    bench.start(4, move_by(1000, 100));
+    bench.start(5, od_read(0x6064, 0));
+    bench.detect(&[StatusBit::OperationEnabled], 0);
+    bench.detect(&[StatusBit::OperationEnabled], 0);
+    // A halt that a drive counts as a new command.
+    bench.master.halt(6, bench.now).unwrap();
+    bench.detect(&[StatusBit::OperationEnabled, StatusBit::QsHaltBit], 0);
+    assert_eq!(bench.master.take_foreign(), 0);
+    // After a link loss the toggle is judged afresh.
+    bench.master.abandon();
+    bench.detect(&[StatusBit::OperationEnabled], 0);
+    assert_eq!(bench.master.take_foreign(), 0);
+}
+
+#[test]
+fn an_image_read_back_that_is_not_ours_is_another_masters() {
+    let mut bench = Bench::new();
+    bench.master.adopt(RxImage::default());
+    let ours = bench.start(1, move_by(30_000, 100));
+    bench.detect(&[StatusBit::OperationEnabled], 0);
+    // Ours, and the one before it (a bus that applies images late), are no verdict.
+    assert!(bench.master.read_back_due(bench.now));
+    bench.master.on_read_back(ours, bench.now);
+    bench.master.on_read_back(RxImage::default(), bench.now);
+    assert!(bench.master.drain_progress().is_empty());
+    // Not due again until a while later.
+    assert!(!bench.master.read_back_due(bench.now));
+    bench.tick(300);
+    assert!(bench.master.read_back_due(bench.now));
+    // Another master's move: the running move fails, and it is counted.
+    let theirs = RxImage::new(
+        SetValues {
+            value1: -5000,
+            value2: 300,
+            value3: 0,
+        },
+        Command {
+            opcode: Opcode::MoveAbsolute,
+            halt: false,
+            toggle: false,
+        },
+    );
+    bench.master.on_read_back(theirs, bench.now);
+    assert_eq!(
+        bench.master.drain_progress(),
+        vec![Progress::Failed {
+            tag: 1,
+            failure: Failure::AnotherMaster { flips: 1 }
+        }]
+    );
+    assert_eq!(bench.master.foreign_report(bench.now), Some(1));
+    // Reported at most every few seconds.
+    bench.master.on_read_back(theirs, bench.now);
+    assert_eq!(bench.master.foreign_report(bench.now), None);
+}

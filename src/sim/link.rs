@@ -136,6 +136,7 @@ impl Link for SimLink {
             can_inject: true,
             pdi: true,
             homing_methods: Some(crate::sim::SUPPORTED_METHODS.to_vec()),
+            commands_refused: None,
         }
     }
 

@@ -49,6 +49,14 @@ impl Session {
             });
             return;
         }
+        if let Some(why) = crate::link::Link::info(&self.link).commands_refused {
+            sink.emit(Event::Rejected {
+                id,
+                request: request.to_string(),
+                reason: Rejection::Refused(why),
+            });
+            return;
+        }
         let now = super::clock::now();
         let described = request.to_string();
         if matches!(request, Request::Command(_) | Request::Resume) {

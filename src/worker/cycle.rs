@@ -67,6 +67,15 @@ impl Session {
         sink: &mut EventSink,
         budget: Duration,
     ) -> Result<(), link::Error> {
+        let before = super::clock::now();
+        if self.master.read_back_due(before) {
+            // Another master's image shows only between its writes and ours: read the
+            // drive's RX image back before writing ours again. A failed read is no verdict
+            // (the exchange tells whether the link lives).
+            if let Ok(Some(rx)) = self.link.read_rx().await {
+                self.master.on_read_back(rx, before);
+            }
+        }
         let outgoing = self.master.outgoing();
         let sent = super::clock::now();
         let exchange = self.link.exchange(outgoing.as_ref()).await?;
@@ -78,6 +87,9 @@ impl Session {
         self.rtt_max = self.rtt_max.max(rtt);
         self.master.on_tx(tx, now);
         self.master.poll(now);
+        if let Some(flips) = self.master.foreign_report(now) {
+            sink.emit(Event::Notice(Notice::info(foreign_commands(flips))));
+        }
         self.trace_out(sink);
         self.report_progress(sink);
 
@@ -219,4 +231,15 @@ impl Session {
         }
         Ok(values)
     }
+}
+
+/// What the user is told when the drive takes commands this master did not send.
+fn foreign_commands(flips: u32) -> String {
+    format!(
+        "another master writes the PDI image: the drive took {flips} command(s) drivedeck \
+         did not send (PdiStatusToggleCmd flipped on its own, or 2291h read back held \
+         another image); what the drive does now is \
+         not what was asked here. Stop the other master (a PLC, Plug & Drive Studio, a \
+         second drivedeck) or command the drive from it"
+    )
 }

@@ -93,6 +93,11 @@ pub struct EnipLink {
     pdi: bool,
     /// The RX image last written over explicit messages.
     explicit_rx: Option<RxImage>,
+    /// Why commands are refused: another scanner owns the drive's I/O connection (its
+    /// class 1 image would overwrite every SetOD 2291h from here).
+    io_owned_elsewhere: Option<String>,
+    /// The last Forward_Open was refused for an ownership conflict (0106h).
+    owned_elsewhere: bool,
     notices: Vec<String>,
 }
 
@@ -120,6 +125,8 @@ impl EnipLink {
             io: None,
             pdi: false,
             explicit_rx: None,
+            io_owned_elsewhere: None,
+            owned_elsewhere: false,
             notices: vec![],
         };
         match link.start().await {
@@ -170,6 +177,16 @@ impl EnipLink {
             if let Some(set) = set {
                 match self.open_io(set).await {
                     Ok(opened) => self.io = Some(opened),
+                    Err(Error::Refused(reason)) if self.owned_elsewhere => {
+                        let why = format!(
+                            "another master owns the drive's I/O connection ({reason}): its \
+                             image overwrites every command sent from here, so drivedeck only \
+                             reads the drive; stop the other master (a PLC, Plug & Drive \
+                             Studio, a second drivedeck) or command the drive from it"
+                        );
+                        self.notices.push(why.clone());
+                        self.io_owned_elsewhere = Some(why);
+                    }
                     Err(Error::Refused(reason)) => self.notices.push(format!(
                         "{reason}: running the PDI over explicit messages (SetOD 2291h, GetOD 2292h) instead"
                     )),
@@ -345,6 +362,8 @@ impl EnipLink {
             .request(&request, announce.into_iter().collect())
             .await?;
         if !reply.status.is_success() {
+            self.owned_elsewhere =
+                reply.additional.first() == Some(&connection::extended::OWNERSHIP_CONFLICT);
             return Err(Error::Refused(refused_io(set, cmd, &reply)));
         }
         let accepted = ForwardOpenReply::decode(&reply.data)
@@ -655,6 +674,7 @@ impl Link for EnipLink {
             can_inject: false,
             pdi: self.pdi,
             homing_methods: None,
+            commands_refused: self.io_owned_elsewhere.clone(),
         }
     }
 

@@ -356,6 +356,7 @@ impl Link for ModbusLink {
             can_inject: false,
             pdi: true,
             homing_methods: None,
+            commands_refused: None,
         }
     }
 

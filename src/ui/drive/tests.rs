@@ -26,6 +26,7 @@ fn info() -> LinkInfo {
         can_inject: true,
         pdi: true,
         homing_methods: None,
+        commands_refused: None,
     }
 }
 

@@ -396,6 +396,7 @@ impl<B: CanBus> Link for CanopenLink<B> {
             can_inject: false,
             pdi: self.path != PdiPath::Absent,
             homing_methods: None,
+            commands_refused: None,
         }
     }
 
