@@ -16,6 +16,7 @@ use drivedeck::link::canopen::{CanBus, MemoryBus, MemoryPort};
 use drivedeck::link::{CanopenOptions, Link, LinkSpec, Notice, NoticeKind, Refusal};
 use drivedeck::od::{Address, DataType, Value};
 use drivedeck::pdi::{Action, Failure, RxImage, StatusBit};
+use drivedeck::proto::canopen::CanFrame;
 use drivedeck::proto::canopen::sdo::{SdoClient, SdoEvent};
 use drivedeck::sim::Drive;
 use drivedeck::sim::Injection;
@@ -327,6 +328,35 @@ fn the_scan_finds_every_node_with_its_identity() {
             assert_eq!(device.product, Some(0x42));
             assert_eq!(device.name.as_deref(), Some("drivedeck simulated drive"));
         }
+    });
+}
+
+#[test]
+fn a_node_that_refuses_the_identity_read_is_listed_with_its_abort_code() {
+    common::runtime().block_on(async {
+        let bus = MemoryBus::new();
+        // Node 9 answers every SDO request with abort 06020000h (object does not exist).
+        let mut node = bus.port();
+        tokio::spawn(async move {
+            while let Ok(frame) = node.recv().await {
+                if frame.cob_id() == Some(0x609) {
+                    let d = frame.data();
+                    let abort = [0x80, d[1], d[2], d[3], 0x00, 0x00, 0x02, 0x06];
+                    let answer = CanFrame::new(0x589, &abort).expect("a frame");
+                    if node.send(&answer).await.is_err() {
+                        break;
+                    }
+                }
+            }
+        });
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        let found = drivedeck::link::canopen::scan::scan(&mut bus.port())
+            .await
+            .expect("scan");
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].node, Some(9));
+        let refused = found[0].refused.as_deref().unwrap_or_default();
+        assert!(refused.contains("SDO abort 06020000h"), "{refused}");
     });
 }
 

@@ -130,3 +130,17 @@ fn bad_input_is_refused_before_connecting() {
     let stderr = fails(&["sim"], 2);
     assert!(stderr.contains("nothing to serve"), "{stderr}");
 }
+
+#[test]
+fn a_timeout_out_of_range_is_refused_with_the_range_not_clamped() {
+    for bad in ["0", "-1", "NaN", "inf", "86401"] {
+        let stderr = fails(&["--link", "sim", "--timeout", bad, "status"], 2);
+        assert!(
+            stderr.contains("give 0.1 to 86400 seconds"),
+            "--timeout {bad}: {stderr}"
+        );
+    }
+    let stderr = fails(&["--link", "sim", "--timeout", "soon", "status"], 2);
+    assert!(stderr.contains("is not a number of seconds"), "{stderr}");
+    ok(&["--link", "sim", "--timeout", "0.1", "status"]);
+}

@@ -29,6 +29,7 @@ fn a_connected_drive_that_stopped_answering_is_not_green_connected() {
             can_inject: true,
             pdi: true,
             homing_methods: None,
+            commands_refused: None,
         });
         link.latest = Some(Sample::default());
         link.sampled_since_connect = true;

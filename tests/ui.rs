@@ -153,6 +153,7 @@ fn commands_harness() -> Harness<'static, Fed> {
         can_inject: true,
         pdi: true,
         homing_methods: None,
+        commands_refused: None,
     });
     fed.drive.motion.torque_slope = Some(1000);
     Harness::builder()
@@ -492,6 +493,7 @@ fn sim_info() -> LinkInfo {
         can_inject: true,
         pdi: true,
         homing_methods: None,
+        commands_refused: None,
     }
 }
 

@@ -81,7 +81,7 @@ pub struct Cli {
     pub trace: bool,
 
     /// How long to wait for the drive, in seconds (acknowledgement, and completion with --wait).
-    #[arg(long, global = true, default_value_t = 30.0, value_name = "SECONDS")]
+    #[arg(long, global = true, default_value_t = 30.0, value_name = "SECONDS", value_parser = parse_timeout, allow_negative_numbers = true)]
     pub timeout: f64,
 
     /// What a command that moves the motor (or records) leaves the drive in when it is
@@ -723,14 +723,34 @@ pub fn main() -> ExitCode {
     }
 }
 
-/// `--timeout`, kept to 0.1 s to a day.
-fn timeout(cli: &Cli) -> Duration {
-    let seconds = if cli.timeout.is_nan() {
-        30.0
+/// The shortest and the longest `--timeout`, in seconds (a tenth of a second, a day).
+const TIMEOUT_RANGE: std::ops::RangeInclusive<f64> = 0.1..=86_400.0;
+
+/// `--timeout` as given: seconds from a tenth of a second to a day; anything else is
+/// refused with the range (0 would not wait at all, a negative or non-finite one means
+/// nothing).
+fn parse_timeout(text: &str) -> Result<f64, String> {
+    let seconds: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number of seconds (e.g. 30 or 2.5)"))?;
+    if TIMEOUT_RANGE.contains(&seconds) {
+        Ok(seconds)
     } else {
+        Err(format!(
+            "{text} s is out of range: give {} to {} seconds (a tenth of a second to a day)",
+            TIMEOUT_RANGE.start(),
+            TIMEOUT_RANGE.end()
+        ))
+    }
+}
+
+/// `--timeout` (checked by [`parse_timeout`]).
+fn timeout(cli: &Cli) -> Duration {
+    Duration::from_secs_f64(
         cli.timeout
-    };
-    Duration::from_secs_f64(seconds.clamp(0.1, 86_400.0))
+            .clamp(*TIMEOUT_RANGE.start(), *TIMEOUT_RANGE.end()),
+    )
 }
 
 /// Colour codes in the log only on a terminal, and never when `NO_COLOR` is set to

@@ -284,6 +284,9 @@ fn print_scan(r: &ScanReport) {
             n.state.clone().unwrap_or_default(),
             n.name.clone().unwrap_or_default()
         );
+        if let Some(refused) = &n.refused {
+            outln!("          {refused}");
+        }
     }
 }
 

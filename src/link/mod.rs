@@ -79,6 +79,10 @@ pub struct FoundDevice {
     pub name: Option<String>,
     /// NMT state or similar, as last heard.
     pub state: Option<String>,
+    /// Why the device is listed without its identity: it answered the scan's read with a
+    /// refusal (a CANopen SDO abort, say).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refused: Option<String>,
 }
 
 impl FoundDevice {

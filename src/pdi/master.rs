@@ -364,7 +364,11 @@ impl PdiMaster {
             return false;
         }
         let busy = self.pending.is_some() || self.background.is_some() || self.travel_running();
-        let every = if busy { READ_BACK_RUNNING } else { READ_BACK_IDLE };
+        let every = if busy {
+            READ_BACK_RUNNING
+        } else {
+            READ_BACK_IDLE
+        };
         self.read_back_at
             .is_none_or(|at| now.saturating_duration_since(at) >= every)
     }
@@ -690,7 +694,10 @@ impl PdiMaster {
             .into_iter()
             .flatten()
         {
-            self.progress.push(Progress::Failed { tag: p.tag, failure });
+            self.progress.push(Progress::Failed {
+                tag: p.tag,
+                failure,
+            });
         }
     }
 

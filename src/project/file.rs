@@ -124,7 +124,14 @@ impl Project {
                 Some(v) if v > VERSION => return Err(ProjectError::Newer(v)),
                 _ => return Err(ProjectError::BadVersion(n.to_string())),
             },
-            Some(other) => return Err(ProjectError::BadVersion(other.to_string())),
+            Some(other) => {
+                return Err(ProjectError::NotProject(format!(
+                    "its \"version\" is a {} ({}), not a number: write it as {VERSION}, \
+                     without quotes",
+                    kind(other),
+                    shorten(&other.to_string())
+                )));
+            }
             None => {
                 return Err(ProjectError::NotProject(
                     "it has no \"version\" field".into(),
@@ -133,8 +140,8 @@ impl Project {
         }
         top.remove("format");
         top.remove("version");
-        let text: ProjectText = serde_json::from_value(Value::Object(top))
-            .map_err(|e| ProjectError::Top(e.to_string()))?;
+        let text: ProjectText = serde_path_to_error::deserialize(Value::Object(top))
+            .map_err(|e| ProjectError::Top(field_error(&e)))?;
         let drives = text
             .drives
             .into_iter()
@@ -162,7 +169,8 @@ fn drive(value: Value) -> Result<Drive, String> {
         .and_then(Value::as_str)
         .map(|n| format!("(\"{n}\") "))
         .unwrap_or_default();
-    let text: DriveText = serde_json::from_value(value).map_err(|e| format!("{name}{e}"))?;
+    let text: DriveText = serde_path_to_error::deserialize(value)
+        .map_err(|e| format!("{name}{}", field_error(&e)))?;
     let link: LinkSpec = text
         .link
         .parse()
@@ -182,6 +190,70 @@ fn drive(value: Value) -> Result<Drive, String> {
         identity: text.identity,
         backup,
     })
+}
+
+/// A field that could not be read, by its path in the file ("watch[1].address: …"), in
+/// the file's words: the program's own type names (`struct Pin`, `enum LinkLossAction`)
+/// are no help to whoever edits the file.
+fn field_error(error: &serde_path_to_error::Error<serde_json::Error>) -> String {
+    let mut path = error.path().to_string();
+    let reason = plain_reason(&error.inner().to_string());
+    // "unknown field `plots`" names the field itself: the path is where it stands.
+    if reason.starts_with("unknown field") {
+        path = path
+            .rsplit_once('.')
+            .map_or(String::new(), |(parent, _)| parent.to_owned());
+    }
+    if path.is_empty() || path == "." {
+        reason
+    } else {
+        format!("{path}: {reason}")
+    }
+}
+
+/// serde's reason with the program's type names put in the file's words.
+fn plain_reason(reason: &str) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut words = reason.split(' ').peekable();
+    while let Some(word) = words.next() {
+        // The word without the punctuation after it, which is kept.
+        let bare = word.trim_end_matches([',', '.', ';', ':']);
+        let tail = &word[bare.len()..];
+        let plain = match bare {
+            "struct" | "enum" if words.peek().is_some() => {
+                let name = words.next().unwrap_or_default();
+                let name_tail = &name[name.trim_end_matches([',', '.', ';', ':']).len()..];
+                let what = if bare == "struct" {
+                    "an object"
+                } else {
+                    "one of its names"
+                };
+                format!("{what}{name_tail}")
+            }
+            "sequence" => format!("array{tail}"),
+            "map" => format!("object{tail}"),
+            _ => word.to_owned(),
+        };
+        // "a sequence" / "a map": "an array" / "an object".
+        if plain.starts_with("array") || plain.starts_with("object") {
+            if out.last().is_some_and(|w| w == "a") {
+                out.pop();
+            }
+            out.push(format!("an {plain}"));
+        } else {
+            out.push(plain);
+        }
+    }
+    out.join(" ")
+}
+
+/// A value from the file, shortened for a message.
+fn shorten(text: &str) -> String {
+    const MOST: usize = 60;
+    match text.char_indices().nth(MOST) {
+        Some((cut, _)) => format!("{}… ({} characters)", &text[..cut], text.chars().count()),
+        None => text.to_owned(),
+    }
 }
 
 pub(super) fn kind(value: &Value) -> &'static str {

@@ -90,6 +90,14 @@ pub enum ProjectError {
     Twice { first: String, second: String },
     #[error("drive \"{name}\": {reason}")]
     Setting { name: String, reason: String },
+    #[error(
+        "drives {first:?} and {second:?} both connect to {link}: that is one drive (and a Nanotec drive takes one Modbus TCP client); give each drive its own connection"
+    )]
+    SameDrive {
+        first: String,
+        second: String,
+        link: String,
+    },
     #[error("no drive named {name:?} in the project; its drives: {names}")]
     NoSuchDrive { name: String, names: String },
 }
@@ -260,6 +268,17 @@ impl Project {
                     second: drive.name.clone(),
                 });
             }
+            if let Some(key) = reaches(&drive.link)
+                && let Some(first) = self.drives[..i]
+                    .iter()
+                    .find(|d| reaches(&d.link).as_ref() == Some(&key))
+            {
+                return Err(ProjectError::SameDrive {
+                    first: first.name.clone(),
+                    second: drive.name.clone(),
+                    link: key,
+                });
+            }
             check_drive(drive).map_err(|reason| ProjectError::Setting {
                 name: drive.name.clone(),
                 reason,
@@ -271,6 +290,28 @@ impl Project {
         }
         Ok(())
     }
+}
+
+/// The drive a connection string reaches, in words, when two strings can reach the same
+/// one (`None` for the simulated drives: each is one of its own).
+fn reaches(link: &LinkSpec) -> Option<String> {
+    Some(match link {
+        LinkSpec::Sim | LinkSpec::CanopenSim { .. } => return None,
+        LinkSpec::ModbusTcp {
+            host, port, unit, ..
+        } => format!(
+            "Modbus TCP {}:{port} unit {unit}",
+            host.to_ascii_lowercase()
+        ),
+        LinkSpec::ModbusRtu { path, slave, .. } => format!("Modbus RTU {path} slave {slave}"),
+        LinkSpec::CanopenSocketcan { iface, can } => {
+            format!("CANopen node {} on {iface}", can.node)
+        }
+        LinkSpec::CanopenSlcan { path, can, .. } => format!("CANopen node {} on {path}", can.node),
+        LinkSpec::Enip { host, port, .. } => {
+            format!("EtherNet/IP {}:{port}", host.to_ascii_lowercase())
+        }
+    })
 }
 
 /// A drive's options, pins and backup, checked.

@@ -38,6 +38,14 @@ type Started = (Result<RxImage, pdi::Error>, Purpose);
 
 impl Session {
     pub(super) fn start_pdi(&mut self, id: RequestId, request: Request, sink: &mut EventSink) {
+        if let Some(why) = crate::link::Link::info(&self.link).commands_refused {
+            sink.emit(Event::Rejected {
+                id,
+                request: request.to_string(),
+                reason: Rejection::Refused(why),
+            });
+            return;
+        }
         if !self.pdi {
             sink.emit(Event::Rejected {
                 id,
@@ -46,14 +54,6 @@ impl Session {
                     "this device has no Plug & Drive interface (2291h/2292h): object access only"
                         .into(),
                 ),
-            });
-            return;
-        }
-        if let Some(why) = crate::link::Link::info(&self.link).commands_refused {
-            sink.emit(Event::Rejected {
-                id,
-                request: request.to_string(),
-                reason: Rejection::Refused(why),
             });
             return;
         }

@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use super::CanBus;
+use crate::cia::AbortCode;
 use crate::link::{Error, FoundDevice};
 use crate::proto::canopen::CanFrame;
 use crate::proto::canopen::nmt::{self, NmtState};
@@ -62,8 +63,13 @@ async fn upload<B: CanBus>(
 
 /// Find the nodes on `bus`.
 pub async fn scan<B: CanBus>(bus: &mut B) -> Result<Vec<FoundDevice>, Error> {
-    let (mut states, vendors) = listen(bus).await?;
-    let mut found: Vec<u8> = vendors.keys().chain(states.keys()).copied().collect();
+    let (mut states, vendors, aborts) = listen(bus).await?;
+    let mut found: Vec<u8> = vendors
+        .keys()
+        .chain(states.keys())
+        .chain(aborts.keys())
+        .copied()
+        .collect();
     found.sort_unstable();
     found.dedup();
     let mut devices = vec![];
@@ -95,18 +101,27 @@ pub async fn scan<B: CanBus>(bus: &mut B) -> Result<Vec<FoundDevice>, Error> {
             serial,
             name,
             state: states.get(&node).map(|s| s.name().to_owned()),
+            refused: aborts
+                .get(&node)
+                .map(|code| format!("answered the identity read (1018h:01) with SDO abort {code}")),
         });
     }
     Ok(devices)
 }
 
-/// Read 1018h:01 from every node id at once and listen for [`ANSWER_WINDOW`]: the NMT
-/// states heard (boot-ups, heartbeats) and the vendor ids that came back, by node.
-async fn listen<B: CanBus>(
-    bus: &mut B,
-) -> Result<(BTreeMap<u8, NmtState>, BTreeMap<u8, u32>), Error> {
+/// What the scan heard, by node: NMT states (boot-ups, heartbeats), vendor ids, and the
+/// refusals of the identity read (a node is there even when it refuses).
+type Heard = (
+    BTreeMap<u8, NmtState>,
+    BTreeMap<u8, u32>,
+    BTreeMap<u8, AbortCode>,
+);
+
+/// Read 1018h:01 from every node id at once and listen for [`ANSWER_WINDOW`].
+async fn listen<B: CanBus>(bus: &mut B) -> Result<Heard, Error> {
     let mut states: BTreeMap<u8, NmtState> = BTreeMap::new();
     let mut vendors: BTreeMap<u8, u32> = BTreeMap::new();
+    let mut aborts: BTreeMap<u8, AbortCode> = BTreeMap::new();
     let mut clients: Vec<SdoClient> = (1..=127u8).map(SdoClient::new).collect();
     for client in clients.iter_mut() {
         bus.send(&client.upload(0x1018, 1)).await?;
@@ -125,12 +140,18 @@ async fn listen<B: CanBus>(
         let Some(cob) = frame.cob_id() else { continue };
         if (0x581..=0x5FF).contains(&cob) {
             let node = (cob - 0x580) as u8;
-            if let Some(client) = clients.get_mut(usize::from(node - 1))
-                && let SdoEvent::Uploaded(data) = client.on_frame(&frame)
-            {
-                vendors.insert(node, u32_of(&data).unwrap_or(0));
+            if let Some(client) = clients.get_mut(usize::from(node - 1)) {
+                match client.on_frame(&frame) {
+                    SdoEvent::Uploaded(data) => {
+                        vendors.insert(node, u32_of(&data).unwrap_or(0));
+                    }
+                    SdoEvent::Aborted(code) => {
+                        aborts.insert(node, code);
+                    }
+                    _ => {}
+                }
             }
         }
     }
-    Ok((states, vendors))
+    Ok((states, vendors, aborts))
 }

@@ -93,9 +93,10 @@ pub struct EnipLink {
     pdi: bool,
     /// The RX image last written over explicit messages.
     explicit_rx: Option<RxImage>,
-    /// Why commands are refused: another scanner owns the drive's I/O connection (its
-    /// class 1 image would overwrite every SetOD 2291h from here).
-    io_owned_elsewhere: Option<String>,
+    /// Why commands are refused: the device has no PDI (the refusal of GetOD 2292h), or
+    /// another scanner owns the drive's I/O connection (its class 1 image would
+    /// overwrite every SetOD 2291h from here).
+    commands_refused: Option<String>,
     /// The last Forward_Open was refused for an ownership conflict (0106h).
     owned_elsewhere: bool,
     notices: Vec<String>,
@@ -125,7 +126,7 @@ impl EnipLink {
             io: None,
             pdi: false,
             explicit_rx: None,
-            io_owned_elsewhere: None,
+            commands_refused: None,
             owned_elsewhere: false,
             notices: vec![],
         };
@@ -162,9 +163,13 @@ impl EnipLink {
         {
             Ok(_) => true,
             Err(refusal) => {
-                self.notices.push(format!(
-                    "the device has no Plug & Drive interface ({refusal}): object access only"
-                ));
+                let why = format!(
+                    "this device has no Plug & Drive interface: it refused GetOD {} \
+                     ({refusal}); object access only",
+                    Address::new(TX_OBJECTS[0].index, TX_OBJECTS[0].sub)
+                );
+                self.notices.push(why.clone());
+                self.commands_refused = Some(why);
                 false
             }
         };
@@ -185,7 +190,7 @@ impl EnipLink {
                              Studio, a second drivedeck) or command the drive from it"
                         );
                         self.notices.push(why.clone());
-                        self.io_owned_elsewhere = Some(why);
+                        self.commands_refused = Some(why);
                     }
                     Err(Error::Refused(reason)) => self.notices.push(format!(
                         "{reason}: running the PDI over explicit messages (SetOD 2291h, GetOD 2292h) instead"
@@ -674,7 +679,7 @@ impl Link for EnipLink {
             can_inject: false,
             pdi: self.pdi,
             homing_methods: None,
-            commands_refused: self.io_owned_elsewhere.clone(),
+            commands_refused: self.commands_refused.clone(),
         }
     }
 

@@ -83,6 +83,7 @@ fn found(identity: &Identity, from: SocketAddr) -> (SocketAddrV4, FoundDevice) {
         serial: Some(identity.serial),
         name: Some(identity.product_name.clone()),
         state: Some(state_text(identity.state).to_owned()),
+        refused: None,
     };
     (address, device)
 }

@@ -57,7 +57,10 @@ impl Ini {
             orphans: 0,
             warnings,
         };
-        for (n, raw) in text.lines().enumerate() {
+        // Lines end in LF, CR LF, or CR alone (old Mac editors): one line each way.
+        let text = text.replace("\r\n", "\n");
+        let text = text.strip_suffix(['\n', '\r']).unwrap_or(text.as_str());
+        for (n, raw) in text.split(['\n', '\r']).enumerate() {
             let line = n + 1;
             reader.ini.lines = line;
             let t = raw.trim();

@@ -150,7 +150,7 @@ fn hostile_and_broken_files_are_refused_with_their_cause() {
         ),
         (
             edited(|v| v["version"] = json!("1")),
-            "project version \"1\" does not exist",
+            "its \"version\" is a string (\"1\"), not a number: write it as 1, without quotes",
         ),
         (
             edited(|v| v["plots"] = json!({})),
@@ -162,7 +162,7 @@ fn hostile_and_broken_files_are_refused_with_their_cause() {
         ),
         (
             edited(|v| v["drives"][0]["options"]["pol_rate"] = json!(5)),
-            "drive 1: (\"X axis\") unknown field `pol_rate`",
+            "drive 1: (\"X axis\") options: unknown field `pol_rate`",
         ),
         (
             edited(|v| v["drives"][1]["name"] = json!("x AXIS")),
@@ -226,6 +226,19 @@ fn hostile_and_broken_files_are_refused_with_their_cause() {
         (
             edited(|v| v["drives"] = json!([])),
             "the project has no drives",
+        ),
+        (
+            // The field by its path, in the file's words (no `struct Pin`).
+            edited(|v| v["drives"][0]["watch"][1]["address"] = json!(true)),
+            "drive 1: (\"X axis\") watch[1].address: invalid type: boolean `true`, expected an object",
+        ),
+        (
+            edited(|v| v["drives"][0]["options"]["on_link_loss"] = json!("Fly")),
+            "drive 1: (\"X axis\") options.on_link_loss: unknown variant `Fly`, expected one of",
+        ),
+        (
+            edited(|v| v["drives"] = json!({"a": 1})),
+            "the project's top level: drives: invalid type: an object, expected an array",
         ),
         (
             edited(|v| v["plot"] = json!(3)),
@@ -328,4 +341,31 @@ proptest! {
             prop_assert_eq!(Project::from_json(&opened.to_json()).ok(), Some(opened));
         }
     }
+}
+
+#[test]
+fn two_drives_on_one_connection_are_refused_naming_both() {
+    let drive = |name: &str, link: &str| Drive::new(name, link.parse().expect("a link"));
+    let project = |drives: Vec<Drive>| Project { drives, plot: None };
+    let same = project(vec![
+        drive("X axis", "modbus-tcp://192.168.2.100:502"),
+        drive("Y axis", "modbus-tcp://192.168.2.100:502?unit=0"),
+    ]);
+    let error = same.check().expect_err("one drive twice").to_string();
+    assert!(
+        error.contains(
+            "drives \"X axis\" and \"Y axis\" both connect to Modbus TCP 192.168.2.100:502 unit 0"
+        ),
+        "{error}"
+    );
+    // A gateway's units, nodes on one bus, and simulated drives are drives of their own.
+    let apart = project(vec![
+        drive("A", "modbus-tcp://192.168.2.100:502?unit=1"),
+        drive("B", "modbus-tcp://192.168.2.100:502?unit=2"),
+        drive("C", "canopen+slcan:///dev/ttyACM0?node=1"),
+        drive("D", "canopen+slcan:///dev/ttyACM0?node=2"),
+        drive("E", "sim"),
+        drive("F", "sim"),
+    ]);
+    assert!(apart.check().is_ok(), "{:?}", apart.check());
 }

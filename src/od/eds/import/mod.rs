@@ -32,6 +32,20 @@ impl Eds {
         if bytes.len() > MAX_SIZE {
             return Err(EdsError::TooLarge { size: bytes.len() });
         }
+        if let Some((text, encoding)) = utf16(bytes) {
+            let mut eds = Eds::parse(&text, node_id)?;
+            eds.warnings.insert(
+                0,
+                Warning {
+                    line: 1,
+                    message: format!(
+                        "the file is {encoding}: read as such (CiA 306 files are usually ASCII)"
+                    ),
+                },
+            );
+            return Ok(eds);
+        }
+        let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
         match std::str::from_utf8(bytes) {
             Ok(text) => Eds::parse(text, node_id),
             Err(e) => {
@@ -241,6 +255,38 @@ mod tests {
     }
 
     #[test]
+    fn a_utf16_file_with_or_without_its_mark_and_a_cr_only_file_are_read() {
+        let expect = |eds: &Eds| {
+            let entry = eds.catalog.get(Address::new(0x1000, 0)).unwrap();
+            assert_eq!(entry.default, Some(Value::Uint(0x40192)));
+            assert_eq!(eds.device_info.vendor_number, Some(0x26C));
+        };
+        let le: Vec<u8> = MINIMAL.encode_utf16().flat_map(u16::to_le_bytes).collect();
+        let be: Vec<u8> = MINIMAL.encode_utf16().flat_map(u16::to_be_bytes).collect();
+        for (bytes, encoding) in [
+            ([&[0xFF, 0xFE][..], &le].concat(), "UTF-16 (little-endian)"),
+            ([&[0xFE, 0xFF][..], &be].concat(), "UTF-16 (big-endian)"),
+            (le.clone(), "UTF-16 (little-endian)"),
+        ] {
+            let eds = Eds::from_bytes(&bytes, None).unwrap();
+            expect(&eds);
+            assert!(
+                eds.warnings[0].message.contains(encoding),
+                "{:?}",
+                eds.warnings
+            );
+        }
+        // Old Mac line ends (CR alone), and a UTF-8 byte-order mark.
+        let cr = MINIMAL.replace('\n', "\r");
+        let eds = Eds::from_bytes(cr.as_bytes(), None).unwrap();
+        expect(&eds);
+        // The same line numbers as with LF.
+        assert_eq!(eds.warnings[0].line, 3);
+        let marked = [&b"\xEF\xBB\xBF"[..], MINIMAL.as_bytes()].concat();
+        expect(&Eds::from_bytes(&marked, None).unwrap());
+    }
+
+    #[test]
     fn nothing_usable_fails_with_the_first_problem() {
         let err = Eds::parse("hello\n[1000]\nfoo=7\n", None).unwrap_err();
         let text = err.to_string();
@@ -270,4 +316,46 @@ mod tests {
         assert_eq!(eds.warnings[0].line, 9);
         assert!(eds.warnings[0].message.contains("Latin-1"));
     }
+}
+
+/// The text of a UTF-16 file (with its byte-order mark, or without one when every other
+/// byte of its start is zero, as in `[\0D\0`), and its encoding's name; `None` for any
+/// other file. Units that are not UTF-16 become U+FFFD.
+fn utf16(bytes: &[u8]) -> Option<(String, &'static str)> {
+    let (body, little) = match bytes {
+        [0xFF, 0xFE, rest @ ..] => (rest, true),
+        [0xFE, 0xFF, rest @ ..] => (rest, false),
+        _ => {
+            let head = &bytes[..bytes.len().min(64)];
+            if head.len() < 4 || head.len() % 2 != 0 {
+                return None;
+            }
+            let odd_zero = head.iter().skip(1).step_by(2).all(|b| *b == 0);
+            let even_zero = head.iter().step_by(2).all(|b| *b == 0);
+            match (odd_zero, even_zero) {
+                (true, false) => (bytes, true),
+                (false, true) => (bytes, false),
+                _ => return None,
+            }
+        }
+    };
+    let units = body.chunks_exact(2).map(|pair| {
+        let pair = [pair[0], pair[1]];
+        if little {
+            u16::from_le_bytes(pair)
+        } else {
+            u16::from_be_bytes(pair)
+        }
+    });
+    let text = char::decode_utf16(units)
+        .map(|c| c.unwrap_or(char::REPLACEMENT_CHARACTER))
+        .collect();
+    Some((
+        text,
+        if little {
+            "UTF-16 (little-endian)"
+        } else {
+            "UTF-16 (big-endian)"
+        },
+    ))
 }
