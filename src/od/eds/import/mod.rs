@@ -232,6 +232,48 @@ impl<'a> Importer<'a> {
     }
 }
 
+/// The text of a UTF-16 file (with its byte-order mark, or without one when every other
+/// byte of its start is zero, as in `[\0D\0`), and its encoding's name; `None` for any
+/// other file. Units that are not UTF-16 become U+FFFD.
+fn utf16(bytes: &[u8]) -> Option<(String, &'static str)> {
+    let (body, little) = match bytes {
+        [0xFF, 0xFE, rest @ ..] => (rest, true),
+        [0xFE, 0xFF, rest @ ..] => (rest, false),
+        _ => {
+            let head = &bytes[..bytes.len().min(64)];
+            if head.len() < 4 || !head.len().is_multiple_of(2) {
+                return None;
+            }
+            let odd_zero = head.iter().skip(1).step_by(2).all(|b| *b == 0);
+            let even_zero = head.iter().step_by(2).all(|b| *b == 0);
+            match (odd_zero, even_zero) {
+                (true, false) => (bytes, true),
+                (false, true) => (bytes, false),
+                _ => return None,
+            }
+        }
+    };
+    let units = body.chunks_exact(2).map(|pair| {
+        let pair = [pair[0], pair[1]];
+        if little {
+            u16::from_le_bytes(pair)
+        } else {
+            u16::from_be_bytes(pair)
+        }
+    });
+    let text = char::decode_utf16(units)
+        .map(|c| c.unwrap_or(char::REPLACEMENT_CHARACTER))
+        .collect();
+    Some((
+        text,
+        if little {
+            "UTF-16 (little-endian)"
+        } else {
+            "UTF-16 (big-endian)"
+        },
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use crate::od::eds::testing::{MINIMAL, parse};
@@ -316,46 +358,4 @@ mod tests {
         assert_eq!(eds.warnings[0].line, 9);
         assert!(eds.warnings[0].message.contains("Latin-1"));
     }
-}
-
-/// The text of a UTF-16 file (with its byte-order mark, or without one when every other
-/// byte of its start is zero, as in `[\0D\0`), and its encoding's name; `None` for any
-/// other file. Units that are not UTF-16 become U+FFFD.
-fn utf16(bytes: &[u8]) -> Option<(String, &'static str)> {
-    let (body, little) = match bytes {
-        [0xFF, 0xFE, rest @ ..] => (rest, true),
-        [0xFE, 0xFF, rest @ ..] => (rest, false),
-        _ => {
-            let head = &bytes[..bytes.len().min(64)];
-            if head.len() < 4 || head.len() % 2 != 0 {
-                return None;
-            }
-            let odd_zero = head.iter().skip(1).step_by(2).all(|b| *b == 0);
-            let even_zero = head.iter().step_by(2).all(|b| *b == 0);
-            match (odd_zero, even_zero) {
-                (true, false) => (bytes, true),
-                (false, true) => (bytes, false),
-                _ => return None,
-            }
-        }
-    };
-    let units = body.chunks_exact(2).map(|pair| {
-        let pair = [pair[0], pair[1]];
-        if little {
-            u16::from_le_bytes(pair)
-        } else {
-            u16::from_be_bytes(pair)
-        }
-    });
-    let text = char::decode_utf16(units)
-        .map(|c| c.unwrap_or(char::REPLACEMENT_CHARACTER))
-        .collect();
-    Some((
-        text,
-        if little {
-            "UTF-16 (little-endian)"
-        } else {
-            "UTF-16 (big-endian)"
-        },
-    ))
 }
