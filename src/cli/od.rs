@@ -19,6 +19,7 @@ use super::{EXIT_FAILED, OdArgs, OdCommand, OdListArgs, report};
 use crate::link::LinkSpec;
 use crate::od::eds::{DeviceInfo, Eds, EdsError};
 use crate::od::{self, Catalog, Entry, Value};
+use crate::text::shown;
 
 pub(super) mod backup_cmd;
 
@@ -111,7 +112,7 @@ fn link_node_id(link: &LinkSpec) -> Option<u8> {
 
 pub(super) fn load_eds(path: &Path, node_id: Option<u8>) -> Result<Eds, Failure> {
     Eds::load(path, node_id).map_err(|e| match e {
-        EdsError::Read { .. } => usage(e.to_string()),
+        EdsError::Read { .. } | EdsError::NotAFile(_) => usage(e.to_string()),
         _ => usage(format!("{}: {e}", path.display())),
     })
 }
@@ -298,14 +299,14 @@ fn print(report: &ListReport, json: bool) {
     let name_width = report
         .objects
         .iter()
-        .map(|r| r.name.chars().count())
+        .map(|r| shown(&r.name).chars().count())
         .max()
         .unwrap_or(0)
         .clamp(4, NAME_WIDTH);
     let default_width = report
         .objects
         .iter()
-        .map(|r| default_text(r).chars().count())
+        .map(|r| shown(&default_text(r)).chars().count())
         .max()
         .unwrap_or(0)
         .clamp(7, DEFAULT_WIDTH);
@@ -326,16 +327,18 @@ fn print(report: &ListReport, json: bool) {
         } else {
             row.unit.clone().unwrap_or_default()
         };
+        // Names, defaults and values come from a file or a device: shown, never obeyed.
         let line = format!(
-            "{:<9}  {:<7} {:<6} {:<name_width$}  {:<default_width$}  {:<12}  {last}",
+            "{:<9}  {:<7} {:<6} {:<name_width$}  {:<default_width$}  {:<12}  ",
             row.address,
             row.dtype,
             row.access,
-            row.name,
-            default_text(row),
-            limits(row),
+            shown(&row.name),
+            shown(&default_text(row)),
+            shown(&limits(row)),
         );
-        outln!("{}", line.trim_end());
+        let last = shown(&last);
+        outln!("{}", format!("{line}{last}").trim_end());
     }
 }
 

@@ -48,7 +48,9 @@ pub(super) enum Target {
 /// The project file at `path`, opened and checked; its error names the file.
 pub(super) fn load(path: &Path) -> Result<Project, Failure> {
     project::open(path).map_err(|e| match e {
-        ProjectError::Read { .. } | ProjectError::TooLarge { .. } => usage(e.to_string()),
+        ProjectError::Read { .. } | ProjectError::TooLarge { .. } | ProjectError::NotAFile(_) => {
+            usage(e.to_string())
+        }
         _ => usage(format!("{}: {e}", path.display())),
     })
 }

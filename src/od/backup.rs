@@ -156,14 +156,16 @@ impl DeviceIdentity {
         let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
         format!(
             "{}, vendor {}, product {}, revision {}, serial {}{}",
-            self.name.as_deref().unwrap_or("unnamed device"),
+            self.name
+                .as_deref()
+                .map_or("unnamed device".into(), crate::text::shown),
             hex(self.vendor),
             hex(self.product),
             hex(self.revision),
             hex(self.serial),
             self.software
                 .as_ref()
-                .map(|s| format!(", software {s}"))
+                .map(|s| format!(", software {}", crate::text::shown(s)))
                 .unwrap_or_default()
         )
     }
