@@ -394,9 +394,18 @@ mod tests {
             )
         );
         let error = read_given(dir.path(), 1000, "an EDS file").expect_err("a directory");
-        assert!(error.to_string().contains("is a directory, not a file: give an EDS file"));
+        assert!(
+            error
+                .to_string()
+                .contains("is a directory, not a file: give an EDS file")
+        );
         let error = read_given(Path::new("/dev/zero"), 1000, "a recording").expect_err("a device");
-        assert!(error.to_string().contains("is a character device, not a file"), "{error}");
+        assert!(
+            error
+                .to_string()
+                .contains("is a character device, not a file"),
+            "{error}"
+        );
     }
 
     #[test]
@@ -404,9 +413,22 @@ mod tests {
         let dir = tempfile::tempdir().expect("dir");
         let path = dir.path().join("p.json");
         std::fs::write(&path, "0123456789").expect("file");
-        assert_eq!(read_given(&path, 10, "a project file").expect("read"), b"0123456789");
+        assert_eq!(
+            read_given(&path, 10, "a project file").expect("read"),
+            b"0123456789"
+        );
         let error = read_given(&path, 9, "a project file").expect_err("too large");
-        assert!(matches!(error, ReadError::TooLarge { size: 10, limit: 9, .. }), "{error}");
+        assert!(
+            matches!(
+                error,
+                ReadError::TooLarge {
+                    size: 10,
+                    limit: 9,
+                    ..
+                }
+            ),
+            "{error}"
+        );
         let error = read_given(&dir.path().join("gone"), 9, "a project file").expect_err("gone");
         assert!(matches!(error, ReadError::Io { .. }), "{error}");
     }

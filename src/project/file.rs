@@ -197,13 +197,14 @@ pub(super) fn kind(value: &Value) -> &'static str {
 /// Open the project at `path`: read (at most [`MAX_BYTES`]) and checked; an error names
 /// the file and the cause.
 pub fn open(path: &Path) -> Result<Project, ProjectError> {
-    let bytes = crate::file::read_given(path, MAX_BYTES, "a project file").map_err(|e| match e {
-        crate::file::ReadError::Io { path, source } => ProjectError::Read { path, source },
-        crate::file::ReadError::TooLarge { path, size, .. } => {
-            ProjectError::TooLarge { path, size }
-        }
-        e @ crate::file::ReadError::NotAFile { .. } => ProjectError::NotAFile(e.to_string()),
-    })?;
+    let bytes =
+        crate::file::read_given(path, MAX_BYTES, "a project file").map_err(|e| match e {
+            crate::file::ReadError::Io { path, source } => ProjectError::Read { path, source },
+            crate::file::ReadError::TooLarge { path, size, .. } => {
+                ProjectError::TooLarge { path, size }
+            }
+            e @ crate::file::ReadError::NotAFile { .. } => ProjectError::NotAFile(e.to_string()),
+        })?;
     Project::from_bytes(&bytes)
 }
 

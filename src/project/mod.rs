@@ -96,7 +96,10 @@ pub enum ProjectError {
     Twice { first: String, second: String },
     #[error("drive \"{}\": {reason}", shown(name))]
     Setting { name: String, reason: String },
-    #[error("no drive named \"{}\" in the project; its drives: {names}", shown(name))]
+    #[error(
+        "no drive named \"{}\" in the project; its drives: {names}",
+        shown(name)
+    )]
     NoSuchDrive { name: String, names: String },
 }
 

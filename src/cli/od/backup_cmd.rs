@@ -643,13 +643,19 @@ pub fn restore(
     // JSON: a bar on a terminal's stderr while writing; the report at the end.
     let mut bar = progress::bar("writing");
     let total = plan.len();
-    let stopped = write_plan(&mut opened.session, &plan, &mut report, timeout, |n, row| {
-        if streamed {
-            print_step(n, row, false);
-        } else {
-            bar(n + 1, total);
-        }
-    });
+    let stopped = write_plan(
+        &mut opened.session,
+        &plan,
+        &mut report,
+        timeout,
+        |n, row| {
+            if streamed {
+                print_step(n, row, false);
+            } else {
+                bar(n + 1, total);
+            }
+        },
+    );
     let finish = |report: &mut RestoreReport, opened: &mut Opened| {
         if streamed {
             print_lines(&opened.take_notes(), &[]);
