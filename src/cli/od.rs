@@ -14,7 +14,6 @@ use serde::Serialize;
 
 use super::context::Context;
 use super::failure::{Failure, usage};
-use super::session::Session;
 use super::{EXIT_FAILED, OdArgs, OdCommand, OdListArgs, report};
 use crate::link::LinkSpec;
 use crate::od::eds::{DeviceInfo, Eds, EdsError};
@@ -191,7 +190,11 @@ fn eds_catalog(
         || path.display().to_string(),
         |n| n.to_string_lossy().into(),
     );
-    warnings.extend(eds.warnings.iter().map(|w| format!("{file} {w}")));
+    warnings.extend(
+        eds.warnings
+            .iter()
+            .map(|w| format!("{file} {}", shown(&w.to_string()))),
+    );
     let merged = eds.merged_with(od::builtin());
     let listed: Vec<_> = merged.catalog.filter(filter).map(|e| e.address).collect();
     notes.extend(
@@ -215,7 +218,7 @@ fn read_values(
     notes: &mut Vec<String>,
     context: &Context,
 ) -> Result<Option<String>, Failure> {
-    let mut session = Session::open(link, timeout, trace, context)?;
+    let mut session = backup_cmd::open_session(link, timeout, trace, context, notes)?;
     let readable: Vec<_> = entries
         .iter()
         .filter(|e| e.access.readable())
@@ -223,6 +226,13 @@ fn read_values(
         .collect();
     let (reads, failure) = session.read_many_shown(readable, timeout, "reading", notes);
     notes.extend(session.take_notes());
+    // A signal ends the command (exit code 130), the link closed on the way out.
+    let failure = match failure {
+        Some(f) if f.signal.is_some() => {
+            return Err(f.and(format!("{} objects were read before it", reads.len())));
+        }
+        other => other,
+    };
     let stopped = failure.map(|f| f.message);
     for (row, entry) in rows.iter_mut().zip(entries) {
         match reads.get(&entry.address) {

@@ -188,4 +188,23 @@ mod tests {
             }
         }
     }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_given_as_a_recording_is_refused_at_once() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let fifo = dir.path().join("x");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("SKIPPED LOUDLY: mkfifo is not available, a FIFO recording is not tested");
+            return;
+        }
+        assert_eq!(
+            load_recording(&fifo, MAX_RECORDING_BYTES),
+            Err(format!(
+                "{} is a FIFO (named pipe), not a file: give a recording",
+                fifo.display()
+            ))
+        );
+    }
 }

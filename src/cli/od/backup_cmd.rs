@@ -90,7 +90,7 @@ fn read_all(
 /// the reading ends the command with exit code 130 and the link is closed on the way out,
 /// which puts back what opening it changed (a CANopen drive's PDO mapping for the PDI).
 /// Where the signals cannot be caught, a warning says so.
-fn open_session(
+pub(in crate::cli) fn open_session(
     link: &LinkSpec,
     timeout: Duration,
     trace: bool,
@@ -120,7 +120,7 @@ pub(in crate::cli) fn dictionary(
             warnings.extend(
                 eds.warnings
                     .iter()
-                    .map(|w| format!("{} {w}", path.display())),
+                    .map(|w| format!("{} {}", path.display(), safe(&w.to_string()))),
             );
             Ok(eds.merged_with(od::builtin()).catalog)
         }
