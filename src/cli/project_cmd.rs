@@ -630,7 +630,10 @@ fn parse_drive(text: &str) -> Result<Drive, Failure> {
     })?;
     let name = name.trim();
     if let Some(problem) = project::name_problem(name) {
-        return Err(usage(format!("'{text}': the name {problem}")));
+        return Err(usage(format!(
+            "'{}': the name {problem}",
+            crate::text::shown(text)
+        )));
     }
     let link: LinkSpec = link
         .parse()
