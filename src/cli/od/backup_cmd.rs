@@ -18,7 +18,7 @@ use super::super::session::{Reads, Session};
 use super::super::{JudgeArgs, OdDumpArgs, OdFileArgs, OdRestoreArgs};
 use super::load_eds;
 use crate::link::LinkSpec;
-use crate::od::backup::{self, Backup, Comparison, DeviceIdentity, Step, Why};
+use crate::od::backup::{self, Backup, BackupError, Comparison, DeviceIdentity, Step, Why};
 use crate::od::{self, Address, Catalog, DataType, Value};
 use crate::text::shown as safe;
 
@@ -128,20 +128,11 @@ pub(in crate::cli) fn dictionary(
     }
 }
 
-/// A backup file is a few hundred kB; anything near this is no backup.
-const MAX_BACKUP_BYTES: u64 = 32 * 1024 * 1024;
-
 fn load_backup(path: &Path) -> Result<Backup, Failure> {
-    let bytes = crate::file::read_given(path, MAX_BACKUP_BYTES, "a backup file (od dump)")
-        .map_err(|e| usage(e.to_string()))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        usage(format!(
-            "{}: not a backup: not text (byte {} is not UTF-8)",
-            path.display(),
-            e.utf8_error().valid_up_to()
-        ))
-    })?;
-    Backup::from_json(&text).map_err(|e| usage(format!("{}: {e}", path.display())))
+    Backup::load(path).map_err(|e| match e {
+        BackupError::File(_) => usage(e.to_string()),
+        _ => usage(format!("{}: {e}", path.display())),
+    })
 }
 
 #[derive(Serialize)]
