@@ -89,7 +89,9 @@ fn read_all(
 /// start: the signals are caught before connecting, so that one during the connection or
 /// the reading ends the command with exit code 130 and the link is closed on the way out,
 /// which puts back what opening it changed (a CANopen drive's PDO mapping for the PDI).
-/// Where the signals cannot be caught, a warning says so.
+/// A signal while connecting is said at once; the command ends as soon as the connection
+/// is made (and closed again) or has failed. Where the signals cannot be caught, a warning
+/// says so.
 pub(in crate::cli) fn open_session(
     link: &LinkSpec,
     timeout: Duration,
@@ -98,13 +100,61 @@ pub(in crate::cli) fn open_session(
     warnings: &mut Vec<String>,
 ) -> Result<Session, Failure> {
     let installed = interrupt::install();
-    let mut session = Session::open(link, timeout, trace, context)?;
+    let watch = installed.is_ok().then(ConnectWatch::start).flatten();
+    let opened = Session::open(link, timeout, trace, context);
+    if let Some(signal) = watch.and_then(ConnectWatch::stop) {
+        // Dropping the session closes the link again.
+        drop(opened);
+        return Err(interrupted(signal).and("while connecting: nothing was read or written"));
+    }
+    let mut session = opened?;
     if let Err(e) = installed.and_then(|()| session.catch_signals()) {
         warnings.push(format!(
             "{e}: Ctrl-C ends drivedeck at once, without putting back a CANopen drive's PDO mapping"
         ));
     }
     Ok(session)
+}
+
+/// While a session connects (which no signal interrupts): a thread that takes a signal
+/// and says at once that the command will stop.
+struct ConnectWatch {
+    done: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: std::thread::JoinHandle<Option<interrupt::OsSignal>>,
+}
+
+impl ConnectWatch {
+    /// How often the watch looks for a signal.
+    const POLL: Duration = Duration::from_millis(50);
+
+    /// `None` when no thread can be started (a signal then waits for the reading).
+    fn start() -> Option<ConnectWatch> {
+        use std::sync::atomic::Ordering;
+        let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let watching = std::sync::Arc::clone(&done);
+        let thread = std::thread::Builder::new()
+            .name("drivedeck-connect-watch".into())
+            .spawn(move || {
+                while !watching.load(Ordering::SeqCst) {
+                    if let Some(signal) = interrupt::take() {
+                        eprintln!(
+                            "drivedeck: {signal}: stopping once the connection is made or has failed (again: at once)"
+                        );
+                        return Some(signal);
+                    }
+                    std::thread::sleep(Self::POLL);
+                }
+                None
+            })
+            .ok()?;
+        Some(ConnectWatch { done, thread })
+    }
+
+    /// The signal taken while connecting, if one was.
+    fn stop(self) -> Option<interrupt::OsSignal> {
+        self.done.store(true, std::sync::atomic::Ordering::SeqCst);
+        self.thread.join().ok().flatten()
+    }
 }
 
 /// The dictionary a command works with: an EDS's (with the catalog's descriptions), or the
