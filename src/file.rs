@@ -1,12 +1,14 @@
 //! Files the tool writes (recordings, backups, exports, pictures): written whole or not at
 //! all, to the file the user named (through a symbolic link to its target, straight into a
 //! device or pipe such as `/dev/null`), and a place checked before a long recording starts
-//! rather than after it ends.
+//! rather than after it ends. And files the tool reads (projects, backups, EDS files,
+//! recordings): only regular files, refused at once otherwise (a pipe would wait for its
+//! writer forever, a device never ends), and never more than a limit.
 
 use std::fs::OpenOptions;
 #[cfg(unix)]
 use std::fs::Permissions;
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
 /// Where writing `path` really writes. A symbolic link is followed (the link stays, its
@@ -136,6 +138,117 @@ pub fn check_writable(path: &Path) -> std::io::Result<()> {
     }
 }
 
+/// Why a file the user gave could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// A FIFO, a device, a directory, a socket: refused before it is opened for reading.
+    #[error("{path} is {kind}, not a file: give {what}")]
+    NotAFile {
+        path: String,
+        /// `a FIFO (named pipe)`, `a directory`, …
+        kind: &'static str,
+        /// What the command wants, e.g. `a project file`.
+        what: &'static str,
+    },
+    #[error("{path} is {size} bytes: {what} is at most {limit} bytes")]
+    TooLarge {
+        path: String,
+        size: u64,
+        limit: u64,
+        what: &'static str,
+    },
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+}
+
+/// What a file that is no regular file is, in words.
+fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+    let kind = meta.file_type();
+    if kind.is_dir() {
+        return "a directory";
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if kind.is_char_device() {
+            return "a character device";
+        }
+        if kind.is_block_device() {
+            return "a block device";
+        }
+        if kind.is_socket() {
+            return "a socket";
+        }
+    }
+    "not a regular file"
+}
+
+/// Open `path` for reading without waiting: a FIFO without a writer would block `open`.
+#[cfg(unix)]
+fn open_for_reading(path: &Path) -> std::io::Result<std::fs::File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+}
+
+#[cfg(not(unix))]
+fn open_for_reading(path: &Path) -> std::io::Result<std::fs::File> {
+    OpenOptions::new().read(true).open(path)
+}
+
+/// The bytes of the file the user gave as `what` (`a project file`, `a backup file`, …):
+/// a regular file (a symbolic link to one included) of at most `limit` bytes. A FIFO, a
+/// device, a directory or a socket is refused at once, before anything waits on it; the
+/// check is made again on the opened file, so that a file swapped meanwhile is refused
+/// too. A file that grows while it is read stops at the limit.
+pub fn read_given(path: &Path, limit: u64, what: &'static str) -> Result<Vec<u8>, ReadError> {
+    let shown = || path.display().to_string();
+    let io = |source| ReadError::Io {
+        path: shown(),
+        source,
+    };
+    let not_a_file = |meta: &std::fs::Metadata| ReadError::NotAFile {
+        path: shown(),
+        kind: kind_of(meta),
+        what,
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(not_a_file(&meta));
+    }
+    let file = open_for_reading(path).map_err(io)?;
+    let meta = file.metadata().map_err(io)?;
+    if !meta.is_file() {
+        return Err(not_a_file(&meta));
+    }
+    let too_large = |size| ReadError::TooLarge {
+        path: shown(),
+        size,
+        limit,
+        what,
+    };
+    if meta.len() > limit {
+        return Err(too_large(meta.len()));
+    }
+    let mut bytes = Vec::new();
+    // One byte more than allowed tells a file too big from one just big enough.
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_large(meta.len().max(bytes.len() as u64)));
+    }
+    Ok(bytes)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -260,5 +373,63 @@ mod tests {
         // A file where a directory should be.
         let under_a_file = path.join("run.csv");
         assert!(check_writable(&under_a_file).is_err());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_given_to_read_is_refused_at_once() {
+        let dir = tempfile::tempdir().expect("dir");
+        let fifo = dir.path().join("x");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("SKIPPED LOUDLY: mkfifo is not available, the FIFO case is not tested");
+            return;
+        }
+        let error = read_given(&fifo, 1000, "a project file").expect_err("a FIFO");
+        assert_eq!(
+            error.to_string(),
+            format!(
+                "{} is a FIFO (named pipe), not a file: give a project file",
+                fifo.display()
+            )
+        );
+        let error = read_given(dir.path(), 1000, "an EDS file").expect_err("a directory");
+        assert!(
+            error
+                .to_string()
+                .contains("is a directory, not a file: give an EDS file")
+        );
+        let error = read_given(Path::new("/dev/zero"), 1000, "a recording").expect_err("a device");
+        assert!(
+            error
+                .to_string()
+                .contains("is a character device, not a file"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn a_given_file_is_read_up_to_its_limit() {
+        let dir = tempfile::tempdir().expect("dir");
+        let path = dir.path().join("p.json");
+        std::fs::write(&path, "0123456789").expect("file");
+        assert_eq!(
+            read_given(&path, 10, "a project file").expect("read"),
+            b"0123456789"
+        );
+        let error = read_given(&path, 9, "a project file").expect_err("too large");
+        assert!(
+            matches!(
+                error,
+                ReadError::TooLarge {
+                    size: 10,
+                    limit: 9,
+                    ..
+                }
+            ),
+            "{error}"
+        );
+        let error = read_given(&dir.path().join("gone"), 9, "a project file").expect_err("gone");
+        assert!(matches!(error, ReadError::Io { .. }), "{error}");
     }
 }

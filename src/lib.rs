@@ -1,7 +1,7 @@
 //! drivedeck: a commissioning tool for Nanotec motor controllers.
 //!
 //! Layers, lowest first (ARCHITECTURE.md draws them and gives the table of which module
-//! may import which; a test keeps it): the vocabulary (`number`, `file`, `cia`, `pdi`, `od`), the
+//! may import which; a test keeps it): the vocabulary (`number`, `text`, `file`, `cia`, `pdi`, `od`), the
 //! shared facts (`signal`, `injection`, `proto`: the sans-IO codecs), the buses (`link`),
 //! the simulated drive (`sim`), opening any link (`connect`), the loop (`worker`,
 //! `telemetry`, `diagnostics`), the machine's project file (`project`) and the faces
@@ -22,5 +22,6 @@ pub mod proto;
 pub mod signal;
 pub mod sim;
 pub mod telemetry;
+pub mod text;
 pub mod ui;
 pub mod worker;

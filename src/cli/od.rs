@@ -14,11 +14,11 @@ use serde::Serialize;
 
 use super::context::Context;
 use super::failure::{Failure, usage};
-use super::session::Session;
 use super::{EXIT_FAILED, OdArgs, OdCommand, OdListArgs, report};
 use crate::link::LinkSpec;
 use crate::od::eds::{DeviceInfo, Eds, EdsError};
 use crate::od::{self, Catalog, Entry, Value};
+use crate::text::shown;
 
 pub(super) mod backup_cmd;
 
@@ -111,7 +111,7 @@ fn link_node_id(link: &LinkSpec) -> Option<u8> {
 
 pub(super) fn load_eds(path: &Path, node_id: Option<u8>) -> Result<Eds, Failure> {
     Eds::load(path, node_id).map_err(|e| match e {
-        EdsError::Read { .. } => usage(e.to_string()),
+        EdsError::Read { .. } | EdsError::NotAFile(_) => usage(e.to_string()),
         _ => usage(format!("{}: {e}", path.display())),
     })
 }
@@ -190,7 +190,11 @@ fn eds_catalog(
         || path.display().to_string(),
         |n| n.to_string_lossy().into(),
     );
-    warnings.extend(eds.warnings.iter().map(|w| format!("{file} {w}")));
+    warnings.extend(
+        eds.warnings
+            .iter()
+            .map(|w| format!("{file} {}", shown(&w.to_string()))),
+    );
     let merged = eds.merged_with(od::builtin());
     let listed: Vec<_> = merged.catalog.filter(filter).map(|e| e.address).collect();
     notes.extend(
@@ -214,7 +218,7 @@ fn read_values(
     notes: &mut Vec<String>,
     context: &Context,
 ) -> Result<Option<String>, Failure> {
-    let mut session = Session::open(link, timeout, trace, context)?;
+    let mut session = backup_cmd::open_session(link, timeout, trace, context, notes)?;
     let readable: Vec<_> = entries
         .iter()
         .filter(|e| e.access.readable())
@@ -222,6 +226,13 @@ fn read_values(
         .collect();
     let (reads, failure) = session.read_many_shown(readable, timeout, "reading", notes);
     notes.extend(session.take_notes());
+    // A signal ends the command (exit code 130), the link closed on the way out.
+    let failure = match failure {
+        Some(f) if f.signal.is_some() => {
+            return Err(f.and(format!("{} objects were read before it", reads.len())));
+        }
+        other => other,
+    };
     let stopped = failure.map(|f| f.message);
     for (row, entry) in rows.iter_mut().zip(entries) {
         match reads.get(&entry.address) {
@@ -298,14 +309,14 @@ fn print(report: &ListReport, json: bool) {
     let name_width = report
         .objects
         .iter()
-        .map(|r| r.name.chars().count())
+        .map(|r| shown(&r.name).chars().count())
         .max()
         .unwrap_or(0)
         .clamp(4, NAME_WIDTH);
     let default_width = report
         .objects
         .iter()
-        .map(|r| default_text(r).chars().count())
+        .map(|r| shown(&default_text(r)).chars().count())
         .max()
         .unwrap_or(0)
         .clamp(7, DEFAULT_WIDTH);
@@ -326,16 +337,18 @@ fn print(report: &ListReport, json: bool) {
         } else {
             row.unit.clone().unwrap_or_default()
         };
+        // Names, defaults and values come from a file or a device: shown, never obeyed.
         let line = format!(
-            "{:<9}  {:<7} {:<6} {:<name_width$}  {:<default_width$}  {:<12}  {last}",
+            "{:<9}  {:<7} {:<6} {:<name_width$}  {:<default_width$}  {:<12}  ",
             row.address,
             row.dtype,
             row.access,
-            row.name,
-            default_text(row),
-            limits(row),
+            shown(&row.name),
+            shown(&default_text(row)),
+            shown(&limits(row)),
         );
-        outln!("{}", line.trim_end());
+        let last = shown(&last);
+        outln!("{}", format!("{line}{last}").trim_end());
     }
 }
 

@@ -48,7 +48,9 @@ pub(super) enum Target {
 /// The project file at `path`, opened and checked; its error names the file.
 pub(super) fn load(path: &Path) -> Result<Project, Failure> {
     project::open(path).map_err(|e| match e {
-        ProjectError::Read { .. } | ProjectError::TooLarge { .. } => usage(e.to_string()),
+        ProjectError::Read { .. } | ProjectError::TooLarge { .. } | ProjectError::NotAFile(_) => {
+            usage(e.to_string())
+        }
         _ => usage(format!("{}: {e}", path.display())),
     })
 }
@@ -628,7 +630,10 @@ fn parse_drive(text: &str) -> Result<Drive, Failure> {
     })?;
     let name = name.trim();
     if let Some(problem) = project::name_problem(name) {
-        return Err(usage(format!("'{text}': the name {problem}")));
+        return Err(usage(format!(
+            "'{}': the name {problem}",
+            crate::text::shown(text)
+        )));
     }
     let link: LinkSpec = link
         .parse()

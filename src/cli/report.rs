@@ -281,8 +281,8 @@ fn print_scan(r: &ScanReport) {
             hex(n.vendor),
             hex(n.product),
             hex(n.serial),
-            n.state.clone().unwrap_or_default(),
-            n.name.clone().unwrap_or_default()
+            crate::text::shown(n.state.as_deref().unwrap_or_default()),
+            crate::text::shown(n.name.as_deref().unwrap_or_default())
         );
         if let Some(refused) = &n.refused {
             outln!("          {refused}");
@@ -307,7 +307,12 @@ fn print_object(o: &ObjectReport) {
         .map(|h| format!(" ({h})"))
         .unwrap_or_default();
     let verb = if o.written { "written: " } else { "" };
-    outln!("{}{name} = {verb}{}{unit}{hex}", o.address, o.text);
+    // A string object's value is the device's: shown, never obeyed by the terminal.
+    outln!(
+        "{}{name} = {verb}{}{unit}{hex}",
+        o.address,
+        crate::text::escaped(&o.text)
+    );
 }
 
 fn print_command(c: &CommandReport) {

@@ -69,7 +69,15 @@ pub enum BackupError {
     },
     #[error("the file lists no objects: nothing to restore or compare")]
     Empty,
+    /// The file could not be read (it names itself): missing, a FIFO, too large, ….
+    #[error(transparent)]
+    File(#[from] crate::file::ReadError),
+    #[error("not a drivedeck backup: the file is not UTF-8 text (byte {0} is not)")]
+    NotText(usize),
 }
+
+/// A backup file is a few hundred kB; one near this size is none.
+pub const MAX_FILE_BYTES: u64 = 32 * 1024 * 1024;
 
 /// Whether a catalog entry belongs in a backup: configuration, by its [`Role`].
 pub fn savable(entry: &Entry) -> bool {
@@ -156,14 +164,16 @@ impl DeviceIdentity {
         let hex = |v: Option<u32>| v.map_or("?".to_owned(), |v| format!("{v:08X}h"));
         format!(
             "{}, vendor {}, product {}, revision {}, serial {}{}",
-            self.name.as_deref().unwrap_or("unnamed device"),
+            self.name
+                .as_deref()
+                .map_or("unnamed device".into(), crate::text::shown),
             hex(self.vendor),
             hex(self.product),
             hex(self.revision),
             hex(self.serial),
             self.software
                 .as_ref()
-                .map(|s| format!(", software {s}"))
+                .map(|s| format!(", software {}", crate::text::shown(s)))
                 .unwrap_or_default()
         )
     }
@@ -255,6 +265,16 @@ impl Backup {
 
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// The backup file at `path`, read and checked: a regular file (a FIFO, a device or a
+    /// directory is refused at once, never waited on) of at most [`MAX_FILE_BYTES`], then
+    /// as [`Backup::from_json`]. Only a [`BackupError::File`] names the file.
+    pub fn load(path: &std::path::Path) -> Result<Backup, BackupError> {
+        let bytes = crate::file::read_given(path, MAX_FILE_BYTES, "a backup file (od dump)")?;
+        let text = String::from_utf8(bytes)
+            .map_err(|e| BackupError::NotText(e.utf8_error().valid_up_to()))?;
+        Backup::from_json(&text)
     }
 
     /// A backup file's text, checked: format, version, and every address and value.

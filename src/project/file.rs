@@ -9,7 +9,6 @@
 //! backup is read as `od diff` reads a backup file, the plot layout as the window reads its
 //! settings.
 
-use std::io::Read;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -270,21 +269,14 @@ pub(super) fn kind(value: &Value) -> &'static str {
 /// Open the project at `path`: read (at most [`MAX_BYTES`]) and checked; an error names
 /// the file and the cause.
 pub fn open(path: &Path) -> Result<Project, ProjectError> {
-    let shown = path.display().to_string();
-    let read_error = |source| ProjectError::Read {
-        path: shown.clone(),
-        source,
-    };
-    let file = std::fs::File::open(path).map_err(read_error)?;
-    let mut bytes = Vec::new();
-    // One byte more than allowed tells a file too big from one just big enough.
-    file.take(MAX_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(read_error)?;
-    if bytes.len() as u64 > MAX_BYTES {
-        let size = std::fs::metadata(path).map_or(bytes.len() as u64, |m| m.len());
-        return Err(ProjectError::TooLarge { path: shown, size });
-    }
+    let bytes =
+        crate::file::read_given(path, MAX_BYTES, "a project file").map_err(|e| match e {
+            crate::file::ReadError::Io { path, source } => ProjectError::Read { path, source },
+            crate::file::ReadError::TooLarge { path, size, .. } => {
+                ProjectError::TooLarge { path, size }
+            }
+            e @ crate::file::ReadError::NotAFile { .. } => ProjectError::NotAFile(e.to_string()),
+        })?;
     Project::from_bytes(&bytes)
 }
 

@@ -21,6 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::link::LinkSpec;
 use crate::od::backup::{Backup, DeviceIdentity};
+use crate::text::shown;
 use crate::worker::{LOST_AFTER, LinkLossAction, MAX_LOST_AFTER};
 
 pub use file::{MAX_BYTES, open, save};
@@ -52,6 +53,9 @@ pub enum ProjectError {
     },
     #[error("{path} is {size} bytes: a project file is at most {MAX_BYTES} bytes")]
     TooLarge { path: String, size: u64 },
+    /// A FIFO, a device, a directory: refused before anything waits on it.
+    #[error("{0}")]
+    NotAFile(String),
     #[error("not a drivedeck project: the file is not UTF-8 text (byte {0} is not)")]
     NotText(usize),
     #[error("not a drivedeck project: it is not JSON ({0})")]
@@ -78,27 +82,34 @@ pub enum ProjectError {
     TooManyDrives(usize),
     #[error("drive {index}: {reason}")]
     Drive { index: usize, reason: String },
-    #[error("drive {index}'s name {name:?} {reason}")]
+    #[error("drive {index}'s name \"{}\" {reason}", shown(name))]
     BadName {
         index: usize,
         name: String,
         reason: String,
     },
     #[error(
-        "two drives are named {first:?} and {second:?}: names must differ, and not only in upper and lower case"
+        "two drives are named \"{}\" and \"{}\": names must differ, and not only in upper and lower case",
+        shown(first),
+        shown(second)
     )]
     Twice { first: String, second: String },
-    #[error("drive \"{name}\": {reason}")]
+    #[error("drive \"{}\": {reason}", shown(name))]
     Setting { name: String, reason: String },
     #[error(
-        "drives {first:?} and {second:?} both connect to {link}: that is one drive (and a Nanotec drive takes one Modbus TCP client); give each drive its own connection"
+        "drives \"{}\" and \"{}\" both connect to {link}: that is one drive (and a Nanotec drive takes one Modbus TCP client); give each drive its own connection",
+        shown(first),
+        shown(second)
     )]
     SameDrive {
         first: String,
         second: String,
         link: String,
     },
-    #[error("no drive named {name:?} in the project; its drives: {names}")]
+    #[error(
+        "no drive named \"{}\" in the project; its drives: {names}",
+        shown(name)
+    )]
     NoSuchDrive { name: String, names: String },
 }
 

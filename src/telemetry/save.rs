@@ -1,7 +1,6 @@
 //! Recordings as files: CSV, or JSON for a `.json` path, written whole; and read back
 //! as data from outside (any size, any bytes: a clear refusal, never a panic).
 
-use std::io::Read;
 use std::path::Path;
 
 use super::Recording;
@@ -46,23 +45,15 @@ pub fn save_recording(recording: &Recording, path: &str) -> Result<String, Strin
 /// file and what is wrong with it.
 pub fn load_recording(path: &Path, limit: u64) -> Result<Recording, String> {
     let shown = path.display();
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot open {shown}: {e}"))?;
-    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
-    if size > limit {
-        return Err(format!(
+    let bytes = crate::file::read_given(path, limit, "a recording").map_err(|e| match e {
+        crate::file::ReadError::TooLarge { .. } => format!(
             "{shown} is {:.0} MB: more than the {:.0} MB a recording may have",
-            size as f64 / 1e6,
+            std::fs::metadata(path).map_or(0, |m| m.len()) as f64 / 1e6,
             limit as f64 / 1e6
-        ));
-    }
-    let mut bytes = Vec::new();
-    // `take`: a file that grows while it is read (or claims no size) stops at the limit.
-    file.take(limit.saturating_add(1))
-        .read_to_end(&mut bytes)
-        .map_err(|e| format!("cannot read {shown}: {e}"))?;
-    if bytes.len() as u64 > limit {
-        return Err(format!("{shown} is larger than a recording may be"));
-    }
+        ),
+        crate::file::ReadError::Io { source, .. } => format!("cannot open {shown}: {source}"),
+        e @ crate::file::ReadError::NotAFile { .. } => e.to_string(),
+    })?;
     let text = String::from_utf8(bytes).map_err(|e| {
         format!(
             "{shown} is not a recording: not text (byte {} is not UTF-8)",
@@ -196,5 +187,24 @@ mod tests {
                 let _ = crate::telemetry::Scope::from_recording(&recording);
             }
         }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_given_as_a_recording_is_refused_at_once() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let fifo = dir.path().join("x");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("SKIPPED LOUDLY: mkfifo is not available, a FIFO recording is not tested");
+            return;
+        }
+        assert_eq!(
+            load_recording(&fifo, MAX_RECORDING_BYTES),
+            Err(format!(
+                "{} is a FIFO (named pipe), not a file: give a recording",
+                fifo.display()
+            ))
+        );
     }
 }

@@ -101,7 +101,9 @@ impl DriveRow {
             None => "speed unknown".to_owned(),
         };
         DriveRow {
-            name: drive.name.clone(),
+            // A name pasted huge (or from a hand-edited settings file) is shortened for the
+            // list, as a project's would be refused.
+            name: crate::text::shortened(&drive.name, crate::project::MAX_NAME).into_owned(),
             color: drive.color,
             link,
             state: state_text,
@@ -133,5 +135,23 @@ fn fault_words(sample: Option<crate::worker::Sample>) -> String {
         "fault".to_owned()
     } else {
         format!("fault {:04X}h {}", code.0, code.meaning())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_huge_name_is_shortened_in_the_list() {
+        let drive = Drive::new(
+            "A".repeat(10 * 1024 * 1024),
+            0,
+            Default::default(),
+            crate::telemetry::DEFAULT_HISTORY_ROWS,
+            &[],
+        );
+        let row = DriveRow::of(&drive, PositionUnit::default(), SystemTime::now());
+        assert_eq!(row.name, format!("{}… (10485760 chars)", "A".repeat(64)));
     }
 }

@@ -10,14 +10,17 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use super::super::context::Context;
-use super::super::failure::{Failure, failed, usage};
+use super::super::failure::{Failure, failed, interrupted, usage};
+use super::super::interrupt;
+use super::super::progress;
 use super::super::report::{print_json, print_lines};
 use super::super::session::{Reads, Session};
 use super::super::{JudgeArgs, OdDumpArgs, OdFileArgs, OdRestoreArgs};
 use super::load_eds;
 use crate::link::LinkSpec;
-use crate::od::backup::{self, Backup, Comparison, DeviceIdentity, Step, Why};
+use crate::od::backup::{self, Backup, BackupError, Comparison, DeviceIdentity, Step, Why};
 use crate::od::{self, Address, Catalog, DataType, Value};
+use crate::text::shown as safe;
 
 /// A value as the browser shows it: with its unit where the catalog knows one; COB-IDs
 /// and mapping entries (32-bit communication objects) in hex.
@@ -69,12 +72,88 @@ fn read_all(
     let asked = objects.len();
     let (reads, failure) = session.read_many_shown(objects, timeout, what, notes);
     match failure {
-        Some(f) => Err(failed(format!(
-            "{}; {} of {asked} objects were read before it, nothing was saved or written",
-            f.message,
-            reads.len()
-        ))),
+        // A signal keeps its exit code (130), a broken link its own.
+        Some(f) => Err(Failure {
+            message: format!(
+                "{}; {} of {asked} objects were read before it, nothing was saved or written",
+                f.message,
+                reads.len()
+            ),
+            ..f
+        }),
         None => Ok(reads),
+    }
+}
+
+/// A session on `link` that a signal (Ctrl-C, SIGTERM, SIGHUP) ends cleanly from the
+/// start: the signals are caught before connecting, so that one during the connection or
+/// the reading ends the command with exit code 130 and the link is closed on the way out,
+/// which puts back what opening it changed (a CANopen drive's PDO mapping for the PDI).
+/// A signal while connecting is said at once; the command ends as soon as the connection
+/// is made (and closed again) or has failed. Where the signals cannot be caught, a warning
+/// says so.
+pub(in crate::cli) fn open_session(
+    link: &LinkSpec,
+    timeout: Duration,
+    trace: bool,
+    context: &Context,
+    warnings: &mut Vec<String>,
+) -> Result<Session, Failure> {
+    let installed = interrupt::install();
+    let watch = installed.is_ok().then(ConnectWatch::start).flatten();
+    let opened = Session::open(link, timeout, trace, context);
+    if let Some(signal) = watch.and_then(ConnectWatch::stop) {
+        // Dropping the session closes the link again.
+        drop(opened);
+        return Err(interrupted(signal).and("while connecting: nothing was read or written"));
+    }
+    let mut session = opened?;
+    if let Err(e) = installed.and_then(|()| session.catch_signals()) {
+        warnings.push(format!(
+            "{e}: Ctrl-C ends drivedeck at once, without putting back a CANopen drive's PDO mapping"
+        ));
+    }
+    Ok(session)
+}
+
+/// While a session connects (which no signal interrupts): a thread that takes a signal
+/// and says at once that the command will stop.
+struct ConnectWatch {
+    done: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: std::thread::JoinHandle<Option<interrupt::OsSignal>>,
+}
+
+impl ConnectWatch {
+    /// How often the watch looks for a signal.
+    const POLL: Duration = Duration::from_millis(50);
+
+    /// `None` when no thread can be started (a signal then waits for the reading).
+    fn start() -> Option<ConnectWatch> {
+        use std::sync::atomic::Ordering;
+        let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let watching = std::sync::Arc::clone(&done);
+        let thread = std::thread::Builder::new()
+            .name("drivedeck-connect-watch".into())
+            .spawn(move || {
+                while !watching.load(Ordering::SeqCst) {
+                    if let Some(signal) = interrupt::take() {
+                        eprintln!(
+                            "drivedeck: {signal}: stopping once the connection is made or has failed (again: at once)"
+                        );
+                        return Some(signal);
+                    }
+                    std::thread::sleep(Self::POLL);
+                }
+                None
+            })
+            .ok()?;
+        Some(ConnectWatch { done, thread })
+    }
+
+    /// The signal taken while connecting, if one was.
+    fn stop(self) -> Option<interrupt::OsSignal> {
+        self.done.store(true, std::sync::atomic::Ordering::SeqCst);
+        self.thread.join().ok().flatten()
     }
 }
 
@@ -91,7 +170,7 @@ pub(in crate::cli) fn dictionary(
             warnings.extend(
                 eds.warnings
                     .iter()
-                    .map(|w| format!("{} {w}", path.display())),
+                    .map(|w| format!("{} {}", path.display(), safe(&w.to_string()))),
             );
             Ok(eds.merged_with(od::builtin()).catalog)
         }
@@ -100,9 +179,10 @@ pub(in crate::cli) fn dictionary(
 }
 
 fn load_backup(path: &Path) -> Result<Backup, Failure> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| usage(format!("cannot read {}: {e}", path.display())))?;
-    Backup::from_json(&text).map_err(|e| usage(format!("{}: {e}", path.display())))
+    Backup::load(path).map_err(|e| match e {
+        BackupError::File(_) => usage(e.to_string()),
+        _ => usage(format!("{}: {e}", path.display())),
+    })
 }
 
 #[derive(Serialize)]
@@ -177,7 +257,7 @@ pub(in crate::cli) fn read_backup(
     context: &Context,
 ) -> Result<(Backup, f64, Vec<String>), Failure> {
     let mut notes = vec![];
-    let mut session = Session::open(link, timeout, trace, context)?;
+    let mut session = open_session(link, timeout, trace, context, &mut notes)?;
     let started = Instant::now();
     let reads = read_all(
         &mut session,
@@ -311,14 +391,14 @@ fn print_diff(report: &DiffReport) {
         let name_width = report
             .objects
             .iter()
-            .map(|r| r.name.chars().count())
+            .map(|r| safe(&r.name).chars().count())
             .max()
             .unwrap_or(4)
             .clamp(4, 48);
         let file_width = report
             .objects
             .iter()
-            .map(|r| r.file.chars().count())
+            .map(|r| safe(&r.file).chars().count())
             .max()
             .unwrap_or(4)
             .clamp(4, 32);
@@ -333,15 +413,15 @@ fn print_diff(report: &DiffReport) {
             let device = match (&row.device, &row.error, &row.reason) {
                 (_, _, Some(reason)) => format!("not compared: {reason}"),
                 (_, Some(e), None) => format!("error: {e}"),
-                (Some(v), None, None) => v.clone(),
+                (Some(v), None, None) => safe(v).into_owned(),
                 (None, None, None) => String::new(),
             };
             outln!(
                 "{:<9}  {:<10}  {:<name_width$}  {:<file_width$}  {device}",
                 row.address,
                 row.state,
-                row.name,
-                row.file
+                safe(&row.name),
+                safe(&row.file)
             );
         }
     }
@@ -393,7 +473,7 @@ fn open_and_read(
     let mut warnings = vec![];
     let catalog = dictionary(judge.eds.as_deref(), judge.node, &mut warnings)?;
     let mut notes = vec![];
-    let mut session = Session::open(link, timeout, trace, context)?;
+    let mut session = open_session(link, timeout, trace, context, &mut warnings)?;
     let reads = read_all(
         &mut session,
         file.objects_to_read(&catalog),
@@ -495,13 +575,14 @@ fn step_row(step: &Step) -> StepRow {
     }
 }
 
-fn print_restore(report: &RestoreReport) {
+/// The entries left alone; false when there is nothing to write (said).
+fn print_restore_head(report: &RestoreReport) -> bool {
     for row in &report.skipped {
         outln!(
             "skipped: {:<9}  {} = {}: {}",
             row.address,
-            row.name,
-            row.file,
+            safe(&row.name),
+            safe(&row.file),
             row.reason
         );
     }
@@ -510,27 +591,35 @@ fn print_restore(report: &RestoreReport) {
             "the drive already matches {}: nothing to write",
             report.file
         );
-        return;
+        return false;
     }
-    for (n, row) in report.steps.iter().enumerate() {
-        let before = row.before.as_deref().unwrap_or("?");
-        let result = match (&row.error, report.dry_run) {
-            (_, true) => String::new(),
-            (Some(e), false) => format!("  {}: {e}", row.result),
-            (None, false) => format!("  {}", row.result),
-        };
-        let procedure = row.procedure.map(|p| format!(" ({p})")).unwrap_or_default();
-        outln!(
-            "{:>3}. {:<9}  {}: {before} -> {}{procedure}{result}",
-            n + 1,
-            row.address,
-            row.name,
-            row.value
-        );
-        if let Some(w) = &row.warning {
-            outln!("     warning: {w}");
-        }
+    true
+}
+
+/// Write number `n` (from 0), with its outcome unless a dry run.
+fn print_step(n: usize, row: &StepRow, dry_run: bool) {
+    let before = row.before.as_deref().unwrap_or("?");
+    let result = match (&row.error, dry_run) {
+        (_, true) => String::new(),
+        (Some(e), false) => format!("  {}: {e}", row.result),
+        (None, false) => format!("  {}", row.result),
+    };
+    let procedure = row.procedure.map(|p| format!(" ({p})")).unwrap_or_default();
+    outln!(
+        "{:>3}. {:<9}  {}: {} -> {}{procedure}{result}",
+        n + 1,
+        row.address,
+        safe(&row.name),
+        safe(before),
+        safe(&row.value)
+    );
+    if let Some(w) = &row.warning {
+        outln!("     warning: {w}");
     }
+}
+
+/// What came of the writes: how many, stored or not, compared again.
+fn print_restore_tail(report: &RestoreReport) {
     if report.dry_run {
         outln!(
             "dry run: {} writes would be made, nothing was written",
@@ -556,8 +645,20 @@ fn print_restore(report: &RestoreReport) {
     }
 }
 
+fn print_restore(report: &RestoreReport) {
+    if !print_restore_head(report) {
+        return;
+    }
+    for (n, row) in report.steps.iter().enumerate() {
+        print_step(n, row, report.dry_run);
+    }
+    print_restore_tail(report);
+}
+
 /// `od restore FILE [--dry-run] [--store]`: true when every write was accepted and the
-/// drive matches the file afterwards.
+/// drive matches the file afterwards. In text each write is printed as it is made; a
+/// signal lets the write in flight finish, stops, and says what was written and what not
+/// (exit code 130).
 pub fn restore(
     link: &LinkSpec,
     args: &OdRestoreArgs,
@@ -568,20 +669,67 @@ pub fn restore(
 ) -> Result<bool, Failure> {
     let mut opened = open_and_read(link, &args.file, &args.judge, timeout, trace, context)?;
     let (plan, mut report) = plan_restore(args, &mut opened)?;
-    if !args.dry_run {
-        if let Err(reason) = write_plan(&mut opened.session, &plan, &mut report, timeout) {
-            report.print(&mut opened, json);
+    if args.dry_run {
+        report.print(&mut opened, json);
+        return Ok(report.refused == 0);
+    }
+    // Text: what is known so far, then each write as it is made.
+    let streamed = !json;
+    if streamed {
+        print_lines(&opened.take_notes(), &report.warnings);
+        if !print_restore_head(&report) {
+            return Ok(true);
+        }
+    }
+    // JSON: a bar on a terminal's stderr while writing; the report at the end.
+    let mut bar = progress::bar("writing");
+    let total = plan.len();
+    let stopped = write_plan(
+        &mut opened.session,
+        &plan,
+        &mut report,
+        timeout,
+        |n, row| {
+            if streamed {
+                print_step(n, row, false);
+            } else {
+                bar(n + 1, total);
+            }
+        },
+    );
+    let finish = |report: &mut RestoreReport, opened: &mut Opened| {
+        if streamed {
+            print_lines(&opened.take_notes(), &[]);
+            print_restore_tail(report);
+        } else {
+            report.print(opened, json);
+        }
+    };
+    match stopped {
+        Stopped::Done => {}
+        Stopped::Lost(reason) => {
+            finish(&mut report, &mut opened);
             return Err(failed(format!(
                 "the restore stopped after {} writes: {reason}",
                 report.written + report.refused
             )));
         }
-        if args.store {
-            report.stored = Some(store_all(&mut opened.session, report.refused, timeout)?);
+        Stopped::Signal(signal) => {
+            finish(&mut report, &mut opened);
+            let not_written = report.steps.len() - report.written - report.refused;
+            return Err(interrupted(signal).and(format!(
+                "the restore stopped after the write in flight: written {}, refused {}, not written {not_written} of {} writes; run `od restore` again to write the rest",
+                report.written,
+                report.refused,
+                report.steps.len()
+            )));
         }
-        report.still_differs = Some(compare_again(&mut opened, timeout)?);
     }
-    report.print(&mut opened, json);
+    if args.store {
+        report.stored = Some(store_all(&mut opened.session, report.refused, timeout)?);
+    }
+    report.still_differs = Some(compare_again(&mut opened, timeout)?);
+    finish(&mut report, &mut opened);
     Ok(report.refused == 0
         && report.still_differs.unwrap_or(0) == 0
         && !matches!(report.stored, Some(Err(_))))
@@ -658,20 +806,50 @@ fn left_alone(file: &Backup, catalog: &Catalog, reads: &Reads) -> (Vec<SkippedRo
     (skipped, unreadable)
 }
 
-/// Write the plan in order, each outcome in its row. A broken link ends the writing: the
-/// rows after it say so, and `Err` gives the reason.
+/// Why the writing of a plan ended.
+enum Stopped {
+    /// Every write was made (or refused).
+    Done,
+    /// A broken link: the writes after it were not made.
+    Lost(String),
+    /// A signal: the write in flight was finished, the ones after it not made.
+    Signal(interrupt::OsSignal),
+}
+
+/// Write the plan in order, each outcome in its row, `shown(n, row)` after each. A write
+/// is never cut short: a signal is looked at between writes (the write in flight
+/// finishes), and ends the writing there. A broken link ends it too. The rows after the
+/// end say why they were not written.
 fn write_plan(
     session: &mut Session,
     plan: &[Step],
     report: &mut RestoreReport,
     timeout: Duration,
-) -> Result<(), String> {
-    let mut lost: Option<String> = None;
-    for (step, row) in plan.iter().zip(report.steps.iter_mut()) {
-        if let Some(reason) = &lost {
-            row.result = "not written";
-            row.error = Some(reason.clone());
-            continue;
+    mut shown: impl FnMut(usize, &StepRow),
+) -> Stopped {
+    let catching = session.interruptible;
+    // A signal no longer ends the waiting for an answer: it is taken between writes.
+    session.interruptible = false;
+    let mut stopped = Stopped::Done;
+    for (n, (step, row)) in plan.iter().zip(report.steps.iter_mut()).enumerate() {
+        if catching
+            && matches!(stopped, Stopped::Done)
+            && let Some(signal) = interrupt::take()
+        {
+            stopped = Stopped::Signal(signal);
+        }
+        match &stopped {
+            Stopped::Done => {}
+            Stopped::Lost(reason) => {
+                row.result = "not written";
+                row.error = Some(reason.clone());
+                continue;
+            }
+            Stopped::Signal(signal) => {
+                row.result = "not written";
+                row.error = Some(format!("interrupted by {signal}"));
+                continue;
+            }
         }
         match session.try_write(step.address, step.dtype, step.value.clone(), timeout) {
             Ok(Ok(())) => {
@@ -686,11 +864,20 @@ fn write_plan(
             Err(f) => {
                 row.result = "not written";
                 row.error = Some(f.message.clone());
-                lost = Some(f.message);
+                stopped = Stopped::Lost(f.message);
             }
         }
+        shown(n, row);
     }
-    lost.map_or(Ok(()), Err)
+    // A signal that came with the last write.
+    if catching
+        && matches!(stopped, Stopped::Done)
+        && let Some(signal) = interrupt::take()
+    {
+        stopped = Stopped::Signal(signal);
+    }
+    session.interruptible = catching;
+    stopped
 }
 
 /// `--store`: 1010h:01 = "save", unless some writes were refused.

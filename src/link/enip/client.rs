@@ -145,7 +145,7 @@ impl EnipLink {
                         "the adapter at {} is not a Nanotec device (vendor {:04X}h, {}): its object services may differ",
                         self.session.peer(),
                         identity.vendor,
-                        identity.product_name
+                        crate::text::shown(&identity.product_name)
                     ));
                 }
                 self.identity = Some(identity);
@@ -578,7 +578,7 @@ impl EnipLink {
         let device = self
             .identity
             .as_ref()
-            .map(|i| i.product_name.clone())
+            .map(|i| crate::text::shown(&i.product_name).into_owned())
             .filter(|n| !n.is_empty())
             .unwrap_or_else(|| "adapter".into());
         let how = match (&self.io, self.pdi) {

@@ -30,6 +30,10 @@ pub enum EdsError {
         source: std::io::Error,
     },
 
+    /// A FIFO, a device, a directory: refused before anything waits on it.
+    #[error("{0}")]
+    NotAFile(String),
+
     #[error("cannot write {}: {source}", path.display())]
     Write {
         path: PathBuf,

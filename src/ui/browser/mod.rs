@@ -664,18 +664,17 @@ impl Browser {
     /// Load a backup file for a comparison or a restore.
     fn load(&mut self) -> Option<Box<Backup>> {
         let path = self.files.backup.trim().to_owned();
-        match std::fs::read_to_string(&path) {
-            Err(e) => {
-                self.say(Tone::Failed, format!("cannot read {path}: {e}"));
+        // A FIFO or a device is refused at once: the window never waits on one.
+        match Backup::load(std::path::Path::new(&path)) {
+            Ok(file) => Some(Box::new(file)),
+            Err(e @ crate::od::backup::BackupError::File(_)) => {
+                self.say(Tone::Failed, e.to_string());
                 None
             }
-            Ok(text) => match Backup::from_json(&text) {
-                Ok(file) => Some(Box::new(file)),
-                Err(e) => {
-                    self.say(Tone::Failed, format!("{path}: {e}"));
-                    None
-                }
-            },
+            Err(e) => {
+                self.say(Tone::Failed, format!("{path}: {e}"));
+                None
+            }
         }
     }
 }

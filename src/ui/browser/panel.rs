@@ -217,14 +217,18 @@ fn load_eds(b: &mut Browser) {
 fn eds_loaded_text(eds: &Eds, objects: usize, path: &str) -> (Tone, String) {
     let mut text = format!(
         "loaded {objects} objects from {path} ({} {})",
-        eds.device_info
-            .vendor_name
-            .as_deref()
-            .unwrap_or("unknown vendor"),
-        eds.device_info
-            .product_name
-            .as_deref()
-            .unwrap_or("unknown product"),
+        crate::text::shown(
+            eds.device_info
+                .vendor_name
+                .as_deref()
+                .unwrap_or("unknown vendor")
+        ),
+        crate::text::shown(
+            eds.device_info
+                .product_name
+                .as_deref()
+                .unwrap_or("unknown product")
+        ),
     );
     if eds.warnings.is_empty() {
         return (Tone::Done, text);

@@ -217,9 +217,13 @@ pub(super) fn same_device(a: &DeviceIdentity, b: &DeviceIdentity) -> bool {
 
 /// A device in a few words: its name (1008h) and serial number.
 pub(super) fn device_text(identity: &DeviceIdentity) -> String {
-    let name = identity.name.as_deref().unwrap_or("a device");
+    // The device's own words: control characters shown, a huge name shortened.
+    let name = identity
+        .name
+        .as_deref()
+        .map_or("a device".into(), crate::text::shown);
     match identity.serial {
         Some(serial) => format!("{name} serial {serial:08X}h"),
-        None => name.to_owned(),
+        None => name.into_owned(),
     }
 }

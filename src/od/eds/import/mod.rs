@@ -20,10 +20,17 @@ use super::{Eds, EdsError, MAX_SIZE, Warning};
 impl Eds {
     /// Read an EDS or DCF file. `node_id` resolves `$NODEID` formulas.
     pub fn load(path: &Path, node_id: Option<u8>) -> Result<Eds, EdsError> {
-        let bytes = std::fs::read(path).map_err(|source| EdsError::Read {
-            path: path.to_owned(),
-            source,
-        })?;
+        let bytes =
+            crate::file::read_given(path, MAX_SIZE as u64, "an EDS file").map_err(|e| match e {
+                crate::file::ReadError::Io { source, .. } => EdsError::Read {
+                    path: path.to_owned(),
+                    source,
+                },
+                crate::file::ReadError::TooLarge { size, .. } => EdsError::TooLarge {
+                    size: usize::try_from(size).unwrap_or(usize::MAX),
+                },
+                e @ crate::file::ReadError::NotAFile { .. } => EdsError::NotAFile(e.to_string()),
+            })?;
         Eds::from_bytes(&bytes, node_id)
     }
 
