@@ -44,6 +44,7 @@ use serde::{Deserialize, Serialize};
 
 mod csv;
 mod json;
+pub mod stream;
 #[cfg(test)]
 mod tests;
 
@@ -73,6 +74,10 @@ pub struct Metadata {
     /// file holds every sample taken until then.
     #[serde(default)]
     pub ended_early: Option<String>,
+    /// Set by the reader of a recording written as it was taken (`drivedeck record`) that
+    /// has no end: "cut after N samples at t = … s (the recording did not end normally)".
+    #[serde(default)]
+    pub cut: Option<String>,
 }
 
 /// One recorded channel.
@@ -129,7 +134,7 @@ fn csv_error(line: usize, what: impl Into<String>) -> RecordingError {
 
 impl Metadata {
     /// The text fields with their CSV keys, in file order.
-    fn text_fields(&self) -> [(&'static str, &Option<String>); 10] {
+    fn text_fields(&self) -> [(&'static str, &Option<String>); 11] {
         [
             ("vendor", &self.vendor),
             ("product", &self.product),
@@ -141,6 +146,7 @@ impl Metadata {
             ("trigger", &self.trigger),
             ("note", &self.note),
             ("ended_early", &self.ended_early),
+            ("cut", &self.cut),
         ]
     }
 
@@ -165,6 +171,7 @@ impl Metadata {
             "trigger" => &mut self.trigger,
             "note" => &mut self.note,
             "ended_early" => &mut self.ended_early,
+            "cut" => &mut self.cut,
             _ => return None,
         })
     }
@@ -176,6 +183,47 @@ impl Metadata {
             "rate_asked_hz" => &mut self.rate_asked_hz,
             _ => return None,
         })
+    }
+
+    /// Take every field `update` sets (a file written as taken says some only at its end).
+    pub fn merge(&mut self, update: &Metadata) {
+        for (key, value) in update.text_fields() {
+            if let (Some(value), Some(field)) = (value, self.text_field(key)) {
+                *field = Some(value.clone());
+            }
+        }
+        for (key, value) in update.number_fields() {
+            if let (Some(value), Some(field)) = (value, self.number_field(key)) {
+                *field = Some(value);
+            }
+        }
+    }
+}
+
+/// The marker a notice of the worker's about the link makes in a recording, where it is
+/// one: an exchange that failed (an outage begins; the worker tries again), the link
+/// back after failed exchanges, a trouble got over by sending again. `None` for any other
+/// notice. (The worker's words: `worker::loss`.)
+pub fn link_mark(notice: &str) -> Option<String> {
+    if notice.starts_with("an exchange with the drive failed") {
+        Some(format!("outage: {notice}"))
+    } else if notice.starts_with("the link recovered after") {
+        Some(format!("recovered: {notice}"))
+    } else {
+        notice
+            .strip_prefix("link: ")
+            .map(|trouble| format!("retry: {trouble}"))
+    }
+}
+
+/// What a recording written as it was taken (`drivedeck record`) says when it did not
+/// end: how many samples it holds and the last one's time.
+pub fn cut_text(samples: usize, last_t: Option<f64>) -> String {
+    match last_t {
+        Some(t) => format!(
+            "cut after {samples} samples at t = {t:.3} s (the recording did not end normally)"
+        ),
+        None => format!("cut after {samples} samples (the recording did not end normally)"),
     }
 }
 
