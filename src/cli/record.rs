@@ -1046,3 +1046,148 @@ fn print(report: &RecordReport, json: bool) {
         eprintln!("warning: {warning}");
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signal::{Signal, Signals};
+    use crate::worker::Sample;
+
+    fn sample(t: f64, position: f64) -> Sample {
+        Sample {
+            t,
+            signals: Signals::default()
+                .with(Signal::Position, position)
+                .with(Signal::Velocity, 1.0),
+            ..Sample::default()
+        }
+    }
+
+    /// A taker as `record` makes one, of position and velocity, into `path`.
+    fn taker(
+        rows: usize,
+        trigger: Option<Trigger>,
+        duration: f64,
+        path: &Path,
+    ) -> Taker<impl FnMut(usize, usize)> {
+        let mut scope = Scope::new(rows);
+        for signal in scope.signals_mut() {
+            signal.shown = ["position", "velocity"].contains(&signal.info.id.as_str());
+            signal.auto = false;
+        }
+        if let Some(trigger) = &trigger {
+            scope.arm(trigger.clone());
+        }
+        let channels = recorded_channels(&scope);
+        let output = Output::open(path, &Metadata::default(), &channels);
+        assert!(output.elsewhere.is_none() && output.lost.is_none());
+        Taker {
+            columns: channels.iter().map(|(c, _)| *c).collect(),
+            values: vec![f64::NAN; channels.len()],
+            summary: Summary::new(channels.len()),
+            scope,
+            output,
+            trigger: trigger.map(|t| (t.pre_s, t.post_s)),
+            duration,
+            half_period: 0.0005,
+            total_ms: (duration * 1000.0) as usize,
+            bar: |_, _| {},
+            first_t: None,
+            window: None,
+            fired_at: None,
+            clock: SampleClock::default(),
+        }
+    }
+
+    fn read(path: &Path) -> crate::telemetry::Recording {
+        crate::telemetry::load_recording(path, crate::telemetry::MAX_RECORDING_BYTES)
+            .expect("the file opens")
+    }
+
+    /// 200 000 samples at 1 kHz: the rows kept in memory stay as few as the ring holds,
+    /// whatever came; every row is in the file.
+    #[test]
+    fn what_the_recorder_keeps_does_not_grow_with_the_samples() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("long.csv");
+        let mut taker = taker(UNTRIGGERED_ROWS, None, 1000.0, &path);
+        let mut most = 0;
+        for i in 0..200_000 {
+            let t = f64::from(i) * 0.001;
+            assert!(!taker.take(&sample(t, f64::from(i))));
+            if i == 100_000 {
+                taker.mark("outage: an exchange with the drive failed".into());
+            }
+            most = most.max(taker.retained());
+        }
+        assert!(most <= UNTRIGGERED_ROWS, "{most} rows kept");
+        assert_eq!(taker.summary.rows, 200_000);
+        assert_eq!(taker.summary.counts, vec![200_000, 200_000]);
+        taker.close(false);
+        let saved = taker
+            .output
+            .finish(&Metadata::default(), &taker.summary, 2);
+        assert!(matches!(saved, Saved::Here { .. }));
+        let recording = read(&path);
+        assert_eq!(recording.len(), 200_000);
+        assert_eq!(recording.meta.cut, None);
+        assert_eq!(recording.columns[0][123_456], 123_456.0);
+        // The marker at its time: never before the newest row when it came.
+        assert_eq!(recording.markers.len(), 1);
+        assert!(recording.markers[0].t >= 100.0, "{:?}", recording.markers);
+    }
+
+    /// With a trigger, memory holds the time before it (the ring), never more, while it
+    /// waits and after it fired; the file gets the time before it, the marker made while
+    /// waiting, and every row after it.
+    #[test]
+    fn a_triggered_recording_keeps_only_the_time_before_the_trigger() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("triggered.json");
+        let trigger = Trigger {
+            condition: Condition::Threshold {
+                channel: Builtin::Position as usize,
+                level: 50_000.0,
+                edge: Edge::Rising,
+            },
+            pre_s: 0.5,
+            post_s: 60.0,
+        };
+        let ring = 1_000 + 750;
+        let mut taker = taker(ring, Some(trigger), 60.0, &path);
+        let mut most = 0;
+        let mut done = None;
+        for i in 0..150_000 {
+            let t = f64::from(i) * 0.001;
+            if i == 49_900 {
+                taker.mark("retry: a reply lost, answered on try 2".into());
+            }
+            if taker.take(&sample(t, f64::from(i))) {
+                done = Some(i);
+                break;
+            }
+            most = most.max(taker.retained());
+        }
+        assert!(most <= ring + 1, "{most} rows kept");
+        let at = taker.fired_at.expect("fired");
+        assert!((49.999..=50.001).contains(&at), "fired at {at}");
+        let done = f64::from(done.expect("complete")) * 0.001;
+        assert!(
+            done >= at + 60.0 - 1e-9 && done < at + 60.002,
+            "complete 60 s after the trigger: {done}"
+        );
+        taker.close(false);
+        taker
+            .output
+            .finish(&Metadata::default(), &taker.summary, 2);
+        let recording = read(&path);
+        assert_eq!(recording.meta.cut, None);
+        assert_eq!(recording.meta.trigger_time_s, Some(at));
+        assert_eq!(recording.len(), taker.summary.rows);
+        let first = recording.times[0];
+        assert!((at - first - 0.5).abs() < 0.002, "from {first}");
+        assert!(recording.times.last().is_some_and(|t| *t <= at + 60.0));
+        assert_eq!(recording.markers.len(), 1, "{:?}", recording.markers);
+        assert!(recording.markers[0].text.starts_with("retry: "));
+    }
+}
