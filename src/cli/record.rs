@@ -22,9 +22,9 @@ use crate::link::LinkSpec;
 use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{self, Address};
 use crate::telemetry::{
-    Builtin, CaptureState, ChannelInfo, Condition, Edge, Kind, Marker, Metadata, Scope,
-    ScopeEvent, StreamWriter, Summary, Trigger, WatchedObject, link_mark, metadata,
-    stream_layout, utc_text, watchable,
+    Builtin, CaptureState, ChannelInfo, Condition, Edge, Kind, Marker, Metadata, Scope, ScopeEvent,
+    StreamWriter, Summary, Trigger, WatchedObject, link_mark, metadata, stream_layout, utc_text,
+    watchable,
 };
 use crate::worker::{Event, MAX_WATCHED, Request};
 
@@ -326,8 +326,8 @@ fn record(
         ..Metadata::default()
     };
     // The file says the rate that was achieved beside the one asked for.
-    last.rate_hz = (taker.summary.rows > 1)
-        .then_some((taker.summary.achieved_rate() * 10.0).round() / 10.0);
+    last.rate_hz =
+        (taker.summary.rows > 1).then_some((taker.summary.achieved_rate() * 10.0).round() / 10.0);
     let saved = taker.output.finish(&last, &taker.summary, channels.len());
     let taken = Taken {
         meta: {
@@ -1124,9 +1124,7 @@ mod tests {
         assert_eq!(taker.summary.rows, 200_000);
         assert_eq!(taker.summary.counts, vec![200_000, 200_000]);
         taker.close(false);
-        let saved = taker
-            .output
-            .finish(&Metadata::default(), &taker.summary, 2);
+        let saved = taker.output.finish(&Metadata::default(), &taker.summary, 2);
         assert!(matches!(saved, Saved::Here { .. }));
         let recording = read(&path);
         assert_eq!(recording.len(), 200_000);
@@ -1177,9 +1175,7 @@ mod tests {
             "complete 60 s after the trigger: {done}"
         );
         taker.close(false);
-        taker
-            .output
-            .finish(&Metadata::default(), &taker.summary, 2);
+        taker.output.finish(&Metadata::default(), &taker.summary, 2);
         let recording = read(&path);
         assert_eq!(recording.meta.cut, None);
         assert_eq!(recording.meta.trigger_time_s, Some(at));

@@ -20,7 +20,11 @@ fn is_json(path: &Path) -> bool {
 /// The layout of a recording written as taken to `path`: JSON for a `.json` path, CSV
 /// otherwise.
 pub fn stream_layout(path: &Path) -> Layout {
-    if is_json(path) { Layout::Json } else { Layout::Csv }
+    if is_json(path) {
+        Layout::Json
+    } else {
+        Layout::Csv
+    }
 }
 
 /// The recording as the file at `path` wants it: JSON for a `.json` path, CSV otherwise.

@@ -136,7 +136,10 @@ pub(super) fn channel_lines(out: &mut String, channels: &[ChannelInfo]) {
 
 /// A `# marker: t | text` line.
 pub(super) fn marker_line(out: &mut String, m: &Marker) {
-    put(out, format_args!("# marker: {} | {}\n", m.t, escape(&m.text)));
+    put(
+        out,
+        format_args!("# marker: {} | {}\n", m.t, escape(&m.text)),
+    );
 }
 
 /// The header row: `t [s]` and a cell per channel.

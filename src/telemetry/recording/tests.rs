@@ -424,7 +424,8 @@ fn a_streamed_file_cut_anywhere_opens_with_its_whole_rows_and_says_it_was_cut() 
         for n in header_len..=cut.len() {
             let part = dir.path().join(format!("part-{name}"));
             std::fs::write(&part, &cut[..n]).expect("part written");
-            let read = crate::telemetry::load_recording(&part, crate::telemetry::MAX_RECORDING_BYTES);
+            let read =
+                crate::telemetry::load_recording(&part, crate::telemetry::MAX_RECORDING_BYTES);
             let rows = rows_before(&cut[..n]);
             if rows == 0 {
                 // The header alone: a refusal that names the file ("holds no samples").
@@ -452,7 +453,10 @@ fn a_streamed_file_cut_anywhere_opens_with_its_whole_rows_and_says_it_was_cut() 
             );
             assert_eq!(recording.channels, channels);
             assert_eq!(recording.meta.vendor.as_deref(), Some("0000026Ch"));
-            assert!(recording.columns[1][0].is_nan(), "no sample stays no sample");
+            assert!(
+                recording.columns[1][0].is_nan(),
+                "no sample stays no sample"
+            );
         }
         let last = Metadata {
             rate_hz: Some(100.0),
@@ -460,8 +464,9 @@ fn a_streamed_file_cut_anywhere_opens_with_its_whole_rows_and_says_it_was_cut() 
             ..Metadata::default()
         };
         writer.finish(&last, 40).expect("end");
-        let recording = crate::telemetry::load_recording(&path, crate::telemetry::MAX_RECORDING_BYTES)
-            .expect("a complete file");
+        let recording =
+            crate::telemetry::load_recording(&path, crate::telemetry::MAX_RECORDING_BYTES)
+                .expect("a complete file");
         assert_eq!(recording.meta.cut, None, "{name}: ended normally");
         assert_eq!(recording.len(), 40);
         assert_eq!(recording.meta.rate_hz, Some(100.0));
