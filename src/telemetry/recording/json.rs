@@ -95,7 +95,7 @@ pub(super) struct RowsHead {
 enum RowItem {
     Row(Vec<Option<f64>>),
     Mark { t: f64, mark: String },
-    Meta { meta: Metadata },
+    Meta { meta: Box<Metadata> },
 }
 
 /// The last line of a complete JSON recording written as taken, as `{"end": …}`.

@@ -34,11 +34,31 @@
 //! comment lines: the first column is then the time and the channels are named from the
 //! header (`id [unit]` or `id`). Unknown `# key:` lines are ignored. Errors name the line.
 //!
+//! A file written as taken ([`stream::StreamWriter`], `drivedeck record`) has the line
+//! `# streamed: …` among its first comments, `# marker:` lines among the rows at their time,
+//! `# key: value` lines learned on the way or at the end after them, and `# end: …` last.
+//! Without that last line it was cut: the reader drops a part line at its end and sets
+//! [`Metadata::cut`].
+//!
 //! # JSON layout
 //!
 //! An object `{"meta": {..}, "channels": [..], "markers": [..], "t": [..], "columns": [[..]]}`
 //! with one array per channel in `columns`; NaN (no sample) is written as `null`. JSON has no
 //! infinities, so an infinite value also comes back as NaN.
+//!
+//! Written as taken, JSON goes row-wise, one item per line, a JSON document once complete:
+//!
+//! ```text
+//! {"format":"drivedeck recording, rows","meta":{..},"channels":[..],"rows":[
+//! [0.0,998,null]
+//! ,{"t":0.5,"mark":"outage: an exchange with the drive failed: …"}
+//! ,{"meta":{"trigger_time_s":0.7}}
+//! ,[0.005,999,4663]
+//! ],"end":{"meta":{"rate_hz":200.0},"samples":2}}
+//! ```
+//!
+//! Without its last line it was cut: the reader takes every whole line and sets
+//! [`Metadata::cut`].
 
 use serde::{Deserialize, Serialize};
 
