@@ -240,7 +240,7 @@ fn a_recording_killed_mid_way_keeps_its_samples_and_says_it_was_cut() {
 }
 
 /// Record through a proxy that loses six replies in a row (two failed exchanges of three
-/// tries each: an outage of a few seconds the link gets over): the recording goes on to
+/// tries each: an outage the link gets over): the recording goes on to
 /// its end, and the file marks the outage inside the jump in time and the link's return.
 fn record_across_an_outage(name: &str) -> Recording {
     let dir = temp_dir("record-outage");
@@ -306,6 +306,7 @@ fn check_outage_marks(name: &str, recording: &Recording) {
         .map(|w| (w[0], w[1]))
         .max_by(|a, b| (a.1 - a.0).total_cmp(&(b.1 - b.0)))
         .expect("rows");
+    eprintln!("{name}: the jump in time {before}..{after}; markers {marks:#?}");
     assert!(
         before < outage.t && outage.t < after,
         "{name}: the outage at {} lies in the jump {before}..{after}: {marks:#?}",

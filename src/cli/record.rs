@@ -290,10 +290,8 @@ fn record(
             output.path.display()
         );
     }
+    // It ends complete (`taker.window`) or cut short (`cut`).
     let (mut taker, cut) = take_samples(&mut session, plan, output, args.rate, early_cut);
-    if taker.summary.rows == 0 && taker.window.is_none() && cut.is_none() {
-        return Err(failed("no samples came"));
-    }
     taker.close(cut.is_some());
     // Everything taken is on its way to the disk before the drive is stopped: a second
     // Ctrl-C while it brakes ends the process at once, and must not take the samples.
@@ -533,11 +531,18 @@ fn finish(
             warnings.push(format!("{why}; the recording is lost"));
             None
         }
+        Saved::Short { why, path } => {
+            warnings.push(why.clone());
+            Some(path.clone())
+        }
     };
     let signals = signal_reports(&taken, &mut warnings);
     let code = match (&cut, &saved) {
         (Some(f), _) if f.signal.is_some() => Some(EXIT_INTERRUPTED),
-        (Some(_), _) | (None, Saved::Elsewhere { .. } | Saved::Lost { .. }) => Some(EXIT_FAILED),
+        (Some(_), _)
+        | (None, Saved::Elsewhere { .. } | Saved::Lost { .. } | Saved::Short { .. }) => {
+            Some(EXIT_FAILED)
+        }
         (None, Saved::Here { .. }) => None,
     };
     RecordReport {
@@ -801,6 +806,9 @@ enum Saved {
     Elsewhere { why: String, path: String },
     /// No place took it.
     Lost { why: String },
+    /// It is at `path`, but a write failed (`why`): the file holds what was written
+    /// until then and does not end normally.
+    Short { why: String, path: String },
 }
 
 /// The file of a recording being taken: written as the samples come, straight into the
@@ -818,14 +826,16 @@ struct Output {
     error: Option<String>,
 }
 
-/// A file for a recording: created (or emptied), readable too (to copy it elsewhere).
+/// A file for a recording: created (or emptied), readable too where it may be (to copy
+/// it elsewhere should its place go away).
 fn create(path: &Path) -> std::io::Result<File> {
-    std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .open(path)
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create(true).truncate(true);
+    match options.clone().read(true).open(path) {
+        Ok(file) => Ok(file),
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => options.open(path),
+        Err(e) => Err(e),
+    }
 }
 
 /// The place of last resort: the temporary directory, a name of this run's.
@@ -926,6 +936,9 @@ impl Output {
         self.with(|w| w.finish(last, summary.rows));
         let shown = shown_path(&self.path);
         let path = self.path.to_string_lossy().into_owned();
+        if let Some(why) = self.error.take() {
+            return Saved::Short { why, path };
+        }
         let Some(writer) = self.writer.take() else {
             return Saved::Lost {
                 why: format!("cannot write {shown}"),
@@ -944,8 +957,10 @@ impl Output {
             Err(e) => {
                 return match self.elsewhere {
                     Some(why) => Saved::Elsewhere { why, path },
-                    None => Saved::Here {
-                        message: format!("{shown}: {e}; it holds what was written until then"),
+                    None => Saved::Short {
+                        why: format!(
+                            "cannot write {shown}: {e}; the file holds what was written until then"
+                        ),
                         path,
                     },
                 };
