@@ -447,6 +447,11 @@ fn take_samples(
                         break;
                     }
                 }
+                // Each batch the worker sends (about every 20 ms) goes to the system as
+                // it came: a crash loses no sample that reached the recorder.
+                if taker.streaming() {
+                    taker.output.flush();
+                }
             }
             Ok(Event::Notice(notice)) => {
                 if let Some(text) = link_mark(&notice.text) {
@@ -464,7 +469,6 @@ fn take_samples(
         if let Some(error) = taker.output.error.take() {
             return (taker, Some(failed(error)));
         }
-        taker.output.flush_if_due();
         if triggered && taker.fired_at.is_none() && started.elapsed().as_secs_f64() > plan.wait {
             let cut = failed(format!(
                 "the trigger did not fire within {:.1} s ({})",
@@ -920,10 +924,6 @@ impl Output {
 
     fn flush(&mut self) {
         self.with(StreamWriter::flush);
-    }
-
-    fn flush_if_due(&mut self) {
-        self.with(StreamWriter::flush_if_due);
     }
 
     /// End the file (`last`: the fields known at the end) and say where it is. A file
