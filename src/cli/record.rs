@@ -3,8 +3,9 @@
 //! device's identity and the units in the file's header. With `--trigger` it waits for
 //! the condition and records `--pre` before and `--duration` after it.
 
+use std::fs::File;
 use std::io::IsTerminal;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant, SystemTime};
 
@@ -16,13 +17,14 @@ use super::progress;
 use super::session::Session;
 use super::stop::STOP_WAIT;
 use super::{EXIT_FAILED, EXIT_INTERRUPTED, RecordArgs, report};
-use crate::file::{check_writable, write_whole};
+use crate::file::check_writable;
 use crate::link::LinkSpec;
 use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{self, Address};
 use crate::telemetry::{
-    Builtin, CaptureState, Condition, Edge, Kind, Recording, Scope, ScopeEvent, Trigger,
-    WatchedObject, metadata, recording_text, utc_text, watchable,
+    Builtin, CaptureState, ChannelInfo, Condition, Edge, Kind, Marker, Metadata, Scope, ScopeEvent,
+    StreamWriter, Summary, Trigger, WatchedObject, link_mark, metadata, stream_layout, utc_text,
+    watchable,
 };
 use crate::worker::{Event, MAX_WATCHED, Request};
 
@@ -217,8 +219,12 @@ fn plan(args: &RecordArgs, timeout: Duration) -> Result<Plan, Failure> {
         )));
     }
     let (ids, watched) = signals(&args.signals).map_err(usage)?;
-    let rows = ((duration + pre) * args.rate * 1.5) as usize + 1_000;
-    let mut scope = Scope::new(rows.min(50_000_000));
+    // The ring holds only what is not in the file yet: the time before a trigger.
+    let rows = match &args.trigger {
+        Some(_) => ((pre * args.rate * 1.5) as usize + 1_000).min(50_000_000),
+        None => UNTRIGGERED_ROWS,
+    };
+    let mut scope = Scope::new(rows);
     let objects: Vec<WatchedObject> = watched.iter().map(|(w, _)| w.clone()).collect();
     scope.set_watched(&objects);
     for signal in scope.signals_mut() {
@@ -268,37 +274,91 @@ fn record(
     let mut warnings = Vec::new();
     if let Err(e) = session.catch_signals() {
         warnings.push(format!(
-            "{e}: Ctrl-C will end drivedeck without saving the recording"
+            "{e}: Ctrl-C will end drivedeck without ending the recording's file (it holds the samples until then and says it was cut)"
         ));
     }
     let early_cut = prepare(&mut session, &mut plan, link, args.rate, timeout)?;
-    let (taker, cut) = take_samples(&mut session, plan, args.rate, early_cut);
-    let mut recording = cut_out(taker, &cut, args.rate)?;
-    // Saved before the drive is stopped: a second Ctrl-C while it brakes ends the process
-    // at once, and must not take the recording with it.
+    let channels = recorded_channels(&plan.scope);
+    let mut head = plan.scope.meta.clone();
+    // The rate achieved is known at the end; the one asked for now.
+    head.rate_hz = None;
+    head.rate_asked_hz = Some(args.rate);
+    let output = Output::open(&args.out, &head, &channels);
+    if let Some(why) = &output.elsewhere {
+        eprintln!(
+            "warning: {why}; recording to {} instead",
+            output.path.display()
+        );
+    }
+    // It ends complete (`taker.window`) or cut short (`cut`).
+    let (mut taker, cut) = take_samples(&mut session, plan, output, args.rate, early_cut);
+    taker.close(cut.is_some());
+    // Everything taken is on its way to the disk before the drive is stopped: a second
+    // Ctrl-C while it brakes ends the process at once, and must not take the samples.
     let interrupted = cut.as_ref().filter(|f| f.signal.is_some());
     let stopping = interrupted.is_some() && session.is_moving_or_unknown();
     let action = session.on_exit();
-    if stopping && let Some(why) = &mut recording.meta.ended_early {
-        why.push_str(&format!(
-            "; the drive was being stopped ({}, --on-exit) when this was written",
-            action.name()
-        ));
-    }
-    let mut saved = save_safely(&recording, &args.out);
+    let mut ended_early = match (&cut, taker.window) {
+        (Some(cut), None) => Some(early_why(cut, taker.summary.last_t)),
+        _ => None,
+    };
     let mut stopped = None;
     if let Some(cut) = interrupted.filter(|_| stopping) {
+        if let Some(why) = &ended_early {
+            taker.output.meta(&Metadata {
+                ended_early: Some(format!(
+                    "{why}; the drive was being stopped ({}, --on-exit) when this was written",
+                    action.name()
+                )),
+                ..Metadata::default()
+            });
+        }
         let done = session.stop_drive(action, timeout.min(STOP_WAIT));
-        recording.meta.ended_early = Some(format!("{}; {done}", early_why(cut, &recording)));
-        saved = saved.again(&recording);
+        ended_early = Some(format!("{}; {done}", early_why(cut, taker.summary.last_t)));
         stopped = Some(done);
     }
+    let mut last = Metadata {
+        ended_early,
+        trigger_time_s: taker.fired_at,
+        rate_asked_hz: Some(args.rate),
+        ..Metadata::default()
+    };
+    // The file says the rate that was achieved beside the one asked for.
+    last.rate_hz =
+        (taker.summary.rows > 1).then_some((taker.summary.achieved_rate() * 10.0).round() / 10.0);
+    let saved = taker.output.finish(&last, &taker.summary, channels.len());
+    let taken = Taken {
+        meta: {
+            let mut meta = head;
+            meta.merge(&last);
+            meta
+        },
+        channels: channels.into_iter().map(|(_, info)| info).collect(),
+        summary: taker.summary,
+    };
     let ending = Ending {
         cut,
         stopped,
         saved,
     };
-    Ok(finish(session, recording, ending, link, args, warnings))
+    Ok(finish(session, taken, ending, link, args, warnings))
+}
+
+/// The signals the file records: the ring column and the description of each.
+fn recorded_channels(scope: &Scope) -> Vec<(usize, ChannelInfo)> {
+    scope
+        .signals()
+        .iter()
+        .filter(|s| scope.is_drawn(s))
+        .map(|s| (s.column, s.info.clone()))
+        .collect()
+}
+
+/// What was recorded: the header as it ended, the channels, the counts.
+struct Taken {
+    meta: Metadata,
+    channels: Vec<ChannelInfo>,
+    summary: Summary,
 }
 
 /// The identity into the file's header, the watched objects asked for, the trigger armed.
@@ -335,11 +395,14 @@ fn prepare(
     Ok(None)
 }
 
-/// Take samples until the recording is complete, or something cuts it short (the
-/// failure says what: a signal, a lost link, a trigger that did not fire).
+/// Take samples into the file until the recording is complete, or something cuts it
+/// short (the failure says what: a signal, a lost link, a trigger that did not fire, a
+/// file that cannot be written). Every outage, retry and lost link on the way is a
+/// marker in the file at its time.
 fn take_samples(
     session: &mut Session,
     plan: Plan,
+    output: Output,
     rate: f64,
     early_cut: Option<Failure>,
 ) -> (Taker<impl FnMut(usize, usize) + use<>>, Option<Failure>) {
@@ -350,9 +413,14 @@ fn take_samples(
     } else {
         "recording (ms)"
     });
+    let channels = recorded_channels(&plan.scope);
     let mut taker = Taker {
+        columns: channels.iter().map(|(c, _)| *c).collect(),
+        values: vec![f64::NAN; channels.len()],
+        summary: Summary::new(channels.len()),
         scope: plan.scope,
-        trigger: triggered,
+        output,
+        trigger: plan.trigger.as_ref().map(|t| (t.pre_s, t.post_s)),
         duration: plan.duration,
         half_period: 0.5 / rate,
         total_ms: (plan.duration * 1000.0) as usize,
@@ -360,6 +428,7 @@ fn take_samples(
         first_t: None,
         window: None,
         fired_at: None,
+        clock: SampleClock::default(),
     };
     // From the first sample on, the ones that came while connecting included (a slow
     // rate samples from t = 0).
@@ -378,9 +447,27 @@ fn take_samples(
                         break;
                     }
                 }
+                // Each batch the worker sends (about every 20 ms) goes to the system as
+                // it came: a crash loses no sample that reached the recorder.
+                if taker.streaming() {
+                    taker.output.flush();
+                }
+            }
+            Ok(Event::Notice(notice)) => {
+                if let Some(text) = link_mark(&notice.text) {
+                    taker.mark(text);
+                }
             }
             Ok(_) => {}
-            Err(f) => return (taker, Some(f)),
+            Err(f) => {
+                if let Some(reason) = f.message.strip_prefix("the link was lost: ") {
+                    taker.mark(format!("link lost: {reason}"));
+                }
+                return (taker, Some(f));
+            }
+        }
+        if let Some(error) = taker.output.error.take() {
+            return (taker, Some(failed(error)));
         }
         if triggered && taker.fired_at.is_none() && started.elapsed().as_secs_f64() > plan.wait {
             let cut = failed(format!(
@@ -394,48 +481,13 @@ fn take_samples(
     (taker, None)
 }
 
-/// The recording: the complete window, or everything taken until the cut, with why it
-/// ended in its header.
-fn cut_out<F: FnMut(usize, usize)>(
-    taker: Taker<F>,
-    cut: &Option<Failure>,
-    rate: f64,
-) -> Result<Recording, Failure> {
-    let Taker {
-        scope,
-        window,
-        fired_at,
-        first_t,
-        ..
-    } = taker;
-    let mut meta = scope.meta.clone();
-    meta.trigger_time_s = fired_at;
-    let (from, to) = match (window, cut) {
-        (Some(window), _) => window,
-        (None, Some(_)) => {
-            let from = scope.ring().first_time().or(first_t).unwrap_or(0.0);
-            (from, scope.ring().last_time().unwrap_or(from))
-        }
-        (None, None) => return Err(failed("no samples came")),
-    };
-    let mut recording = scope.export(from, to, meta, true);
-    if window.is_none()
-        && let Some(cut) = cut
-    {
-        recording.meta.ended_early = Some(early_why(cut, &recording));
-    }
-    // The file says the rate that was achieved beside the one asked for.
-    recording.set_rates(rate);
-    Ok(recording)
-}
-
 /// Why and when a recording ended early: the cut's words, the last sample's time and the
 /// wall-clock time.
-fn early_why(cut: &Failure, recording: &Recording) -> String {
+fn early_why(cut: &Failure, last_t: Option<f64>) -> String {
     format!(
         "{} at t = {:.3} s ({})",
         cut.message,
-        recording.times.last().copied().unwrap_or(0.0),
+        last_t.unwrap_or(0.0),
         utc_text(SystemTime::now())
     )
 }
@@ -451,14 +503,14 @@ struct Ending {
 /// Say what was recorded, where it went, and how the run ended.
 fn finish(
     mut session: Session,
-    recording: Recording,
+    taken: Taken,
     ending: Ending,
     link: &LinkSpec,
     args: &RecordArgs,
     mut warnings: Vec<String>,
 ) -> RecordReport {
-    let achieved = recording.achieved_rate();
-    if recording.len() > 2 && achieved < 0.9 * args.rate {
+    let achieved = taken.summary.achieved_rate();
+    if taken.summary.rows > 2 && achieved < 0.9 * args.rate {
         warnings.push(slow_rate(link, args.rate, achieved));
     }
     let Ending {
@@ -475,7 +527,7 @@ fn finish(
         Saved::Elsewhere { why, path } => {
             warnings.push(format!(
                 "{why}; the recording ({} samples) was saved to {path} instead",
-                recording.len()
+                taken.summary.rows
             ));
             Some(path.clone())
         }
@@ -483,23 +535,30 @@ fn finish(
             warnings.push(format!("{why}; the recording is lost"));
             None
         }
+        Saved::Short { why, path } => {
+            warnings.push(why.clone());
+            Some(path.clone())
+        }
     };
-    let signals = signal_reports(&recording, &mut warnings);
+    let signals = signal_reports(&taken, &mut warnings);
     let code = match (&cut, &saved) {
         (Some(f), _) if f.signal.is_some() => Some(EXIT_INTERRUPTED),
-        (Some(_), _) | (None, Saved::Elsewhere { .. } | Saved::Lost { .. }) => Some(EXIT_FAILED),
+        (Some(_), _)
+        | (None, Saved::Elsewhere { .. } | Saved::Lost { .. } | Saved::Short { .. }) => {
+            Some(EXIT_FAILED)
+        }
         (None, Saved::Here { .. }) => None,
     };
     RecordReport {
         file,
-        samples: recording.len(),
-        seconds: recording.duration(),
+        samples: taken.summary.rows,
+        seconds: taken.summary.duration(),
         rate: achieved,
         rate_asked: args.rate,
         signals,
-        trigger: recording.meta.trigger.clone(),
-        trigger_time_s: recording.meta.trigger_time_s,
-        ended_early: recording.meta.ended_early.clone(),
+        trigger: taken.meta.trigger.clone(),
+        trigger_time_s: taken.meta.trigger_time_s,
+        ended_early: taken.meta.ended_early.clone(),
         stopped,
         notes,
         warnings,
@@ -508,14 +567,13 @@ fn finish(
 }
 
 /// Each channel and how many samples it has (a warning for one that has none).
-fn signal_reports(recording: &Recording, warnings: &mut Vec<String>) -> Vec<SignalReport> {
-    recording
+fn signal_reports(taken: &Taken, warnings: &mut Vec<String>) -> Vec<SignalReport> {
+    taken
         .channels
         .iter()
-        .zip(&recording.columns)
-        .map(|(info, column)| {
-            let samples = column.iter().filter(|v| !v.is_nan()).count();
-            if samples == 0 && !recording.is_empty() {
+        .zip(&taken.summary.counts)
+        .map(|(info, &samples)| {
+            if samples == 0 && taken.summary.rows > 0 {
                 warnings.push(format!(
                     "{}: no samples; this link does not deliver it",
                     info.id
@@ -546,10 +604,42 @@ fn slow_rate(link: &LinkSpec, asked: f64, achieved: f64) -> String {
     format!("asked for {asked} samples/s, the link delivered {achieved:.1}/s{why}")
 }
 
-/// The samples of a recording as they come: the window to keep once it is complete.
+/// The samples' clock (the worker's) read between samples, for the time of a marker:
+/// the worker's time is at least a sample's time plus how long ago it arrived, and the
+/// sample that came soonest after it was taken tells it best.
+#[derive(Default)]
+struct SampleClock {
+    since: Option<Instant>,
+    /// The worker's time minus the seconds since `since`, as best known.
+    offset: Option<f64>,
+}
+
+impl SampleClock {
+    fn sample(&mut self, t: f64) {
+        let since = *self.since.get_or_insert_with(Instant::now);
+        let offset = t - since.elapsed().as_secs_f64();
+        self.offset = Some(self.offset.map_or(offset, |o| o.max(offset)));
+    }
+
+    /// The worker's time now, if a sample came.
+    fn now(&self) -> Option<f64> {
+        Some(self.offset? + self.since?.elapsed().as_secs_f64())
+    }
+}
+
+/// The samples of a recording as they come, into the file as they come. What it keeps
+/// in memory does not grow with the samples: the ring of the scope holds the time before
+/// a trigger (or a few rows without one), the file the rest.
 struct Taker<F: FnMut(usize, usize)> {
     scope: Scope,
-    trigger: bool,
+    /// The ring columns of the recorded channels, in the file's order.
+    columns: Vec<usize>,
+    /// The row being written (one value per recorded channel).
+    values: Vec<f64>,
+    summary: Summary,
+    output: Output,
+    /// The trigger's pre- and post-trigger seconds.
+    trigger: Option<(f64, f64)>,
     duration: f64,
     /// Half the sampling period, s.
     half_period: f64,
@@ -558,7 +648,11 @@ struct Taker<F: FnMut(usize, usize)> {
     first_t: Option<f64>,
     window: Option<(f64, f64)>,
     fired_at: Option<f64>,
+    clock: SampleClock,
 }
+
+/// Rows the ring keeps without a trigger: only the newest is read back.
+const UNTRIGGERED_ROWS: usize = 16;
 
 impl<F: FnMut(usize, usize)> Taker<F> {
     /// Take one sample; `true` once the recording is complete.
@@ -567,10 +661,12 @@ impl<F: FnMut(usize, usize)> Taker<F> {
             return true;
         }
         let start = *self.first_t.get_or_insert(sample.t);
+        self.clock.sample(sample.t);
         let event = self.scope.push(sample);
         let (duration, total_ms) = (self.duration, self.total_ms);
         match (self.trigger, event) {
-            (false, _) => {
+            (None, _) => {
+                self.write_newest();
                 (self.bar)(
                     ((sample.t - start) * 1000.0).min(duration * 1000.0) as usize,
                     total_ms,
@@ -581,15 +677,24 @@ impl<F: FnMut(usize, usize)> Taker<F> {
                     self.window = Some((start, sample.t.max(start + duration)));
                 }
             }
-            (true, Some(ScopeEvent::Fired(at))) => self.fired_at = Some(at),
-            (true, Some(ScopeEvent::Recorded)) => {
-                if let CaptureState::Complete { from, to, .. } = self.scope.capture_state() {
+            (Some((pre, _)), Some(ScopeEvent::Fired(at))) => self.fired(at, pre),
+            (Some((pre, post)), Some(ScopeEvent::Recorded)) => {
+                if let CaptureState::Complete { from, at, to } = self.scope.capture_state() {
+                    match self.fired_at {
+                        // No time after the trigger: it fired and completed at once.
+                        None => self.fired(at, pre),
+                        Some(at) if sample.t <= at + post => self.write_newest(),
+                        Some(_) => {}
+                    }
                     (self.bar)(total_ms, total_ms);
                     self.window = Some((from, to));
                 }
             }
-            (true, None) => {
+            (Some((_, post)), None) => {
                 if let Some(at) = self.fired_at {
+                    if sample.t <= at + post {
+                        self.write_newest();
+                    }
                     (self.bar)(
                         ((sample.t - at) * 1000.0).max(0.0) as usize,
                         total_ms.max(1),
@@ -598,6 +703,94 @@ impl<F: FnMut(usize, usize)> Taker<F> {
             }
         }
         self.window.is_some()
+    }
+
+    /// Whether rows go to the file as they come (always without a trigger; from its
+    /// firing with one).
+    fn streaming(&self) -> bool {
+        self.trigger.is_none() || self.fired_at.is_some()
+    }
+
+    /// Something that happened to the link, as a marker at its time on the samples'
+    /// clock (never before the newest row).
+    fn mark(&mut self, text: String) {
+        let newest = self.scope.ring().last_time();
+        let t = match (self.clock.now(), newest) {
+            (Some(now), Some(newest)) => now.max(newest),
+            (now, newest) => now.or(newest).unwrap_or(0.0),
+        };
+        if self.streaming() {
+            self.output.mark(&Marker { t, text });
+        } else {
+            self.scope.mark(t, text);
+        }
+    }
+
+    /// The trigger fired at `at`: the time before it (from the ring, with its markers)
+    /// into the file, and the rows after it from now on.
+    fn fired(&mut self, at: f64, pre: f64) {
+        self.fired_at = Some(at);
+        self.output.meta(&Metadata {
+            trigger_time_s: Some(at),
+            ..Metadata::default()
+        });
+        self.write_history(at - pre);
+    }
+
+    /// The rows of the ring from `from` on, with the scope's markers among them.
+    fn write_history(&mut self, from: f64) {
+        let ring = self.scope.ring();
+        let mut markers: Vec<Marker> = self
+            .scope
+            .markers()
+            .filter(|m| m.t >= from)
+            .cloned()
+            .collect();
+        markers.sort_by(|a, b| a.t.total_cmp(&b.t));
+        let mut markers = markers.into_iter().peekable();
+        for i in ring.range(from, f64::INFINITY) {
+            let Some(t) = ring.time(i) else { continue };
+            while let Some(m) = markers.next_if(|m| m.t <= t) {
+                self.output.mark(&m);
+            }
+            for (value, &column) in self.values.iter_mut().zip(&self.columns) {
+                *value = ring.value(i, column).unwrap_or(f64::NAN);
+            }
+            self.summary.add(t, &self.values);
+            self.output.row(t, &self.values);
+        }
+        for m in markers {
+            self.output.mark(&m);
+        }
+    }
+
+    /// The newest sample of the ring into the file.
+    fn write_newest(&mut self) {
+        let ring = self.scope.ring();
+        let Some(i) = ring.len().checked_sub(1) else {
+            return;
+        };
+        let Some(t) = ring.time(i) else { return };
+        for (value, &column) in self.values.iter_mut().zip(&self.columns) {
+            *value = ring.value(i, column).unwrap_or(f64::NAN);
+        }
+        self.summary.add(t, &self.values);
+        self.output.row(t, &self.values);
+    }
+
+    /// The recording ends (`cut`: before its time): a trigger that never fired leaves the
+    /// history it waited through in the file.
+    fn close(&mut self, cut: bool) {
+        if cut && !self.streaming() {
+            self.write_history(f64::NEG_INFINITY);
+        }
+        self.output.flush();
+    }
+
+    /// Samples kept in memory (the ring's rows and the markers waiting for a trigger).
+    #[cfg(test)]
+    fn retained(&self) -> usize {
+        self.scope.ring().len() + self.scope.markers().count()
     }
 }
 
@@ -617,64 +810,211 @@ enum Saved {
     Elsewhere { why: String, path: String },
     /// No place took it.
     Lost { why: String },
+    /// It is at `path`, but a write failed (`why`): the file holds what was written
+    /// until then and does not end normally.
+    Short { why: String, path: String },
 }
 
-impl Saved {
-    /// Write the recording again where it went the first time (its header says more now);
-    /// if that fails, the file as first written stands.
-    fn again(self, recording: &Recording) -> Saved {
-        let path = match &self {
-            Saved::Here { path, .. } | Saved::Elsewhere { path, .. } => Path::new(path),
-            Saved::Lost { .. } => return self,
-        };
-        if let Err(e) = write_whole(path, recording_text(recording, path)) {
-            tracing::warn!(
-                "{}: {e}; the file holds the recording as first written",
-                path.display()
-            );
-        }
-        self
+/// The file of a recording being taken: written as the samples come, straight into the
+/// place asked for (a crash leaves the samples under the name the user gave, and the
+/// file says it was cut); where that place cannot take it, into the temporary directory.
+struct Output {
+    writer: Option<StreamWriter>,
+    /// Where the file is being written.
+    path: PathBuf,
+    /// Why the place asked for did not take it (`path` is in the temporary directory).
+    elsewhere: Option<String>,
+    /// Why no place took it (`writer` is `None`).
+    lost: Option<String>,
+    /// A write that failed, for the recording to end on.
+    error: Option<String>,
+}
+
+/// A file for a recording: created (or emptied), readable too where it may be (to copy
+/// it elsewhere should its place go away).
+fn create(path: &Path) -> std::io::Result<File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create(true).truncate(true);
+    match options.clone().read(true).open(path) {
+        Ok(file) => Ok(file),
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => options.open(path),
+        Err(e) => Err(e),
     }
 }
 
-/// Write the recording to `path` whole or not at all. When that fails, the recording goes
-/// to the temporary directory instead; only if that fails too is it lost.
-fn save_safely(recording: &Recording, path: &Path) -> Saved {
-    let shown = shown_path(path);
-    let text = recording_text(recording, path);
-    let why = match write_whole(path, &text) {
-        Ok(()) => {
-            return Saved::Here {
-                message: format!(
-                    "saved {} samples of {} signals ({:.2} s) to {shown}",
-                    recording.len(),
-                    recording.channels.len(),
-                    recording.duration()
-                ),
-                path: path.to_string_lossy().into_owned(),
-            };
-        }
-        Err(e) => format!("cannot write {shown}: {e}"),
-    };
-    let extension = path
+/// The place of last resort: the temporary directory, a name of this run's.
+fn elsewhere_path(asked: &Path) -> PathBuf {
+    let extension = asked
         .extension()
         .map_or("csv".into(), |e| e.to_string_lossy().into_owned());
-    let elsewhere = std::env::temp_dir().join(format!(
+    std::env::temp_dir().join(format!(
         "drivedeck-recording-{}-{}.{extension}",
         std::process::id(),
         SystemTime::now()
             .duration_since(SystemTime::UNIX_EPOCH)
             .map_or(0, |d| d.as_secs()),
-    ));
-    match write_whole(&elsewhere, &text) {
-        Ok(()) => Saved::Elsewhere {
-            why,
-            path: elsewhere.display().to_string(),
-        },
-        Err(e) => Saved::Lost {
-            why: format!("{why}; nor to {}: {e}", elsewhere.display()),
-        },
+    ))
+}
+
+impl Output {
+    /// The file at `path` with its header (`head`, the channels) written.
+    fn open(path: &Path, head: &Metadata, channels: &[(usize, ChannelInfo)]) -> Output {
+        let layout = stream_layout(path);
+        let infos: Vec<ChannelInfo> = channels.iter().map(|(_, info)| info.clone()).collect();
+        let start = |at: &Path| {
+            create(at).and_then(|file| StreamWriter::create(file, layout, head, &infos))
+        };
+        let why = match start(path) {
+            Ok(writer) => {
+                return Output {
+                    writer: Some(writer),
+                    path: path.to_path_buf(),
+                    elsewhere: None,
+                    lost: None,
+                    error: None,
+                };
+            }
+            Err(e) => format!("cannot write {}: {e}", shown_path(path)),
+        };
+        let other = elsewhere_path(path);
+        match start(&other) {
+            Ok(writer) => Output {
+                writer: Some(writer),
+                path: other,
+                elsewhere: Some(why),
+                lost: None,
+                error: None,
+            },
+            Err(e) => Output {
+                writer: None,
+                path: other.clone(),
+                elsewhere: None,
+                lost: Some(format!("{why}; nor to {}: {e}", other.display())),
+                error: None,
+            },
+        }
     }
+
+    /// Run `write` on the writer; the first failure is kept for the recording to end on.
+    fn with(&mut self, write: impl FnOnce(&mut StreamWriter) -> std::io::Result<()>) {
+        let Some(writer) = &mut self.writer else {
+            return;
+        };
+        if let Err(e) = write(writer)
+            && self.error.is_none()
+        {
+            self.error = Some(format!(
+                "cannot write {}: {e}; the file holds the samples until then",
+                shown_path(&self.path)
+            ));
+        }
+    }
+
+    fn row(&mut self, t: f64, values: &[f64]) {
+        self.with(|w| w.row(t, values));
+    }
+
+    fn mark(&mut self, marker: &Marker) {
+        self.with(|w| w.mark(marker));
+    }
+
+    fn meta(&mut self, update: &Metadata) {
+        self.with(|w| w.meta(update));
+    }
+
+    fn flush(&mut self) {
+        self.with(StreamWriter::flush);
+    }
+
+    /// End the file (`last`: the fields known at the end) and say where it is. A file
+    /// whose place went away while it was written (its directory removed) is copied to
+    /// the temporary directory.
+    fn finish(mut self, last: &Metadata, summary: &Summary, channels: usize) -> Saved {
+        if let Some(why) = self.lost.take() {
+            return Saved::Lost { why };
+        }
+        self.with(|w| w.finish(last, summary.rows));
+        let shown = shown_path(&self.path);
+        let path = self.path.to_string_lossy().into_owned();
+        if let Some(why) = self.error.take() {
+            return Saved::Short { why, path };
+        }
+        let Some(writer) = self.writer.take() else {
+            return Saved::Lost {
+                why: format!("cannot write {shown}"),
+            };
+        };
+        let saved = |path: String| Saved::Here {
+            message: format!(
+                "saved {} samples of {channels} signals ({:.2} s) to {shown}",
+                summary.rows,
+                summary.duration()
+            ),
+            path,
+        };
+        let file = match writer.into_file() {
+            Ok(file) => file,
+            Err(e) => {
+                return match self.elsewhere {
+                    Some(why) => Saved::Elsewhere { why, path },
+                    None => Saved::Short {
+                        why: format!(
+                            "cannot write {shown}: {e}; the file holds what was written until then"
+                        ),
+                        path,
+                    },
+                };
+            }
+        };
+        if still_at(&file, &self.path) {
+            return match self.elsewhere {
+                Some(why) => Saved::Elsewhere { why, path },
+                None => saved(path),
+            };
+        }
+        // The place went away while the file was written: the samples are in the open
+        // file only, and go to the temporary directory.
+        let why = format!(
+            "cannot write {shown}: it (or its directory) went away while the recording was taken"
+        );
+        let other = elsewhere_path(&self.path);
+        match copy_out(file, &other) {
+            Ok(()) => Saved::Elsewhere {
+                why,
+                path: other.display().to_string(),
+            },
+            Err(e) => Saved::Lost {
+                why: format!("{why}; nor to {}: {e}", other.display()),
+            },
+        }
+    }
+}
+
+/// Whether `path` still names the open `file` (not removed, not replaced).
+fn still_at(file: &File, path: &Path) -> bool {
+    let (Ok(open), Ok(named)) = (file.metadata(), std::fs::metadata(path)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        open.dev() == named.dev() && open.ino() == named.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (open, named);
+        true
+    }
+}
+
+/// The whole of an open file into a new one at `to`.
+fn copy_out(mut file: File, to: &Path) -> std::io::Result<()> {
+    use std::io::{Seek, SeekFrom, Write};
+    file.seek(SeekFrom::Start(0))?;
+    let mut out = std::fs::File::create(to)?;
+    std::io::copy(&mut file, &mut out)?;
+    out.flush()?;
+    out.sync_data()
 }
 
 fn print(report: &RecordReport, json: bool) {
@@ -719,5 +1059,146 @@ fn print(report: &RecordReport, json: bool) {
     }
     for warning in &report.warnings {
         eprintln!("warning: {warning}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signal::{Signal, Signals};
+    use crate::worker::Sample;
+
+    fn sample(t: f64, position: f64) -> Sample {
+        Sample {
+            t,
+            signals: Signals::default()
+                .with(Signal::Position, position)
+                .with(Signal::Velocity, 1.0),
+            ..Sample::default()
+        }
+    }
+
+    /// A taker as `record` makes one, of position and velocity, into `path`.
+    fn taker(
+        rows: usize,
+        trigger: Option<Trigger>,
+        duration: f64,
+        path: &Path,
+    ) -> Taker<impl FnMut(usize, usize)> {
+        let mut scope = Scope::new(rows);
+        for signal in scope.signals_mut() {
+            signal.shown = ["position", "velocity"].contains(&signal.info.id.as_str());
+            signal.auto = false;
+        }
+        if let Some(trigger) = &trigger {
+            scope.arm(trigger.clone());
+        }
+        let channels = recorded_channels(&scope);
+        let output = Output::open(path, &Metadata::default(), &channels);
+        assert!(output.elsewhere.is_none() && output.lost.is_none());
+        Taker {
+            columns: channels.iter().map(|(c, _)| *c).collect(),
+            values: vec![f64::NAN; channels.len()],
+            summary: Summary::new(channels.len()),
+            scope,
+            output,
+            trigger: trigger.map(|t| (t.pre_s, t.post_s)),
+            duration,
+            half_period: 0.0005,
+            total_ms: (duration * 1000.0) as usize,
+            bar: |_, _| {},
+            first_t: None,
+            window: None,
+            fired_at: None,
+            clock: SampleClock::default(),
+        }
+    }
+
+    fn read(path: &Path) -> crate::telemetry::Recording {
+        crate::telemetry::load_recording(path, crate::telemetry::MAX_RECORDING_BYTES)
+            .expect("the file opens")
+    }
+
+    /// 200 000 samples at 1 kHz: the rows kept in memory stay as few as the ring holds,
+    /// whatever came; every row is in the file.
+    #[test]
+    fn what_the_recorder_keeps_does_not_grow_with_the_samples() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("long.csv");
+        let mut taker = taker(UNTRIGGERED_ROWS, None, 1000.0, &path);
+        let mut most = 0;
+        for i in 0..200_000 {
+            let t = f64::from(i) * 0.001;
+            assert!(!taker.take(&sample(t, f64::from(i))));
+            if i == 100_000 {
+                taker.mark("outage: an exchange with the drive failed".into());
+            }
+            most = most.max(taker.retained());
+        }
+        assert!(most <= UNTRIGGERED_ROWS, "{most} rows kept");
+        assert_eq!(taker.summary.rows, 200_000);
+        assert_eq!(taker.summary.counts, vec![200_000, 200_000]);
+        taker.close(false);
+        let saved = taker.output.finish(&Metadata::default(), &taker.summary, 2);
+        assert!(matches!(saved, Saved::Here { .. }));
+        let recording = read(&path);
+        assert_eq!(recording.len(), 200_000);
+        assert_eq!(recording.meta.cut, None);
+        assert_eq!(recording.columns[0][123_456], 123_456.0);
+        // The marker at its time: never before the newest row when it came.
+        assert_eq!(recording.markers.len(), 1);
+        assert!(recording.markers[0].t >= 100.0, "{:?}", recording.markers);
+    }
+
+    /// With a trigger, memory holds the time before it (the ring), never more, while it
+    /// waits and after it fired; the file gets the time before it, the marker made while
+    /// waiting, and every row after it.
+    #[test]
+    fn a_triggered_recording_keeps_only_the_time_before_the_trigger() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("triggered.json");
+        let trigger = Trigger {
+            condition: Condition::Threshold {
+                channel: Builtin::Position as usize,
+                level: 50_000.0,
+                edge: Edge::Rising,
+            },
+            pre_s: 0.5,
+            post_s: 60.0,
+        };
+        let ring = 1_000 + 750;
+        let mut taker = taker(ring, Some(trigger), 60.0, &path);
+        let mut most = 0;
+        let mut done = None;
+        for i in 0..150_000 {
+            let t = f64::from(i) * 0.001;
+            if i == 49_900 {
+                taker.mark("retry: a reply lost, answered on try 2".into());
+            }
+            if taker.take(&sample(t, f64::from(i))) {
+                done = Some(i);
+                break;
+            }
+            most = most.max(taker.retained());
+        }
+        assert!(most <= ring + 1, "{most} rows kept");
+        let at = taker.fired_at.expect("fired");
+        assert!((49.999..=50.001).contains(&at), "fired at {at}");
+        let done = f64::from(done.expect("complete")) * 0.001;
+        assert!(
+            done >= at + 60.0 - 1e-9 && done < at + 60.002,
+            "complete 60 s after the trigger: {done}"
+        );
+        taker.close(false);
+        taker.output.finish(&Metadata::default(), &taker.summary, 2);
+        let recording = read(&path);
+        assert_eq!(recording.meta.cut, None);
+        assert_eq!(recording.meta.trigger_time_s, Some(at));
+        assert_eq!(recording.len(), taker.summary.rows);
+        let first = recording.times[0];
+        assert!((at - first - 0.5).abs() < 0.002, "from {first}");
+        assert!(recording.times.last().is_some_and(|t| *t <= at + 60.0));
+        assert_eq!(recording.markers.len(), 1, "{:?}", recording.markers);
+        assert!(recording.markers[0].text.starts_with("retry: "));
     }
 }

@@ -8,9 +8,14 @@ mod save;
 mod scope;
 pub mod trigger;
 
-pub use recording::{ChannelInfo, Marker, Metadata, Recording, RecordingError};
+pub use recording::stream::{Layout, StreamWriter, Summary};
+pub use recording::{
+    ChannelInfo, Marker, Metadata, Recording, RecordingError, cut_text, link_mark,
+};
 pub use ring::{BitSpan, PushError, Ring};
-pub use save::{MAX_RECORDING_BYTES, load_recording, recording_text, save_recording};
+pub use save::{
+    MAX_RECORDING_BYTES, load_recording, recording_text, save_recording, stream_layout,
+};
 pub use scope::{
     Builtin, DEFAULT_HISTORY_ROWS, Gap, Kind, Scope, ScopeEvent, SignalDef, Source, WatchedObject,
     bit_name, format_number, metadata, utc_text, watchable,

@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use super::Recording;
+use super::recording::stream::Layout;
 use crate::file::write_whole;
 
 /// The largest recording file opened: ten minutes of every signal at 1 kHz is about
@@ -13,6 +14,16 @@ pub const MAX_RECORDING_BYTES: u64 = 512 * 1024 * 1024;
 fn is_json(path: &Path) -> bool {
     path.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+}
+
+/// The layout of a recording written as taken to `path`: JSON for a `.json` path, CSV
+/// otherwise.
+pub fn stream_layout(path: &Path) -> Layout {
+    if is_json(path) {
+        Layout::Json
+    } else {
+        Layout::Csv
+    }
 }
 
 /// The recording as the file at `path` wants it: JSON for a `.json` path, CSV otherwise.
@@ -54,12 +65,23 @@ pub fn load_recording(path: &Path, limit: u64) -> Result<Recording, String> {
         crate::file::ReadError::Io { source, .. } => format!("cannot open {shown}: {source}"),
         e @ crate::file::ReadError::NotAFile { .. } => e.to_string(),
     })?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        format!(
-            "{shown} is not a recording: not text (byte {} is not UTF-8)",
-            e.utf8_error().valid_up_to()
-        )
-    })?;
+    let text = match String::from_utf8(bytes) {
+        Ok(text) => text,
+        // A file cut by a crash may end inside a character: the part line it is on goes
+        // anyway (see `Recording::from_csv`), so the bytes before it are read.
+        Err(e) if e.utf8_error().error_len().is_none() && e.utf8_error().valid_up_to() > 0 => {
+            let valid = e.utf8_error().valid_up_to();
+            let mut bytes = e.into_bytes();
+            bytes.truncate(valid);
+            String::from_utf8(bytes).map_err(|e| format!("{shown}: {e}"))?
+        }
+        Err(e) => {
+            return Err(format!(
+                "{shown} is not a recording: not text (byte {} is not UTF-8)",
+                e.utf8_error().valid_up_to()
+            ));
+        }
+    };
     let json = is_json(path) || text.trim_start().starts_with('{');
     let recording = if json {
         Recording::from_json(&text)

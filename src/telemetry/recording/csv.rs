@@ -11,54 +11,23 @@ impl Recording {
     pub fn to_csv(&self) -> String {
         let mut out = String::with_capacity(64 + self.len() * (12 + 10 * self.channels.len()));
         out.push_str("# drivedeck recording\n");
-        for (key, value) in self.meta.text_fields() {
-            if let Some(value) = value {
-                put(&mut out, format_args!("# {key}: {}\n", escape(value)));
-            }
-        }
-        for (key, value) in self.meta.number_fields() {
-            if let Some(value) = value {
-                put(&mut out, format_args!("# {key}: {value}\n"));
-            }
-        }
-        for c in &self.channels {
-            put(
-                &mut out,
-                format_args!(
-                    "# channel: {} | {} | {}\n",
-                    escape(&c.id),
-                    escape(&c.name),
-                    escape(&c.unit)
-                ),
-            );
-        }
+        meta_lines(&mut out, &self.meta);
+        channel_lines(&mut out, &self.channels);
         for m in &self.markers {
-            put(
-                &mut out,
-                format_args!("# marker: {} | {}\n", m.t, escape(&m.text)),
-            );
+            marker_line(&mut out, m);
         }
-        out.push_str("t [s]");
-        for c in &self.channels {
-            out.push(',');
-            let cell = if c.unit.is_empty() {
-                Cow::Borrowed(c.id.as_str())
-            } else {
-                Cow::Owned(format!("{} [{}]", c.id, c.unit))
-            };
-            out.push_str(&quote(&cell));
-        }
-        out.push('\n');
+        header_row(&mut out, &self.channels);
+        let mut values = vec![f64::NAN; self.channels.len()];
         for (i, t) in self.times.iter().enumerate() {
-            put(&mut out, format_args!("{t}"));
-            for c in 0..self.channels.len() {
-                out.push(',');
-                match self.columns.get(c).and_then(|column| column.get(i)) {
-                    Some(v) if !v.is_nan() => put(&mut out, format_args!("{v}")),
-                    _ => {}
-                }
+            for (c, value) in values.iter_mut().enumerate() {
+                *value = self
+                    .columns
+                    .get(c)
+                    .and_then(|column| column.get(i))
+                    .copied()
+                    .unwrap_or(f64::NAN);
             }
-            out.push('\n');
+            row_line(&mut out, *t, &values);
         }
         out
     }
@@ -66,6 +35,15 @@ impl Recording {
     /// Read what [`Recording::to_csv`] writes, or plain CSV with a header row.
     pub fn from_csv(text: &str) -> Result<Recording, RecordingError> {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        // A file written as taken may end in the middle of a line (the process was killed
+        // while writing it): that part line goes, the rows before it stay.
+        let streamed = is_streamed(text);
+        let text = match text.rfind('\n') {
+            Some(n) if streamed => &text[..=n],
+            None if streamed => "",
+            _ => text,
+        };
+        let mut ended = false;
         let mut reader = CsvReader::new(text);
         let mut meta = Metadata::default();
         let mut channels = Vec::new();
@@ -76,6 +54,7 @@ impl Recording {
         let mut columns: Vec<Vec<f64>> = Vec::new();
         while let Some((line, item)) = reader.next(&mut cells)? {
             match item {
+                Item::Comment(comment) if comment.starts_with(END) => ended = true,
                 Item::Comment(comment) => {
                     parse_comment(
                         comment,
@@ -99,6 +78,9 @@ impl Recording {
         if header.is_none() {
             return Err(csv_error(reader.line, "no header row"));
         }
+        if streamed && !ended {
+            meta.cut = Some(super::cut_text(times.len(), times.last().copied()));
+        }
         Ok(Recording {
             meta,
             channels,
@@ -107,6 +89,84 @@ impl Recording {
             markers,
         })
     }
+}
+
+/// The line that says a file is written as it is taken (`drivedeck record`): a complete
+/// one ends with an [`END`] line, one without was cut.
+pub(super) const STREAMED: &str =
+    "# streamed: rows written as taken; a complete file ends with an \"# end:\" line";
+/// The last line of a complete file written as taken.
+pub(super) const END: &str = "# end:";
+
+/// Whether the comment lines before the header say the file is written as taken.
+fn is_streamed(text: &str) -> bool {
+    text.lines()
+        .take_while(|line| line.starts_with('#'))
+        .any(|line| line.starts_with("# streamed:"))
+}
+
+/// The `# key: value` lines of every field `meta` sets.
+pub(super) fn meta_lines(out: &mut String, meta: &Metadata) {
+    for (key, value) in meta.text_fields() {
+        if let Some(value) = value {
+            put(out, format_args!("# {key}: {}\n", escape(value)));
+        }
+    }
+    for (key, value) in meta.number_fields() {
+        if let Some(value) = value {
+            put(out, format_args!("# {key}: {value}\n"));
+        }
+    }
+}
+
+/// One `# channel: id | name | unit` line per channel.
+pub(super) fn channel_lines(out: &mut String, channels: &[ChannelInfo]) {
+    for c in channels {
+        put(
+            out,
+            format_args!(
+                "# channel: {} | {} | {}\n",
+                escape(&c.id),
+                escape(&c.name),
+                escape(&c.unit)
+            ),
+        );
+    }
+}
+
+/// A `# marker: t | text` line.
+pub(super) fn marker_line(out: &mut String, m: &Marker) {
+    put(
+        out,
+        format_args!("# marker: {} | {}\n", m.t, escape(&m.text)),
+    );
+}
+
+/// The header row: `t [s]` and a cell per channel.
+pub(super) fn header_row(out: &mut String, channels: &[ChannelInfo]) {
+    out.push_str("t [s]");
+    for c in channels {
+        out.push(',');
+        let cell = if c.unit.is_empty() {
+            Cow::Borrowed(c.id.as_str())
+        } else {
+            Cow::Owned(format!("{} [{}]", c.id, c.unit))
+        };
+        out.push_str(&quote(&cell));
+    }
+    out.push('\n');
+}
+
+/// One sample row: the time and a cell per value (empty for NaN).
+pub(super) fn row_line(out: &mut String, t: f64, values: &[f64]) {
+    put(out, format_args!("{t}"));
+    for v in values {
+        out.push(',');
+        if !v.is_nan() {
+            put(out, format_args!("{v}"));
+        }
+    }
+    out.push('\n');
 }
 
 /// The header row: it must match the channels the comments declared, or else declares

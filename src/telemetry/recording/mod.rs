@@ -34,16 +34,37 @@
 //! comment lines: the first column is then the time and the channels are named from the
 //! header (`id [unit]` or `id`). Unknown `# key:` lines are ignored. Errors name the line.
 //!
+//! A file written as taken ([`stream::StreamWriter`], `drivedeck record`) has the line
+//! `# streamed: …` among its first comments, `# marker:` lines among the rows at their time,
+//! `# key: value` lines learned on the way or at the end after them, and `# end: …` last.
+//! Without that last line it was cut: the reader drops a part line at its end and sets
+//! [`Metadata::cut`].
+//!
 //! # JSON layout
 //!
 //! An object `{"meta": {..}, "channels": [..], "markers": [..], "t": [..], "columns": [[..]]}`
 //! with one array per channel in `columns`; NaN (no sample) is written as `null`. JSON has no
 //! infinities, so an infinite value also comes back as NaN.
+//!
+//! Written as taken, JSON goes row-wise, one item per line, a JSON document once complete:
+//!
+//! ```text
+//! {"format":"drivedeck recording, rows","meta":{..},"channels":[..],"rows":[
+//! [0.0,998,null]
+//! ,{"t":0.5,"mark":"outage: an exchange with the drive failed: …"}
+//! ,{"meta":{"trigger_time_s":0.7}}
+//! ,[0.005,999,4663]
+//! ],"end":{"meta":{"rate_hz":200.0},"samples":2}}
+//! ```
+//!
+//! Without its last line it was cut: the reader takes every whole line and sets
+//! [`Metadata::cut`].
 
 use serde::{Deserialize, Serialize};
 
 mod csv;
 mod json;
+pub mod stream;
 #[cfg(test)]
 mod tests;
 
@@ -73,6 +94,10 @@ pub struct Metadata {
     /// file holds every sample taken until then.
     #[serde(default)]
     pub ended_early: Option<String>,
+    /// Set by the reader of a recording written as it was taken (`drivedeck record`) that
+    /// has no end: "cut after N samples at t = … s (the recording did not end normally)".
+    #[serde(default)]
+    pub cut: Option<String>,
 }
 
 /// One recorded channel.
@@ -129,7 +154,7 @@ fn csv_error(line: usize, what: impl Into<String>) -> RecordingError {
 
 impl Metadata {
     /// The text fields with their CSV keys, in file order.
-    fn text_fields(&self) -> [(&'static str, &Option<String>); 10] {
+    fn text_fields(&self) -> [(&'static str, &Option<String>); 11] {
         [
             ("vendor", &self.vendor),
             ("product", &self.product),
@@ -141,6 +166,7 @@ impl Metadata {
             ("trigger", &self.trigger),
             ("note", &self.note),
             ("ended_early", &self.ended_early),
+            ("cut", &self.cut),
         ]
     }
 
@@ -165,6 +191,7 @@ impl Metadata {
             "trigger" => &mut self.trigger,
             "note" => &mut self.note,
             "ended_early" => &mut self.ended_early,
+            "cut" => &mut self.cut,
             _ => return None,
         })
     }
@@ -176,6 +203,47 @@ impl Metadata {
             "rate_asked_hz" => &mut self.rate_asked_hz,
             _ => return None,
         })
+    }
+
+    /// Take every field `update` sets (a file written as taken says some only at its end).
+    pub fn merge(&mut self, update: &Metadata) {
+        for (key, value) in update.text_fields() {
+            if let (Some(value), Some(field)) = (value, self.text_field(key)) {
+                *field = Some(value.clone());
+            }
+        }
+        for (key, value) in update.number_fields() {
+            if let (Some(value), Some(field)) = (value, self.number_field(key)) {
+                *field = Some(value);
+            }
+        }
+    }
+}
+
+/// The marker a notice of the worker's about the link makes in a recording, where it is
+/// one: an exchange that failed (an outage begins; the worker tries again), the link
+/// back after failed exchanges, a trouble got over by sending again. `None` for any other
+/// notice. (The worker's words: `worker::loss`.)
+pub fn link_mark(notice: &str) -> Option<String> {
+    if notice.starts_with("an exchange with the drive failed") {
+        Some(format!("outage: {notice}"))
+    } else if notice.starts_with("the link recovered after") {
+        Some(format!("recovered: {notice}"))
+    } else {
+        notice
+            .strip_prefix("link: ")
+            .map(|trouble| format!("retry: {trouble}"))
+    }
+}
+
+/// What a recording written as it was taken (`drivedeck record`) says when it did not
+/// end: how many samples it holds and the last one's time.
+pub fn cut_text(samples: usize, last_t: Option<f64>) -> String {
+    match last_t {
+        Some(t) => format!(
+            "cut after {samples} samples at t = {t:.3} s (the recording did not end normally)"
+        ),
+        None => format!("cut after {samples} samples (the recording did not end normally)"),
     }
 }
 

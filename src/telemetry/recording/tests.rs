@@ -55,6 +55,7 @@ fn sample() -> Recording {
             rate_asked_hz: Some(2000.0),
             note: Some(" back\\slash ".into()),
             ended_early: Some("the link was lost: no answer | at t = 3.5 s".into()),
+            cut: None,
         },
         channels: vec![
             ChannelInfo {
@@ -356,4 +357,151 @@ fn the_header_says_the_rate_achieved_beside_the_one_asked() {
     recording.set_rates(1000.0);
     assert_eq!(recording.meta.rate_hz, None);
     assert_eq!(recording.achieved_rate(), 0.0);
+}
+
+/// A file written as taken, cut by a crash at any byte after its header: it opens with
+/// every whole row before the cut, and says it was cut after how many at what time; the
+/// same file ended normally says nothing of the kind and has what its end line says.
+#[test]
+fn a_streamed_file_cut_anywhere_opens_with_its_whole_rows_and_says_it_was_cut() {
+    use super::stream::{Layout, StreamWriter};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let channels = vec![
+        ChannelInfo {
+            id: "position".into(),
+            name: "Position 6064h".into(),
+            unit: "0.1°".into(),
+        },
+        ChannelInfo {
+            id: "torque".into(),
+            name: "Torque 6077h".into(),
+            unit: "‰".into(),
+        },
+    ];
+    let head = Metadata {
+        vendor: Some("0000026Ch".into()),
+        rate_asked_hz: Some(100.0),
+        ..Metadata::default()
+    };
+    for (layout, name) in [(Layout::Csv, "run.csv"), (Layout::Json, "run.json")] {
+        let path = dir.path().join(name);
+        let mut writer = StreamWriter::create(
+            std::fs::File::create(&path).expect("file"),
+            layout,
+            &head,
+            &channels,
+        )
+        .expect("header");
+        let header_len = std::fs::metadata(&path).expect("written").len() as usize;
+        for i in 0..40 {
+            let t = f64::from(i) * 0.01;
+            let torque = if i % 3 == 0 { f64::NAN } else { -f64::from(i) };
+            writer.row(t, &[f64::from(i) * 1.5, torque]).expect("row");
+            if i == 20 {
+                writer
+                    .mark(&Marker {
+                        t: 0.205,
+                        text: "outage: an exchange with the drive failed: no answer (90°)".into(),
+                    })
+                    .expect("mark");
+            }
+        }
+        writer.flush().expect("flush");
+        let cut = std::fs::read(&path).expect("read");
+        let rows_before = |bytes: &[u8]| {
+            let whole = match bytes.iter().rposition(|b| *b == b'\n') {
+                Some(n) => &bytes[..=n],
+                None => &bytes[..0],
+            };
+            String::from_utf8_lossy(whole)
+                .lines()
+                .filter(|l| match layout {
+                    Layout::Csv => l.starts_with(|c: char| c.is_ascii_digit()),
+                    Layout::Json => l.starts_with('[') || l.starts_with(",["),
+                })
+                .count()
+        };
+        for n in header_len..=cut.len() {
+            let part = dir.path().join(format!("part-{name}"));
+            std::fs::write(&part, &cut[..n]).expect("part written");
+            let read =
+                crate::telemetry::load_recording(&part, crate::telemetry::MAX_RECORDING_BYTES);
+            let rows = rows_before(&cut[..n]);
+            if rows == 0 {
+                // The header alone: a refusal that names the file ("holds no samples").
+                let error = read.expect_err("no rows");
+                assert!(error.contains("holds no samples"), "{name} at {n}: {error}");
+                continue;
+            }
+            let recording = read.unwrap_or_else(|e| panic!("{name} cut at byte {n}: {e}"));
+            assert_eq!(recording.len(), rows, "{name} cut at byte {n}");
+            let last = recording.times.last().copied();
+            assert_eq!(last, Some(f64::from(rows as u32 - 1) * 0.01));
+            assert_eq!(
+                recording.meta.cut.as_deref(),
+                Some(super::cut_text(rows, last).as_str()),
+                "{name} cut at byte {n}"
+            );
+            assert!(
+                recording
+                    .meta
+                    .cut
+                    .as_deref()
+                    .is_some_and(|c| c.contains("the recording did not end normally")),
+                "{:?}",
+                recording.meta.cut
+            );
+            assert_eq!(recording.channels, channels);
+            assert_eq!(recording.meta.vendor.as_deref(), Some("0000026Ch"));
+            assert!(
+                recording.columns[1][0].is_nan(),
+                "no sample stays no sample"
+            );
+        }
+        let last = Metadata {
+            rate_hz: Some(100.0),
+            ended_early: Some("interrupted by SIGINT at t = 0.390 s".into()),
+            ..Metadata::default()
+        };
+        writer.finish(&last, 40).expect("end");
+        let recording =
+            crate::telemetry::load_recording(&path, crate::telemetry::MAX_RECORDING_BYTES)
+                .expect("a complete file");
+        assert_eq!(recording.meta.cut, None, "{name}: ended normally");
+        assert_eq!(recording.len(), 40);
+        assert_eq!(recording.meta.rate_hz, Some(100.0));
+        assert_eq!(recording.meta.rate_asked_hz, Some(100.0));
+        assert_eq!(recording.meta.ended_early, last.ended_early);
+        assert_eq!(
+            recording.markers,
+            vec![Marker {
+                t: 0.205,
+                text: "outage: an exchange with the drive failed: no answer (90°)".into(),
+            }]
+        );
+        if layout == Layout::Json {
+            // Once complete, the file is one JSON document for any JSON tool.
+            let text = std::fs::read_to_string(&path).expect("text");
+            let value: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
+            assert_eq!(value["rows"].as_array().map(Vec::len), Some(41));
+            assert_eq!(value["end"]["samples"], 40);
+        }
+    }
+}
+
+#[test]
+fn the_worker_s_words_about_the_link_become_markers() {
+    assert_eq!(
+        super::link_mark("an exchange with the drive failed: no answer within 500 ms; trying again (the link counts as lost after 3 failures in a row)").as_deref(),
+        Some("outage: an exchange with the drive failed: no answer within 500 ms; trying again (the link counts as lost after 3 failures in a row)")
+    );
+    assert_eq!(
+        super::link_mark("the link recovered after 6 failed exchange(s) in a row").as_deref(),
+        Some("recovered: the link recovered after 6 failed exchange(s) in a row")
+    );
+    assert_eq!(
+        super::link_mark("link: no answer within 166 ms, answered on try 2").as_deref(),
+        Some("retry: no answer within 166 ms, answered on try 2")
+    );
+    assert_eq!(super::link_mark("PDO mapping changed"), None);
 }

@@ -13,7 +13,7 @@ use crate::diagnostics::{Origin, Severity};
 use crate::link::{FoundDevice, LinkFailure, LinkInfo, LinkSpec, Notice, NoticeKind, TraceRecord};
 use crate::od::{Address, Value};
 use crate::pdi::{RxImage, StatusBit};
-use crate::telemetry::{Gap, ScopeEvent};
+use crate::telemetry::{Gap, ScopeEvent, link_mark};
 use crate::ui::browser::Pending;
 use crate::worker::{CommandProgress, Event, ObjectError, Rejection, Request, RequestId, Sample};
 
@@ -477,7 +477,13 @@ impl Drive {
                     .add(t, Severity::Warning, Origin::Link, notice.text.clone());
                 self.motion.why = Some(notice.text.clone());
             }
-            NoticeKind::Info => {}
+            NoticeKind::Info => {
+                // An outage the link got over, its end, a reply sent again: a marker on
+                // the plots at the newest sample, and so in the exported files.
+                if let (Some(text), Some(t)) = (link_mark(&notice.text), t) {
+                    self.scope.mark(t, text);
+                }
+            }
         }
         self.info(notice.text)
     }

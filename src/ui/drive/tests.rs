@@ -336,3 +336,46 @@ fn why_the_drive_stood_goes_with_the_link_it_stood_on() {
         "a reconnect starts without the old why"
     );
 }
+
+/// An outage the link gets over (failed exchanges, then the link back) and a reply sent
+/// again are markers on the plots, so in the exported CSV and JSON at their time; other
+/// notices are not.
+#[test]
+fn an_outage_the_link_got_over_is_marked_in_the_exports() {
+    let mut state = new_drive();
+    state.apply(Event::Connected(info()));
+    state.apply(samples(0.0, 1.0, 0));
+    state.apply(Event::Notice(crate::link::Notice::info(
+        "an exchange with the drive failed: no answer within 500 ms; trying again (the link counts as lost after 3 failures in a row)",
+    )));
+    state.apply(samples(4.0, 5.0, 0));
+    state.apply(Event::Notice(crate::link::Notice::info(
+        "the link recovered after 2 failed exchange(s) in a row",
+    )));
+    state.apply(Event::Notice(crate::link::Notice::info(
+        "link: no answer within 166 ms, answered on try 2",
+    )));
+    state.apply(Event::Notice(crate::link::Notice::info(
+        "PDO mapping changed",
+    )));
+    let recording = state
+        .scope
+        .export(0.0, 5.0, crate::telemetry::Metadata::default(), true);
+    let marks: Vec<(f64, &str)> = recording
+        .markers
+        .iter()
+        .map(|m| (m.t, m.text.split(':').next().unwrap_or_default()))
+        .collect();
+    assert_eq!(
+        marks,
+        [(1.0, "outage"), (5.0, "recovered"), (5.0, "retry")],
+        "{:?}",
+        recording.markers
+    );
+    for text in [recording.to_csv(), recording.to_json()] {
+        assert!(
+            text.contains("outage: an exchange with the drive failed"),
+            "{text}"
+        );
+    }
+}

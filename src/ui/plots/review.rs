@@ -131,13 +131,17 @@ pub fn poll(plot: &mut PlotView) {
     });
     match shown {
         Ok((path, recording, shown)) => {
-            let text = format!(
+            let mut text = format!(
                 "opened {}: {} samples of {} signals ({:.2} s)",
                 path.display(),
                 recording.len(),
                 recording.channels.len(),
                 recording.duration()
             );
+            // A file a crash cut short says so (it holds every sample until then).
+            if let Some(cut) = &recording.meta.cut {
+                text.push_str(&format!("; {cut}"));
+            }
             show(plot, shown, overlay);
             plot.message = Some(Ok(text));
         }
