@@ -12,7 +12,9 @@ use super::progress;
 use crate::link::LinkSpec;
 use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{Address, DataType, Value};
-use crate::pdi::Timing;
+use crate::pdi::Action;
+use crate::cia::PowerState;
+use crate::pdi::{Failure as PdiFailure, StatusBit, Timing};
 use crate::project::{Drive, check};
 use crate::worker::{
     self, CommandProgress, Event, LinkLossAction, ObjectError, ObjectPath, Request, Sample, Worker,
@@ -247,7 +249,11 @@ impl Session {
         Ok(event)
     }
 
-    /// Send a PDI request and wait for acceptance, or completion with `wait`.
+    /// Send a PDI request and wait for acceptance, or completion with `wait`. A travel
+    /// command waited for ends as soon as its target can no longer be reached (a limit
+    /// switch, a halt from elsewhere: [`EndWatch`]); a move that seems to end by a fault
+    /// or by leaving Operation enabled is judged only after the drive is read again
+    /// ([`Session::judge_again`]).
     pub(super) fn command(
         &mut self,
         request: Request,
@@ -255,9 +261,12 @@ impl Session {
         timeout: Duration,
     ) -> Result<(String, Option<[u8; 8]>, CommandProgress), Failure> {
         let what = request.to_string();
+        let mut watch = (wait && EndWatch::applies(&request)).then(EndWatch::default);
+        let travel = EndWatch::applies(&request) || matches!(request, Request::Resume);
         let id = self.send(request)?;
         let deadline = Instant::now() + timeout + Duration::from_secs(1);
         let mut image = None;
+        let mut accepted = false;
         loop {
             let event = match self.next(deadline) {
                 Ok(event) => event,
@@ -277,7 +286,29 @@ impl Session {
                 Event::Sent {
                     id: i, image: sent, ..
                 } if i == id => image = Some(sent.to_bytes()),
+                Event::Samples(_) if accepted => {
+                    if let (Some(watch), Some(sample)) = (watch.as_mut(), self.latest)
+                        && let Some(end) = watch.check(&sample)
+                    {
+                        return Err(end.failure(&what, &sample));
+                    }
+                }
+                Event::Progress {
+                    id: i,
+                    progress: CommandProgress::Failed(failure),
+                } if i == id
+                    && travel
+                    && matches!(
+                        failure,
+                        PdiFailure::PowerLost | PdiFailure::DriveFault { .. }
+                    ) =>
+                {
+                    return Err(self.judge_again(&what, failure, timeout));
+                }
                 Event::Progress { id: i, progress } if i == id => {
+                    if matches!(progress, CommandProgress::Accepted) {
+                        accepted = true;
+                    }
                     if let CommandProgress::TimedOut { .. } = progress {
                         // The drive may still be at it: stopped on the way out.
                         return Err(Failure {
@@ -478,5 +509,191 @@ fn written(event: Event) -> Option<(u64, Result<(), ObjectError>)> {
     match event {
         Event::ObjectWritten { id, result, .. } => Some((id, result)),
         _ => None,
+    }
+}
+
+/// How long a travel command must stand still, short of its target, in a state that
+/// cannot reach it (at a limit switch, halted), before a `--wait` gives up on it: a move
+/// that starts at a limit switch, away from it, is still at rest for its first cycles.
+const END_HOLD: f64 = 0.5;
+
+/// Watches the samples of a travel command waited for, for the end of it short of its
+/// target: the motor at rest, PdiStatusTargetReached clear, and the drive at a limit
+/// switch or halted (by someone else: the command did not ask for it), for [`END_HOLD`].
+#[derive(Default)]
+pub(super) struct EndWatch {
+    /// Sample time since which the end shows, and what it is.
+    since: Option<(f64, End)>,
+}
+
+/// Why a travel command can no longer reach its target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum End {
+    LimitSwitch,
+    Halted,
+}
+
+/// A travel command's end short of its target, as seen in the samples.
+pub(super) struct EndSeen {
+    end: End,
+    /// Whether the samples show the motor at rest (606Ch known); otherwise the drive may
+    /// still be moving and is stopped by `--on-exit`.
+    at_rest: bool,
+}
+
+impl EndWatch {
+    /// Whether `request` is a travel command that waits for PdiStatusTargetReached.
+    pub(super) fn applies(request: &Request) -> bool {
+        matches!(
+            request,
+            Request::Command(
+                Action::MoveAbsolute { .. }
+                    | Action::MoveRelative { .. }
+                    | Action::Velocity { .. }
+                    | Action::Torque { .. }
+            )
+        )
+    }
+
+    /// The end, once it has shown for [`END_HOLD`].
+    pub(super) fn check(&mut self, sample: &Sample) -> Option<EndSeen> {
+        let status = sample.tx.status;
+        let moving = sample.at_rest() == Some(false);
+        let end = if status.is_set(StatusBit::TargetReached) || moving {
+            None
+        } else if status.is_set(StatusBit::LimitReached) {
+            Some(End::LimitSwitch)
+        } else if status.is_set(StatusBit::QsHaltBit)
+            && status.is_set(StatusBit::OperationEnabled)
+        {
+            Some(End::Halted)
+        } else {
+            None
+        };
+        let Some(end) = end else {
+            self.since = None;
+            return None;
+        };
+        let since = match self.since {
+            Some((t, seen)) if seen == end => t,
+            _ => {
+                self.since = Some((sample.t, end));
+                sample.t
+            }
+        };
+        (sample.t - since >= END_HOLD).then_some(EndSeen {
+            end,
+            at_rest: sample.at_rest() == Some(true),
+        })
+    }
+}
+
+/// Where the drive stands, in words: "at position 36012" (6064h), or nothing known.
+pub(super) fn position_words(sample: &Sample) -> String {
+    match sample.position() {
+        Some(p) => format!("at position {p:.0}"),
+        None => "at a position this link does not report".to_owned(),
+    }
+}
+
+impl EndSeen {
+    /// The failure of the command `what` that ended so: what to do first, then why.
+    fn failure(&self, what: &str, sample: &Sample) -> Failure {
+        let at = position_words(sample);
+        let message = match self.end {
+            End::LimitSwitch => format!(
+                "Move the axis off the limit switch (a move the other way) and check the target: the drive stopped {at} at a limit switch (PdiStatusLimitReached) before reaching it; {what}: target not reached"
+            ),
+            End::Halted => format!(
+                "Find who halted the drive (another master or tool): it was halted (PdiStatusQsHaltBit) {at} before reaching its target, by a request not from this command; {what}: target not reached"
+            ),
+        };
+        Failure {
+            stop: !self.at_rest,
+            ..failed(message)
+        }
+    }
+}
+
+impl Session {
+    /// A travel command `what` seemed to end by `failure` (a fault, or the drive leaving
+    /// Operation enabled) as the PDI status told it: before judging, read the drive again
+    /// by another path (the statusword 6041h by the link's own object access where it has
+    /// one) and a few more samples. The failure says what the drive was found in; it asks
+    /// for the `--on-exit` stop (`stop`) unless the drive is found stopped for certain.
+    pub(super) fn judge_again(
+        &mut self,
+        what: &str,
+        failure: PdiFailure,
+        timeout: Duration,
+    ) -> Failure {
+        let word = self.try_read(
+            Address::new(0x6041, 0),
+            Some(DataType::Unsigned16),
+            ObjectPath::Auto,
+            timeout.min(Duration::from_secs(2)),
+        );
+        self.refresh();
+        let sample = self.latest;
+        let at = sample
+            .as_ref()
+            .map(position_words)
+            .unwrap_or_else(|| "at an unknown position".to_owned());
+        let at_rest = sample.and_then(|s| s.at_rest()) == Some(true);
+        let state = match &word {
+            Ok(Ok(value)) => value
+                .as_i128()
+                .and_then(|w| u16::try_from(w).ok())
+                .map(|w| (w, PowerState::from_statusword(w))),
+            _ => None,
+        };
+        let (message, stopped) = match state {
+            Some((word, Some(PowerState::OperationEnabled))) => (
+                format!(
+                    "Check the bus for a wrong status frame (a second master, noise, a forged or mis-decoded frame): the PDI status said {failure}, but the drive read again says Operation enabled (6041h = {word:04X}h) {at}, so the command did not end as the frame said; {what}: not finished"
+                ),
+                false,
+            ),
+            Some((word, Some(PowerState::Fault | PowerState::FaultReactionActive))) => (
+                format!(
+                    "Remove the fault's cause, then clear it (`drivedeck clear-error`): {what}: {failure}; the drive read again is in Fault (6041h = {word:04X}h), {}",
+                    stood(at_rest, &at)
+                ),
+                at_rest,
+            ),
+            Some((word, state)) => (
+                format!(
+                    "Find what took the drive out of Operation enabled (a quick stop, a switch-off by another master or tool, the enable input): {what}: {failure}; the drive read again is in {} (6041h = {word:04X}h), {}",
+                    state.map_or_else(|| "no valid power state".to_owned(), |s| s.to_string()),
+                    stood(at_rest, &at)
+                ),
+                at_rest,
+            ),
+            None => (
+                format!(
+                    "Check the drive at the machine: {what}: {failure}, and the statusword 6041h could not be read again to confirm it ({}), {}",
+                    match word {
+                        Ok(Err(e)) => e.to_string(),
+                        Err(f) => f.message,
+                        Ok(Ok(v)) => format!("not a statusword: {v}"),
+                    },
+                    stood(at_rest, &at)
+                ),
+                at_rest,
+            ),
+        };
+        Failure {
+            stop: !stopped,
+            ..failed(message)
+        }
+    }
+}
+
+/// Whether the drive was seen standing still, and where.
+fn stood(at_rest: bool, at: &str) -> String {
+    if at_rest {
+        format!("standing still {at}")
+    } else {
+        format!("last seen {at}, not known to stand still")
     }
 }
