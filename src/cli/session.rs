@@ -9,11 +9,11 @@ use super::context::Context;
 use super::failure::{Failure, failed, interrupted, usage};
 use super::interrupt;
 use super::progress;
+use crate::cia::PowerState;
 use crate::link::LinkSpec;
 use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{Address, DataType, Value};
 use crate::pdi::Action;
-use crate::cia::PowerState;
 use crate::pdi::{Failure as PdiFailure, StatusBit, Timing};
 use crate::project::{Drive, check};
 use crate::worker::{
@@ -563,8 +563,7 @@ impl EndWatch {
             None
         } else if status.is_set(StatusBit::LimitReached) {
             Some(End::LimitSwitch)
-        } else if status.is_set(StatusBit::QsHaltBit)
-            && status.is_set(StatusBit::OperationEnabled)
+        } else if status.is_set(StatusBit::QsHaltBit) && status.is_set(StatusBit::OperationEnabled)
         {
             Some(End::Halted)
         } else {
@@ -634,6 +633,16 @@ impl Session {
             timeout.min(Duration::from_secs(2)),
         );
         self.refresh();
+        let enabled = matches!(
+            &word,
+            Ok(Ok(v)) if v.as_i128().and_then(|w| u16::try_from(w).ok())
+                .and_then(PowerState::from_statusword) == Some(PowerState::OperationEnabled)
+        );
+        if !enabled {
+            // Out of Operation enabled the drive's own reaction brakes the motor: give it
+            // the time to, so that "stands still" is seen rather than assumed.
+            self.wait_at_rest(Instant::now() + SETTLE_WAIT);
+        }
         let sample = self.latest;
         let at = sample
             .as_ref()
@@ -685,6 +694,21 @@ impl Session {
         Failure {
             stop: !stopped,
             ..failed(message)
+        }
+    }
+}
+
+/// How long a move that ended by a fault or a power loss is given to come to rest
+/// (the drive's fault or quick stop reaction brakes it) before it is judged.
+const SETTLE_WAIT: Duration = Duration::from_secs(3);
+
+impl Session {
+    /// Let samples arrive until the motor is seen at rest or `deadline` passes.
+    fn wait_at_rest(&mut self, deadline: Instant) {
+        while self.latest.and_then(|s| s.at_rest()) != Some(true) {
+            if self.next(deadline).is_err() {
+                return;
+            }
         }
     }
 }
