@@ -11,6 +11,11 @@
 
 mod common;
 
+use std::io::{Read, Write};
+use std::net::{Shutdown, TcpListener, TcpStream};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread;
 use std::time::{Duration, Instant};
 
 use common::cli::{run, start};
@@ -82,4 +87,177 @@ fn a_fault_mid_move_ends_the_wait_naming_the_fault_read_again_and_the_position()
     );
     assert!(report.contains("at position "), "{report}");
     assert!(!report.contains("timed out"), "{report}");
+}
+
+/// A TCP proxy in front of a served drive that can reset the connections it carries:
+/// the client's connection is aborted (SO_LINGER 0, then closed both ways), the server
+/// stays reachable through the proxy at once.
+struct ResetProxy {
+    addr: std::net::SocketAddr,
+    /// The client-side and server-side streams of the connections open now.
+    open: Arc<Mutex<Vec<TcpStream>>>,
+    /// Connections accepted so far.
+    accepted: Arc<AtomicUsize>,
+}
+
+impl ResetProxy {
+    fn start(upstream: std::net::SocketAddr) -> ResetProxy {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("proxy port");
+        let addr = listener.local_addr().expect("proxy address");
+        let open: Arc<Mutex<Vec<TcpStream>>> = Arc::default();
+        let accepted = Arc::new(AtomicUsize::new(0));
+        let (kept, count) = (open.clone(), accepted.clone());
+        thread::spawn(move || {
+            for client in listener.incoming() {
+                let Ok(client) = client else { return };
+                let Ok(server) = TcpStream::connect(upstream) else {
+                    return;
+                };
+                let _ = client.set_nodelay(true);
+                let _ = server.set_nodelay(true);
+                count.fetch_add(1, Ordering::SeqCst);
+                {
+                    let mut kept = kept.lock().unwrap();
+                    kept.push(client.try_clone().expect("clone"));
+                    kept.push(server.try_clone().expect("clone"));
+                }
+                pipe(
+                    client.try_clone().expect("clone"),
+                    server.try_clone().expect("clone"),
+                );
+                pipe(server, client);
+            }
+        });
+        ResetProxy {
+            addr,
+            open,
+            accepted,
+        }
+    }
+
+    /// Reset every connection open now.
+    fn reset(&self) {
+        for stream in self.open.lock().unwrap().drain(..) {
+            abort(&stream);
+            let _ = stream.shutdown(Shutdown::Both);
+        }
+    }
+
+    fn accepted(&self) -> usize {
+        self.accepted.load(Ordering::SeqCst)
+    }
+}
+
+/// SO_LINGER 0: closing the socket resets the connection (RST) instead of closing it.
+fn abort(stream: &TcpStream) {
+    use std::os::fd::AsRawFd;
+    let linger = libc::linger {
+        l_onoff: 1,
+        l_linger: 0,
+    };
+    // SAFETY: a valid socket descriptor and a linger struct of the size given.
+    let _ = unsafe {
+        libc::setsockopt(
+            stream.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_LINGER,
+            (&linger as *const libc::linger).cast(),
+            std::mem::size_of::<libc::linger>() as libc::socklen_t,
+        )
+    };
+}
+
+/// Copy `from` to `to` until either ends.
+fn pipe(mut from: TcpStream, mut to: TcpStream) {
+    thread::spawn(move || {
+        let mut buffer = [0u8; 4096];
+        loop {
+            match from.read(&mut buffer) {
+                Ok(0) | Err(_) => break,
+                Ok(n) => {
+                    if to.write_all(&buffer[..n]).is_err() {
+                        break;
+                    }
+                }
+            }
+        }
+        let _ = to.shutdown(Shutdown::Both);
+    });
+}
+
+#[test]
+fn a_connection_reset_once_during_a_move_is_reopened_and_the_move_completes() {
+    let server = modbus_server(ServerOptions::default());
+    let proxy = ResetProxy::start(server.addr);
+    let link = format!("modbus-tcp://{}", proxy.addr);
+    let start_at = server.drive().lock().position();
+    let mut mover = start(&[
+        "--link",
+        &link,
+        "--json",
+        "--lost-after",
+        "3",
+        "move-rel",
+        "30000",
+        "--speed",
+        "120",
+        "--wait",
+    ]);
+    common::wait_until("the move", Duration::from_secs(10), || {
+        server.drive().lock().velocity_rpm().abs() > 10.0
+    });
+    proxy.reset();
+    let code = exit_code(&mut mover, Duration::from_secs(30));
+    let report = mover.report();
+    assert_eq!(code, 0, "the move completed: {report}");
+    assert!(
+        report.contains("the connection to the drive was opened again"),
+        "{report}"
+    );
+    assert!(proxy.accepted() >= 2, "a new connection: {report}");
+    let end = server.drive().lock().position();
+    assert!(
+        (end - start_at - 30_000.0).abs() < 2.0,
+        "at the target: {start_at} -> {end}: {report}"
+    );
+}
+
+#[test]
+fn the_last_halt_after_a_reset_goes_over_a_new_connection_and_halts_the_drive() {
+    let server = modbus_server(ServerOptions::default());
+    let proxy = ResetProxy::start(server.addr);
+    let link = format!("modbus-tcp://{}", proxy.addr);
+    // --lost-after 1: the reset ends the move, and the halt must reach the drive.
+    let mut mover = start(&[
+        "--link",
+        &link,
+        "--lost-after",
+        "1",
+        "move-rel",
+        "300000",
+        "--speed",
+        "60",
+        "--wait",
+    ]);
+    common::wait_until("the move", Duration::from_secs(10), || {
+        server.drive().lock().velocity_rpm().abs() > 10.0
+    });
+    proxy.reset();
+    let code = exit_code(&mut mover, Duration::from_secs(15));
+    let report = mover.report();
+    assert_eq!(code, 1, "{report}");
+    assert!(
+        report.contains("halt was sent over a new connection and the drive confirmed it"),
+        "{report}"
+    );
+    common::wait_until("standstill", Duration::from_secs(10), || {
+        server.drive().lock().velocity_rpm().abs() < 0.5
+    });
+    let drive = server.drive().lock();
+    assert!(
+        drive
+            .pdi_status()
+            .is_set(drivedeck::pdi::StatusBit::QsHaltBit),
+        "halted: {report}"
+    );
 }

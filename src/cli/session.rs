@@ -102,6 +102,9 @@ impl Session {
             trace,
             on_link_loss: policy.on_exit,
             lost_after: policy.lost_after,
+            // A connection that closes or resets is opened again within the --lost-after
+            // budget, and the command goes on (the window reconnects on its own).
+            reconnect_in_session: true,
             simulated_time: false,
             epoch: None,
         };
