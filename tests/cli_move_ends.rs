@@ -19,7 +19,7 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use common::cli::{run, start};
-use common::{Process, modbus_server};
+use common::{Process, Sim, modbus_server};
 use drivedeck::injection::Injection;
 use drivedeck::sim::server::modbus::ServerOptions;
 
@@ -259,5 +259,46 @@ fn the_last_halt_after_a_reset_goes_over_a_new_connection_and_halts_the_drive() 
             .pdi_status()
             .is_set(drivedeck::pdi::StatusBit::QsHaltBit),
         "halted: {report}"
+    );
+}
+
+#[test]
+fn an_enip_adapter_stall_shorter_than_lost_after_does_not_end_a_recording_and_the_latched_fault_is_named()
+ {
+    let dir = common::temp_dir("record-enip-stall");
+    let out = dir.path().join("stall.csv");
+    let out = out.to_str().expect("utf-8 path");
+    let (sim, addr) = Sim::enip(&[]);
+    let link = format!("enip://{addr}?io=pdi");
+    let mut recorder = start(&[
+        "--link",
+        &link,
+        "--lost-after",
+        "20",
+        "--json",
+        "record",
+        "--duration",
+        "7s",
+        "--out",
+        out,
+    ]);
+    thread::sleep(Duration::from_millis(2000));
+    // The adapter stalls for 3 s: its I/O connection times out on both sides.
+    sim.process.signal("STOP");
+    thread::sleep(Duration::from_millis(3000));
+    sim.process.signal("CONT");
+    let code = exit_code(&mut recorder, Duration::from_secs(30));
+    let report = recorder.report();
+    assert_eq!(code, 0, "the recording went on: {report}");
+    let json: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
+    assert!(json["ended_early"].is_null(), "{report}");
+    let notes = json["notes"].to_string();
+    assert!(
+        notes.contains("the connection to the drive was opened again"),
+        "the I/O connection was opened again: {notes}"
+    );
+    assert!(
+        notes.contains("the drive latched a fault meanwhile: 603Fh = 8000h"),
+        "the fault latched across the outage is named: {notes}"
     );
 }
