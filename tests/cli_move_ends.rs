@@ -47,6 +47,7 @@ fn a_move_into_a_limit_switch_ends_at_once_naming_the_switch_and_the_position() 
     let (code, stdout, stderr) = run(&[
         "--link", "sim", "move-rel", "60000", "--speed", "300", "--wait",
     ]);
+    eprintln!("{stderr}");
     assert_eq!(code, 1, "{stdout}{stderr}");
     assert!(
         stderr.starts_with("drivedeck: Move the axis off the limit switch"),
@@ -75,6 +76,7 @@ fn a_fault_mid_move_ends_the_wait_naming_the_fault_read_again_and_the_position()
     server.drive().lock().inject(Injection::OverCurrent);
     let code = exit_code(&mut mover, Duration::from_secs(15));
     let report = mover.report();
+    eprintln!("{report}");
     assert_eq!(code, 1, "{report}");
     assert!(
         report.contains("Remove the fault's cause, then clear it"),
@@ -98,6 +100,9 @@ struct ResetProxy {
     open: Arc<Mutex<Vec<TcpStream>>>,
     /// Connections accepted so far.
     accepted: Arc<AtomicUsize>,
+    /// FC 23 replies still to forge: PdiStatusOperationEnabled cleared in the PDI status
+    /// register 4996 (the frame's word against the drive's).
+    forge: Arc<AtomicUsize>,
 }
 
 impl ResetProxy {
@@ -106,7 +111,8 @@ impl ResetProxy {
         let addr = listener.local_addr().expect("proxy address");
         let open: Arc<Mutex<Vec<TcpStream>>> = Arc::default();
         let accepted = Arc::new(AtomicUsize::new(0));
-        let (kept, count) = (open.clone(), accepted.clone());
+        let forge = Arc::new(AtomicUsize::new(0));
+        let (kept, count, forging) = (open.clone(), accepted.clone(), forge.clone());
         thread::spawn(move || {
             for client in listener.incoming() {
                 let Ok(client) = client else { return };
@@ -125,14 +131,20 @@ impl ResetProxy {
                     client.try_clone().expect("clone"),
                     server.try_clone().expect("clone"),
                 );
-                pipe(server, client);
+                replies(server, client, forging.clone());
             }
         });
         ResetProxy {
             addr,
             open,
             accepted,
+            forge,
         }
+    }
+
+    /// Forge the next `count` FC 23 replies: the drive "left Operation enabled".
+    fn forge_power_lost(&self, count: usize) {
+        self.forge.store(count, Ordering::SeqCst);
     }
 
     /// Reset every connection open now.
@@ -185,6 +197,75 @@ fn pipe(mut from: TcpStream, mut to: TcpStream) {
     });
 }
 
+/// Copy the server's Modbus TCP replies to the client frame by frame, forging the FC 23
+/// ones `forge` asks for.
+fn replies(mut from: TcpStream, mut to: TcpStream, forge: Arc<AtomicUsize>) {
+    thread::spawn(move || {
+        loop {
+            let mut header = [0u8; 7];
+            if from.read_exact(&mut header).is_err() {
+                break;
+            }
+            let len = usize::from(u16::from_be_bytes([header[4], header[5]]));
+            let mut body = vec![0u8; len.saturating_sub(1)];
+            if from.read_exact(&mut body).is_err() {
+                break;
+            }
+            // body: FC, byte count, registers (big-endian) from 4996, the PDI status.
+            if body.first() == Some(&0x17)
+                && body.len() >= 4
+                && forge
+                    .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1))
+                    .is_ok()
+            {
+                body[3] &= !1;
+            }
+            if to.write_all(&header).is_err() || to.write_all(&body).is_err() {
+                break;
+            }
+        }
+        let _ = to.shutdown(Shutdown::Both);
+    });
+}
+
+#[test]
+fn a_forged_power_loss_is_checked_by_reading_6041h_again_and_the_running_drive_is_halted() {
+    let server = modbus_server(ServerOptions::default());
+    let proxy = ResetProxy::start(server.addr);
+    let link = format!("modbus-tcp://{}", proxy.addr);
+    let mut mover = start(&[
+        "--link", &link, "move-rel", "300000", "--speed", "60", "--wait",
+    ]);
+    common::wait_until("the move", Duration::from_secs(10), || {
+        server.drive().lock().velocity_rpm().abs() > 10.0
+    });
+    proxy.forge_power_lost(1);
+    let code = exit_code(&mut mover, Duration::from_secs(20));
+    let report = mover.report();
+    eprintln!("{report}");
+    assert_eq!(code, 1, "{report}");
+    assert!(
+        report.contains("drivedeck: Check the bus for a wrong status frame"),
+        "what to do leads: {report}"
+    );
+    assert!(
+        report.contains("the drive read again says Operation enabled (6041h = "),
+        "judged after reading 6041h again: {report}"
+    );
+    assert!(
+        report.contains("halt sent; the drive confirmed it"),
+        "the --on-exit halt, confirmed: {report}"
+    );
+    let drive = server.drive().lock();
+    assert!(drive.velocity_rpm().abs() < 0.5, "{report}");
+    assert!(
+        drive
+            .pdi_status()
+            .is_set(drivedeck::pdi::StatusBit::QsHaltBit),
+        "halted: {report}"
+    );
+}
+
 #[test]
 fn a_connection_reset_once_during_a_move_is_reopened_and_the_move_completes() {
     let server = modbus_server(ServerOptions::default());
@@ -209,6 +290,7 @@ fn a_connection_reset_once_during_a_move_is_reopened_and_the_move_completes() {
     proxy.reset();
     let code = exit_code(&mut mover, Duration::from_secs(30));
     let report = mover.report();
+    eprintln!("{report}");
     assert_eq!(code, 0, "the move completed: {report}");
     assert!(
         report.contains("the connection to the drive was opened again"),
@@ -245,6 +327,7 @@ fn the_last_halt_after_a_reset_goes_over_a_new_connection_and_halts_the_drive() 
     proxy.reset();
     let code = exit_code(&mut mover, Duration::from_secs(15));
     let report = mover.report();
+    eprintln!("{report}");
     assert_eq!(code, 1, "{report}");
     assert!(
         report.contains("halt was sent over a new connection and the drive confirmed it"),
@@ -289,6 +372,7 @@ fn an_enip_adapter_stall_shorter_than_lost_after_does_not_end_a_recording_and_th
     sim.process.signal("CONT");
     let code = exit_code(&mut recorder, Duration::from_secs(30));
     let report = recorder.report();
+    eprintln!("{report}");
     assert_eq!(code, 0, "the recording went on: {report}");
     let json: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
     assert!(json["ended_early"].is_null(), "{report}");
