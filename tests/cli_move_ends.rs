@@ -91,13 +91,13 @@ fn a_fault_mid_move_ends_the_wait_naming_the_fault_read_again_and_the_position()
     assert!(!report.contains("timed out"), "{report}");
 }
 
-/// A TCP proxy in front of a served drive that can reset the connections it carries:
-/// the client's connection is aborted (SO_LINGER 0, then closed both ways), the server
-/// stays reachable through the proxy at once.
+/// A Modbus TCP proxy in front of a served drive that can reset the connections it
+/// carries (the client's connection aborted with an RST, the server's closed; the server
+/// stays reachable through the proxy at once) and forge the PDI status of a reply.
 struct ResetProxy {
     addr: std::net::SocketAddr,
     /// The client-side and server-side streams of the connections open now.
-    open: Arc<Mutex<Vec<TcpStream>>>,
+    open: Arc<Mutex<Vec<(TcpStream, TcpStream)>>>,
     /// Connections accepted so far.
     accepted: Arc<AtomicUsize>,
     /// FC 23 replies still to forge: PdiStatusOperationEnabled cleared in the PDI status
@@ -109,7 +109,7 @@ impl ResetProxy {
     fn start(upstream: std::net::SocketAddr) -> ResetProxy {
         let listener = TcpListener::bind("127.0.0.1:0").expect("proxy port");
         let addr = listener.local_addr().expect("proxy address");
-        let open: Arc<Mutex<Vec<TcpStream>>> = Arc::default();
+        let open: Arc<Mutex<Vec<(TcpStream, TcpStream)>>> = Arc::default();
         let accepted = Arc::new(AtomicUsize::new(0));
         let forge = Arc::new(AtomicUsize::new(0));
         let (kept, count, forging) = (open.clone(), accepted.clone(), forge.clone());
@@ -122,11 +122,10 @@ impl ResetProxy {
                 let _ = client.set_nodelay(true);
                 let _ = server.set_nodelay(true);
                 count.fetch_add(1, Ordering::SeqCst);
-                {
-                    let mut kept = kept.lock().unwrap();
-                    kept.push(client.try_clone().expect("clone"));
-                    kept.push(server.try_clone().expect("clone"));
-                }
+                kept.lock().unwrap().push((
+                    client.try_clone().expect("clone"),
+                    server.try_clone().expect("clone"),
+                ));
                 pipe(
                     client.try_clone().expect("clone"),
                     server.try_clone().expect("clone"),
@@ -147,11 +146,14 @@ impl ResetProxy {
         self.forge.store(count, Ordering::SeqCst);
     }
 
-    /// Reset every connection open now.
+    /// Reset every connection open now: the client's side is closed with SO_LINGER 0
+    /// once every copy of it is dropped (an RST, not a FIN), the server's side closed.
     fn reset(&self) {
-        for stream in self.open.lock().unwrap().drain(..) {
-            abort(&stream);
-            let _ = stream.shutdown(Shutdown::Both);
+        for (client, server) in self.open.lock().unwrap().drain(..) {
+            abort(&client);
+            // Ends the copying both ways, so that the last copy of the socket closes.
+            let _ = client.shutdown(Shutdown::Read);
+            let _ = server.shutdown(Shutdown::Both);
         }
     }
 
@@ -179,7 +181,7 @@ fn abort(stream: &TcpStream) {
     };
 }
 
-/// Copy `from` to `to` until either ends.
+/// Copy `from` (the client) to `to` (the server) until either ends.
 fn pipe(mut from: TcpStream, mut to: TcpStream) {
     thread::spawn(move || {
         let mut buffer = [0u8; 4096];
@@ -224,7 +226,7 @@ fn replies(mut from: TcpStream, mut to: TcpStream, forge: Arc<AtomicUsize>) {
                 break;
             }
         }
-        let _ = to.shutdown(Shutdown::Both);
+        // Dropped, not shut down: a reset closes the client's side with an RST.
     });
 }
 
