@@ -388,3 +388,41 @@ fn an_enip_adapter_stall_shorter_than_lost_after_does_not_end_a_recording_and_th
         "the fault latched across the outage is named: {notes}"
     );
 }
+
+#[test]
+fn a_connection_reset_once_during_a_recording_is_reopened_and_the_recording_goes_on() {
+    let dir = common::temp_dir("record-reset");
+    let out = dir.path().join("reset.csv");
+    let out = out.to_str().expect("utf-8 path");
+    let server = modbus_server(ServerOptions::default());
+    let proxy = ResetProxy::start(server.addr);
+    let link = format!("modbus-tcp://{}", proxy.addr);
+    let mut recorder = start(&[
+        "--link",
+        &link,
+        "--json",
+        "record",
+        "--duration",
+        "3s",
+        "--out",
+        out,
+    ]);
+    common::wait_until("the connection", Duration::from_secs(10), || {
+        proxy.accepted() >= 1
+    });
+    thread::sleep(Duration::from_millis(1000));
+    proxy.reset();
+    let code = exit_code(&mut recorder, Duration::from_secs(30));
+    let report = recorder.report();
+    eprintln!("{report}");
+    assert_eq!(code, 0, "the recording went on: {report}");
+    let json: serde_json::Value = serde_json::from_str(&recorder.stdout()).expect("JSON report");
+    assert!(json["ended_early"].is_null(), "{report}");
+    assert!(
+        json["notes"]
+            .to_string()
+            .contains("the connection to the drive was opened again"),
+        "{report}"
+    );
+    assert!(proxy.accepted() >= 2, "a new connection: {report}");
+}
