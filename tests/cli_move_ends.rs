@@ -426,3 +426,35 @@ fn a_connection_reset_once_during_a_recording_is_reopened_and_the_recording_goes
     );
     assert!(proxy.accepted() >= 2, "a new connection: {report}");
 }
+
+#[test]
+fn a_quick_stop_from_elsewhere_ends_the_wait_naming_the_power_state_read_again() {
+    let server = modbus_server(ServerOptions::default());
+    let link = format!("modbus-tcp://{}", server.addr);
+    let mut mover = start(&[
+        "--link", &link, "move-rel", "300000", "--speed", "60", "--wait",
+    ]);
+    common::wait_until("the move", Duration::from_secs(10), || {
+        server.drive().lock().velocity_rpm().abs() > 10.0
+    });
+    // Another master writes the controlword: Quick stop (0bxxxx x01x).
+    server
+        .drive()
+        .lock()
+        .write(
+            drivedeck::od::Address::new(0x6040, 0),
+            drivedeck::od::Value::Uint(0x0002),
+        )
+        .expect("controlword written");
+    let code = exit_code(&mut mover, Duration::from_secs(20));
+    let report = mover.report();
+    eprintln!("{report}");
+    assert_eq!(code, 1, "{report}");
+    assert!(
+        report.contains("drivedeck: Find what took the drive out of Operation enabled"),
+        "what to do leads: {report}"
+    );
+    assert!(report.contains("the drive read again is in "), "{report}");
+    assert!(report.contains("at position "), "{report}");
+    assert!(!report.contains("timed out"), "{report}");
+}

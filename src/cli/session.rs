@@ -265,7 +265,7 @@ impl Session {
     ) -> Result<(String, Option<[u8; 8]>, CommandProgress), Failure> {
         let what = request.to_string();
         let mut watch = (wait && EndWatch::applies(&request)).then(EndWatch::default);
-        let travel = EndWatch::applies(&request) || matches!(request, Request::Resume);
+        let travel = EndWatch::applies(&request);
         let id = self.send(request)?;
         let deadline = Instant::now() + timeout + Duration::from_secs(1);
         let mut image = None;
@@ -545,16 +545,18 @@ pub(super) struct EndSeen {
 }
 
 impl EndWatch {
-    /// Whether `request` is a travel command that waits for PdiStatusTargetReached.
+    /// Whether `request` is a travel command that waits for PdiStatusTargetReached (or
+    /// the resume of one).
     pub(super) fn applies(request: &Request) -> bool {
         matches!(
             request,
-            Request::Command(
-                Action::MoveAbsolute { .. }
-                    | Action::MoveRelative { .. }
-                    | Action::Velocity { .. }
-                    | Action::Torque { .. }
-            )
+            Request::Resume
+                | Request::Command(
+                    Action::MoveAbsolute { .. }
+                        | Action::MoveRelative { .. }
+                        | Action::Velocity { .. }
+                        | Action::Torque { .. }
+                )
         )
     }
 
