@@ -726,3 +726,88 @@ fn stood(at_rest: bool, at: &str) -> String {
         format!("last seen {at}, not known to stand still")
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pdi::{Status, TxImage};
+    use crate::signal::{Signal, Signals};
+
+    fn sample(t: f64, bits: &[StatusBit], rpm: f64) -> Sample {
+        let status = bits
+            .iter()
+            .fold(Status(0), |status, bit| status.with(*bit, true));
+        Sample {
+            t,
+            tx: TxImage {
+                status,
+                ..TxImage::default()
+            },
+            signals: Signals::default()
+                .with(Signal::Velocity, rpm)
+                .with(Signal::Position, 36_000.0),
+            ..Sample::default()
+        }
+    }
+
+    /// What the watch says after `samples`, 10 ms apart from t = 0.
+    fn watched(bits: &[StatusBit], rpm: f64, samples: usize) -> Option<End> {
+        let mut watch = EndWatch::default();
+        (0..samples)
+            .filter_map(|i| watch.check(&sample(i as f64 * 0.01, bits, rpm)))
+            .map(|seen| seen.end)
+            .next()
+    }
+
+    const ENABLED: StatusBit = StatusBit::OperationEnabled;
+
+    #[test]
+    fn a_drive_standing_at_a_limit_switch_ends_the_wait_after_the_hold() {
+        let bits = [ENABLED, StatusBit::LimitReached];
+        assert_eq!(watched(&bits, 0.0, 40), None, "0.4 s is not yet the end");
+        assert_eq!(watched(&bits, 0.0, 60), Some(End::LimitSwitch));
+    }
+
+    #[test]
+    fn a_move_away_from_a_limit_switch_goes_on() {
+        let bits = [ENABLED, StatusBit::LimitReached];
+        assert_eq!(watched(&bits, 30.0, 200), None);
+    }
+
+    #[test]
+    fn a_drive_halted_from_elsewhere_ends_the_wait() {
+        let bits = [ENABLED, StatusBit::QsHaltBit];
+        assert_eq!(watched(&bits, 0.0, 60), Some(End::Halted));
+    }
+
+    #[test]
+    fn a_target_reached_or_a_motor_at_speed_is_no_end() {
+        let reached = [ENABLED, StatusBit::LimitReached, StatusBit::TargetReached];
+        assert_eq!(watched(&reached, 0.0, 200), None);
+        assert_eq!(watched(&[ENABLED], 0.0, 200), None);
+    }
+
+    #[test]
+    fn the_limit_message_leads_with_what_to_do_and_names_the_position() {
+        let seen = EndSeen {
+            end: End::LimitSwitch,
+            at_rest: true,
+        };
+        let f = seen.failure(
+            "move",
+            &sample(1.0, &[ENABLED, StatusBit::LimitReached], 0.0),
+        );
+        assert!(
+            f.message.starts_with("Move the axis off the limit switch"),
+            "{}",
+            f.message
+        );
+        assert!(f.message.contains("at position 36000"), "{}", f.message);
+        assert!(!f.stop, "stood still: nothing to stop");
+        let unknown = EndSeen {
+            end: End::Halted,
+            at_rest: false,
+        };
+        assert!(unknown.failure("move", &Sample::default()).stop);
+    }
+}
