@@ -458,3 +458,38 @@ fn a_quick_stop_from_elsewhere_ends_the_wait_naming_the_power_state_read_again()
     assert!(report.contains("at position "), "{report}");
     assert!(!report.contains("timed out"), "{report}");
 }
+
+#[test]
+fn an_enip_adapter_stall_during_a_move_names_the_fault_the_drive_latched() {
+    let (sim, addr) = Sim::enip(&[]);
+    let link = format!("enip://{addr}?io=pdi");
+    let mut mover = start(&[
+        "--link",
+        &link,
+        "--lost-after",
+        "20",
+        "move-rel",
+        "300000",
+        "--speed",
+        "60",
+        "--wait",
+    ]);
+    thread::sleep(Duration::from_millis(2000));
+    assert!(mover.running(), "the move runs: {}", mover.report());
+    sim.process.signal("STOP");
+    thread::sleep(Duration::from_millis(3000));
+    sim.process.signal("CONT");
+    let code = exit_code(&mut mover, Duration::from_secs(30));
+    let report = mover.report();
+    eprintln!("{report}");
+    assert_eq!(code, 1, "{report}");
+    assert!(
+        report.contains("drivedeck: Clear the fault (`drivedeck clear-error`) once the link is sound: the drive's fieldbus monitoring tripped while its link was down"),
+        "{report}"
+    );
+    assert!(
+        report.contains("603Fh = 8000h"),
+        "the fault latched across the outage is named: {report}"
+    );
+    assert!(!report.contains("the link was lost"), "{report}");
+}

@@ -670,7 +670,13 @@ impl Session {
             ),
             Some((word, Some(PowerState::Fault | PowerState::FaultReactionActive))) => (
                 format!(
-                    "Remove the fault's cause, then clear it (`drivedeck clear-error`): {what}: {failure}; the drive read again is in Fault (6041h = {word:04X}h), {}",
+                    "{}: {what}: {failure}; the drive read again is in Fault (6041h = {word:04X}h), {}",
+                    if matches!(failure, PdiFailure::DriveFault { error_code } if error_code == FIELDBUS_MONITORING)
+                    {
+                        "Clear the fault (`drivedeck clear-error`) once the link is sound: the drive's fieldbus monitoring tripped while its link was down"
+                    } else {
+                        "Remove the fault's cause, then clear it (`drivedeck clear-error`)"
+                    },
                     stood(at_rest, &at)
                 ),
                 at_rest,
@@ -702,6 +708,9 @@ impl Session {
         }
     }
 }
+
+/// 603Fh when the drive's fieldbus monitoring tripped (the link was down too long).
+const FIELDBUS_MONITORING: u16 = 0x8000;
 
 /// How long a move that ended by a fault or a power loss is given to come to rest
 /// (the drive's fault or quick stop reaction brakes it) before it is judged.
