@@ -1,10 +1,18 @@
-//! How a command that moves the motor ends when the move cannot end as asked (issue 26):
+//! How a command that moves the motor or records ends when it cannot end as asked
+//! (issue 26):
 //!
 //! - a `--wait` ends as soon as the target can no longer be reached (the drive at a limit
-//!   switch, a fault mid-move) and names it, with the position where the drive stopped;
-//! - a Modbus TCP connection reset once during a move, the server reachable again at
-//!   once, is reconnected within the `--lost-after` budget and the move completes; a
-//!   connection that stays dead gets its last halt over a new connection.
+//!   switch, a fault mid-move, a quick stop from another master) and names it, with the
+//!   position where the drive stopped; a fault or a power loss is judged after reading
+//!   the statusword 6041h again;
+//! - a PDI status forged in one Modbus reply ("not Operation enabled") is checked by
+//!   reading 6041h again, and the drive, found running, is halted by `--on-exit`;
+//! - a Modbus TCP connection reset once during a move or a recording, the server
+//!   reachable again at once, is opened again within the `--lost-after` budget and the
+//!   command goes on; a connection that stays dead gets its last halt over a new one;
+//! - an EtherNet/IP adapter stall shorter than `--lost-after` does not end a recording or
+//!   a move: the I/O connection is opened again, and the fault the drive latched
+//!   meanwhile (8000h) is named.
 
 // Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
