@@ -9,10 +9,12 @@ use super::context::Context;
 use super::failure::{Failure, failed, interrupted, usage};
 use super::interrupt;
 use super::progress;
+use crate::cia::PowerState;
 use crate::link::LinkSpec;
 use crate::od::backup::{DeviceIdentity, IDENTITY};
 use crate::od::{Address, DataType, Value};
-use crate::pdi::Timing;
+use crate::pdi::Action;
+use crate::pdi::{Failure as PdiFailure, StatusBit, Timing};
 use crate::project::{Drive, check};
 use crate::worker::{
     self, CommandProgress, Event, LinkLossAction, ObjectError, ObjectPath, Request, Sample, Worker,
@@ -100,6 +102,9 @@ impl Session {
             trace,
             on_link_loss: policy.on_exit,
             lost_after: policy.lost_after,
+            // A connection that closes or resets is opened again within the --lost-after
+            // budget, and the command goes on (the window reconnects on its own).
+            reconnect_in_session: true,
             simulated_time: false,
             epoch: None,
         };
@@ -247,7 +252,11 @@ impl Session {
         Ok(event)
     }
 
-    /// Send a PDI request and wait for acceptance, or completion with `wait`.
+    /// Send a PDI request and wait for acceptance, or completion with `wait`. A travel
+    /// command waited for ends as soon as its target can no longer be reached (a limit
+    /// switch, a halt from elsewhere: [`EndWatch`]); a move that seems to end by a fault
+    /// or by leaving Operation enabled is judged only after the drive is read again
+    /// ([`Session::judge_again`]).
     pub(super) fn command(
         &mut self,
         request: Request,
@@ -255,9 +264,12 @@ impl Session {
         timeout: Duration,
     ) -> Result<(String, Option<[u8; 8]>, CommandProgress), Failure> {
         let what = request.to_string();
+        let mut watch = (wait && EndWatch::applies(&request)).then(EndWatch::default);
+        let travel = EndWatch::applies(&request);
         let id = self.send(request)?;
         let deadline = Instant::now() + timeout + Duration::from_secs(1);
         let mut image = None;
+        let mut accepted = false;
         loop {
             let event = match self.next(deadline) {
                 Ok(event) => event,
@@ -277,7 +289,29 @@ impl Session {
                 Event::Sent {
                     id: i, image: sent, ..
                 } if i == id => image = Some(sent.to_bytes()),
+                Event::Samples(_) if accepted => {
+                    if let (Some(watch), Some(sample)) = (watch.as_mut(), self.latest)
+                        && let Some(end) = watch.check(&sample)
+                    {
+                        return Err(end.failure(&what, &sample));
+                    }
+                }
+                Event::Progress {
+                    id: i,
+                    progress: CommandProgress::Failed(failure),
+                } if i == id
+                    && travel
+                    && matches!(
+                        failure,
+                        PdiFailure::PowerLost | PdiFailure::DriveFault { .. }
+                    ) =>
+                {
+                    return Err(self.judge_again(&what, failure, timeout));
+                }
                 Event::Progress { id: i, progress } if i == id => {
+                    if matches!(progress, CommandProgress::Accepted) {
+                        accepted = true;
+                    }
                     if let CommandProgress::TimedOut { .. } = progress {
                         // The drive may still be at it: stopped on the way out.
                         return Err(Failure {
@@ -478,5 +512,311 @@ fn written(event: Event) -> Option<(u64, Result<(), ObjectError>)> {
     match event {
         Event::ObjectWritten { id, result, .. } => Some((id, result)),
         _ => None,
+    }
+}
+
+/// How long a travel command must stand still, short of its target, in a state that
+/// cannot reach it (at a limit switch, halted), before a `--wait` gives up on it: a move
+/// that starts at a limit switch, away from it, is still at rest for its first cycles.
+const END_HOLD: f64 = 0.5;
+
+/// Watches the samples of a travel command waited for, for the end of it short of its
+/// target: the motor at rest, PdiStatusTargetReached clear, and the drive at a limit
+/// switch or halted (by someone else: the command did not ask for it), for [`END_HOLD`].
+#[derive(Default)]
+pub(super) struct EndWatch {
+    /// Sample time since which the end shows, and what it is.
+    since: Option<(f64, End)>,
+}
+
+/// Why a travel command can no longer reach its target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum End {
+    LimitSwitch,
+    Halted,
+}
+
+/// A travel command's end short of its target, as seen in the samples.
+pub(super) struct EndSeen {
+    end: End,
+    /// Whether the samples show the motor at rest (606Ch known); otherwise the drive may
+    /// still be moving and is stopped by `--on-exit`.
+    at_rest: bool,
+}
+
+impl EndWatch {
+    /// Whether `request` is a travel command that waits for PdiStatusTargetReached (or
+    /// the resume of one).
+    pub(super) fn applies(request: &Request) -> bool {
+        matches!(
+            request,
+            Request::Resume
+                | Request::Command(
+                    Action::MoveAbsolute { .. }
+                        | Action::MoveRelative { .. }
+                        | Action::Velocity { .. }
+                        | Action::Torque { .. }
+                )
+        )
+    }
+
+    /// The end, once it has shown for [`END_HOLD`].
+    pub(super) fn check(&mut self, sample: &Sample) -> Option<EndSeen> {
+        let status = sample.tx.status;
+        let moving = sample.at_rest() == Some(false);
+        let end = if status.is_set(StatusBit::TargetReached) || moving {
+            None
+        } else if status.is_set(StatusBit::LimitReached) {
+            Some(End::LimitSwitch)
+        } else if status.is_set(StatusBit::QsHaltBit) && status.is_set(StatusBit::OperationEnabled)
+        {
+            Some(End::Halted)
+        } else {
+            None
+        };
+        let Some(end) = end else {
+            self.since = None;
+            return None;
+        };
+        let since = match self.since {
+            Some((t, seen)) if seen == end => t,
+            _ => {
+                self.since = Some((sample.t, end));
+                sample.t
+            }
+        };
+        (sample.t - since >= END_HOLD).then_some(EndSeen {
+            end,
+            at_rest: sample.at_rest() == Some(true),
+        })
+    }
+}
+
+/// Where the drive stands, in words: "at position 36012" (6064h), or nothing known.
+pub(super) fn position_words(sample: &Sample) -> String {
+    match sample.position() {
+        Some(p) => format!("at position {p:.0}"),
+        None => "at a position this link does not report".to_owned(),
+    }
+}
+
+impl EndSeen {
+    /// The failure of the command `what` that ended so: what to do first, then why.
+    fn failure(&self, what: &str, sample: &Sample) -> Failure {
+        let at = position_words(sample);
+        let message = match self.end {
+            End::LimitSwitch => format!(
+                "Move the axis off the limit switch (a move the other way) and check the target: the drive stopped {at} at a limit switch (PdiStatusLimitReached) before reaching it; {what}: target not reached"
+            ),
+            End::Halted => format!(
+                "Find who halted the drive (another master or tool): it was halted (PdiStatusQsHaltBit) {at} before reaching its target, by a request not from this command; {what}: target not reached"
+            ),
+        };
+        Failure {
+            stop: !self.at_rest,
+            ..failed(message)
+        }
+    }
+}
+
+impl Session {
+    /// A travel command `what` seemed to end by `failure` (a fault, or the drive leaving
+    /// Operation enabled) as the PDI status told it: before judging, read the drive again
+    /// by another path (the statusword 6041h by the link's own object access where it has
+    /// one) and a few more samples. The failure says what the drive was found in; it asks
+    /// for the `--on-exit` stop (`stop`) unless the drive is found stopped for certain.
+    pub(super) fn judge_again(
+        &mut self,
+        what: &str,
+        failure: PdiFailure,
+        timeout: Duration,
+    ) -> Failure {
+        let word = self.try_read(
+            Address::new(0x6041, 0),
+            Some(DataType::Unsigned16),
+            ObjectPath::Auto,
+            timeout.min(Duration::from_secs(2)),
+        );
+        self.refresh();
+        let enabled = matches!(
+            &word,
+            Ok(Ok(v)) if v.as_i128().and_then(|w| u16::try_from(w).ok())
+                .and_then(PowerState::from_statusword) == Some(PowerState::OperationEnabled)
+        );
+        if !enabled {
+            // Out of Operation enabled the drive's own reaction brakes the motor: give it
+            // the time to, so that "stands still" is seen rather than assumed.
+            self.wait_at_rest(Instant::now() + SETTLE_WAIT);
+        }
+        let sample = self.latest;
+        let at = sample
+            .as_ref()
+            .map(position_words)
+            .unwrap_or_else(|| "at an unknown position".to_owned());
+        let at_rest = sample.and_then(|s| s.at_rest()) == Some(true);
+        let state = match &word {
+            Ok(Ok(value)) => value
+                .as_i128()
+                .and_then(|w| u16::try_from(w).ok())
+                .map(|w| (w, PowerState::from_statusword(w))),
+            _ => None,
+        };
+        let (message, stopped) = match state {
+            Some((word, Some(PowerState::OperationEnabled))) => (
+                format!(
+                    "Check the bus for a wrong status frame (a second master, noise, a forged or mis-decoded frame): the PDI status said {failure}, but the drive read again says Operation enabled (6041h = {word:04X}h) {at}, so the command did not end as the frame said; {what}: not finished"
+                ),
+                false,
+            ),
+            Some((word, Some(PowerState::Fault | PowerState::FaultReactionActive))) => (
+                format!(
+                    "{}: {what}: {failure}; the drive read again is in Fault (6041h = {word:04X}h), {}",
+                    if matches!(failure, PdiFailure::DriveFault { error_code } if error_code == FIELDBUS_MONITORING)
+                    {
+                        "Clear the fault (`drivedeck clear-error`) once the link is sound: the drive's fieldbus monitoring tripped while its link was down"
+                    } else {
+                        "Remove the fault's cause, then clear it (`drivedeck clear-error`)"
+                    },
+                    stood(at_rest, &at)
+                ),
+                at_rest,
+            ),
+            Some((word, state)) => (
+                format!(
+                    "Find what took the drive out of Operation enabled (a quick stop, a switch-off by another master or tool, the enable input): {what}: {failure}; the drive read again is in {} (6041h = {word:04X}h), {}",
+                    state.map_or_else(|| "no valid power state".to_owned(), |s| s.to_string()),
+                    stood(at_rest, &at)
+                ),
+                at_rest,
+            ),
+            None => (
+                format!(
+                    "Check the drive at the machine: {what}: {failure}, and the statusword 6041h could not be read again to confirm it ({}), {}",
+                    match word {
+                        Ok(Err(e)) => e.to_string(),
+                        Err(f) => f.message,
+                        Ok(Ok(v)) => format!("not a statusword: {v}"),
+                    },
+                    stood(at_rest, &at)
+                ),
+                at_rest,
+            ),
+        };
+        Failure {
+            stop: !stopped,
+            ..failed(message)
+        }
+    }
+}
+
+/// 603Fh when the drive's fieldbus monitoring tripped (the link was down too long).
+const FIELDBUS_MONITORING: u16 = 0x8000;
+
+/// How long a move that ended by a fault or a power loss is given to come to rest
+/// (the drive's fault or quick stop reaction brakes it) before it is judged.
+const SETTLE_WAIT: Duration = Duration::from_secs(3);
+
+impl Session {
+    /// Let samples arrive until the motor is seen at rest or `deadline` passes.
+    fn wait_at_rest(&mut self, deadline: Instant) {
+        while self.latest.and_then(|s| s.at_rest()) != Some(true) {
+            if self.next(deadline).is_err() {
+                return;
+            }
+        }
+    }
+}
+
+/// Whether the drive was seen standing still, and where.
+fn stood(at_rest: bool, at: &str) -> String {
+    if at_rest {
+        format!("standing still {at}")
+    } else {
+        format!("last seen {at}, not known to stand still")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pdi::{Status, TxImage};
+    use crate::signal::{Signal, Signals};
+
+    fn sample(t: f64, bits: &[StatusBit], rpm: f64) -> Sample {
+        let status = bits
+            .iter()
+            .fold(Status(0), |status, bit| status.with(*bit, true));
+        Sample {
+            t,
+            tx: TxImage {
+                status,
+                ..TxImage::default()
+            },
+            signals: Signals::default()
+                .with(Signal::Velocity, rpm)
+                .with(Signal::Position, 36_000.0),
+            ..Sample::default()
+        }
+    }
+
+    /// What the watch says after `samples`, 10 ms apart from t = 0.
+    fn watched(bits: &[StatusBit], rpm: f64, samples: usize) -> Option<End> {
+        let mut watch = EndWatch::default();
+        (0..samples)
+            .filter_map(|i| watch.check(&sample(i as f64 * 0.01, bits, rpm)))
+            .map(|seen| seen.end)
+            .next()
+    }
+
+    const ENABLED: StatusBit = StatusBit::OperationEnabled;
+
+    #[test]
+    fn a_drive_standing_at_a_limit_switch_ends_the_wait_after_the_hold() {
+        let bits = [ENABLED, StatusBit::LimitReached];
+        assert_eq!(watched(&bits, 0.0, 40), None, "0.4 s is not yet the end");
+        assert_eq!(watched(&bits, 0.0, 60), Some(End::LimitSwitch));
+    }
+
+    #[test]
+    fn a_move_away_from_a_limit_switch_goes_on() {
+        let bits = [ENABLED, StatusBit::LimitReached];
+        assert_eq!(watched(&bits, 30.0, 200), None);
+    }
+
+    #[test]
+    fn a_drive_halted_from_elsewhere_ends_the_wait() {
+        let bits = [ENABLED, StatusBit::QsHaltBit];
+        assert_eq!(watched(&bits, 0.0, 60), Some(End::Halted));
+    }
+
+    #[test]
+    fn a_target_reached_or_a_motor_at_speed_is_no_end() {
+        let reached = [ENABLED, StatusBit::LimitReached, StatusBit::TargetReached];
+        assert_eq!(watched(&reached, 0.0, 200), None);
+        assert_eq!(watched(&[ENABLED], 0.0, 200), None);
+    }
+
+    #[test]
+    fn the_limit_message_leads_with_what_to_do_and_names_the_position() {
+        let seen = EndSeen {
+            end: End::LimitSwitch,
+            at_rest: true,
+        };
+        let f = seen.failure(
+            "move",
+            &sample(1.0, &[ENABLED, StatusBit::LimitReached], 0.0),
+        );
+        assert!(
+            f.message.starts_with("Move the axis off the limit switch"),
+            "{}",
+            f.message
+        );
+        assert!(f.message.contains("at position 36000"), "{}", f.message);
+        assert!(!f.stop, "stood still: nothing to stop");
+        let unknown = EndSeen {
+            end: End::Halted,
+            at_rest: false,
+        };
+        assert!(unknown.failure("move", &Sample::default()).stop);
     }
 }

@@ -13,7 +13,50 @@ use crate::link::Notice;
 use crate::link::{self, Link};
 use crate::pdi::{Action, RxImage, StatusBit};
 
+/// How often a connection that closed or reset under a session is tried again
+/// (`Config::reconnect_in_session`); each try that fails is one failed exchange.
+pub const REOPEN_EVERY: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// How long the last stop on a lost link may take to open a dead connection again
+/// before it is sent.
+const REOPEN_FOR_LAST_STOP: std::time::Duration = std::time::Duration::from_secs(1);
+
 impl Session {
+    /// The connection closed or reset under the session and its time to be opened
+    /// again has come: `Ok(true)` when it is open again (said in the log, with a fault
+    /// the drive latched meanwhile), `Ok(false)` while it is not yet time, `Err` when
+    /// opening failed (one failed exchange).
+    pub(super) async fn reopen(&mut self, sink: &mut EventSink) -> Result<bool, link::Error> {
+        let Some(at) = self.reopen_at else {
+            return Ok(true);
+        };
+        if super::clock::now() < at {
+            return Ok(false);
+        }
+        self.link.reconnect().await?;
+        // The first exchange on the new connection says what the drive holds now.
+        let exchange = self.link.exchange(self.master.outgoing().as_ref()).await?;
+        self.reopen_at = None;
+        let why = self.reopen_why.take().unwrap_or_default();
+        let tx = exchange.tx;
+        let latched = if tx.status.is_set(StatusBit::Fault) {
+            format!(
+                "; the drive latched a fault meanwhile: 603Fh = {} (clear its cause, then Clear Error)",
+                crate::cia::ErrorCode(tx.error_code)
+            )
+        } else {
+            String::new()
+        };
+        sink.emit(Event::Notice(Notice::info(format!(
+            "the connection to the drive was opened again after {} failed exchange(s) ({why}); the session goes on{latched}",
+            self.failures
+        ))));
+        self.master.on_tx(tx, super::clock::now());
+        self.master.poll(super::clock::now());
+        self.report_progress(sink);
+        Ok(true)
+    }
+
     /// An exchange went through: a run of failed ones before it is over (and said so).
     pub(super) fn exchange_succeeded(&mut self, sink: &mut EventSink) {
         if self.failures > 0 {
@@ -40,6 +83,27 @@ impl Session {
         self.errors += 1;
         self.failures += 1;
         let lost_after = config.lost_after.clamp(1, MAX_LOST_AFTER);
+        if config.reconnect_in_session
+            && !error.is_momentary()
+            && error.is_transient()
+            && self.failures < lost_after
+        {
+            // The connection itself closed or reset: open it again in place, at once the
+            // first time (a server reachable again at once costs one failed exchange).
+            let first = self.reopen_at.is_none() && self.reopen_why.is_none();
+            let now = super::clock::now();
+            self.reopen_at = Some(if first { now } else { now + REOPEN_EVERY });
+            if first {
+                self.reopen_why = Some(error.to_string());
+                self.failure_notices.say(
+                    format!(
+                        "the connection to the drive failed: {error}; opening it again (the link counts as lost after {lost_after} failures in a row)"
+                    ),
+                    sink,
+                );
+            }
+            return false;
+        }
         if error.is_momentary() && self.failures < lost_after {
             if self.failures == 1 {
                 self.failure_notices.say(
@@ -172,8 +236,35 @@ impl Session {
         action: LinkLossAction,
         what: &str,
     ) -> LastStop {
-        let attempt =
+        // A connection known dead (closed or reset) is opened again first: a stop written
+        // to a dead socket never reaches the drive.
+        let mut reopened = false;
+        if self.reopen_at.is_some() || self.reopen_why.is_some() {
+            reopened = matches!(
+                tokio::time::timeout(REOPEN_FOR_LAST_STOP, self.link.reconnect()).await,
+                Ok(Ok(()))
+            );
+        }
+        let mut attempt =
             tokio::time::timeout(HALT_ON_LOSS_TIMEOUT, self.link.exchange(Some(image))).await;
+        if !reopened
+            && let Ok(Err(e)) = &attempt
+            && !e.is_momentary()
+            && e.is_transient()
+            && matches!(
+                tokio::time::timeout(REOPEN_FOR_LAST_STOP, self.link.reconnect()).await,
+                Ok(Ok(()))
+            )
+        {
+            reopened = true;
+            attempt =
+                tokio::time::timeout(HALT_ON_LOSS_TIMEOUT, self.link.exchange(Some(image))).await;
+        }
+        let over = if reopened {
+            " over a new connection"
+        } else {
+            ""
+        };
         match attempt {
             Ok(Ok(exchange)) => {
                 let status = exchange.tx.status;
@@ -182,10 +273,10 @@ impl Session {
                     _ => !status.is_set(StatusBit::OperationEnabled),
                 };
                 if confirmed {
-                    LastStop::done(format!("{what} was sent and the drive confirmed it"))
+                    LastStop::done(format!("{what} was sent{over} and the drive confirmed it"))
                 } else {
                     LastStop::done(format!(
-                        "{what} was sent and the drive answered, without showing it yet"
+                        "{what} was sent{over} and the drive answered, without showing it yet"
                     ))
                 }
             }

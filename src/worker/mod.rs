@@ -23,6 +23,7 @@ use std::time::Duration;
 
 use tokio::sync::mpsc;
 
+pub use loss::REOPEN_EVERY;
 pub use protocol::{
     CommandProgress, Event, HALT_ON_LOSS_TIMEOUT, Health, JOG_KEEPALIVE, JOG_TIMEOUT, LOST_AFTER,
     LinkLossAction, MAX_LOST_AFTER, MAX_WATCHED, ObjectError, ObjectPath, Rejection, Request,
@@ -55,6 +56,12 @@ pub struct Config {
     pub on_link_loss: LinkLossAction,
     /// Exchanges that must fail in a row before the link counts as lost.
     pub lost_after: u32,
+    /// Ride out a connection that closes or resets within the `lost_after` budget: open
+    /// it again in place (one failed exchange per try, tried again every
+    /// [`REOPEN_EVERY`]) and go on with the same session, so that the command that runs
+    /// is neither ended nor replayed. The command line's way; the window (off) ends the
+    /// session and reconnects with `reconnect`.
+    pub reconnect_in_session: bool,
     /// Run on simulated time: the worker's runtime starts with tokio's clock paused, so
     /// whenever the worker only waits (for its next cycle) time jumps ahead, and a test of
     /// the in-process simulated drive waits no real time for a move. Only the in-process
@@ -76,6 +83,7 @@ impl Default for Config {
             trace: false,
             on_link_loss: LinkLossAction::Halt,
             lost_after: LOST_AFTER,
+            reconnect_in_session: false,
             simulated_time: false,
             epoch: None,
         }

@@ -37,6 +37,11 @@ pub(super) struct Session {
     pub(super) last_health: Instant,
     /// Exchanges failed in a row (the link counts as lost at `Config::lost_after`).
     pub(super) failures: u32,
+    /// The connection closed or reset under the session (`Config::reconnect_in_session`):
+    /// it is opened again, not exchanged on, from this time on.
+    pub(super) reopen_at: Option<Instant>,
+    /// Why it closed (for the notice when it is open again).
+    pub(super) reopen_why: Option<String>,
     /// Troubles the link got over by sending again, since connecting.
     pub(super) recovered: u64,
     /// The log lines about failed exchanges and recoveries, at a bounded rate.
@@ -100,6 +105,8 @@ impl Session {
             errors: 0,
             last_health: now,
             failures: 0,
+            reopen_at: None,
+            reopen_why: None,
             recovered: 0,
             failure_notices: Limiter::default(),
             recovery_notices: Limiter::default(),

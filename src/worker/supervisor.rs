@@ -124,6 +124,19 @@ impl Supervisor {
             return;
         };
         s.halt_stale_jog(sink);
+        match s.reopen(sink).await {
+            Ok(true) => {}
+            Ok(false) => return,
+            Err(error) => {
+                if s.exchange_failed(&error, &self.config, sink) {
+                    self.lose_session(error, sink).await;
+                }
+                return;
+            }
+        }
+        let Some(s) = self.session.as_mut() else {
+            return;
+        };
         let budget = Duration::from_secs_f64(
             OBJECT_SHARE_OF_CYCLE / self.config.poll_rate.clamp(1.0, 2000.0),
         );
