@@ -108,6 +108,10 @@ impl Session {
             simulated_time: false,
             epoch: None,
         };
+        // Signals are caught from before connecting: a Ctrl-C then ends the command through
+        // the session, whose link closes on the way out (over CANopen that puts back the
+        // PDO mapping the link set up). A signal while connecting ends it once connected.
+        let caught = interrupt::install().is_ok();
         let worker = Worker::spawn(config, Arc::new(|| {}))
             .map_err(|e| usage(format!("cannot start the worker thread: {e}")))?;
         let mut session = Session {
@@ -132,6 +136,7 @@ impl Session {
                 _ => {}
             }
         }
+        session.interruptible = caught;
         // A status before anything else: commands are judged against it.
         while session.latest.is_none() {
             session.next(deadline)?;
