@@ -102,23 +102,40 @@ impl From<SimLink> for AnyLink {
 
 /// Scan the bus a connection string names, without connecting to a node.
 pub async fn scan(spec: &LinkSpec) -> Result<Vec<super_link::FoundDevice>, Error> {
-    match spec {
+    scan_traced(spec, false).await.0
+}
+
+/// [`scan`], with the CAN frames of the scan when `trace` is on (`--trace scan`).
+pub async fn scan_traced(
+    spec: &LinkSpec,
+    trace: bool,
+) -> (
+    Result<Vec<super_link::FoundDevice>, Error>,
+    Vec<super_link::TraceRecord>,
+) {
+    use crate::link::canopen::scan::scan_traced as can_scan;
+    let found = match spec {
         LinkSpec::CanopenSim { can } => {
             // Every simulated node open in the process, and the spec's own.
-            let (mut port, _guest) = SimCanBus::scanner(can.node).await?;
+            let (mut port, _guest) = match SimCanBus::scanner(can.node).await {
+                Ok(opened) => opened,
+                Err(e) => return (Err(e), Vec::new()),
+            };
             // Let a node put there for the scan boot.
             tokio::time::sleep(std::time::Duration::from_millis(20)).await;
-            crate::link::canopen::scan::scan(&mut port).await
+            return can_scan(&mut port, trace).await;
         }
         LinkSpec::CanopenSlcan { path, bitrate, .. } => {
-            let mut bus = join_slcan(path, *bitrate, None).await?;
-            crate::link::canopen::scan::scan(&mut bus).await
+            match join_slcan(path, *bitrate, None).await {
+                Ok(mut bus) => return can_scan(&mut bus, trace).await,
+                Err(e) => Err(e),
+            }
         }
         #[cfg(target_os = "linux")]
-        LinkSpec::CanopenSocketcan { iface, .. } => {
-            let mut bus = join_socketcan(iface, None).await?;
-            crate::link::canopen::scan::scan(&mut bus).await
-        }
+        LinkSpec::CanopenSocketcan { iface, .. } => match join_socketcan(iface, None).await {
+            Ok(mut bus) => return can_scan(&mut bus, trace).await,
+            Err(e) => Err(e),
+        },
         LinkSpec::Enip { host, port, .. } => {
             crate::link::enip::discovery::discover(&crate::link::enip::discovery::Discovery {
                 port: *port,
@@ -131,7 +148,8 @@ pub async fn scan(spec: &LinkSpec) -> Result<Vec<super_link::FoundDevice>, Error
             "{} has no bus scan: scanning works on CANopen buses and EtherNet/IP networks",
             spec.bus_name()
         ))),
-    }
+    };
+    (found, Vec::new())
 }
 
 impl AnyLink {

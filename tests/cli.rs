@@ -144,3 +144,14 @@ fn a_timeout_out_of_range_is_refused_with_the_range_not_clamped() {
     assert!(stderr.contains("is not a number of seconds"), "{stderr}");
     ok(&["--link", "sim", "--timeout", "0.1", "status"]);
 }
+
+#[test]
+fn a_traced_scan_prints_its_frames() {
+    let (code, stdout, stderr) =
+        common::cli::run(&["--link", "canopen+sim://?node=3", "--trace", "scan"]);
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    assert!(stdout.contains("node   3"), "{stdout}");
+    // The identity read to every node id, and node 3's answer, each on a line.
+    assert!(stderr.lines().any(|l| l.starts_with("tx 603#")), "{stderr}");
+    assert!(stderr.lines().any(|l| l.starts_with("rx 583#")), "{stderr}");
+}

@@ -138,7 +138,7 @@ fn execute(
     let planned = planned_request(command)?;
     let write_value = value_to_write(command)?;
     if let Command::Scan = command {
-        return scan(link, timeout);
+        return scan(link, timeout, trace);
     }
     refuse_still_moves(command)?;
     let mut session = Session::open(link, timeout, trace, context)?;
@@ -362,10 +362,11 @@ pub fn discover(args: &DiscoverArgs, json: bool) -> ExitCode {
 }
 
 /// A bus scan through the worker, without connecting to a node.
-fn scan(link: &LinkSpec, timeout: Duration) -> Result<Report, Failure> {
+fn scan(link: &LinkSpec, timeout: Duration, trace: bool) -> Result<Report, Failure> {
     let worker = Worker::spawn(
         worker::Config {
             reconnect: false,
+            trace,
             ..worker::Config::default()
         },
         Arc::new(|| {}),
@@ -378,6 +379,7 @@ fn scan(link: &LinkSpec, timeout: Duration) -> Result<Report, Failure> {
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
         match worker.recv_timeout(left) {
+            Ok(Event::Frames(frames)) => super::session::print_frames(&frames),
             Ok(Event::Scanned { id: i, result }) if i == id => {
                 return result
                     .map(|devices| Report::Scan(report::scan(link, devices)))

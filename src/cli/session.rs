@@ -242,16 +242,7 @@ impl Session {
                 return Err(failed(format!("the link was lost: {reason}")));
             }
             Event::Notice(notice) => self.notes.push(notice.text.clone()),
-            Event::Frames(frames) => {
-                for f in frames {
-                    eprintln!(
-                        "{} {:<24} {}",
-                        if f.sent { "tx" } else { "rx" },
-                        f.raw,
-                        f.text
-                    );
-                }
-            }
+            Event::Frames(frames) => print_frames(frames),
             _ => {}
         }
         Ok(event)
@@ -738,6 +729,18 @@ fn stood(at_rest: bool, at: &str) -> String {
         format!("standing still {at}")
     } else {
         format!("last seen {at}, not known to stand still")
+    }
+}
+
+/// Frames of `--trace` on stderr, one a line: direction, raw, meaning.
+pub(super) fn print_frames(frames: &[crate::link::TraceRecord]) {
+    for f in frames {
+        eprintln!(
+            "{} {:<24} {}",
+            if f.sent { "tx" } else { "rx" },
+            f.raw,
+            f.text
+        );
     }
 }
 

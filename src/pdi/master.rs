@@ -373,7 +373,13 @@ impl PdiMaster {
             .is_none_or(|at| now.saturating_duration_since(at) >= every)
     }
 
-    /// The RX image the drive holds, read back after our last write: an image that is
+    /// A read-back was asked for now (whether it comes or not, the next is due a period
+    /// later).
+    pub fn read_back_tried(&mut self, now: Instant) {
+        self.read_back_at = Some(now);
+    }
+
+    /// The RX image the drive holds, read back before our next write: an image that is
     /// neither ours nor the one before it was written by somebody else (counted like a
     /// flip of the toggle, and fails the commands running).
     pub fn on_read_back(&mut self, rx: RxImage, now: Instant) {

@@ -70,9 +70,10 @@ impl Session {
         let before = super::clock::now();
         if self.master.read_back_due(before) {
             // Another master's image shows only between its writes and ours: read the
-            // drive's RX image back before writing ours again. A failed read is no verdict
-            // (the exchange tells whether the link lives).
-            if let Ok(Some(rx)) = self.link.read_rx().await {
+            // drive's RX image back before writing ours again. It is part of the cycle: a
+            // read that fails is a failed exchange like any other.
+            self.master.read_back_tried(before);
+            if let Some(rx) = self.link.read_rx().await? {
                 self.master.on_read_back(rx, before);
             }
         }

@@ -190,7 +190,13 @@ impl Supervisor {
             .is_some_and(|s| same_bus(&s.link.info().spec, &spec));
         let result = match self.session.as_mut() {
             Some(s) if same_bus => s.link.scan().await,
-            _ => connect::scan(&spec).await,
+            _ => {
+                let (result, frames) = connect::scan_traced(&spec, self.config.trace).await;
+                if !frames.is_empty() {
+                    sink.emit(Event::Frames(frames));
+                }
+                result
+            }
         };
         sink.emit(Event::Scanned {
             id,

@@ -155,3 +155,67 @@ async fn listen<B: CanBus>(bus: &mut B) -> Result<Heard, Error> {
     }
     Ok((states, vendors, aborts))
 }
+
+/// A bus whose frames are kept, for a scan under `--trace` (the frames go to the terminal
+/// or the frame log as a link's do).
+pub struct TracedBus<'b, B> {
+    bus: &'b mut B,
+    interface: String,
+    /// Every frame sent and received, in order.
+    pub records: Vec<crate::link::TraceRecord>,
+}
+
+impl<'b, B: CanBus> TracedBus<'b, B> {
+    pub fn new(bus: &'b mut B) -> Self {
+        let interface = bus.describe();
+        TracedBus {
+            bus,
+            interface,
+            records: Vec::new(),
+        }
+    }
+
+    fn record(&mut self, sent: bool, frame: &CanFrame) {
+        self.records.push(crate::link::TraceRecord {
+            at: std::time::SystemTime::now(),
+            sent,
+            raw: frame.to_string(),
+            text: crate::proto::canopen::describe::describe(frame),
+            can: Some((*frame, self.interface.clone())),
+        });
+    }
+}
+
+impl<B: CanBus> CanBus for TracedBus<'_, B> {
+    async fn send(&mut self, frame: &CanFrame) -> Result<(), Error> {
+        self.record(true, frame);
+        self.bus.send(frame).await
+    }
+
+    async fn recv(&mut self) -> Result<CanFrame, Error> {
+        let frame = self.bus.recv().await?;
+        self.record(false, &frame);
+        Ok(frame)
+    }
+
+    fn describe(&self) -> String {
+        self.bus.describe()
+    }
+}
+
+/// [`scan`], with every frame kept when `trace` is on: the devices found (or why not) and
+/// the frames.
+pub async fn scan_traced<B: CanBus>(
+    bus: &mut B,
+    trace: bool,
+) -> (
+    Result<Vec<FoundDevice>, Error>,
+    Vec<crate::link::TraceRecord>,
+) {
+    if !trace {
+        return (scan(bus).await, Vec::new());
+    }
+    let mut traced = TracedBus::new(bus);
+    let found = scan(&mut traced).await;
+    (found, traced.records)
+}

@@ -142,11 +142,34 @@ pub struct SlcanBus<S> {
     frames: VecDeque<CanFrame>,
     refusals: u64,
     garbled_in_a_row: u32,
+    /// Good lines read since the adapter was opened: garbage after them is noise on the
+    /// line, not a wrong serial speed (which garbles every line from the start).
+    good_lines: u64,
     /// Not yet reported: garbled lines skipped (with the last one's fault) and refusals.
     unreported: Unreported,
 }
 
 /// What [`SlcanBus::recv`] got over since the last [`CanBus::take_troubles`].
+/// Why [`GARBLED_LIMIT`] garbled lines in a row came from the adapter at `name`, after
+/// `good` good lines: noise on a line that worked, or a line that never did.
+fn garbage_from(name: &str, good: u64, last: &SlcanError) -> String {
+    if good > 0 {
+        format!(
+            "the line from the adapter at {name} is noisy: {GARBLED_LIMIT} garbled lines in a \
+             row after {good} good ones (the last: {last}); check the USB cable (short, \
+             shielded, not beside motor or power cables), the adapter's ground and the CAN \
+             wiring and its termination (a wrong serial speed would garble every line from \
+             the start)"
+        )
+    } else {
+        format!(
+            "the adapter at {name} sends garbage ({GARBLED_LIMIT} lines in a row, nothing \
+             readable since it was opened, the last: {last}): a wrong serial speed, or not an \
+             slcan adapter"
+        )
+    }
+}
+
 #[derive(Debug, Default)]
 struct Unreported {
     garbled: u32,
@@ -198,6 +221,7 @@ impl<S: AsyncRead + AsyncWrite + Unpin> SlcanBus<S> {
             frames: VecDeque::new(),
             refusals: 0,
             garbled_in_a_row: 0,
+            good_lines: 0,
             unreported: Unreported::default(),
         };
         // Any answer to `C` will do: a Lawicel adapter refuses to close a closed channel,
@@ -325,6 +349,7 @@ impl<S: AsyncRead + AsyncWrite + Unpin> SlcanBus<S> {
         match line {
             Ok(line) => {
                 self.garbled_in_a_row = 0;
+                self.good_lines += 1;
                 match line {
                     SlcanLine::Frame(frame) => self.frames.push_back(frame),
                     SlcanLine::Ack => {}
@@ -350,9 +375,10 @@ impl<S: AsyncRead + AsyncWrite + Unpin> SlcanBus<S> {
                     self.garbled_in_a_row = 0;
                     self.unreported.garbled = 0;
                     self.unreported.last_garbled = None;
-                    return Err(Error::Protocol(format!(
-                        "the adapter at {} sends garbage ({GARBLED_LIMIT} lines in a row, the last: {e}): a wrong serial speed, or not an slcan adapter",
-                        self.name
+                    return Err(Error::Protocol(garbage_from(
+                        &self.name,
+                        self.good_lines,
+                        &e,
                     )));
                 }
                 self.unreported.garbled += 1;
@@ -532,5 +558,25 @@ impl<S: AsyncRead + AsyncWrite + Unpin> CanBus for SlcanDevice<S> {
 
     fn describe(&self) -> String {
         format!("simulated slcan adapter on {}", self.name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn garbage_after_good_lines_is_noise_and_from_the_start_a_wrong_speed() {
+        let last = SlcanError::Garbage("t6\\x01".into());
+        let noise = garbage_from("/dev/ttyACM0", 1200, &last);
+        assert!(
+            noise.starts_with("the line from the adapter at /dev/ttyACM0 is noisy")
+                && noise.contains("after 1200 good ones")
+                && noise.contains("check the USB cable"),
+            "{noise}"
+        );
+        let speed = garbage_from("/dev/ttyACM0", 0, &last);
+        assert!(speed.contains("a wrong serial speed"), "{speed}");
+        assert!(!speed.contains("noisy"), "{speed}");
     }
 }

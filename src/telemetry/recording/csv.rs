@@ -81,13 +81,15 @@ impl Recording {
         if streamed && !ended {
             meta.cut = Some(super::cut_text(times.len(), times.last().copied()));
         }
-        Ok(Recording {
+        let mut recording = Recording {
             meta,
             channels,
             times,
             columns,
             markers,
-        })
+        };
+        recording.non_finite_as_gaps();
+        Ok(recording)
     }
 }
 

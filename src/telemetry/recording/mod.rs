@@ -98,6 +98,10 @@ pub struct Metadata {
     /// has no end: "cut after N samples at t = … s (the recording did not end normally)".
     #[serde(default)]
     pub cut: Option<String>,
+    /// Set by the reader when values in the file were not finite (`inf`, `-inf`): they
+    /// are gaps now, and this says how many and where. Never written.
+    #[serde(default, skip_serializing)]
+    pub gaps: Option<String>,
 }
 
 /// One recorded channel.
@@ -149,6 +153,30 @@ fn csv_error(line: usize, what: impl Into<String>) -> RecordingError {
     RecordingError::Csv {
         line,
         what: what.into(),
+    }
+}
+
+impl Recording {
+    /// Values that are not finite (an `inf` in a file: no drive reports one) become gaps
+    /// like empty cells, and `meta.gaps` says how many, in which signals.
+    pub fn non_finite_as_gaps(&mut self) {
+        let mut found = Vec::new();
+        for (channel, column) in self.channels.iter().zip(self.columns.iter_mut()) {
+            let mut count = 0usize;
+            for value in column.iter_mut().filter(|v| v.is_infinite()) {
+                *value = f64::NAN;
+                count += 1;
+            }
+            if count > 0 {
+                found.push(format!("{} {count}", channel.id));
+            }
+        }
+        if !found.is_empty() {
+            self.meta.gaps = Some(format!(
+                "values that are not numbers a drive reports (inf) are drawn as gaps: {}",
+                found.join(", ")
+            ));
+        }
     }
 }
 

@@ -56,6 +56,7 @@ fn sample() -> Recording {
             note: Some(" back\\slash ".into()),
             ended_early: Some("the link was lost: no answer | at t = 3.5 s".into()),
             cut: None,
+            gaps: None,
         },
         channels: vec![
             ChannelInfo {
@@ -161,6 +162,21 @@ fn plain_csv_names_channels_from_the_header() {
     assert_eq!(r.columns[2][2], 6.0);
     assert!(r.columns[0][1].is_nan());
     assert_eq!(r.meta, Metadata::default());
+}
+
+#[test]
+fn values_that_are_not_finite_are_gaps_and_said_so() {
+    let text = "time,position,velocity\n0,1,2\n0.5,inf,3\n1,-inf,INF\n1.5,4,5";
+    let r = Recording::from_csv(text).unwrap();
+    assert!(r.columns[0][1].is_nan() && r.columns[0][2].is_nan() && r.columns[1][2].is_nan());
+    assert_eq!(r.columns[0][3], 4.0);
+    let gaps = r.meta.gaps.as_deref().unwrap_or_default();
+    assert!(
+        gaps.contains("drawn as gaps: position 2, velocity 1"),
+        "{gaps}"
+    );
+    // A file with none says nothing.
+    assert_eq!(Recording::from_csv("time,a\n0,1").unwrap().meta.gaps, None);
 }
 
 fn error_line(text: &str) -> (usize, String) {

@@ -142,6 +142,9 @@ pub fn poll(plot: &mut PlotView) {
             if let Some(cut) = &recording.meta.cut {
                 text.push_str(&format!("; {cut}"));
             }
+            if let Some(gaps) = &recording.meta.gaps {
+                text.push_str(&format!("; {gaps}"));
+            }
             show(plot, shown, overlay);
             plot.message = Some(Ok(text));
         }
