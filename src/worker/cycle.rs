@@ -68,10 +68,11 @@ impl Session {
         budget: Duration,
     ) -> Result<(), link::Error> {
         let before = super::clock::now();
-        if self.master.read_back_due(before) {
+        if self.failures == 0 && self.master.read_back_due(before) {
             // Another master's image shows only between its writes and ours: read the
             // drive's RX image back before writing ours again. It is part of the cycle: a
-            // read that fails is a failed exchange like any other.
+            // read that fails is a failed exchange like any other (and while exchanges
+            // fail, only the exchange is tried: it is what tells the link is back).
             self.master.read_back_tried(before);
             if let Some(rx) = self.link.read_rx().await? {
                 self.master.on_read_back(rx, before);
