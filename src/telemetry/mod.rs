@@ -1,7 +1,9 @@
 //! Recorded signals: the bounded history of the live plots (`Ring`, with min/max
 //! decimation per pixel column), triggers, recordings and their files, and the plot model
-//! that ties them to the worker's samples (`Scope`).
+//! that ties them to the worker's samples (`Scope`); the figures of a test move's steps
+//! (`figures`).
 
+pub mod figures;
 pub mod recording;
 pub mod ring;
 mod save;
