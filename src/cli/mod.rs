@@ -28,6 +28,7 @@ mod report;
 mod serve;
 mod session;
 mod stop;
+mod test_move;
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -148,6 +149,11 @@ pub enum Command {
     /// Record signals to CSV or JSON: `record --signals position,velocity --rate 500
     /// --duration 5s --out run.csv`, optionally around a trigger.
     Record(RecordArgs),
+    /// A test move with figures: back and forth between --from and --to at --speed, a
+    /// --dwell at each end, --cycles times; per step the rise time (10–90 %), overshoot,
+    /// settling time into --band, steady-state error, peak/RMS following error and the
+    /// time to TargetReached, then their mean and worst.
+    TestMove(TestMoveArgs),
     /// Measure PDI exchanges and object reads per second on --link (or --serve-sim).
     Bench(BenchArgs),
     /// The object dictionary: `od list` shows the built-in catalog or an EDS, with the
@@ -458,6 +464,28 @@ pub struct MoveArgs {
 }
 
 #[derive(Args, Debug, Clone)]
+pub struct TestMoveArgs {
+    /// One end, 0.1° in factory units (the test starts by going there).
+    #[arg(long, allow_hyphen_values = true)]
+    pub from: i64,
+    /// The other end.
+    #[arg(long, allow_hyphen_values = true)]
+    pub to: i64,
+    /// Max speed of the moves, rpm in factory units.
+    #[arg(long, allow_hyphen_values = true)]
+    pub speed: i64,
+    /// Seconds to stay at each end after TargetReached (the response settles there).
+    #[arg(long, default_value_t = 0.5)]
+    pub dwell: f64,
+    /// Back-and-forth cycles (each is two steps).
+    #[arg(long, default_value_t = 1)]
+    pub cycles: u32,
+    /// Half the width of the settling band, 0.1° (default: 1 % of the step, at least 1).
+    #[arg(long)]
+    pub band: Option<f64>,
+}
+
+#[derive(Args, Debug, Clone)]
 pub struct VelocityArgs {
     /// Target speed, rpm in factory units.
     #[arg(allow_hyphen_values = true)]
@@ -696,6 +724,10 @@ pub fn main() -> ExitCode {
         Some(Command::Project(args)) => project_cmd::run(&args, &cli, &context),
         Some(Command::Sim(args)) => serve::run(&args),
         Some(Command::Bench(args)) => bench::run(cli.link.clone(), &args, cli.json),
+        Some(Command::TestMove(args)) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            test_move::run(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
+        }
         Some(Command::Discover(args)) => oneshot::discover(&args, cli.json),
         Some(Command::Record(args)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);

@@ -88,6 +88,7 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Discover(_)
         | Command::Sim(_)
         | Command::Bench(_)
+        | Command::TestMove(_)
         | Command::Record(_)
         | Command::Od(_)
         | Command::Project(_) => None,

@@ -79,6 +79,7 @@ fn command_name(command: &Command) -> &'static str {
         Command::Sim(_) => "sim",
         Command::Record(_) => "record",
         Command::Bench(_) => "bench",
+        Command::TestMove(_) => "test-move",
         Command::Od(_) => "od",
         Command::Project(_) => "project",
     }

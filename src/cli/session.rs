@@ -183,6 +183,12 @@ impl Session {
         std::mem::take(&mut self.early)
     }
 
+    /// The samples kept since the last call (with `keep_samples`), oldest first; the
+    /// session goes on keeping them.
+    pub(super) fn drain_samples(&mut self) -> Vec<Sample> {
+        std::mem::take(&mut self.early)
+    }
+
     /// Hand the worker a request without waiting for its outcome.
     pub(super) fn send_request(&self, request: Request) -> Result<u64, Failure> {
         self.send(request)

@@ -1,0 +1,395 @@
+//! `drivedeck test-move`: back and forth between two positions with a dwell, N cycles,
+//! and for every step the figures a servo engineer reads (rise time, overshoot, settling,
+//! steady-state error, following error, time to TargetReached), then their summary.
+//! A signal or a failed step stops the drive by the `--on-exit` rule, and the figures of
+//! the steps done so far are still printed.
+
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::context::Context;
+use super::failure::{Failure, usage};
+use super::report;
+use super::session::Session;
+use super::{EXIT_FAILED, TestMoveArgs};
+use crate::link::LinkSpec;
+use crate::pdi::{Action, Opcode, StatusBit};
+use crate::signal::{Sample, Signal};
+use crate::telemetry::figures::{self, Step, StepFigures};
+use crate::worker::Request;
+
+/// Samples a second while a test move runs: the figures need the response's shape.
+const POLL_RATE: f64 = 200.0;
+/// How long the drive may take to stop when a test move is ended early.
+const STOP_WAIT: Duration = Duration::from_secs(5);
+
+/// One step measured: where it went and its figures.
+#[derive(Serialize, Debug, Clone, Copy)]
+struct StepReport {
+    cycle: u32,
+    from: i64,
+    to: i64,
+    samples: usize,
+    rise_time_s: Option<f64>,
+    overshoot: Option<f64>,
+    overshoot_pct: Option<f64>,
+    settling_time_s: Option<f64>,
+    band: f64,
+    steady_state_error: Option<f64>,
+    peak_following_error: Option<f64>,
+    rms_following_error: Option<f64>,
+    time_to_target_reached_s: Option<f64>,
+}
+
+/// The mean and the worst of one figure over the steps that have it.
+#[derive(Serialize, Debug, Clone, Copy, PartialEq)]
+struct Spread {
+    mean: f64,
+    worst: f64,
+    steps: usize,
+}
+
+#[derive(Serialize, Debug, Default)]
+struct Summary {
+    rise_time_s: Option<Spread>,
+    overshoot_pct: Option<Spread>,
+    settling_time_s: Option<Spread>,
+    steady_state_error: Option<Spread>,
+    peak_following_error: Option<Spread>,
+    time_to_target_reached_s: Option<Spread>,
+}
+
+#[derive(Serialize, Debug)]
+struct TestMoveReport {
+    link: String,
+    speed: i64,
+    dwell_s: f64,
+    steps: Vec<StepReport>,
+    summary: Summary,
+    /// Why the test ended before its last cycle, if it did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ended_early: Option<String>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    notes: Vec<String>,
+}
+
+pub fn run(
+    link: &LinkSpec,
+    args: &TestMoveArgs,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+    context: &Context,
+) -> ExitCode {
+    match test_move(link, args, timeout, trace, context) {
+        Ok((report, code)) => {
+            print(&report, json);
+            match code {
+                Some(code) => ExitCode::from(code),
+                None => ExitCode::SUCCESS,
+            }
+        }
+        Err(f) => {
+            report::print_error(&f.message, json);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+/// The moves, checked before anything is sent: a typo never touches the drive.
+fn moves(args: &TestMoveArgs) -> Result<(Action, Action), Failure> {
+    if args.speed == 0 {
+        return Err(usage(
+            "test-move --speed 0 would never get there: give a speed",
+        ));
+    }
+    if args.from == args.to {
+        return Err(usage(
+            "test-move --from and --to are the same position: give two positions",
+        ));
+    }
+    if !(1..=10_000).contains(&args.cycles) {
+        return Err(usage(format!(
+            "--cycles {} is out of range: give 1 to 10000",
+            args.cycles
+        )));
+    }
+    if !(0.0..=3600.0).contains(&args.dwell) {
+        return Err(usage(format!(
+            "--dwell {} s is out of range: give 0 to 3600 seconds",
+            args.dwell
+        )));
+    }
+    let to = |position: i64| {
+        Action::from_inputs(Opcode::MoveAbsolute, &[position, args.speed])
+            .map_err(|e| usage(e.to_string()))
+    };
+    Ok((to(args.from)?, to(args.to)?))
+}
+
+/// The settling band: as given, else 1 % of the step (at least one unit).
+fn band(args: &TestMoveArgs) -> f64 {
+    args.band
+        .filter(|b| b.is_finite() && *b > 0.0)
+        .unwrap_or_else(|| ((args.to - args.from).abs() as f64 / 100.0).max(1.0))
+}
+
+fn test_move(
+    link: &LinkSpec,
+    args: &TestMoveArgs,
+    timeout: Duration,
+    trace: bool,
+    context: &Context,
+) -> Result<(TestMoveReport, Option<u8>), Failure> {
+    let (to_from, to_to) = moves(args)?;
+    let mut session = Session::open_at(link, timeout, trace, POLL_RATE, true, context)?;
+    if let Err(e) = session.catch_signals() {
+        session.warnings.push(format!(
+            "{e}: Ctrl-C will end drivedeck without stopping the drive"
+        ));
+    }
+    let mut report = TestMoveReport {
+        link: link.to_string(),
+        speed: args.speed,
+        dwell_s: args.dwell,
+        steps: Vec::new(),
+        summary: Summary::default(),
+        ended_early: None,
+        notes: Vec::new(),
+    };
+    let band = band(args);
+    let mut code = None;
+    // To the start first: not measured.
+    let mut outcome = move_to(&mut session, to_from, timeout).map(|_| ());
+    'cycles: for cycle in 1..=args.cycles {
+        if outcome.is_err() {
+            break;
+        }
+        for (from, to, action) in [(args.from, args.to, to_to), (args.to, args.from, to_from)] {
+            match measured_step(&mut session, action, args.dwell, timeout) {
+                Ok(samples) => report
+                    .steps
+                    .push(step_report(cycle, from, to, band, &samples)),
+                Err(f) => {
+                    outcome = Err(f);
+                    break 'cycles;
+                }
+            }
+        }
+    }
+    if let Err(f) = outcome {
+        let mut message = f.message.clone();
+        if f.stop {
+            let done = session.stop_drive(session.on_exit(), timeout.min(STOP_WAIT));
+            message = format!("{message}; {done}");
+        }
+        report.ended_early = Some(message);
+        code = Some(if f.signal.is_some() {
+            f.code
+        } else {
+            EXIT_FAILED
+        });
+    }
+    report.summary = summary(&report.steps);
+    report.notes = session.take_notes();
+    Ok((report, code))
+}
+
+/// One move waited for; what the drive said.
+fn move_to(session: &mut Session, action: Action, timeout: Duration) -> Result<(), Failure> {
+    session
+        .command(Request::Command(action), true, timeout)
+        .map(|_| ())
+        .map_err(|f| Failure { stop: true, ..f })
+}
+
+/// One step: the move, waited for, then the dwell; every sample from the command on.
+fn measured_step(
+    session: &mut Session,
+    action: Action,
+    dwell: f64,
+    timeout: Duration,
+) -> Result<Vec<Sample>, Failure> {
+    // The samples before the command are not this step's.
+    let _ = session.drain_samples();
+    move_to(session, action, timeout)?;
+    let end = Instant::now() + Duration::from_secs_f64(dwell);
+    while Instant::now() < end {
+        match session.next_event(end) {
+            Ok(_) => {}
+            Err(f) if f.signal.is_some() => return Err(f),
+            // The dwell is over.
+            Err(_) => break,
+        }
+    }
+    Ok(session.drain_samples())
+}
+
+/// The figures of one step from its samples (the first is the command's time).
+fn step_report(cycle: u32, from: i64, to: i64, band: f64, samples: &[Sample]) -> StepReport {
+    let times: Vec<f64> = samples.iter().map(|s| s.t).collect();
+    let value = |signal: Signal| -> Vec<f64> {
+        samples
+            .iter()
+            .map(|s| s.signals.get(signal).unwrap_or(f64::NAN))
+            .collect()
+    };
+    let positions = value(Signal::Position);
+    let errors = value(Signal::FollowingError);
+    let reached: Vec<bool> = samples
+        .iter()
+        .map(|s| s.tx.status.is_set(StatusBit::TargetReached))
+        .collect();
+    let t0 = times.first().copied().unwrap_or(0.0);
+    let step = Step {
+        times: &times,
+        values: &positions,
+        from: from as f64,
+        to: to as f64,
+        t0,
+        band,
+    };
+    let f: StepFigures = step.figures();
+    let (peak, rms) = figures::following_error(&times, &errors, t0);
+    // TargetReached may still be set from the step before until the drive takes the
+    // command: counted from the first sample a tenth of the way there (moving by then).
+    let span = (to - from) as f64;
+    let moving = positions
+        .iter()
+        .position(|p| (p - from as f64) / span >= 0.1)
+        .unwrap_or(samples.len());
+    let reached_at = figures::time_to_target_reached(&times[moving..], &reached[moving..], t0);
+    StepReport {
+        cycle,
+        from,
+        to,
+        samples: samples.len(),
+        rise_time_s: f.rise_time_s,
+        overshoot: f.overshoot,
+        overshoot_pct: f.overshoot_pct,
+        settling_time_s: f.settling_time_s,
+        band,
+        steady_state_error: f.steady_state_error,
+        peak_following_error: peak,
+        rms_following_error: rms,
+        time_to_target_reached_s: reached_at,
+    }
+}
+
+/// The mean and the worst (largest magnitude) of the values present.
+fn spread(values: impl Iterator<Item = Option<f64>>) -> Option<Spread> {
+    let values: Vec<f64> = values.flatten().filter(|v| v.is_finite()).collect();
+    if values.is_empty() {
+        return None;
+    }
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    let worst = values
+        .iter()
+        .copied()
+        .fold(0.0_f64, |w, v| if v.abs() > w.abs() { v } else { w });
+    Some(Spread {
+        mean,
+        worst,
+        steps: values.len(),
+    })
+}
+
+fn summary(steps: &[StepReport]) -> Summary {
+    Summary {
+        rise_time_s: spread(steps.iter().map(|s| s.rise_time_s)),
+        overshoot_pct: spread(steps.iter().map(|s| s.overshoot_pct)),
+        settling_time_s: spread(steps.iter().map(|s| s.settling_time_s)),
+        steady_state_error: spread(steps.iter().map(|s| s.steady_state_error)),
+        peak_following_error: spread(steps.iter().map(|s| s.peak_following_error)),
+        time_to_target_reached_s: spread(steps.iter().map(|s| s.time_to_target_reached_s)),
+    }
+}
+
+/// A figure for the table: its value with `digits` decimals, or "-" when there is none.
+fn cell(value: Option<f64>, digits: usize) -> String {
+    value.map_or("-".to_owned(), |v| format!("{v:.digits$}"))
+}
+
+fn print(report: &TestMoveReport, json: bool) {
+    if json {
+        report::print_json(report, "test-move report");
+        return;
+    }
+    outln!(
+        "{:>5} {:>8} {:>8} {:>8} {:>10} {:>8} {:>9} {:>9} {:>8} {:>8} {:>9}",
+        "cycle",
+        "from",
+        "to",
+        "rise s",
+        "overshoot",
+        "%",
+        "settle s",
+        "ss error",
+        "FE peak",
+        "FE rms",
+        "reached s"
+    );
+    for s in &report.steps {
+        outln!(
+            "{:>5} {:>8} {:>8} {:>8} {:>10} {:>8} {:>9} {:>9} {:>8} {:>8} {:>9}",
+            s.cycle,
+            s.from,
+            s.to,
+            cell(s.rise_time_s, 3),
+            cell(s.overshoot, 1),
+            cell(s.overshoot_pct, 1),
+            cell(s.settling_time_s, 3),
+            cell(s.steady_state_error, 1),
+            cell(s.peak_following_error, 1),
+            cell(s.rms_following_error, 1),
+            cell(s.time_to_target_reached_s, 3),
+        );
+    }
+    let line = |name: &str, spread: Option<Spread>, digits: usize| {
+        if let Some(s) = spread {
+            outln!(
+                "{name}: mean {:.digits$}, worst {:.digits$} ({} steps)",
+                s.mean,
+                s.worst,
+                s.steps
+            );
+        }
+    };
+    let sum = &report.summary;
+    line("rise time [s]", sum.rise_time_s, 3);
+    line("overshoot [%]", sum.overshoot_pct, 1);
+    line("settling time [s]", sum.settling_time_s, 3);
+    line("steady-state error", sum.steady_state_error, 1);
+    line("peak following error", sum.peak_following_error, 1);
+    line("time to TargetReached [s]", sum.time_to_target_reached_s, 3);
+    for note in &report.notes {
+        eprintln!("note: {note}");
+    }
+    if let Some(why) = &report.ended_early {
+        eprintln!(
+            "drivedeck: the test move ended early after {} step(s): {why}",
+            report.steps.len()
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_summary_takes_the_mean_and_the_worst_by_magnitude() {
+        let s = spread([Some(1.0), None, Some(-3.0), Some(f64::NAN), Some(2.0)].into_iter());
+        assert_eq!(
+            s,
+            Some(Spread {
+                mean: 0.0,
+                worst: -3.0,
+                steps: 3
+            })
+        );
+        assert_eq!(spread([None, None].into_iter()), None);
+    }
+}
