@@ -147,3 +147,38 @@ fn ctrl_c_ends_a_test_move_with_the_steps_so_far_and_the_drive_halted() {
     let status = json(&["--link", &link, "status"]);
     assert_eq!(status["velocity"].as_f64(), Some(0.0), "{status:#}");
 }
+
+#[test]
+fn velocity_steps_have_their_figures_on_the_velocity() {
+    let report = json(&[
+        "--link",
+        "sim",
+        "test-velocity",
+        "--speed",
+        "300",
+        "--hold",
+        "0.2",
+    ]);
+    assert_eq!(report["signal"], "velocity", "{report:#}");
+    let steps = report["steps"].as_array().expect("steps");
+    let ends: Vec<(i64, i64)> = steps
+        .iter()
+        .map(|s| {
+            (
+                s["from"].as_i64().unwrap_or(0),
+                s["to"].as_i64().unwrap_or(0),
+            )
+        })
+        .collect();
+    assert_eq!(ends, [(0, 300), (300, -300), (-300, 0)], "{report:#}");
+    for step in steps {
+        let rise = step["rise_time_s"].as_f64().unwrap_or(f64::NAN);
+        let settle = step["settling_time_s"].as_f64().unwrap_or(f64::NAN);
+        assert!(rise > 0.0 && rise <= settle && settle < 5.0, "{step:#}");
+    }
+    // The reversal takes twice the ramp of a start from standstill.
+    let rise = |i: usize| steps[i]["rise_time_s"].as_f64().unwrap_or(f64::NAN);
+    assert!((rise(1) / rise(0) - 2.0).abs() < 0.2, "{report:#}");
+    let stderr = fails(&["--link", "sim", "test-velocity", "--speed", "0"], 2);
+    assert!(stderr.contains("makes no step"), "{stderr}");
+}

@@ -154,6 +154,9 @@ pub enum Command {
     /// settling time into --band, steady-state error, peak/RMS following error and the
     /// time to TargetReached, then their mean and worst.
     TestMove(TestMoveArgs),
+    /// Velocity steps with figures: 0 → --speed → −speed → 0 rpm, --hold at each, --cycles
+    /// times; per step the figures of the velocity's response, then their mean and worst.
+    TestVelocity(TestVelocityArgs),
     /// Measure PDI exchanges and object reads per second on --link (or --serve-sim).
     Bench(BenchArgs),
     /// The object dictionary: `od list` shows the built-in catalog or an EDS, with the
@@ -486,6 +489,22 @@ pub struct TestMoveArgs {
 }
 
 #[derive(Args, Debug, Clone)]
+pub struct TestVelocityArgs {
+    /// The speed to step to (and to its opposite), rpm in factory units.
+    #[arg(long, allow_hyphen_values = true)]
+    pub speed: i64,
+    /// Seconds to hold each speed once it is reached.
+    #[arg(long, default_value_t = 0.5)]
+    pub hold: f64,
+    /// Cycles of three steps each.
+    #[arg(long, default_value_t = 1)]
+    pub cycles: u32,
+    /// Half the width of the settling band, rpm (default: 1 % of the speed, at least 1).
+    #[arg(long)]
+    pub band: Option<f64>,
+}
+
+#[derive(Args, Debug, Clone)]
 pub struct VelocityArgs {
     /// Target speed, rpm in factory units.
     #[arg(allow_hyphen_values = true)]
@@ -727,6 +746,10 @@ pub fn main() -> ExitCode {
         Some(Command::TestMove(args)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             test_move::run(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
+        }
+        Some(Command::TestVelocity(args)) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            test_move::run_velocity(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
         }
         Some(Command::Discover(args)) => oneshot::discover(&args, cli.json),
         Some(Command::Record(args)) => {

@@ -89,6 +89,7 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Sim(_)
         | Command::Bench(_)
         | Command::TestMove(_)
+        | Command::TestVelocity(_)
         | Command::Record(_)
         | Command::Od(_)
         | Command::Project(_) => None,

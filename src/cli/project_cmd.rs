@@ -80,6 +80,7 @@ fn command_name(command: &Command) -> &'static str {
         Command::Record(_) => "record",
         Command::Bench(_) => "bench",
         Command::TestMove(_) => "test-move",
+        Command::TestVelocity(_) => "test-velocity",
         Command::Od(_) => "od",
         Command::Project(_) => "project",
     }

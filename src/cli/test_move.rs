@@ -1,8 +1,9 @@
-//! `drivedeck test-move`: back and forth between two positions with a dwell, N cycles,
-//! and for every step the figures a servo engineer reads (rise time, overshoot, settling,
-//! steady-state error, following error, time to TargetReached), then their summary.
-//! A signal or a failed step stops the drive by the `--on-exit` rule, and the figures of
-//! the steps done so far are still printed.
+//! `drivedeck test-move` and `test-velocity`: back and forth between two positions with a
+//! dwell, or velocity steps 0 → v → −v → 0 with a hold, N cycles; for every step the
+//! figures a servo engineer reads (rise time, overshoot, settling, steady-state error,
+//! following error, time to TargetReached), then their summary. A signal or a failed step
+//! stops the drive by the `--on-exit` rule, and the figures of the steps done so far are
+//! still printed.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -13,7 +14,7 @@ use super::context::Context;
 use super::failure::{Failure, usage};
 use super::report;
 use super::session::Session;
-use super::{EXIT_FAILED, TestMoveArgs};
+use super::{EXIT_FAILED, TestMoveArgs, TestVelocityArgs};
 use crate::link::LinkSpec;
 use crate::pdi::{Action, Opcode, StatusBit};
 use crate::signal::{Sample, Signal};
@@ -64,6 +65,8 @@ struct Summary {
 #[derive(Serialize, Debug)]
 struct TestMoveReport {
     link: String,
+    /// What the figures are of: `position` (0.1°) or `velocity` (rpm).
+    signal: &'static str,
     speed: i64,
     dwell_s: f64,
     steps: Vec<StepReport>,
@@ -75,6 +78,19 @@ struct TestMoveReport {
     notes: Vec<String>,
 }
 
+/// What a test runs: the move to its start, its steps (from, to, the command), how long
+/// it stays after each, how many cycles, and which signal the figures are of.
+struct Plan {
+    start: Action,
+    steps: Vec<(i64, i64, Action)>,
+    speed: i64,
+    dwell: f64,
+    cycles: u32,
+    band: f64,
+    signal: Signal,
+}
+
+/// `test-move`.
 pub fn run(
     link: &LinkSpec,
     args: &TestMoveArgs,
@@ -83,7 +99,29 @@ pub fn run(
     trace: bool,
     context: &Context,
 ) -> ExitCode {
-    match test_move(link, args, timeout, trace, context) {
+    finish(
+        move_plan(args).and_then(|plan| run_plan(link, &plan, timeout, trace, context)),
+        json,
+    )
+}
+
+/// `test-velocity`.
+pub fn run_velocity(
+    link: &LinkSpec,
+    args: &TestVelocityArgs,
+    json: bool,
+    timeout: Duration,
+    trace: bool,
+    context: &Context,
+) -> ExitCode {
+    finish(
+        velocity_plan(args).and_then(|plan| run_plan(link, &plan, timeout, trace, context)),
+        json,
+    )
+}
+
+fn finish(outcome: Result<(TestMoveReport, Option<u8>), Failure>, json: bool) -> ExitCode {
+    match outcome {
         Ok((report, code)) => {
             print(&report, json);
             match code {
@@ -98,8 +136,30 @@ pub fn run(
     }
 }
 
+/// The cycles and the dwell or hold, checked.
+fn check_counts(cycles: u32, dwell: f64, what: &str) -> Result<(), Failure> {
+    if !(1..=10_000).contains(&cycles) {
+        return Err(usage(format!(
+            "--cycles {cycles} is out of range: give 1 to 10000"
+        )));
+    }
+    if !(0.0..=3600.0).contains(&dwell) {
+        return Err(usage(format!(
+            "--{what} {dwell} s is out of range: give 0 to 3600 seconds"
+        )));
+    }
+    Ok(())
+}
+
+/// The settling band: as given, else 1 % of the step (at least one unit).
+fn band(given: Option<f64>, step: i64) -> f64 {
+    given
+        .filter(|b| b.is_finite() && *b > 0.0)
+        .unwrap_or_else(|| (step.abs() as f64 / 100.0).max(1.0))
+}
+
 /// The moves, checked before anything is sent: a typo never touches the drive.
-fn moves(args: &TestMoveArgs) -> Result<(Action, Action), Failure> {
+fn move_plan(args: &TestMoveArgs) -> Result<Plan, Failure> {
     if args.speed == 0 {
         return Err(usage(
             "test-move --speed 0 would never get there: give a speed",
@@ -110,40 +170,53 @@ fn moves(args: &TestMoveArgs) -> Result<(Action, Action), Failure> {
             "test-move --from and --to are the same position: give two positions",
         ));
     }
-    if !(1..=10_000).contains(&args.cycles) {
-        return Err(usage(format!(
-            "--cycles {} is out of range: give 1 to 10000",
-            args.cycles
-        )));
-    }
-    if !(0.0..=3600.0).contains(&args.dwell) {
-        return Err(usage(format!(
-            "--dwell {} s is out of range: give 0 to 3600 seconds",
-            args.dwell
-        )));
-    }
+    check_counts(args.cycles, args.dwell, "dwell")?;
     let to = |position: i64| {
         Action::from_inputs(Opcode::MoveAbsolute, &[position, args.speed])
             .map_err(|e| usage(e.to_string()))
     };
-    Ok((to(args.from)?, to(args.to)?))
+    let (to_from, to_to) = (to(args.from)?, to(args.to)?);
+    Ok(Plan {
+        start: to_from,
+        steps: vec![(args.from, args.to, to_to), (args.to, args.from, to_from)],
+        speed: args.speed,
+        dwell: args.dwell,
+        cycles: args.cycles,
+        band: band(args.band, args.to - args.from),
+        signal: Signal::Position,
+    })
 }
 
-/// The settling band: as given, else 1 % of the step (at least one unit).
-fn band(args: &TestMoveArgs) -> f64 {
-    args.band
-        .filter(|b| b.is_finite() && *b > 0.0)
-        .unwrap_or_else(|| ((args.to - args.from).abs() as f64 / 100.0).max(1.0))
+/// The velocity steps 0 → v → −v → 0, checked.
+fn velocity_plan(args: &TestVelocityArgs) -> Result<Plan, Failure> {
+    if args.speed == 0 {
+        return Err(usage(
+            "test-velocity --speed 0 makes no step: give the speed to step to",
+        ));
+    }
+    check_counts(args.cycles, args.hold, "hold")?;
+    let at = |speed: i64| {
+        Action::from_inputs(Opcode::Velocity, &[speed]).map_err(|e| usage(e.to_string()))
+    };
+    let v = args.speed;
+    Ok(Plan {
+        start: at(0)?,
+        steps: vec![(0, v, at(v)?), (v, -v, at(-v)?), (-v, 0, at(0)?)],
+        speed: v,
+        dwell: args.hold,
+        cycles: args.cycles,
+        band: band(args.band, v),
+        signal: Signal::Velocity,
+    })
 }
 
-fn test_move(
+fn run_plan(
     link: &LinkSpec,
-    args: &TestMoveArgs,
+    plan: &Plan,
     timeout: Duration,
     trace: bool,
     context: &Context,
 ) -> Result<(TestMoveReport, Option<u8>), Failure> {
-    let (to_from, to_to) = moves(args)?;
     let mut session = Session::open_at(link, timeout, trace, POLL_RATE, true, context)?;
     if let Err(e) = session.catch_signals() {
         session.warnings.push(format!(
@@ -152,26 +225,33 @@ fn test_move(
     }
     let mut report = TestMoveReport {
         link: link.to_string(),
-        speed: args.speed,
-        dwell_s: args.dwell,
+        signal: match plan.signal {
+            Signal::Velocity => "velocity",
+            _ => "position",
+        },
+        speed: plan.speed,
+        dwell_s: plan.dwell,
         steps: Vec::new(),
         summary: Summary::default(),
         ended_early: None,
         notes: Vec::new(),
     };
-    let band = band(args);
     let mut code = None;
     // To the start first: not measured.
-    let mut outcome = move_to(&mut session, to_from, timeout).map(|_| ());
-    'cycles: for cycle in 1..=args.cycles {
+    let mut outcome = move_to(&mut session, plan.start, timeout).map(|_| ());
+    'cycles: for cycle in 1..=plan.cycles {
         if outcome.is_err() {
             break;
         }
-        for (from, to, action) in [(args.from, args.to, to_to), (args.to, args.from, to_from)] {
-            match measured_step(&mut session, action, args.dwell, timeout) {
-                Ok(samples) => report
-                    .steps
-                    .push(step_report(cycle, from, to, band, &samples)),
+        for &(from, to, action) in &plan.steps {
+            match measured_step(&mut session, action, plan.dwell, timeout) {
+                Ok(samples) => report.steps.push(step_report(
+                    cycle,
+                    (from, to),
+                    plan.band,
+                    plan.signal,
+                    &samples,
+                )),
                 Err(f) => {
                     outcome = Err(f);
                     break 'cycles;
@@ -228,7 +308,13 @@ fn measured_step(
 }
 
 /// The figures of one step from its samples (the first is the command's time).
-fn step_report(cycle: u32, from: i64, to: i64, band: f64, samples: &[Sample]) -> StepReport {
+fn step_report(
+    cycle: u32,
+    (from, to): (i64, i64),
+    band: f64,
+    signal: Signal,
+    samples: &[Sample],
+) -> StepReport {
     let times: Vec<f64> = samples.iter().map(|s| s.t).collect();
     let value = |signal: Signal| -> Vec<f64> {
         samples
@@ -236,7 +322,7 @@ fn step_report(cycle: u32, from: i64, to: i64, band: f64, samples: &[Sample]) ->
             .map(|s| s.signals.get(signal).unwrap_or(f64::NAN))
             .collect()
     };
-    let positions = value(Signal::Position);
+    let positions = value(signal);
     let errors = value(Signal::FollowingError);
     let reached: Vec<bool> = samples
         .iter()
