@@ -182,3 +182,54 @@ fn velocity_steps_have_their_figures_on_the_velocity() {
     let stderr = fails(&["--link", "sim", "test-velocity", "--speed", "0"], 2);
     assert!(stderr.contains("makes no step"), "{stderr}");
 }
+
+#[test]
+fn a_kept_run_opens_as_a_recording_with_a_marker_and_the_figures_at_each_step() {
+    let dir = common::temp_dir("test-move-record");
+    for name in ["run.csv", "run.json"] {
+        let path = dir.path().join(name);
+        let path = path.to_str().expect("utf-8 path");
+        let report = json(&[
+            "--link",
+            "sim",
+            "test-move",
+            "--from",
+            "0",
+            "--to",
+            "1000",
+            "--speed",
+            "300",
+            "--dwell",
+            "0.2",
+            "--cycles",
+            "2",
+            "--record",
+            path,
+        ]);
+        assert_eq!(report["recorded"], path, "{report:#}");
+        let recording = drivedeck::telemetry::load_recording(
+            std::path::Path::new(path),
+            drivedeck::telemetry::MAX_RECORDING_BYTES,
+        )
+        .expect("the run opens");
+        assert_eq!(recording.meta.cut, None, "{name}");
+        let steps: Vec<&str> = recording
+            .markers
+            .iter()
+            .map(|m| m.text.as_str())
+            .filter(|t| t.starts_with("cycle "))
+            .collect();
+        assert_eq!(steps.len(), 4, "{name}: {:?}", recording.markers);
+        assert!(
+            steps[1].starts_with("cycle 1: 1000 → 0: rise "),
+            "{steps:?}"
+        );
+        let ids: Vec<&str> = recording.channels.iter().map(|c| c.id.as_str()).collect();
+        assert_eq!(
+            ids,
+            ["position", "velocity", "following_error", "pdi_status"]
+        );
+        // 200 samples a second over four steps of well over half a second.
+        assert!(recording.len() > 300, "{name}: {} rows", recording.len());
+    }
+}

@@ -486,6 +486,10 @@ pub struct TestMoveArgs {
     /// Half the width of the settling band, 0.1° (default: 1 % of the step, at least 1).
     #[arg(long)]
     pub band: Option<f64>,
+    /// Keep the run: every sample of every step and a marker with each step's figures,
+    /// in a recording (CSV, or JSON for a .json name) the window opens.
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<std::path::PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -502,6 +506,10 @@ pub struct TestVelocityArgs {
     /// Half the width of the settling band, rpm (default: 1 % of the speed, at least 1).
     #[arg(long)]
     pub band: Option<f64>,
+    /// Keep the run: every sample of every step and a marker with each step's figures,
+    /// in a recording (CSV, or JSON for a .json name) the window opens.
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<std::path::PathBuf>,
 }
 
 #[derive(Args, Debug, Clone)]

@@ -19,6 +19,7 @@ use crate::link::LinkSpec;
 use crate::pdi::{Action, Opcode, StatusBit};
 use crate::signal::{Sample, Signal};
 use crate::telemetry::figures::{self, Step, StepFigures};
+use crate::telemetry::{ChannelInfo, Marker, Metadata, StreamWriter, stream_layout};
 use crate::worker::Request;
 
 /// Samples a second while a test move runs: the figures need the response's shape.
@@ -74,13 +75,100 @@ struct TestMoveReport {
     /// Why the test ended before its last cycle, if it did.
     #[serde(skip_serializing_if = "Option::is_none")]
     ended_early: Option<String>,
+    /// Where the run was kept (`--record`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    recorded: Option<String>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     notes: Vec<String>,
+}
+
+/// The channels a kept run has, in its rows' order.
+const KEPT: [(Signal, &str, &str, &str); 3] = [
+    (Signal::Position, "position", "Position 6064h", "0.1°"),
+    (Signal::Velocity, "velocity", "Velocity 606Ch", "rpm"),
+    (
+        Signal::FollowingError,
+        "following_error",
+        "Following error 60F4h",
+        "0.1°",
+    ),
+];
+
+/// A run being kept in a file as it goes (the recording format of `record`).
+struct Kept {
+    writer: StreamWriter,
+    path: std::path::PathBuf,
+    rows: usize,
+}
+
+impl Kept {
+    fn create(path: &std::path::Path, link: &LinkSpec, note: String) -> Result<Kept, Failure> {
+        let file = std::fs::File::create(path)
+            .map_err(|e| usage(format!("cannot write the run to {}: {e}", path.display())))?;
+        let meta = Metadata {
+            link: Some(link.to_string()),
+            rate_asked_hz: Some(POLL_RATE),
+            note: Some(note),
+            ..Metadata::default()
+        };
+        let mut channels: Vec<ChannelInfo> = KEPT
+            .iter()
+            .map(|(_, id, name, unit)| ChannelInfo {
+                id: (*id).into(),
+                name: (*name).into(),
+                unit: (*unit).into(),
+            })
+            .collect();
+        channels.push(ChannelInfo {
+            id: "pdi_status".into(),
+            name: "PDI-Status 2292h:01".into(),
+            unit: String::new(),
+        });
+        let writer = StreamWriter::create(file, stream_layout(path), &meta, &channels)
+            .map_err(|e| usage(format!("cannot write the run to {}: {e}", path.display())))?;
+        Ok(Kept {
+            writer,
+            path: path.to_path_buf(),
+            rows: 0,
+        })
+    }
+
+    /// One step's samples, its marker (what it was, its figures) at its first.
+    fn step(&mut self, step: &StepReport, samples: &[Sample]) -> std::io::Result<()> {
+        if let Some(first) = samples.first() {
+            self.writer.mark(&Marker {
+                t: first.t,
+                text: format!(
+                    "cycle {}: {} → {}: rise {} s, overshoot {} %, settling {} s, reached {} s",
+                    step.cycle,
+                    step.from,
+                    step.to,
+                    cell(step.rise_time_s, 3),
+                    cell(step.overshoot_pct, 1),
+                    cell(step.settling_time_s, 3),
+                    cell(step.time_to_target_reached_s, 3)
+                ),
+            })?;
+        }
+        for sample in samples {
+            let mut values: Vec<f64> = KEPT
+                .iter()
+                .map(|(signal, ..)| sample.signals.get(*signal).unwrap_or(f64::NAN))
+                .collect();
+            values.push(f64::from(sample.tx.status.0));
+            self.writer.row(sample.t, &values)?;
+            self.rows += 1;
+        }
+        Ok(())
+    }
 }
 
 /// What a test runs: the move to its start, its steps (from, to, the command), how long
 /// it stays after each, how many cycles, and which signal the figures are of.
 struct Plan {
+    /// Where the run is kept (`--record FILE`): every sample of every step, a marker at
+    /// each step with its figures.
+    record: Option<std::path::PathBuf>,
     start: Action,
     steps: Vec<(i64, i64, Action)>,
     speed: i64,
@@ -177,6 +265,7 @@ fn move_plan(args: &TestMoveArgs) -> Result<Plan, Failure> {
     };
     let (to_from, to_to) = (to(args.from)?, to(args.to)?);
     Ok(Plan {
+        record: args.record.clone(),
         start: to_from,
         steps: vec![(args.from, args.to, to_to), (args.to, args.from, to_from)],
         speed: args.speed,
@@ -200,6 +289,7 @@ fn velocity_plan(args: &TestVelocityArgs) -> Result<Plan, Failure> {
     };
     let v = args.speed;
     Ok(Plan {
+        record: args.record.clone(),
         start: at(0)?,
         steps: vec![(0, v, at(v)?), (v, -v, at(-v)?), (-v, 0, at(0)?)],
         speed: v,
@@ -234,7 +324,22 @@ fn run_plan(
         steps: Vec::new(),
         summary: Summary::default(),
         ended_early: None,
+        recorded: None,
         notes: Vec::new(),
+    };
+    let mut kept = match &plan.record {
+        Some(path) => {
+            let note = format!(
+                "{} test: {} cycle(s) of {} step(s), speed {}, dwell {} s",
+                report.signal,
+                plan.cycles,
+                plan.steps.len(),
+                plan.speed,
+                plan.dwell
+            );
+            Some(Kept::create(path, link, note)?)
+        }
+        None => None,
     };
     let mut code = None;
     // To the start first: not measured.
@@ -245,13 +350,20 @@ fn run_plan(
         }
         for &(from, to, action) in &plan.steps {
             match measured_step(&mut session, action, plan.dwell, timeout) {
-                Ok(samples) => report.steps.push(step_report(
-                    cycle,
-                    (from, to),
-                    plan.band,
-                    plan.signal,
-                    &samples,
-                )),
+                Ok(samples) => {
+                    let step = step_report(cycle, (from, to), plan.band, plan.signal, &samples);
+                    if let Some(k) = kept.as_mut()
+                        && let Err(e) = k.step(&step, &samples)
+                    {
+                        report.notes.push(format!(
+                            "writing the run to {} failed ({e}): the file holds the steps \
+                             before; the test goes on",
+                            k.path.display()
+                        ));
+                        kept = None;
+                    }
+                    report.steps.push(step);
+                }
                 Err(f) => {
                     outcome = Err(f);
                     break 'cycles;
@@ -273,7 +385,20 @@ fn run_plan(
         });
     }
     report.summary = summary(&report.steps);
-    report.notes = session.take_notes();
+    if let Some(mut k) = kept {
+        let last = Metadata {
+            ended_early: report.ended_early.clone(),
+            ..Metadata::default()
+        };
+        match k.writer.finish(&last, k.rows) {
+            Ok(()) => report.recorded = Some(k.path.display().to_string()),
+            Err(e) => report.notes.push(format!(
+                "the run in {} could not be finished ({e}): it opens as cut",
+                k.path.display()
+            )),
+        }
+    }
+    report.notes.extend(session.take_notes());
     Ok((report, code))
 }
 
@@ -452,6 +577,9 @@ fn print(report: &TestMoveReport, json: bool) {
     line("time to TargetReached [s]", sum.time_to_target_reached_s, 3);
     for note in &report.notes {
         eprintln!("note: {note}");
+    }
+    if let Some(path) = &report.recorded {
+        eprintln!("the run is kept in {path} (open it in the window: Open recording…)");
     }
     if let Some(why) = &report.ended_early {
         eprintln!(
