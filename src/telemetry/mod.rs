@@ -1,13 +1,14 @@
 //! Recorded signals: the bounded history of the live plots (`Ring`, with min/max
 //! decimation per pixel column), triggers, recordings and their files, and the plot model
 //! that ties them to the worker's samples (`Scope`); the figures of a test move's steps
-//! (`figures`).
+//! (`figures`); the amplitude spectrum of a recorded signal (`spectrum`).
 
 pub mod figures;
 pub mod recording;
 pub mod ring;
 mod save;
 mod scope;
+pub mod spectrum;
 pub mod trigger;
 
 pub use recording::stream::{Layout, StreamWriter, Summary};
