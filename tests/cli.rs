@@ -155,3 +155,40 @@ fn a_traced_scan_prints_its_frames() {
     assert!(stderr.lines().any(|l| l.starts_with("tx 603#")), "{stderr}");
     assert!(stderr.lines().any(|l| l.starts_with("rx 583#")), "{stderr}");
 }
+
+#[test]
+fn gains_lists_the_controller_and_the_limits_with_addresses_and_factory_values() {
+    let report = json(&["--link", "sim", "gains"]);
+    let gains = report["gains"].as_array().expect("gains");
+    let row = |address: &str| {
+        gains
+            .iter()
+            .find(|g| g["address"] == address)
+            .unwrap_or_else(|| panic!("{address} not listed: {report:#}"))
+    };
+    let velocity_kp = row("3210h:03h");
+    assert!(
+        velocity_kp["name"]
+            .as_str()
+            .is_some_and(|n| n.contains("Velocity Loop, Proportional Gain")),
+        "{velocity_kp:#}"
+    );
+    assert_eq!(velocity_kp["value"], "12000", "{velocity_kp:#}");
+    assert_eq!(velocity_kp["factory"], "12000", "{velocity_kp:#}");
+    assert_eq!(row("6073h:00h")["unit"], "‰");
+    assert_eq!(row("2031h:00h")["unit"], "mA");
+    for address in [
+        "321Ah:01h",
+        "321Bh:01h",
+        "321Ch:01h",
+        "6080h:00h",
+        "607Fh:00h",
+    ] {
+        assert!(row(address)["value"].is_string(), "{address}: {report:#}");
+    }
+    let (text, _) = ok(&["--link", "sim", "gains"]);
+    assert!(
+        text.contains("controller (3210h):") && text.contains("limit:"),
+        "{text}"
+    );
+}

@@ -18,6 +18,7 @@ mod bench_io;
 mod bench_start;
 mod context;
 mod failure;
+mod gains;
 mod interrupt;
 mod od;
 mod oneshot;
@@ -157,6 +158,10 @@ pub enum Command {
     /// Velocity steps with figures: 0 → --speed → −speed → 0 rpm, --hold at each, --cycles
     /// times; per step the figures of the velocity's response, then their mean and worst.
     TestVelocity(TestVelocityArgs),
+    /// The closed-loop controller's gains (3210h, and 321Ah–321Ch of the newer parameter
+    /// set) and the limits that shape a response (max current, speed, ramps, windows):
+    /// address, name, value, unit, factory value.
+    Gains,
     /// Measure PDI exchanges and object reads per second on --link (or --serve-sim).
     Bench(BenchArgs),
     /// The object dictionary: `od list` shows the built-in catalog or an EDS, with the
@@ -754,6 +759,10 @@ pub fn main() -> ExitCode {
         Some(Command::TestMove(args)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             test_move::run(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
+        }
+        Some(Command::Gains) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            gains::run(&link, cli.json, timeout(&cli), cli.trace, &context)
         }
         Some(Command::TestVelocity(args)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);

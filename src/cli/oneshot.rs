@@ -90,6 +90,7 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Bench(_)
         | Command::TestMove(_)
         | Command::TestVelocity(_)
+        | Command::Gains
         | Command::Record(_)
         | Command::Od(_)
         | Command::Project(_) => None,

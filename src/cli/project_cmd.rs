@@ -81,6 +81,7 @@ fn command_name(command: &Command) -> &'static str {
         Command::Bench(_) => "bench",
         Command::TestMove(_) => "test-move",
         Command::TestVelocity(_) => "test-velocity",
+        Command::Gains => "gains",
         Command::Od(_) => "od",
         Command::Project(_) => "project",
     }
