@@ -163,6 +163,26 @@ impl Proxy {
     }
 }
 
+/// SO_LINGER 0: closing the socket (its last handle) resets the connection with an RST
+/// instead of closing it.
+pub fn abort(stream: &TcpStream) {
+    use std::os::fd::AsRawFd;
+    let linger = libc::linger {
+        l_onoff: 1,
+        l_linger: 0,
+    };
+    // SAFETY: a valid socket descriptor and a linger struct of the size given.
+    let _ = unsafe {
+        libc::setsockopt(
+            stream.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_LINGER,
+            (&linger as *const libc::linger).cast(),
+            std::mem::size_of::<libc::linger>() as libc::socklen_t,
+        )
+    };
+}
+
 fn copy(mut from: TcpStream, mut to: TcpStream) {
     let mut buf = [0u8; 4096];
     loop {
@@ -179,7 +199,7 @@ fn copy(mut from: TcpStream, mut to: TcpStream) {
 }
 
 /// One frame from the server, or `None` at the end of the stream.
-fn read_frame(stream: &mut TcpStream, framing: Framing) -> Option<Vec<u8>> {
+pub fn read_frame(stream: &mut TcpStream, framing: Framing) -> Option<Vec<u8>> {
     let (header, length) = match framing {
         Framing::ModbusTcp => {
             let mut header = [0u8; 6];

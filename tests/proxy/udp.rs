@@ -3,12 +3,14 @@
 //! T→O item in the request, the adapter's O→T item in the reply, protocol notes §3.2,
 //! §3.4) so that both directions of the connection's UDP datagrams pass through it too.
 //! There it can drop, delay, duplicate or reorder the Nth datagram of either direction, or
-//! keep the T→O direction silent until the next Forward_Open.
+//! keep the T→O direction silent until the next Forward_Open. For a soak it can also drop
+//! or hold back every datagram of a direction for a while, hold the TCP session for a
+//! while, and reset it.
 
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpStream, UdpSocket};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use drivedeck::proto::enip::cpf::{Item, SockAddr};
 use drivedeck::proto::enip::encap::{Command, Packet, RrData};
@@ -35,6 +37,8 @@ pub enum Mishap {
     Duplicate,
     /// It is held back and arrives just after the next one: an older image after a newer.
     Reorder,
+    /// Its CPF item count is garbled: a datagram that makes no sense.
+    Garble,
 }
 
 #[derive(Default)]
@@ -46,6 +50,13 @@ struct Direction {
     applied: Vec<Mishap>,
     /// A datagram held back for [`Mishap::Reorder`].
     held: Option<Vec<u8>>,
+    /// Every datagram is dropped until then.
+    drop_until: Option<Instant>,
+    /// Nothing passes until then: what comes waits (in the socket's buffer, as far as it
+    /// holds), then passes in order.
+    hold_until: Option<Instant>,
+    /// Datagrams dropped for `drop_until`.
+    dropped: u64,
 }
 
 #[derive(Default)]
@@ -61,6 +72,12 @@ struct State {
     silent: bool,
     /// T→O datagrams dropped for the silence.
     silenced: u64,
+    /// The TCP session passes nothing either way until then.
+    tcp_hold_until: Option<Instant>,
+    /// The TCP connections open now: (the client's side, the server's side).
+    sessions: Vec<(TcpStream, TcpStream)>,
+    /// A reset is under way: the client's side is closed without a FIN (an RST).
+    resetting: bool,
 }
 
 impl State {
@@ -94,9 +111,18 @@ impl UdpProxy {
         let state = Arc::new(Mutex::new(State::default()));
         let shared = state.clone();
         let addr = super::listen(upstream, move |connection| {
+            if let (Ok(client), Ok(server)) = (
+                connection.to_client.try_clone(),
+                connection.to_server.try_clone(),
+            ) {
+                let mut state = lock(&shared);
+                state.sessions.push((client, server));
+                state.resetting = false;
+            }
             let requests = shared.clone();
+            let held = shared.clone();
             thread::spawn(move || {
-                relay(connection.from_client, connection.to_server, &|p| {
+                relay(connection.from_client, connection.to_server, &held, &|p| {
                     rewrite(p, |item| {
                         if let Item::SockaddrTo(s) = item {
                             let ip = if s.ip.is_unspecified() {
@@ -111,8 +137,9 @@ impl UdpProxy {
                 })
             });
             let replies = shared.clone();
+            let held = shared.clone();
             thread::spawn(move || {
-                relay(connection.from_server, connection.to_client, &|p| {
+                relay(connection.from_server, connection.to_client, &held, &|p| {
                     rewrite(p, |item| {
                         if let Item::SockaddrOt(s) = item {
                             let mut state = lock(&replies);
@@ -150,6 +177,42 @@ impl UdpProxy {
         lock(&self.state).silent = true;
     }
 
+    /// Drop every datagram going `way` for `time` from now.
+    pub fn drop_for(&self, way: Way, time: Duration) {
+        lock(&self.state).way(way).drop_until = Some(Instant::now() + time);
+    }
+
+    /// Let nothing pass going `way` for `time` from now; what comes meanwhile passes then.
+    pub fn hold_for(&self, way: Way, time: Duration) {
+        lock(&self.state).way(way).hold_until = Some(Instant::now() + time);
+    }
+
+    /// Let nothing pass either way on the TCP session for `time` from now.
+    pub fn hold_tcp_for(&self, time: Duration) {
+        lock(&self.state).tcp_hold_until = Some(Instant::now() + time);
+    }
+
+    /// Reset the TCP connections open now: the client's side with an RST, the server's
+    /// closed. The class 1 connection outlives them.
+    pub fn reset_sessions(&self) -> usize {
+        let mut state = lock(&self.state);
+        state.resetting = true;
+        let sessions: Vec<_> = state.sessions.drain(..).collect();
+        drop(state);
+        let count = sessions.len();
+        for (client, server) in sessions {
+            super::abort(&client);
+            let _ = client.shutdown(std::net::Shutdown::Read);
+            let _ = server.shutdown(std::net::Shutdown::Both);
+        }
+        count
+    }
+
+    /// Datagrams going `way` dropped for `drop_for`.
+    pub fn dropped(&self, way: Way) -> u64 {
+        lock(&self.state).way(way).dropped
+    }
+
     /// The mishaps done so far going `way`, in order.
     pub fn applied(&self, way: Way) -> Vec<Mishap> {
         lock(&self.state).way(way).applied.clone()
@@ -171,15 +234,32 @@ impl UdpProxy {
     }
 }
 
-/// Pass encapsulation messages from `from` to `to`, each through `change`.
-fn relay(mut from: TcpStream, mut to: TcpStream, change: &dyn Fn(Vec<u8>) -> Vec<u8>) {
+/// Sleep while `until` (read anew each time) lies ahead.
+fn wait_out(until: impl Fn() -> Option<Instant>) {
+    while let Some(rest) = until().and_then(|u| u.checked_duration_since(Instant::now())) {
+        thread::sleep(rest);
+    }
+}
+
+/// Pass encapsulation messages from `from` to `to`, each through `change` (and held while
+/// the session is held).
+fn relay(
+    mut from: TcpStream,
+    mut to: TcpStream,
+    state: &Mutex<State>,
+    change: &dyn Fn(Vec<u8>) -> Vec<u8>,
+) {
     use std::io::Write;
     while let Some(frame) = read_frame(&mut from, Framing::Enip) {
+        wait_out(|| lock(state).tcp_hold_until);
         if to.write_all(&change(frame)).is_err() {
             break;
         }
     }
-    let _ = to.shutdown(std::net::Shutdown::Both);
+    // A reset leaves the client's side to be closed with an RST by its last handle.
+    if !lock(state).resetting {
+        let _ = to.shutdown(std::net::Shutdown::Both);
+    }
 }
 
 /// A SendRRData message with `edit` applied to its CPF items (the socket address items
@@ -215,6 +295,7 @@ fn pass(inbound: UdpSocket, outbound: UdpSocket, way: Way, state: &Mutex<State>)
             continue;
         };
         let datagram = buffer[..n].to_vec();
+        wait_out(|| lock(state).way(way).hold_until);
         let (to, mishap, held) = {
             let mut s = lock(state);
             let to = match way {
@@ -226,6 +307,13 @@ fn pass(inbound: UdpSocket, outbound: UdpSocket, way: Way, state: &Mutex<State>)
                 continue;
             }
             let direction = s.way(way);
+            if direction
+                .drop_until
+                .is_some_and(|until| Instant::now() < until)
+            {
+                direction.dropped += 1;
+                continue;
+            }
             direction.passed += 1;
             let at = direction.passed;
             let mishap = direction
@@ -252,6 +340,13 @@ fn pass(inbound: UdpSocket, outbound: UdpSocket, way: Way, state: &Mutex<State>)
         match mishap {
             None => send(&datagram),
             Some(Mishap::Drop | Mishap::Reorder) => {}
+            Some(Mishap::Garble) => {
+                let mut garbled = datagram.clone();
+                for b in garbled.iter_mut().take(2) {
+                    *b = 0x7F;
+                }
+                send(&garbled);
+            }
             Some(Mishap::Duplicate) => {
                 send(&datagram);
                 send(&datagram);

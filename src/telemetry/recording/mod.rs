@@ -249,13 +249,18 @@ impl Metadata {
 }
 
 /// The marker a notice of the worker's about the link makes in a recording, where it is
-/// one: an exchange that failed (an outage begins; the worker tries again), the link
-/// back after failed exchanges, a trouble got over by sending again. `None` for any other
+/// one: an exchange that failed or a connection that closed or reset (an outage begins;
+/// the worker tries again, or opens it again), the link back after failed exchanges or
+/// the connection opened again, a trouble got over by sending again. `None` for any other
 /// notice. (The worker's words: `worker::loss`.)
 pub fn link_mark(notice: &str) -> Option<String> {
-    if notice.starts_with("an exchange with the drive failed") {
+    if notice.starts_with("an exchange with the drive failed")
+        || notice.starts_with("the connection to the drive failed")
+    {
         Some(format!("outage: {notice}"))
-    } else if notice.starts_with("the link recovered after") {
+    } else if notice.starts_with("the link recovered after")
+        || notice.starts_with("the connection to the drive was opened again")
+    {
         Some(format!("recovered: {notice}"))
     } else {
         notice

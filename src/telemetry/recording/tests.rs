@@ -519,5 +519,14 @@ fn the_worker_s_words_about_the_link_become_markers() {
         super::link_mark("link: no answer within 166 ms, answered on try 2").as_deref(),
         Some("retry: no answer within 166 ms, answered on try 2")
     );
+    // A connection that reset under the session, opened again in place.
+    assert_eq!(
+        super::link_mark("the connection to the drive failed: connection reset by peer; opening it again (the link counts as lost after 3 failures in a row)").as_deref(),
+        Some("outage: the connection to the drive failed: connection reset by peer; opening it again (the link counts as lost after 3 failures in a row)")
+    );
+    assert_eq!(
+        super::link_mark("the connection to the drive was opened again after 1 failed exchange(s) (connection reset by peer); the session goes on").as_deref(),
+        Some("recovered: the connection to the drive was opened again after 1 failed exchange(s) (connection reset by peer); the session goes on")
+    );
     assert_eq!(super::link_mark("PDO mapping changed"), None);
 }
