@@ -99,6 +99,8 @@ pub struct EnipLink {
     commands_refused: Option<String>,
     /// The last Forward_Open was refused for an ownership conflict (0106h).
     owned_elsewhere: bool,
+    /// While reopening: how long our old I/O connection may live on in the adapter.
+    linger: Option<Duration>,
     notices: Vec<String>,
 }
 
@@ -128,6 +130,7 @@ impl EnipLink {
             explicit_rx: None,
             commands_refused: None,
             owned_elsewhere: false,
+            linger: None,
             notices: vec![],
         };
         match link.start().await {
@@ -180,7 +183,18 @@ impl EnipLink {
                 EnipIo::Explicit => None,
             };
             if let Some(set) = set {
-                match self.open_io(set).await {
+                let mut opened = self.open_io(set).await;
+                // Reopening: our own old connection may live on in the adapter until its
+                // timeout and refuse the new one as an ownership conflict. Wait it out once
+                // before taking the refusal for another master's.
+                if let (Err(Error::Refused(_)), Some(linger)) = (&opened, self.linger.take())
+                    && self.owned_elsewhere
+                {
+                    tokio::time::sleep(linger).await;
+                    opened = self.open_io(set).await;
+                }
+                self.commands_refused = None;
+                match opened {
                     Ok(opened) => self.io = Some(opened),
                     Err(Error::Refused(reason)) if self.owned_elsewhere => {
                         let why = format!(
@@ -814,8 +828,12 @@ impl Link for EnipLink {
         // have closed it already ("connection not found"), which is as good.
         if let Some(opened) = &old {
             let _ = self.send_forward_close(opened).await;
+            self.linger =
+                Some(opened.handle.config.to_timeout + opened.handle.config.ot_rpi * 2);
         }
-        self.start().await
+        let started = self.start().await;
+        self.linger = None;
+        started
     }
 
     async fn close(&mut self) -> Result<(), Error> {
