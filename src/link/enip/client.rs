@@ -828,8 +828,7 @@ impl Link for EnipLink {
         // have closed it already ("connection not found"), which is as good.
         if let Some(opened) = &old {
             let _ = self.send_forward_close(opened).await;
-            self.linger =
-                Some(opened.handle.config.to_timeout + opened.handle.config.ot_rpi * 2);
+            self.linger = Some(opened.handle.config.to_timeout + opened.handle.config.ot_rpi * 2);
         }
         let started = self.start().await;
         self.linger = None;
