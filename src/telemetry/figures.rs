@@ -83,7 +83,8 @@ impl Step<'_> {
             None
         };
         let rise_time_s = match (crossing(0.1), crossing(0.9)) {
-            (Some(low), Some(high)) => Some(high - low),
+            // Interpolated crossings between far-apart samples may round past each other.
+            (Some(low), Some(high)) => Some((high - low).max(0.0)),
             _ => None,
         };
         let furthest = samples
