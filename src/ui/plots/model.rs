@@ -165,6 +165,18 @@ impl Default for PlotSettings {
     }
 }
 
+/// Where the plots were drawn in the last frame, and the room they had there (what a
+/// picture of them lays them out in again).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DrawnAt {
+    /// The plots, every axis included, in points: left, top, right, bottom.
+    pub area: Option<[f32; 4]>,
+    /// The room they were given in the last frame drawn as usual (width, height).
+    pub room: Option<[f32; 2]>,
+    /// The height they needed to show whole, none scrolled out of view (points).
+    pub need: f32,
+}
+
 /// A picture in RGBA, 8 bits a channel, row by row.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
@@ -304,15 +316,8 @@ pub struct PlotView {
     /// The address of an object to plot, and the history size, being typed.
     pub(super) watch_text: String,
     pub(super) rows_text: String,
-    /// Where the plots (every axis included) were drawn in the last frame, in points:
-    /// left, top, right, bottom.
-    pub(super) plots_area: Option<[f32; 4]>,
-    /// The room the plots were given in the last frame drawn as usual (width and height,
-    /// in points): what a larger picture lays them out in again.
-    pub(super) plots_room: Option<[f32; 2]>,
-    /// The height the plots needed in the last frame to show whole, none scrolled out of
-    /// view (points; the picture gives them that much when the window holds it).
-    pub(super) plots_need: f32,
+    /// Where the plots were drawn in the last frame and the room they had.
+    pub(super) drawn_at: DrawnAt,
     /// The picture of the plots being taken.
     pub(super) picture: Picture,
     /// The files the export buttons wrote this session, and which button (the newest
@@ -351,9 +356,7 @@ impl Default for PlotView {
             message: None,
             watch_text: String::new(),
             rows_text: String::new(),
-            plots_area: None,
-            plots_room: None,
-            plots_need: 0.0,
+            drawn_at: DrawnAt::default(),
             picture: Picture::default(),
             written: Vec::new(),
             saved: None,
@@ -454,7 +457,7 @@ impl PlotView {
 
     /// Where the plots were drawn in the last frame (left, top, right, bottom, in points).
     pub fn plots_area(&self) -> Option<[f32; 4]> {
-        self.plots_area
+        self.drawn_at.area
     }
 
     /// The plots drawn in the last frame, top to bottom: where, on which span, what.

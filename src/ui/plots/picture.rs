@@ -32,7 +32,8 @@ pub fn request(ui: &Ui, p: &mut Plots<'_>) {
     let scale = p.settings.picture_scale;
     let band = p
         .view
-        .plots_room
+        .drawn_at
+        .room
         .map(|[width, _]| band_height(ui, p, width));
     let view = &mut *p.view;
     if view.picture.due {
@@ -44,7 +45,7 @@ pub fn request(ui: &Ui, p: &mut Plots<'_>) {
     view.picture.scale = 1.0;
     view.message = Some(Ok("taking a picture of the plots…".into()));
     // No plots drawn yet: the band alone says there is nothing to take.
-    let (Some([width, height]), Some(band)) = (view.plots_room, band) else {
+    let (Some([width, height]), Some(band)) = (view.drawn_at.room, band) else {
         ctx.request_repaint();
         return;
     };
@@ -67,7 +68,7 @@ pub fn request(ui: &Ui, p: &mut Plots<'_>) {
             String::new()
         };
         // The picture is cut to the band and the plots' axes, within that room.
-        let [left, top, right, bottom] = view.plots_area.unwrap_or([0.0, 0.0, width, height]);
+        let [left, top, right, bottom] = view.drawn_at.area.unwrap_or([0.0, 0.0, width, height]);
         let pixels = ctx.pixels_per_point() * most;
         view.message = Some(Ok(format!(
             "taking a {most:.1}× picture of the plots, about {:.0}×{:.0} px{short}…",

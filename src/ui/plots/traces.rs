@@ -438,7 +438,7 @@ pub fn traces_ui(ui: &mut Ui, p: &mut Plots<'_>) -> Option<egui::Rect> {
     decimations.end_frame();
     p.view.decimations = decimations;
     p.view.lanes_seen = lanes_seen;
-    p.view.plots_need = need;
+    p.view.drawn_at.need = need;
     remember_view(ui.ctx(), p, interaction, (from, to));
     Some(plots)
 }

@@ -154,11 +154,11 @@ pub fn plots_ui(ui: &mut Ui, p: &mut Plots<'_>) {
             };
             let plots = traces::traces_ui(ui, p);
             // The picture shows every plot whole, none scrolled out of view.
-            p.view.plots_room = plots.map(|_| [room.x, room.y.max(p.view.plots_need)]);
+            p.view.drawn_at.room = plots.map(|_| [room.x, room.y.max(p.view.drawn_at.need)]);
             (band, plots)
         }
     };
-    p.view.plots_area = plots.map(|r| [r.min.x, r.min.y, r.max.x, r.max.y]);
+    p.view.drawn_at.area = plots.map(|r| [r.min.x, r.min.y, r.max.x, r.max.y]);
     picture::taken(ui.ctx(), p.view, band, plots, alone.is_some());
     // The answers of this frame's dialogs (a scripted one answers at once) and of those
     // that came in between.
