@@ -122,6 +122,59 @@ fn t_to_o_silence_beyond_the_connection_timeout_is_a_lost_link_that_reconnecting
     });
 }
 
+#[test]
+fn an_adapter_still_silent_when_the_connection_is_opened_again_is_a_failed_try_not_polling_for_good()
+ {
+    let server = common::enip_adapter();
+    let proxy = UdpProxy::start(server.addr);
+    let mut probe = Probe::connected(class1(proxy.addr));
+    let opens = proxy.opens();
+    // Nothing from the adapter for 4 s: the connection times out after 640 ms, and the
+    // first reopen gets no data either. Before, that reopen fell back to explicit
+    // messages for the rest of the session: the outage ended at once and unseen, and
+    // class 1 never came back.
+    proxy.hold_for(Way::TtoO, Duration::from_secs(4));
+    let reason = probe.lost(Duration::from_secs(5));
+    assert!(reason.contains("no T→O datagram"), "{reason}");
+    let failed = probe.wait("a reopen that failed", Duration::from_secs(10), |e| {
+        matches!(e, drivedeck::worker::Event::ConnectFailed { error, .. } if error.text.contains("again yet"))
+    });
+    let drivedeck::worker::Event::ConnectFailed {
+        error, retry_in, ..
+    } = failed
+    else {
+        unreachable!()
+    };
+    assert!(
+        error
+            .text
+            .contains("the I/O connection could not be opened again yet")
+            && error.text.contains("no data reached UDP"),
+        "{error:?}"
+    );
+    assert!(retry_in.is_some(), "tried again");
+    let info = probe.reconnected(Duration::from_secs(15));
+    assert!(
+        info.description.contains("class 1 I/O at 10 ms"),
+        "{}; notices: {:#?}",
+        info.description,
+        probe.notices()
+    );
+    assert!(
+        proxy.opens() >= opens + 2,
+        "a reopen during the silence and one after it"
+    );
+    assert!(
+        probe.notice_with(&["over explicit messages"]).is_none(),
+        "{:#?}",
+        probe.notices()
+    );
+    let before = proxy.passed(Way::TtoO);
+    common::wait_until("T→O datagrams again", Duration::from_secs(5), || {
+        proxy.passed(Way::TtoO) > before + 5
+    });
+}
+
 // ---------------------------------------------------------------- the lost-after count
 
 /// EtherNet/IP explicit messages: one failed exchange is three tries in 1 s.

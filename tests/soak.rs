@@ -488,7 +488,14 @@ fn soak(bus: Bus) {
     ]);
     assert_eq!(code, 0, "{name}: the motion: {stdout}{stderr}");
 
-    let mut recorder = start(&[
+    // DRIVEDECK_SOAK_TRACE=1 traces the recorder's frames (on its stderr, in the report).
+    let trace = std::env::var_os("DRIVEDECK_SOAK_TRACE").is_some();
+    let (rate, duration, lost) = (
+        format!("{RATE}"),
+        format!("{seconds}s"),
+        lost_after.to_string(),
+    );
+    let mut args = vec![
         "--link",
         &bus.link,
         "--json",
@@ -496,14 +503,18 @@ fn soak(bus: Bus) {
         "--signals",
         "position,velocity,pdi_status",
         "--rate",
-        &format!("{RATE}"),
+        &rate,
         "--duration",
-        &format!("{seconds}s"),
+        &duration,
         "--lost-after",
-        &lost_after.to_string(),
+        &lost,
         "--out",
         &out_text,
-    ]);
+    ];
+    if trace {
+        args.push("--trace");
+    }
+    let mut recorder = start(&args);
     let pid = recorder.pid();
     // The recording's time now = `offset` + seconds since `base`: the best (largest) of
     // the last row's time minus its age, read as the file grows.
@@ -568,6 +579,7 @@ fn soak(bus: Bus) {
     // Kept beside the build for a look afterwards.
     let kept_copy = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("soak-{file_name}.csv"));
     let _ = std::fs::write(&kept_copy, &text);
+    let _ = std::fs::write(kept_copy.with_extension("log"), &report);
     let recording = Recording::from_csv(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
     let times = &recording.times;
     let (first, last) = (times[0], *times.last().expect("rows"));

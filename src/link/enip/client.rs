@@ -101,6 +101,10 @@ pub struct EnipLink {
     owned_elsewhere: bool,
     /// While reopening: how long our old I/O connection may live on in the adapter.
     linger: Option<Duration>,
+    /// A class 1 connection was lost and is not yet open again: a reopen that gets no
+    /// data is a failed try (the outage goes on), not a reason to poll over explicit
+    /// messages for the rest of the session.
+    io_lost: bool,
     notices: Vec<String>,
 }
 
@@ -131,6 +135,7 @@ impl EnipLink {
             commands_refused: None,
             owned_elsewhere: false,
             linger: None,
+            io_lost: false,
             notices: vec![],
         };
         match link.start().await {
@@ -195,7 +200,20 @@ impl EnipLink {
                 }
                 self.commands_refused = None;
                 match opened {
-                    Ok(opened) => self.io = Some(opened),
+                    Ok(opened) => {
+                        self.io = Some(opened);
+                        self.io_lost = false;
+                    }
+                    // The connection ran before: the adapter (or the network between) is
+                    // not producing yet. Polling instead would hide the outage and keep
+                    // the session off class 1 for good; this try failed, the next one
+                    // opens it again.
+                    Err(Error::Refused(reason)) if self.io_lost && !self.owned_elsewhere => {
+                        return Err(Error::Disconnected(format!(
+                            "{}: the I/O connection could not be opened again yet: {reason}",
+                            self.session.peer()
+                        )));
+                    }
                     Err(Error::Refused(reason)) if self.owned_elsewhere => {
                         let why = format!(
                             "another master owns the drive's I/O connection ({reason}): its \
@@ -812,6 +830,7 @@ impl Link for EnipLink {
         let old = self.io.take();
         if let Some(opened) = &old {
             opened.handle.stop();
+            self.io_lost = true;
         }
         self.session = match Session::open(&self.host, self.port, EXPLICIT_TIMEOUT).await {
             Ok(session) => session,
