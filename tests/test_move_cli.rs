@@ -233,3 +233,78 @@ fn a_kept_run_opens_as_a_recording_with_a_marker_and_the_figures_at_each_step() 
         assert!(recording.len() > 300, "{name}: {} rows", recording.len());
     }
 }
+
+/// (peak following error, overshoot) at worst over a test move 0 ↔ 2000 at 300 rpm on a
+/// simulated drive served on Modbus TCP after its auto setup (closed loop from then on),
+/// with 3210h:03 (the velocity loop's P) at `gain`.
+fn move_figures(gain: u32) -> (f64, f64) {
+    let (_sim, addr) = Sim::tcp(&[]);
+    let link = format!("modbus-tcp://{addr}");
+    let (code, out, err) = run(&["--link", &link, "auto-setup", "--wait"]);
+    assert_eq!(code, 0, "{out}{err}");
+    let (code, out, err) = run(&["--link", &link, "write", "3210:03", &gain.to_string()]);
+    assert_eq!(code, 0, "{out}{err}");
+    let report = json(&[
+        "--link",
+        &link,
+        "test-move",
+        "--from",
+        "0",
+        "--to",
+        "2000",
+        "--speed",
+        "300",
+        "--cycles",
+        "1",
+    ]);
+    let worst = |name: &str| {
+        report["steps"]
+            .as_array()
+            .expect("steps")
+            .iter()
+            .filter_map(|s| s[name].as_f64())
+            .fold(f64::MIN, f64::max)
+    };
+    (worst("peak_following_error"), worst("overshoot"))
+}
+
+#[test]
+fn the_velocity_gain_changes_the_figures_of_a_test_move_once_the_loop_is_closed() {
+    let (error, overshoot) = move_figures(12000);
+    let (error_up, _) = move_figures(48000);
+    let (error_down, overshoot_down) = move_figures(3000);
+    assert!(
+        error_up < error && error < error_down,
+        "peak following error ×4 {error_up}, factory {error}, ÷4 {error_down}"
+    );
+    assert!(
+        overshoot_down > overshoot,
+        "overshoot ÷4 {overshoot_down}, factory {overshoot}"
+    );
+}
+
+#[test]
+fn a_load_the_simulated_drive_cannot_have_is_refused_with_its_range() {
+    let said = fails(
+        &[
+            "sim",
+            "--modbus-tcp",
+            "127.0.0.1:0",
+            "--load-inertia",
+            "200",
+        ],
+        2,
+    );
+    assert!(said.contains("outside 0 to 100"), "{said}");
+    let said = fails(
+        &[
+            "sim",
+            "--modbus-tcp",
+            "127.0.0.1:0",
+            "--load-torque",
+            "-5000",
+        ],
+        2,
+    );
+    assert!(said.contains("outside -1000 to 1000"), "{said}");
+}

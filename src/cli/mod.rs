@@ -614,6 +614,41 @@ pub struct SimArgs {
     /// Print each drive's state once a second.
     #[arg(long)]
     pub verbose: bool,
+    /// The load's inertia coupled to each simulated motor, as a multiple of the motor's
+    /// own (0: the motor alone). It shows in closed loop (after an auto setup): a heavier
+    /// load lags more behind a move and needs other gains.
+    #[arg(long, default_value_t = 0.0, value_name = "RATIO", value_parser = parse_load_inertia)]
+    pub load_inertia: f64,
+    /// A constant torque against each simulated motor (gravity on a vertical axis), in
+    /// thousandths of the rated torque.
+    #[arg(long, default_value_t = 0.0, value_name = "PERMILLE", value_parser = parse_load_torque, allow_negative_numbers = true)]
+    pub load_torque: f64,
+}
+
+fn parse_load_inertia(text: &str) -> Result<f64, String> {
+    let ratio: f64 = text
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if (0.0..=100.0).contains(&ratio) {
+        Ok(ratio)
+    } else {
+        Err(format!(
+            "{text} is outside 0 to 100 (times the motor's inertia)"
+        ))
+    }
+}
+
+fn parse_load_torque(text: &str) -> Result<f64, String> {
+    let permille: f64 = text
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if (-1000.0..=1000.0).contains(&permille) {
+        Ok(permille)
+    } else {
+        Err(format!(
+            "{text} is outside -1000 to 1000 (thousandths of the rated torque)"
+        ))
+    }
 }
 
 /// Function codes the simulated drive can leave out.

@@ -57,6 +57,16 @@ pub fn run(args: &SimArgs) -> ExitCode {
 
 /// A simulated drive being served, and what it is served as ("node 5", "Modbus TCP
 /// 127.0.0.1:1502"), for `--verbose`.
+/// A simulated drive with the load the command line couples to it.
+fn loaded(args: &SimArgs) -> Drive {
+    let mut drive = Drive::new();
+    drive.set_load(crate::sim::Load {
+        inertia: args.load_inertia,
+        torque: args.load_torque,
+    });
+    drive
+}
+
 struct Served {
     drive: SharedDrive,
     names: Vec<String>,
@@ -70,7 +80,7 @@ async fn serve(args: &SimArgs, planned: &[Planned]) -> Result<(), String> {
     let mut served: Vec<Served> = planned
         .iter()
         .map(|_| Served {
-            drive: SharedDrive::new(Drive::new()),
+            drive: SharedDrive::new(loaded(args)),
             names: vec![],
         })
         .collect();

@@ -23,4 +23,4 @@ pub use drive::{AUTO_SETUP_TIME, Drive, STEP};
 pub use homing::SUPPORTED_METHODS;
 pub use link::SimLink;
 pub use motion::{rpm_to_units, units_to_rpm};
-pub use world::{Sensors, World};
+pub use world::{Load, Sensors, World};

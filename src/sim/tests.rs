@@ -800,3 +800,5 @@ fn with_the_pdi_off_commands_are_not_acknowledged() {
     rig.write(0x2290, 0, Value::Uint(1));
     rig.done(move_abs(1000, 100), 5000);
 }
+
+mod tuning;

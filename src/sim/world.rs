@@ -14,6 +14,8 @@ pub struct World {
     /// The index pulse comes once per revolution at `index_offset + n * index_period`.
     pub index_period: f64,
     pub index_offset: f64,
+    /// What the motor drives besides itself.
+    pub load: Load,
 }
 
 impl Default for World {
@@ -25,6 +27,7 @@ impl Default for World {
             home_end: 9_900.0,
             index_period: 3_600.0,
             index_offset: 450.0,
+            load: Load::default(),
         }
     }
 }
@@ -91,5 +94,27 @@ mod tests {
         assert_eq!(w.index_between(500.0, 0.0), Some(450.0));
         assert_eq!(w.index_between(0.0, 400.0), None);
         assert_eq!(w.index_between(-100.0, -3200.0), Some(-3150.0));
+    }
+}
+
+/// What the motor drives besides itself (the motor alone by default).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Load {
+    /// The load's inertia as a multiple of the motor's (0: the motor alone).
+    pub inertia: f64,
+    /// A constant torque against the motor (gravity on a vertical axis), ‰ of rated torque.
+    pub torque: f64,
+}
+
+impl Load {
+    /// The inertia the motor turns, as a multiple of its own.
+    pub fn inertia_factor(&self) -> f64 {
+        1.0 + self.inertia.max(0.0)
+    }
+
+    /// Whether `torque` ‰ breaks the motor away from standstill against a static
+    /// friction of `friction` ‰.
+    pub fn breaks_away(&self, torque: f64, friction: f64) -> bool {
+        (torque - self.torque).abs() > friction
     }
 }

@@ -28,13 +28,14 @@ use crate::od::{Address, Catalog, Value};
 use super::dictionary::Dictionary;
 use super::homing::HomingRun;
 use super::motion::{Demand, units_to_rpm};
-use super::world::World;
+use super::world::{Load, World};
 use crate::injection::Injection;
 
 mod access;
 mod faults;
 mod pdi;
 mod physics;
+mod servo;
 mod status;
 
 /// The simulation step: every `tick` is cut into steps of at most this length.
@@ -90,6 +91,8 @@ pub struct Drive {
     /// The drive's position counter is `x - offset`.
     offset: f64,
     demand: Demand,
+    /// The closed loop's state while it runs (3202h bit 0 set and the power stage on).
+    servo: Option<servo::Servo>,
     torque: f64,
     torque_demand: f64,
     // PDI
@@ -145,6 +148,7 @@ impl Drive {
             v: 0.0,
             offset: 0.0,
             demand: Demand::default(),
+            servo: None,
             torque: 0.0,
             torque_demand: 0.0,
             last_cmd: 0,
@@ -169,6 +173,11 @@ impl Drive {
     /// The machine around the motor.
     pub fn world(&self) -> &World {
         &self.world
+    }
+
+    /// Couple another load to the motor (it acts from the next step on).
+    pub fn set_load(&mut self, load: Load) {
+        self.world.load = load;
     }
 
     /// Time since power-on.
@@ -207,6 +216,7 @@ impl Drive {
             position: world_x,
             velocity: 0.0,
         };
+        self.servo = None;
         self.publish();
     }
 }
@@ -215,6 +225,14 @@ impl Default for Drive {
     fn default() -> Self {
         Self::new()
     }
+}
+
+/// The motor's acceleration, units/s², at `torque` ‰ of rated torque while turning at
+/// `v` units/s with `load` coupled: friction (Coulomb and viscous) and the load's torque
+/// against it, the load's inertia added to the motor's.
+fn acceleration(load: &Load, torque: f64, v: f64) -> f64 {
+    let against = COULOMB * sign(v) + load.torque;
+    TORQUE_GAIN * (torque - against) / load.inertia_factor() - DAMPING * v
 }
 
 fn sign(v: f64) -> f64 {

@@ -2,9 +2,10 @@
 
 use std::time::Duration;
 
+use super::servo::{Gains, Servo, Want};
 use super::{
     AUTO_SETUP_TIME, Activity, COULOMB, DAMPING, Drive, LOAD_LAG, STANDSTILL, STEP, TORQUE_GAIN,
-    sign,
+    acceleration, sign,
 };
 use crate::cia::{AbortCode, ErrorCode, PowerState};
 use crate::injection::Injection;
@@ -41,12 +42,12 @@ impl Drive {
             self.state,
             PowerState::OperationEnabled | PowerState::QuickStopActive
         );
-        self.move_load(torque_controlled, energised, demand_before.position, dt);
+        self.move_load(torque_controlled, energised, demand_before, dt);
         if !torque_controlled {
-            self.torque = if energised {
-                self.demand_torque(demand_before.velocity, dt)
-            } else {
-                0.0
+            self.torque = match &self.servo {
+                Some(servo) => servo.current(),
+                None if energised => self.demand_torque(demand_before.velocity, dt),
+                None => 0.0,
             };
         }
         self.after_step(x_before, dt);
@@ -133,20 +134,21 @@ impl Drive {
     }
 
     /// The load, one step on: held by an injected following error, moved by the torque
-    /// already (`torque_controlled`), following the demand, or coasting unpowered.
-    fn move_load(
-        &mut self,
-        torque_controlled: bool,
-        energised: bool,
-        demand_position_before: f64,
-        dt: f64,
-    ) {
+    /// already (`torque_controlled`), by the closed loop (3202h bit 0), following the
+    /// demand (open loop), or coasting unpowered.
+    fn move_load(&mut self, torque_controlled: bool, energised: bool, before: Demand, dt: f64) {
+        let closed_loop = energised && !torque_controlled && self.closed_loop();
+        if !closed_loop {
+            self.servo = None;
+        }
         if self.injected.contains(&Injection::FollowingError) {
             self.v = 0.0;
         } else if torque_controlled {
             // torque_physics moved x and v already.
+        } else if closed_loop {
+            self.close_the_loop(before, dt);
         } else if energised {
-            self.follow_demand(demand_position_before, dt);
+            self.follow_demand(before.position, dt);
         } else {
             // Coasting with the power stage off.
             self.v *= (-dt / 0.15).exp();
@@ -177,6 +179,27 @@ impl Drive {
         self.v = e / LOAD_LAG;
     }
 
+    /// Whether the cascade runs: closed loop chosen (3202h bit 0) and the motor measured
+    /// by an auto setup, which the firmware needs before it can close the loop. Until
+    /// then the load follows the demand as in open loop.
+    pub(super) fn closed_loop(&self) -> bool {
+        self.od.int(0x3202, 0) & 1 == 1 && self.autosetup_done
+    }
+
+    /// Closed loop: the cascade with 3210h's gains moves the load towards the demand.
+    fn close_the_loop(&mut self, before: Demand, dt: f64) {
+        let want = Want {
+            position: self.demand.position,
+            velocity: self.demand.velocity,
+            acceleration: (self.demand.velocity - before.velocity) / dt,
+            position_loop: !matches!(self.activity, Activity::Velocity { .. }) || self.halted,
+        };
+        let gains = Gains::read(&self.od);
+        let (x, v) = (self.x, self.v);
+        let servo = self.servo.get_or_insert_with(|| Servo::starting_at(x, v));
+        servo.step(&gains, &self.world.load, want, &mut self.x, &mut self.v, dt);
+    }
+
     /// The torque it takes to drive the demand's acceleration against friction.
     fn demand_torque(&self, demand_velocity_before: f64, dt: f64) -> f64 {
         let accel = (self.demand.velocity - demand_velocity_before) / dt;
@@ -184,9 +207,9 @@ impl Drive {
     }
 
     fn torque_physics(&mut self, max_speed: f64, dt: f64) {
-        let mut accel =
-            TORQUE_GAIN * (self.torque_demand - COULOMB * sign(self.v)) - DAMPING * self.v;
-        if self.v.abs() < STANDSTILL && self.torque_demand.abs() <= COULOMB {
+        let load = self.world.load;
+        let mut accel = acceleration(&load, self.torque_demand, self.v);
+        if self.v.abs() < STANDSTILL && !load.breaks_away(self.torque_demand, COULOMB) {
             accel = 0.0;
             self.v = 0.0;
         }
