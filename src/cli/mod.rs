@@ -28,7 +28,9 @@ mod record;
 mod report;
 mod serve;
 mod session;
+mod spectrum;
 mod stop;
+mod storage;
 mod test_move;
 
 use std::process::ExitCode;
@@ -158,6 +160,16 @@ pub enum Command {
     /// Velocity steps with figures: 0 → --speed → −speed → 0 rpm, --hold at each, --cycles
     /// times; per step the figures of the velocity's response, then their mean and worst.
     TestVelocity(TestVelocityArgs),
+    /// Store every value as it is now for the next power-on ("save" to 1010h:01).
+    Store,
+    /// Bring the factory values back at the next restart ("load" to 1011h:01); --reboot
+    /// restarts at once.
+    Defaults(storage::DefaultsArgs),
+    /// Restart the drive's firmware ("boot" to 2800h:01) and wait until it answers again.
+    Reboot,
+    /// The amplitude spectrum of one signal of a recording (or of the span --from..--to),
+    /// with its strongest peaks: `spectrum run.csv --signal velocity`.
+    Spectrum(spectrum::SpectrumArgs),
     /// The closed-loop controller's gains (3210h, and 321Ah–321Ch of the newer parameter
     /// set) and the limits that shape a response (max current, speed, ramps, windows):
     /// address, name, value, unit, factory value.
@@ -802,6 +814,16 @@ pub fn main() -> ExitCode {
         Some(Command::TestVelocity(args)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             test_move::run_velocity(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
+        }
+        Some(Command::Spectrum(args)) => spectrum::run(&args, cli.json),
+        Some(command @ (Command::Store | Command::Defaults(_) | Command::Reboot)) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            let what = match command {
+                Command::Defaults(a) => storage::What::Defaults { reboot: a.reboot },
+                Command::Reboot => storage::What::Reboot,
+                _ => storage::What::Store,
+            };
+            storage::run(&link, what, cli.json, timeout(&cli), cli.trace, &context)
         }
         Some(Command::Discover(args)) => oneshot::discover(&args, cli.json),
         Some(Command::Record(args)) => {

@@ -87,6 +87,10 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Scan
         | Command::Discover(_)
         | Command::Sim(_)
+        | Command::Spectrum(_)
+        | Command::Store
+        | Command::Defaults(_)
+        | Command::Reboot
         | Command::Bench(_)
         | Command::TestMove(_)
         | Command::TestVelocity(_)

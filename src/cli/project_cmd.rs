@@ -77,6 +77,10 @@ fn command_name(command: &Command) -> &'static str {
         Command::Scan => "scan",
         Command::Discover(_) => "discover",
         Command::Sim(_) => "sim",
+        Command::Spectrum(_) => "spectrum",
+        Command::Store => "store",
+        Command::Defaults(_) => "defaults",
+        Command::Reboot => "reboot",
         Command::Record(_) => "record",
         Command::Bench(_) => "bench",
         Command::TestMove(_) => "test-move",
@@ -130,7 +134,10 @@ pub(super) fn target(cli: &Cli) -> Result<Target, Failure> {
     let every = matches!(command, Command::Status)
         || matches!(command, Command::Od(OdArgs { command: OdCommand::Dump(d) }) if d.dir.is_some());
     match (command, drive) {
-        (Command::Sim(_) | Command::Discover(_) | Command::Project(_), _) => Err(usage(format!(
+        (
+            Command::Sim(_) | Command::Discover(_) | Command::Project(_) | Command::Spectrum(_),
+            _,
+        ) => Err(usage(format!(
             "{} does not use --project or --drive",
             command_name(command)
         ))),

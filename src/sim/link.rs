@@ -99,6 +99,11 @@ impl SimLink {
     }
 
     fn check_cable(&mut self) -> Result<(), Error> {
+        if self.drive.rebooting() {
+            return Err(Error::Disconnected(
+                "no answer: the simulated drive is restarting".into(),
+            ));
+        }
         match self.cut_until {
             Some(until) if now() < until => Err(Error::Disconnected(
                 "no answer: the simulated cable is pulled (injected link loss)".into(),

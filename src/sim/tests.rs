@@ -801,4 +801,5 @@ fn with_the_pdi_off_commands_are_not_acknowledged() {
     rig.done(move_abs(1000, 100), 5000);
 }
 
+mod storage;
 mod tuning;

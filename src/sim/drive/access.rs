@@ -63,15 +63,8 @@ impl Drive {
                     self.od.set_int(0x1003, sub, 0);
                 }
             }
-            (0x1010 | 0x1011, _) if address.sub > 0 => {
-                let signature = if address.index == 0x1010 {
-                    0x6576_6173
-                } else {
-                    0x6461_6F6C
-                };
-                if value.as_i128() != Some(signature) {
-                    return Err(AbortCode::CANNOT_STORE);
-                }
+            (0x1010 | 0x1011, 1..) | (0x2800, 1) => {
+                self.storage_command(address, &value)?;
             }
             _ => self.od.set(address, value),
         }

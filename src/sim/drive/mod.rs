@@ -37,9 +37,12 @@ mod pdi;
 mod physics;
 mod servo;
 mod status;
+mod storage;
 
 /// The simulation step: every `tick` is cut into steps of at most this length.
 pub const STEP: Duration = Duration::from_millis(1);
+
+pub use storage::BOOT_TIME;
 
 /// How long auto setup takes.
 pub const AUTO_SETUP_TIME: Duration = Duration::from_secs(3);
@@ -111,6 +114,11 @@ pub struct Drive {
     in_window_for: Duration,
     limit_stop: bool,
     time: Duration,
+    /// The dictionary as it left the factory (for a restart after "load").
+    factory: std::sync::Arc<Dictionary>,
+    /// What survives a restart, and the restart under way.
+    storage: storage::Storage,
+    reboots: u32,
 }
 
 impl Drive {
@@ -137,8 +145,16 @@ impl Drive {
             Address::new(0x6505, 0),
             text("https://github.com/drivedeck"),
         );
+        Self::from_dictionary(std::sync::Arc::new(od), world)
+    }
+
+    /// A drive at power-on with the factory values of `factory`.
+    fn from_dictionary(factory: std::sync::Arc<Dictionary>, world: World) -> Self {
         let mut drive = Self {
-            od,
+            od: (*factory).clone(),
+            factory,
+            storage: storage::Storage::default(),
+            reboots: 0,
             world,
             state: PowerState::SwitchOnDisabled,
             activity: Activity::Idle,

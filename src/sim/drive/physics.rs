@@ -23,6 +23,7 @@ impl Drive {
             self.step(step.as_secs_f64());
             self.time += step;
             left -= step;
+            self.finish_reboot();
         }
         self.publish();
     }

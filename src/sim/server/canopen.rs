@@ -41,6 +41,8 @@ pub struct Node {
     booted: bool,
     /// Refuse PDO mapping changes, like a device with fixed mappings.
     fixed_mapping: bool,
+    /// The drive's restarts seen (a new one: the node boots again).
+    reboots: u32,
 }
 
 /// The drive's object dictionary as seen by the SDO server: bytes in the objects' types.
@@ -135,7 +137,22 @@ impl Node {
             last_error_code: 0,
             booted: false,
             fixed_mapping: false,
+            reboots: drive.reboots(),
         }
+    }
+
+    /// Whether the node is silent because its drive restarts; once the drive has
+    /// restarted, the node starts again as at power-on (predefined connection set, boot-up
+    /// message at its next turn).
+    fn silent_for_restart(&mut self, drive: &mut Drive) -> bool {
+        if drive.rebooting() {
+            return true;
+        }
+        if drive.reboots() != self.reboots {
+            let fixed = self.fixed_mapping;
+            *self = Node::new(self.id, drive).with_fixed_mapping(fixed);
+        }
+        false
     }
 
     /// A node whose PDO mappings cannot be changed (writes to 1600h-17FFh and 1A00h-1BFFh
@@ -155,6 +172,9 @@ impl Node {
 
     /// Handle one frame from the bus; returns the frames to send in answer.
     pub fn on_frame(&mut self, frame: &CanFrame, drive: &mut Drive, now: Instant) -> Vec<CanFrame> {
+        if self.silent_for_restart(drive) {
+            return vec![];
+        }
         let mut out = vec![];
         if !self.booted {
             // Power-on comes before anything the bus says: a frame that arrives before the
@@ -317,6 +337,9 @@ impl Node {
 
     /// Time passes: boot-up, heartbeat, event-driven TPDOs, EMCY on fault changes.
     pub fn tick(&mut self, drive: &mut Drive, now: Instant) -> Vec<CanFrame> {
+        if self.silent_for_restart(drive) {
+            return vec![];
+        }
         let mut out = vec![];
         if !self.booted {
             self.boot(drive, now, &mut out);

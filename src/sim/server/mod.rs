@@ -65,6 +65,13 @@ impl SharedDrive {
     }
 }
 
+impl SharedDrive {
+    /// Whether the drive is restarting (it answers nothing on any bus meanwhile).
+    pub fn rebooting(&self) -> bool {
+        self.lock().rebooting()
+    }
+}
+
 /// Advances drives on real time when nobody asks, on a thread of its own, until dropped.
 ///
 /// Every lock advances a drive to now, so a client that polls never needs this; it is there

@@ -426,6 +426,10 @@ pub fn answer_pdu(
         }
     };
     let mut drive = shared.lock();
+    if drive.rebooting() {
+        // A drive that restarts answers nothing.
+        return None;
+    }
     Some(match answer(&mut drive, session, &request, options) {
         Ok(response) => response.encode(),
         Err(e) => e.encode(),
@@ -453,6 +457,11 @@ pub async fn serve_tcp(
                 "refused Modbus TCP client {peer}: {} client(s) already connected",
                 options.max_clients
             );
+            drop(stream);
+            continue;
+        }
+        if shared.rebooting() {
+            // Nothing listens while the drive restarts.
             drop(stream);
             continue;
         }
@@ -486,6 +495,9 @@ async fn serve_connection(
                         stream
                             .write_all(&frame::encode_tcp(frame.transaction, frame.unit, &pdu))
                             .await?;
+                    } else if shared.rebooting() {
+                        // Its network stack restarts with it: the connection is gone.
+                        return Ok(());
                     }
                 }
                 Ok(None) => break,

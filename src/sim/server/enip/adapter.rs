@@ -26,6 +26,8 @@ pub struct Adapter {
     next_session: u32,
     next_connection: u32,
     pub(super) io: Option<IoConnection>,
+    /// The drive's restarts seen: one more means every session and connection is gone.
+    reboots: u32,
 }
 
 impl Adapter {
@@ -39,7 +41,23 @@ impl Adapter {
             next_session: 0,
             next_connection: 0x5D00_0000,
             io: None,
+            reboots: 0,
         }
+    }
+
+    /// Whether the drive is restarting or has restarted since it was last looked at: its
+    /// sessions and I/O connection went with the old firmware.
+    pub(super) fn restarted(&mut self, drive: &Drive) -> bool {
+        if drive.rebooting() || drive.reboots() != self.reboots {
+            self.reboots = drive.reboots();
+            self.io = None;
+            for stream in self.streams.values_mut() {
+                stream.session = None;
+                stream.class3.clear();
+            }
+            return true;
+        }
+        false
     }
 
     /// A TCP connection was accepted on `local` from `peer`.
@@ -110,6 +128,12 @@ impl Adapter {
         now: Instant,
     ) -> Received {
         let mut out = Received::default();
+        if self.restarted(drive) {
+            // The TCP connection did not survive the restart.
+            self.streams.remove(&stream);
+            out.close = true;
+            return out;
+        }
         let Some(state) = self.streams.get_mut(&stream) else {
             out.close = true;
             return out;

@@ -21,6 +21,9 @@ impl Adapter {
         drive: &mut Drive,
         now: Instant,
     ) {
+        if self.restarted(drive) {
+            return;
+        }
         let Some(io) = self.io.as_mut() else {
             return;
         };
@@ -66,6 +69,9 @@ impl Adapter {
     /// Time passes: the T→O datagram when one is due, and the end of a connection whose
     /// originator went silent (the drive latches fault 8000h).
     pub fn poll(&mut self, drive: &mut Drive, now: Instant) -> Vec<Datagram> {
+        if self.restarted(drive) {
+            return vec![];
+        }
         let Some(io) = self.io.as_mut() else {
             return vec![];
         };
@@ -109,6 +115,9 @@ impl Adapter {
     /// A datagram on the discovery UDP socket (the TCP port): ListIdentity and
     /// ListServices are answered, everything else ignored. `local` is the socket's address.
     pub fn discovery(&self, bytes: &[u8], local: SocketAddrV4, drive: &Drive) -> Option<Vec<u8>> {
+        if drive.rebooting() {
+            return None;
+        }
         let packet = Packet::decode(bytes).ok()?;
         let items = match packet.command {
             Command::LIST_IDENTITY => vec![Item::Identity(Box::new(self.identity(drive, local)))],
