@@ -14,37 +14,8 @@ use super::failure::Failure;
 use super::report;
 use super::session::Session;
 use crate::link::LinkSpec;
+use crate::od::gains::{addresses, group_of};
 use crate::od::{Address, DataType, builtin};
-
-/// The gains and limits, in the order they are listed: (index, subindices, group).
-const GAINS: [(u16, &[u8], &str); 14] = [
-    (
-        0x3210,
-        &[1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12],
-        "controller (3210h)",
-    ),
-    (0x321A, &[1, 2, 3, 4], "controller, newer set"),
-    (0x321B, &[1, 2], "controller, newer set"),
-    (0x321C, &[1, 2], "controller, newer set"),
-    (0x2031, &[0], "limit"),
-    (0x203B, &[1, 2], "limit"),
-    (0x6073, &[0], "limit"),
-    (0x6080, &[0], "limit"),
-    (0x607F, &[0], "limit"),
-    (0x6083, &[0], "profile"),
-    (0x6084, &[0], "profile"),
-    (0x6065, &[0], "window"),
-    (0x6066, &[0], "window"),
-    (0x6067, &[0], "window"),
-];
-
-/// Every address `gains` lists.
-pub fn addresses() -> Vec<Address> {
-    GAINS
-        .iter()
-        .flat_map(|(index, subs, _)| subs.iter().map(|sub| Address::new(*index, *sub)))
-        .collect()
-}
 
 #[derive(Serialize, Debug)]
 struct GainRow {
@@ -104,12 +75,6 @@ fn gains(
     if let Some(f) = failure {
         return Err(f);
     }
-    let group_of = |a: Address| {
-        GAINS
-            .iter()
-            .find(|(index, ..)| *index == a.index)
-            .map_or("", |(_, _, group)| *group)
-    };
     let gains = objects
         .iter()
         .map(|(address, dtype)| {

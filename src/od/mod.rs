@@ -5,6 +5,7 @@ pub mod backup;
 mod catalog;
 pub mod eds;
 mod error;
+pub mod gains;
 mod role;
 mod types;
 mod value;

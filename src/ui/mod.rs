@@ -25,6 +25,7 @@ pub mod drive_list;
 pub mod drive_row;
 pub mod faults;
 pub mod fonts;
+pub mod gains;
 pub mod glance;
 pub mod input;
 pub mod jog;

@@ -15,8 +15,8 @@ use super::plots::{Beside, Plots};
 use super::project_files::ProjectFiles;
 use super::window::Window;
 use super::{
-    browser, changes, commands, connection, drive_list, faults, glance, log, machine, plots, scan,
-    status, watch,
+    browser, changes, commands, connection, drive_list, faults, gains, glance, log, machine, plots,
+    scan, status, watch,
 };
 
 /// What one frame of the window draws from, and where the user's intents go.
@@ -76,6 +76,14 @@ pub const CENTRAL: &[Panel] = &[
         title: |_| "Object dictionary".into(),
         ui: |ui, f| browser::browser_ui(ui, f.drive, &mut f.window.settings.dictionary, f.commands),
         model: None,
+        clear: None,
+    },
+    // The controller's gains and the limits that shape a response, editable.
+    Panel {
+        id: gains::GAINS,
+        title: |_| "Gains".into(),
+        ui: |ui, f| gains::gains_ui(ui, f.drive),
+        model: Some(model::<gains::GainsPanel>),
         clear: None,
     },
     // Every drive on one line: the machine at a glance.

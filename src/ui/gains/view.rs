@@ -1,0 +1,208 @@
+//! The Gains tab: a table of the gains and limits by group — address, name, value (click
+//! to edit: checked as typed, Enter asks to confirm, Esc drops it), unit, factory value,
+//! range — with "Read again" and the last write's outcome.
+
+use eframe::egui::{self, RichText, Ui};
+
+use super::model::GainsPanel;
+use crate::od::{Address, Value};
+use crate::ui::drive::Drive;
+use crate::ui::widgets::{AMBER, RED, message_ui, name_widget, named_text_edit};
+
+/// The id of the Gains tab.
+pub const GAINS: &str = "gains";
+
+/// What the user asked for in this frame, done once the table is drawn.
+enum Intent {
+    ReadAll,
+    Edit(Address),
+    Typed(String),
+    Submit,
+    Confirm,
+    Cancel,
+}
+
+pub fn gains_ui(ui: &mut Ui, drive: &mut Drive) {
+    let panel = drive.panels.get::<GainsPanel>();
+    let mut intents = Vec::new();
+    ui.horizontal(|ui| {
+        let idle = panel.is_connected() && panel.reading == 0;
+        if ui
+            .add_enabled(idle, egui::Button::new("Read again"))
+            .on_hover_text("Read every gain and limit from the drive")
+            .on_disabled_hover_text("not connected, or reading")
+            .clicked()
+        {
+            intents.push(Intent::ReadAll);
+        }
+        if panel.reading > 0 {
+            ui.spinner();
+            ui.weak(format!("reading ({} to go)", panel.reading));
+        } else if !panel.is_connected() {
+            ui.weak("not connected: the values are as last read");
+        }
+        message_ui(ui, panel.message.as_ref());
+    });
+    ui.weak(
+        "Click a value to change it. The manuals give no units for 3210h; the simulated \
+         drive uses these gains once closed loop runs (after an auto setup).",
+    );
+    egui::ScrollArea::both()
+        .auto_shrink([false, false])
+        .show(ui, |ui| {
+            egui::Grid::new("gains_grid")
+                .num_columns(6)
+                .striped(true)
+                .spacing([12.0, 3.0])
+                .show(ui, |ui| table_ui(ui, panel, &mut intents));
+        });
+    for intent in intents {
+        match intent {
+            Intent::ReadAll => panel.read_all(),
+            Intent::Edit(address) => panel.start_edit(address),
+            Intent::Typed(text) => panel.typed(text),
+            Intent::Submit => panel.submit(),
+            Intent::Confirm => panel.confirm(),
+            Intent::Cancel => panel.cancel(),
+        }
+    }
+}
+
+fn table_ui(ui: &mut Ui, panel: &GainsPanel, intents: &mut Vec<Intent>) {
+    for heading in ["Address", "Name", "Value", "Unit", "Factory", "Range"] {
+        ui.strong(heading);
+    }
+    ui.end_row();
+    let mut group = "";
+    for row in &panel.rows {
+        if row.group != group {
+            group = row.group;
+            ui.label(RichText::new(group).strong().italics());
+            ui.end_row();
+        }
+        ui.monospace(row.address.to_string());
+        ui.label(&row.name);
+        match panel.edit.as_ref().filter(|e| e.address == row.address) {
+            Some(edit) => edit_ui(ui, edit, row.value.as_ref(), panel.is_connected(), intents),
+            None => value_ui(ui, panel, row, intents),
+        }
+        ui.label(&row.unit);
+        ui.weak(
+            row.factory
+                .as_ref()
+                .map(Value::to_string)
+                .unwrap_or_default(),
+        );
+        ui.weak(&row.range);
+        ui.end_row();
+    }
+}
+
+fn value_ui(ui: &mut Ui, panel: &GainsPanel, row: &super::GainRow, intents: &mut Vec<Intent>) {
+    match (&row.value, &row.refused) {
+        (Some(value), _) => {
+            let differs = row.factory.as_ref().is_some_and(|f| f != value);
+            let mut text = RichText::new(value.to_string()).monospace();
+            if differs {
+                text = text.strong();
+            }
+            let writing = panel.writing == Some(row.address);
+            let response = ui
+                .add_enabled(
+                    panel.is_connected() && panel.writing.is_none(),
+                    egui::Button::new(text).frame(false),
+                )
+                .on_hover_text(if differs {
+                    "Differs from the factory value. Click to change it"
+                } else {
+                    "Click to change it"
+                });
+            name_widget(
+                &response,
+                egui::accesskit::Role::Button,
+                &format!("{} value", row.address),
+            );
+            if writing {
+                ui.spinner();
+            }
+            if response.clicked() {
+                intents.push(Intent::Edit(row.address));
+            }
+        }
+        (None, Some(why)) => {
+            ui.colored_label(AMBER, "not on this drive")
+                .on_hover_text(why);
+        }
+        (None, None) => {
+            ui.weak("–");
+        }
+    }
+}
+
+/// Whether `key` went down in this frame, even if a shortcut consumed it (Esc is the
+/// Quickstop whatever has focus: it stops the drive and drops the edit).
+fn pressed(ui: &Ui, key: egui::Key) -> bool {
+    ui.input(|i| {
+        i.raw
+            .events
+            .iter()
+            .any(|e| matches!(e, egui::Event::Key { key: k, pressed: true, .. } if *k == key))
+    })
+}
+
+fn edit_ui(
+    ui: &mut Ui,
+    edit: &super::GainEdit,
+    now: Option<&Value>,
+    connected: bool,
+    intents: &mut Vec<Intent>,
+) {
+    ui.vertical(|ui| {
+        if let Some(value) = &edit.confirming {
+            let was = now.map_or_else(|| "unknown".to_owned(), Value::to_string);
+            ui.label(format!("Write {value} (now {was})?"));
+            ui.horizontal(|ui| {
+                if ui
+                    .add_enabled(connected, egui::Button::new("Write it"))
+                    .on_disabled_hover_text("not connected")
+                    .clicked()
+                {
+                    intents.push(Intent::Confirm);
+                }
+                if ui.button("Cancel").clicked() || pressed(ui, egui::Key::Escape) {
+                    intents.push(Intent::Cancel);
+                }
+            });
+            return;
+        }
+        let mut text = edit.text.clone();
+        let response = ui
+            .horizontal(|ui| {
+                let response = named_text_edit(ui, &mut text, 110.0, "new value");
+                if ui.button("Cancel").clicked() {
+                    intents.push(Intent::Cancel);
+                }
+                response
+            })
+            .inner;
+        if !response.has_focus() && !response.lost_focus() {
+            response.request_focus();
+        }
+        if text != edit.text {
+            intents.push(Intent::Typed(text));
+        }
+        if response.lost_focus() && pressed(ui, egui::Key::Enter) {
+            intents.push(Intent::Submit);
+        } else if pressed(ui, egui::Key::Escape) {
+            intents.push(Intent::Cancel);
+        }
+        match &edit.error {
+            Some(error) => {
+                ui.colored_label(RED, error);
+            }
+            None => {
+                ui.weak("Enter asks to write; Esc cancels and quick-stops the drive, Cancel only cancels");
+            }
+        }
+    });
+}
