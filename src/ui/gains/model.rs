@@ -20,6 +20,9 @@ const WRITE: u64 = 2;
 pub struct GainRow {
     pub address: Address,
     pub group: &'static str,
+    /// The object's name where it has subindices ("Motor Drive Parameter Set"), else "".
+    pub object: String,
+    /// The subindex's name (or the object's, for one without subindices).
     pub name: String,
     pub unit: String,
     pub dtype: DataType,
@@ -41,6 +44,8 @@ pub struct GainEdit {
     pub error: Option<String>,
     /// The user pressed Enter: the write waits for the confirmation.
     pub confirming: Option<Value>,
+    /// The box is to take the keyboard (once, when the edit starts).
+    pub focus: bool,
 }
 
 /// The Gains tab of one drive.
@@ -66,10 +71,16 @@ impl Default for GainsPanel {
             .map(|address| {
                 let entry = catalog.get(address);
                 let dtype = entry.map_or(DataType::Unsigned32, |e| e.dtype);
+                let full = entry.map_or_else(|| address.to_string(), Entry::full_name);
+                let (object, name) = match full.split_once(" / ") {
+                    Some((object, name)) => (object.to_owned(), name.to_owned()),
+                    None => (String::new(), full),
+                };
                 GainRow {
                     address,
                     group: gains::group_of(address),
-                    name: entry.map_or_else(|| address.to_string(), Entry::full_name),
+                    object,
+                    name,
                     unit: entry.and_then(|e| e.unit.clone()).unwrap_or_default(),
                     dtype,
                     value: None,
@@ -150,9 +161,10 @@ impl PanelModel for GainsPanel {
                 },
             ) => {
                 self.writing = None;
-                let name = self
-                    .row(*address)
-                    .map_or_else(|| address.to_string(), |r| r.name.clone());
+                let name = self.row(*address).map_or_else(
+                    || address.to_string(),
+                    |r| format!("{} {}", r.address, r.name),
+                );
                 self.message = Some(match result {
                     Ok(()) => {
                         if let Some(row) = self.row_mut(*address) {
@@ -249,7 +261,15 @@ impl GainsPanel {
             text,
             error: None,
             confirming: None,
+            focus: true,
         });
+    }
+
+    /// The box took the keyboard.
+    pub fn focused(&mut self) {
+        if let Some(edit) = self.edit.as_mut() {
+            edit.focus = false;
+        }
     }
 
     /// What was typed, checked at once against the object's type and limits.

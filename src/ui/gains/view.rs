@@ -7,7 +7,7 @@ use eframe::egui::{self, RichText, Ui};
 use super::model::GainsPanel;
 use crate::od::{Address, Value};
 use crate::ui::drive::Drive;
-use crate::ui::widgets::{AMBER, RED, message_ui, name_widget, named_text_edit};
+use crate::ui::widgets::{AMBER, RED, message_ui, name_widget};
 
 /// The id of the Gains tab.
 pub const GAINS: &str = "gains";
@@ -20,6 +20,7 @@ enum Intent {
     Submit,
     Confirm,
     Cancel,
+    Focused,
 }
 
 pub fn gains_ui(ui: &mut Ui, drive: &mut Drive) {
@@ -64,6 +65,7 @@ pub fn gains_ui(ui: &mut Ui, drive: &mut Drive) {
             Intent::Submit => panel.submit(),
             Intent::Confirm => panel.confirm(),
             Intent::Cancel => panel.cancel(),
+            Intent::Focused => panel.focused(),
         }
     }
 }
@@ -74,10 +76,18 @@ fn table_ui(ui: &mut Ui, panel: &GainsPanel, intents: &mut Vec<Intent>) {
     }
     ui.end_row();
     let mut group = "";
+    let mut object = None;
     for row in &panel.rows {
         if row.group != group {
             group = row.group;
             ui.label(RichText::new(group).strong().italics());
+            ui.end_row();
+        }
+        // An object with subindices: its name once, above them.
+        if !row.object.is_empty() && object != Some(row.address.index) {
+            object = Some(row.address.index);
+            ui.weak(format!("{:04X}h", row.address.index));
+            ui.label(RichText::new(&row.object).strong());
             ui.end_row();
         }
         ui.monospace(row.address.to_string());
@@ -178,15 +188,26 @@ fn edit_ui(
         let mut text = edit.text.clone();
         let response = ui
             .horizontal(|ui| {
-                let response = named_text_edit(ui, &mut text, 110.0, "new value");
+                let response = ui
+                    .add(
+                        egui::TextEdit::singleline(&mut text)
+                            .id(egui::Id::unique(("gains_edit", edit.address)))
+                            .desired_width(110.0),
+                    )
+                    .on_hover_text(
+                        "Enter asks to write; Esc cancels and quick-stops the drive, Cancel \
+                         only cancels",
+                    );
+                name_widget(&response, egui::accesskit::Role::TextInput, "new value");
                 if ui.button("Cancel").clicked() {
                     intents.push(Intent::Cancel);
                 }
                 response
             })
             .inner;
-        if !response.has_focus() && !response.lost_focus() {
+        if edit.focus {
             response.request_focus();
+            intents.push(Intent::Focused);
         }
         if text != edit.text {
             intents.push(Intent::Typed(text));
@@ -196,13 +217,8 @@ fn edit_ui(
         } else if pressed(ui, egui::Key::Escape) {
             intents.push(Intent::Cancel);
         }
-        match &edit.error {
-            Some(error) => {
-                ui.colored_label(RED, error);
-            }
-            None => {
-                ui.weak("Enter asks to write; Esc cancels and quick-stops the drive, Cancel only cancels");
-            }
+        if let Some(error) = &edit.error {
+            ui.colored_label(RED, error);
         }
     });
 }
