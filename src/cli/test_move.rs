@@ -16,9 +16,12 @@ use super::report;
 use super::session::Session;
 use super::{EXIT_FAILED, TestMoveArgs, TestVelocityArgs};
 use crate::link::LinkSpec;
-use crate::pdi::{Action, Opcode, StatusBit};
+use crate::pdi::Action;
 use crate::signal::{Sample, Signal};
-use crate::telemetry::figures::{self, Step, StepFigures};
+use crate::telemetry::test_run::{
+    MoveTest, Plan, Spread, StepReport, Summary, VelocityTest, move_plan, step_report, summary,
+    velocity_plan,
+};
 use crate::telemetry::{ChannelInfo, Marker, Metadata, StreamWriter, stream_layout};
 use crate::worker::Request;
 
@@ -26,42 +29,6 @@ use crate::worker::Request;
 const POLL_RATE: f64 = 200.0;
 /// How long the drive may take to stop when a test move is ended early.
 const STOP_WAIT: Duration = Duration::from_secs(5);
-
-/// One step measured: where it went and its figures.
-#[derive(Serialize, Debug, Clone, Copy)]
-struct StepReport {
-    cycle: u32,
-    from: i64,
-    to: i64,
-    samples: usize,
-    rise_time_s: Option<f64>,
-    overshoot: Option<f64>,
-    overshoot_pct: Option<f64>,
-    settling_time_s: Option<f64>,
-    band: f64,
-    steady_state_error: Option<f64>,
-    peak_following_error: Option<f64>,
-    rms_following_error: Option<f64>,
-    time_to_target_reached_s: Option<f64>,
-}
-
-/// The mean and the worst of one figure over the steps that have it.
-#[derive(Serialize, Debug, Clone, Copy, PartialEq)]
-struct Spread {
-    mean: f64,
-    worst: f64,
-    steps: usize,
-}
-
-#[derive(Serialize, Debug, Default)]
-struct Summary {
-    rise_time_s: Option<Spread>,
-    overshoot_pct: Option<Spread>,
-    settling_time_s: Option<Spread>,
-    steady_state_error: Option<Spread>,
-    peak_following_error: Option<Spread>,
-    time_to_target_reached_s: Option<Spread>,
-}
 
 #[derive(Serialize, Debug)]
 struct TestMoveReport {
@@ -163,21 +130,6 @@ impl Kept {
     }
 }
 
-/// What a test runs: the move to its start, its steps (from, to, the command), how long
-/// it stays after each, how many cycles, and which signal the figures are of.
-struct Plan {
-    /// Where the run is kept (`--record FILE`): every sample of every step, a marker at
-    /// each step with its figures.
-    record: Option<std::path::PathBuf>,
-    start: Action,
-    steps: Vec<(i64, i64, Action)>,
-    speed: i64,
-    dwell: f64,
-    cycles: u32,
-    band: f64,
-    signal: Signal,
-}
-
 /// `test-move`.
 pub fn run(
     link: &LinkSpec,
@@ -188,7 +140,16 @@ pub fn run(
     context: &Context,
 ) -> ExitCode {
     finish(
-        move_plan(args).and_then(|plan| run_plan(link, &plan, timeout, trace, context)),
+        move_plan(&MoveTest {
+            from: args.from,
+            to: args.to,
+            speed: args.speed,
+            dwell: args.dwell,
+            cycles: args.cycles,
+            band: args.band,
+        })
+        .map_err(usage)
+        .and_then(|plan| run_plan(link, &plan, args.record.as_deref(), timeout, trace, context)),
         json,
     )
 }
@@ -203,7 +164,14 @@ pub fn run_velocity(
     context: &Context,
 ) -> ExitCode {
     finish(
-        velocity_plan(args).and_then(|plan| run_plan(link, &plan, timeout, trace, context)),
+        velocity_plan(&VelocityTest {
+            speed: args.speed,
+            hold: args.hold,
+            cycles: args.cycles,
+            band: args.band,
+        })
+        .map_err(usage)
+        .and_then(|plan| run_plan(link, &plan, args.record.as_deref(), timeout, trace, context)),
         json,
     )
 }
@@ -224,85 +192,10 @@ fn finish(outcome: Result<(TestMoveReport, Option<u8>), Failure>, json: bool) ->
     }
 }
 
-/// The cycles and the dwell or hold, checked.
-fn check_counts(cycles: u32, dwell: f64, what: &str) -> Result<(), Failure> {
-    if !(1..=10_000).contains(&cycles) {
-        return Err(usage(format!(
-            "--cycles {cycles} is out of range: give 1 to 10000"
-        )));
-    }
-    if !(0.0..=3600.0).contains(&dwell) {
-        return Err(usage(format!(
-            "--{what} {dwell} s is out of range: give 0 to 3600 seconds"
-        )));
-    }
-    Ok(())
-}
-
-/// The settling band: as given, else 1 % of the step (at least one unit).
-fn band(given: Option<f64>, step: i64) -> f64 {
-    given
-        .filter(|b| b.is_finite() && *b > 0.0)
-        .unwrap_or_else(|| (step.abs() as f64 / 100.0).max(1.0))
-}
-
-/// The moves, checked before anything is sent: a typo never touches the drive.
-fn move_plan(args: &TestMoveArgs) -> Result<Plan, Failure> {
-    if args.speed == 0 {
-        return Err(usage(
-            "test-move --speed 0 would never get there: give a speed",
-        ));
-    }
-    if args.from == args.to {
-        return Err(usage(
-            "test-move --from and --to are the same position: give two positions",
-        ));
-    }
-    check_counts(args.cycles, args.dwell, "dwell")?;
-    let to = |position: i64| {
-        Action::from_inputs(Opcode::MoveAbsolute, &[position, args.speed])
-            .map_err(|e| usage(e.to_string()))
-    };
-    let (to_from, to_to) = (to(args.from)?, to(args.to)?);
-    Ok(Plan {
-        record: args.record.clone(),
-        start: to_from,
-        steps: vec![(args.from, args.to, to_to), (args.to, args.from, to_from)],
-        speed: args.speed,
-        dwell: args.dwell,
-        cycles: args.cycles,
-        band: band(args.band, args.to - args.from),
-        signal: Signal::Position,
-    })
-}
-
-/// The velocity steps 0 → v → −v → 0, checked.
-fn velocity_plan(args: &TestVelocityArgs) -> Result<Plan, Failure> {
-    if args.speed == 0 {
-        return Err(usage(
-            "test-velocity --speed 0 makes no step: give the speed to step to",
-        ));
-    }
-    check_counts(args.cycles, args.hold, "hold")?;
-    let at = |speed: i64| {
-        Action::from_inputs(Opcode::Velocity, &[speed]).map_err(|e| usage(e.to_string()))
-    };
-    let v = args.speed;
-    Ok(Plan {
-        record: args.record.clone(),
-        start: at(0)?,
-        steps: vec![(0, v, at(v)?), (v, -v, at(-v)?), (-v, 0, at(0)?)],
-        speed: v,
-        dwell: args.hold,
-        cycles: args.cycles,
-        band: band(args.band, v),
-        signal: Signal::Velocity,
-    })
-}
-
 fn run_plan(
     link: &LinkSpec,
     plan: &Plan,
+    record: Option<&std::path::Path>,
     timeout: Duration,
     trace: bool,
     context: &Context,
@@ -327,7 +220,7 @@ fn run_plan(
         recorded: None,
         notes: Vec::new(),
     };
-    let mut kept = match &plan.record {
+    let mut kept = match record {
         Some(path) => {
             let note = format!(
                 "{} test: {} cycle(s) of {} step(s), speed {}, dwell {} s",
@@ -432,92 +325,6 @@ fn measured_step(
     Ok(session.drain_samples())
 }
 
-/// The figures of one step from its samples (the first is the command's time).
-fn step_report(
-    cycle: u32,
-    (from, to): (i64, i64),
-    band: f64,
-    signal: Signal,
-    samples: &[Sample],
-) -> StepReport {
-    let times: Vec<f64> = samples.iter().map(|s| s.t).collect();
-    let value = |signal: Signal| -> Vec<f64> {
-        samples
-            .iter()
-            .map(|s| s.signals.get(signal).unwrap_or(f64::NAN))
-            .collect()
-    };
-    let positions = value(signal);
-    let errors = value(Signal::FollowingError);
-    let reached: Vec<bool> = samples
-        .iter()
-        .map(|s| s.tx.status.is_set(StatusBit::TargetReached))
-        .collect();
-    let t0 = times.first().copied().unwrap_or(0.0);
-    let step = Step {
-        times: &times,
-        values: &positions,
-        from: from as f64,
-        to: to as f64,
-        t0,
-        band,
-    };
-    let f: StepFigures = step.figures();
-    let (peak, rms) = figures::following_error(&times, &errors, t0);
-    // TargetReached may still be set from the step before until the drive takes the
-    // command: counted from the first sample a tenth of the way there (moving by then).
-    let span = (to - from) as f64;
-    let moving = positions
-        .iter()
-        .position(|p| (p - from as f64) / span >= 0.1)
-        .unwrap_or(samples.len());
-    let reached_at = figures::time_to_target_reached(&times[moving..], &reached[moving..], t0);
-    StepReport {
-        cycle,
-        from,
-        to,
-        samples: samples.len(),
-        rise_time_s: f.rise_time_s,
-        overshoot: f.overshoot,
-        overshoot_pct: f.overshoot_pct,
-        settling_time_s: f.settling_time_s,
-        band,
-        steady_state_error: f.steady_state_error,
-        peak_following_error: peak,
-        rms_following_error: rms,
-        time_to_target_reached_s: reached_at,
-    }
-}
-
-/// The mean and the worst (largest magnitude) of the values present.
-fn spread(values: impl Iterator<Item = Option<f64>>) -> Option<Spread> {
-    let values: Vec<f64> = values.flatten().filter(|v| v.is_finite()).collect();
-    if values.is_empty() {
-        return None;
-    }
-    let mean = values.iter().sum::<f64>() / values.len() as f64;
-    let worst = values
-        .iter()
-        .copied()
-        .fold(0.0_f64, |w, v| if v.abs() > w.abs() { v } else { w });
-    Some(Spread {
-        mean,
-        worst,
-        steps: values.len(),
-    })
-}
-
-fn summary(steps: &[StepReport]) -> Summary {
-    Summary {
-        rise_time_s: spread(steps.iter().map(|s| s.rise_time_s)),
-        overshoot_pct: spread(steps.iter().map(|s| s.overshoot_pct)),
-        settling_time_s: spread(steps.iter().map(|s| s.settling_time_s)),
-        steady_state_error: spread(steps.iter().map(|s| s.steady_state_error)),
-        peak_following_error: spread(steps.iter().map(|s| s.peak_following_error)),
-        time_to_target_reached_s: spread(steps.iter().map(|s| s.time_to_target_reached_s)),
-    }
-}
-
 /// A figure for the table: its value with `digits` decimals, or "-" when there is none.
 fn cell(value: Option<f64>, digits: usize) -> String {
     value.map_or("-".to_owned(), |v| format!("{v:.digits$}"))
@@ -586,24 +393,5 @@ fn print(report: &TestMoveReport, json: bool) {
             "drivedeck: the test move ended early after {} step(s): {why}",
             report.steps.len()
         );
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_summary_takes_the_mean_and_the_worst_by_magnitude() {
-        let s = spread([Some(1.0), None, Some(-3.0), Some(f64::NAN), Some(2.0)].into_iter());
-        assert_eq!(
-            s,
-            Some(Spread {
-                mean: 0.0,
-                worst: -3.0,
-                steps: 3
-            })
-        );
-        assert_eq!(spread([None, None].into_iter()), None);
     }
 }

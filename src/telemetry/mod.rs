@@ -9,6 +9,7 @@ pub mod ring;
 mod save;
 mod scope;
 pub mod spectrum;
+pub mod test_run;
 pub mod trigger;
 
 pub use recording::stream::{Layout, StreamWriter, Summary};

@@ -43,6 +43,7 @@ pub mod run;
 pub mod scan;
 pub mod settings;
 pub mod status;
+pub mod test_run;
 pub mod timings;
 pub mod view;
 pub mod watch;

@@ -16,7 +16,7 @@ use super::project_files::ProjectFiles;
 use super::window::Window;
 use super::{
     browser, changes, commands, connection, drive_list, faults, gains, glance, log, machine, plots,
-    scan, status, watch,
+    scan, status, test_run, watch,
 };
 
 /// What one frame of the window draws from, and where the user's intents go.
@@ -84,6 +84,14 @@ pub const CENTRAL: &[Panel] = &[
         title: |_| "Gains".into(),
         ui: |ui, f| gains::gains_ui(ui, f.drive),
         model: Some(model::<gains::GainsPanel>),
+        clear: None,
+    },
+    // Test moves and velocity steps with figures, runs compared and overlaid.
+    Panel {
+        id: test_run::TEST,
+        title: |_| "Test".into(),
+        ui: |ui, f| test_run::test_ui(ui, f.drive),
+        model: Some(model::<test_run::TestRuns>),
         clear: None,
     },
     // Every drive on one line: the machine at a glance.

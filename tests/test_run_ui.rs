@@ -1,0 +1,125 @@
+//! The Test tab in the window, headless, against the built-in simulated drive: a test move
+//! runs from the form and keeps its figures, a second run is compared with it, a form
+//! that cannot work is refused before anything moves, and Stop ends a run with the drive
+//! halted and the steps measured so far kept.
+
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+mod window;
+
+use std::time::Duration;
+
+use drivedeck::ui::test_run::TestRuns;
+use drivedeck::ui::{App, Settings};
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use window::{connected, fill, harness_with, step_until};
+
+fn test_tab() -> Harness<'static, App> {
+    let mut harness = harness_with(Settings::default(), true, egui::vec2(1366.0, 768.0));
+    harness.run();
+    connected(&mut harness);
+    harness.get_by_label("Test").click();
+    harness.run();
+    harness
+}
+
+fn runs<'a>(harness: &'a Harness<'_, App>) -> &'a TestRuns {
+    harness
+        .state()
+        .shown()
+        .panels
+        .find::<TestRuns>()
+        .expect("the Test tab's model")
+}
+
+fn run_once(harness: &mut Harness<'_, App>, expected_runs: usize) {
+    harness.get_by_label("Run test").click();
+    harness.step();
+    step_until(harness, "the run", Duration::from_secs(20), |h| {
+        runs(h).runs.len() == expected_runs && !runs(h).is_running()
+    });
+    harness.run();
+}
+
+#[test]
+fn a_test_move_runs_from_the_form_and_a_second_run_is_compared_with_it() {
+    let mut harness = test_tab();
+    fill(
+        &mut harness,
+        &[
+            ("test to", "1000"),
+            ("test dwell", "0.1"),
+            ("test cycles", "1"),
+        ],
+    );
+    run_once(&mut harness, 1);
+    let run = &runs(&harness).runs[0];
+    assert!(run.ended_early.is_none(), "{:?}", run.ended_early);
+    assert_eq!(run.steps.len(), 2, "{run:#?}");
+    for step in &run.steps {
+        assert!(step.rise_time_s.is_some_and(|r| r > 0.0), "{step:?}");
+        assert!(step.time_to_target_reached_s.is_some(), "{step:?}");
+    }
+    assert!(run.trace.len() > 50 && run.step_starts.len() == 2);
+    assert!(
+        harness
+            .query_by_label_contains("2 step(s) measured")
+            .is_some()
+    );
+    assert!(
+        harness.query_by_label("rise time [s]").is_some(),
+        "the figures"
+    );
+
+    run_once(&mut harness, 2);
+    assert_eq!(runs(&harness).compared, vec![1, 2], "both compared");
+    assert!(harness.query_all_by_label("Run 2").next().is_some());
+}
+
+#[test]
+fn a_form_that_cannot_work_is_refused_before_anything_moves() {
+    let mut harness = test_tab();
+    fill(&mut harness, &[("test to", "0")]);
+    harness.get_by_label("Run test").click();
+    harness.run();
+    assert!(!runs(&harness).is_running());
+    assert!(
+        harness
+            .query_by_label_contains("the same position")
+            .is_some()
+    );
+}
+
+#[test]
+fn stop_halts_the_drive_and_keeps_the_steps_measured() {
+    let mut harness = test_tab();
+    fill(
+        &mut harness,
+        &[
+            ("test to", "30000"),
+            ("test speed", "100"),
+            ("test cycles", "1"),
+        ],
+    );
+    harness.get_by_label("Run test").click();
+    harness.step();
+    step_until(&mut harness, "moving", Duration::from_secs(5), |h| {
+        runs(h).progress().is_some_and(|p| p.contains("step 1"))
+    });
+    harness.get_by_label("Stop test").click();
+    harness.step();
+    step_until(&mut harness, "the halt", Duration::from_secs(5), |h| {
+        window::velocity(h).abs() < 0.5
+    });
+    let run = &runs(&harness).runs[0];
+    assert!(
+        run.ended_early
+            .as_deref()
+            .is_some_and(|w| w.contains("stopped by the user")),
+        "{run:?}"
+    );
+}
