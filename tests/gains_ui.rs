@@ -100,3 +100,82 @@ fn a_bad_value_is_refused_as_typed_and_esc_drops_the_edit() {
     assert!(panel.edit.is_none());
     assert_eq!(harness.state().shown().changes().map_or(0, |c| c.len()), 0);
 }
+
+/// The window's worker writes 3210h:03; wait until the tab shows it.
+fn write_gain(harness: &mut Harness<'_, App>, gain: u64) {
+    harness
+        .state_mut()
+        .shown_mut()
+        .request(drivedeck::worker::Request::WriteObject {
+            address: VELOCITY_P,
+            dtype: drivedeck::od::DataType::Unsigned32,
+            value: Value::Uint(gain),
+            path: drivedeck::worker::ObjectPath::Auto,
+        });
+    step_until(harness, "the write", Duration::from_secs(5), |h| {
+        value(h, VELOCITY_P) == Some(Value::Uint(gain))
+    });
+}
+
+fn message(harness: &Harness<'_, App>) -> Option<Result<String, String>> {
+    harness
+        .state()
+        .shown()
+        .panels
+        .find::<GainsPanel>()
+        .and_then(|p| p.message.clone())
+}
+
+/// Click `button`, answer the question with Yes, and wait until the tab says `said`.
+fn housekeeping(
+    harness: &mut Harness<'_, App>,
+    button: &str,
+    said: &str,
+) -> Result<String, String> {
+    harness.get_by_label(button).click();
+    harness.step();
+    harness.step();
+    assert!(
+        harness.query_by_label_contains("?").is_some(),
+        "{button}: asked first"
+    );
+    harness.get_by_label("Yes").click();
+    harness.step();
+    step_until(harness, said, Duration::from_secs(20), |h| {
+        message(h).is_some_and(|m| m.as_ref().unwrap_or_else(|e| e).contains(said))
+    });
+    harness.step();
+    message(harness).expect("a message")
+}
+
+#[test]
+fn store_restart_and_factory_values_say_whether_the_values_came_back() {
+    let mut harness = gains_tab();
+    window::change(&mut harness, VELOCITY_P, 48000);
+    // Not stored: the restart loses it, and the tab says so.
+    let said = housekeeping(&mut harness, "Restart drive", "the drive is back");
+    let said = said.expect_err("a value did not come back");
+    assert!(said.contains("3210h:03h is 12000 (was 48000)"), "{said}");
+    assert_eq!(value(&harness, VELOCITY_P), Some(Value::Uint(12000)));
+
+    // Stored, then restarted: it comes back.
+    write_gain(&mut harness, 48000);
+    let said = housekeeping(&mut harness, "Store", "stored: the values");
+    assert!(said.is_ok(), "{said:?}");
+    let said = housekeeping(&mut harness, "Restart drive", "the drive is back");
+    assert!(
+        said.as_ref()
+            .is_ok_and(|s| s.contains("came back as it was")),
+        "{said:?}"
+    );
+    assert_eq!(value(&harness, VELOCITY_P), Some(Value::Uint(48000)));
+
+    // The factory values, with a restart.
+    let said = housekeeping(&mut harness, "Restore factory values", "the drive is back");
+    assert!(
+        said.as_ref()
+            .is_ok_and(|s| s.contains("factory values") && s.contains("3210h:03h is 12000")),
+        "{said:?}"
+    );
+    assert_eq!(value(&harness, VELOCITY_P), Some(Value::Uint(12000)));
+}

@@ -241,6 +241,72 @@ mod tests {
         assert_eq!(empty.figures(), StepFigures::default());
     }
 
+    /// The figures of a recorded step worked out by hand.
+    fn hand_step(samples: &[(f64, f64)], band: f64) -> StepFigures {
+        let times: Vec<f64> = samples.iter().map(|s| s.0).collect();
+        let values: Vec<f64> = samples.iter().map(|s| s.1).collect();
+        Step {
+            times: &times,
+            values: &values,
+            from: 0.0,
+            to: 100.0,
+            t0: 0.0,
+            band,
+        }
+        .figures()
+    }
+
+    #[test]
+    fn a_step_that_overshoots_twice_has_the_figures_worked_out_by_hand() {
+        let f = hand_step(
+            &[
+                (0.0, 0.0),
+                (0.1, 5.0),
+                (0.2, 30.0),
+                (0.3, 70.0),
+                (0.4, 95.0),
+                (0.5, 112.0),
+                (0.6, 96.0),
+                (0.7, 104.0),
+                (0.8, 99.5),
+                (0.9, 100.2),
+                (1.0, 100.0),
+                (1.1, 100.0),
+            ],
+            1.0,
+        );
+        // 10 % between 5 and 30: 0.1 + 0.1 × 5/25 = 0.12 s; 90 % between 70 and 95:
+        // 0.3 + 0.1 × 20/25 = 0.38 s.
+        assert!(close(f.rise_time_s, 0.26, 1e-9), "{f:?}");
+        // The first overshoot is the larger: 12 of 100.
+        assert!(close(f.overshoot, 12.0, 1e-9) && close(f.overshoot_pct, 12.0, 1e-9));
+        // Last outside ±1 at 0.7 s (104): in the band for good from the next sample.
+        assert!(close(f.settling_time_s, 0.8, 1e-9), "{f:?}");
+        // The last tenth (one sample of twelve) is on the target.
+        assert!(close(f.steady_state_error, 0.0, 1e-9));
+    }
+
+    #[test]
+    fn a_step_that_never_settles_has_no_settling_time_and_its_error_by_hand() {
+        let f = hand_step(
+            &[
+                (0.0, 0.0),
+                (0.5, 60.0),
+                (1.0, 95.0),
+                (1.5, 105.0),
+                (2.0, 95.0),
+                (2.5, 105.0),
+            ],
+            1.0,
+        );
+        // 10 % at 0.5 × 10/60; 90 % at 0.5 + 0.5 × 30/35.
+        let rise = 0.5 + 0.5 * 30.0 / 35.0 - 0.5 * 10.0 / 60.0;
+        assert!(close(f.rise_time_s, rise, 1e-9), "{f:?}");
+        assert!(close(f.overshoot_pct, 5.0, 1e-9));
+        assert_eq!(f.settling_time_s, None, "still swinging ±5 at the end");
+        assert!(close(f.steady_state_error, -5.0, 1e-9), "{f:?}");
+    }
+
     #[test]
     fn following_error_and_target_reached_are_measured_from_the_command() {
         let times = [0.0, 0.1, 0.2, 0.3, 0.4];

@@ -14,6 +14,10 @@ use crate::worker::{Event, ObjectPath, Request};
 const READ: u64 = 1;
 /// The tag of a write (one at a time).
 const WRITE: u64 = 2;
+/// The tags of the housekeeping writes (`housekeeping.rs`).
+pub(super) const STORE: u64 = 3;
+pub(super) const DEFAULTS: u64 = 4;
+pub(super) const REBOOT: u64 = 5;
 
 /// One gain or limit.
 #[derive(Clone, Debug, PartialEq)]
@@ -59,8 +63,14 @@ pub struct GainsPanel {
     pub message: Option<Result<String, String>>,
     /// A write sent and not yet answered.
     pub writing: Option<Address>,
-    connected: bool,
-    requests: Vec<(u64, Request)>,
+    /// Store, factory values or restart asked for, waiting for the user's yes.
+    pub asking: Option<super::housekeeping::Housekeeping>,
+    /// A restart under way (`housekeeping.rs`).
+    pub(super) restart: Option<super::housekeeping::Restart>,
+    /// The newest sample's time (the worker's clock, continuous across reconnects).
+    pub(super) last_t: Option<f64>,
+    pub(super) connected: bool,
+    pub(super) requests: Vec<(u64, Request)>,
 }
 
 impl Default for GainsPanel {
@@ -99,6 +109,9 @@ impl Default for GainsPanel {
             reading: 0,
             message: None,
             writing: None,
+            asking: None,
+            restart: None,
+            last_t: None,
             connected: false,
             requests: Vec::new(),
         }
@@ -110,12 +123,21 @@ impl PanelModel for GainsPanel {
         match event {
             Event::Connected(_) => {
                 self.connected = true;
+                self.reading = 0;
                 self.read_all();
+                self.reconnected();
             }
             Event::Disconnected { .. } | Event::ConnectFailed { .. } => {
                 self.connected = false;
                 self.reading = 0;
                 self.writing = None;
+                self.link_gone();
+            }
+            Event::Samples(samples) => {
+                if let Some(last) = samples.last() {
+                    self.last_t = Some(last.t);
+                    self.sample_after_restart(last.t);
+                }
             }
             // A write from elsewhere (the dictionary, Changes' undo) shows here too.
             Event::Changed { address, after, .. } => {
@@ -149,6 +171,9 @@ impl PanelModel for GainsPanel {
                     }
                 }
                 self.reading = self.reading.saturating_sub(1);
+                if self.reading == 0 {
+                    self.read_after_restart();
+                }
                 self.reading == 0
             }
             (
@@ -180,6 +205,7 @@ impl PanelModel for GainsPanel {
                 });
                 true
             }
+            (STORE | DEFAULTS | REBOOT, _) => self.housekeeping_reply(tag, event),
             (_, Event::Rejected { reason, .. }) => {
                 if tag == WRITE {
                     self.writing = None;

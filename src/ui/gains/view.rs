@@ -4,6 +4,7 @@
 
 use eframe::egui::{self, RichText, Ui};
 
+use super::housekeeping::Housekeeping;
 use super::model::GainsPanel;
 use crate::od::{Address, Value};
 use crate::ui::drive::Drive;
@@ -14,6 +15,9 @@ pub const GAINS: &str = "gains";
 
 /// What the user asked for in this frame, done once the table is drawn.
 enum Intent {
+    Ask(Housekeeping),
+    Agree,
+    Decline,
     ReadAll,
     Edit(Address),
     Typed(String),
@@ -42,8 +46,38 @@ pub fn gains_ui(ui: &mut Ui, drive: &mut Drive) {
         } else if !panel.is_connected() {
             ui.weak("not connected: the values are as last read");
         }
-        message_ui(ui, panel.message.as_ref());
+        ui.separator();
+        let free = panel.is_connected() && !panel.restarting() && panel.asking.is_none();
+        for what in [
+            Housekeeping::Store,
+            Housekeeping::Defaults,
+            Housekeeping::Reboot,
+        ] {
+            if ui
+                .add_enabled(free, egui::Button::new(what.button()))
+                .on_hover_text(what.question())
+                .on_disabled_hover_text("not connected, a restart under way, or a question open")
+                .clicked()
+            {
+                intents.push(Intent::Ask(what));
+            }
+        }
+        if panel.restarting() {
+            ui.spinner();
+        }
     });
+    if let Some(what) = panel.asking {
+        ui.horizontal_wrapped(|ui| {
+            ui.label(RichText::new(what.question()).color(AMBER));
+            if ui.button("Yes").clicked() {
+                intents.push(Intent::Agree);
+            }
+            if ui.button("No").clicked() {
+                intents.push(Intent::Decline);
+            }
+        });
+    }
+    ui.horizontal_wrapped(|ui| message_ui(ui, panel.message.as_ref()));
     ui.weak(
         "Click a value to change it. The manuals give no units for 3210h; the simulated \
          drive uses these gains once closed loop runs (after an auto setup).",
@@ -59,6 +93,9 @@ pub fn gains_ui(ui: &mut Ui, drive: &mut Drive) {
         });
     for intent in intents {
         match intent {
+            Intent::Ask(what) => panel.ask(what),
+            Intent::Agree => panel.agree(),
+            Intent::Decline => panel.decline(),
             Intent::ReadAll => panel.read_all(),
             Intent::Edit(address) => panel.start_edit(address),
             Intent::Typed(text) => panel.typed(text),
