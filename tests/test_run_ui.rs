@@ -123,3 +123,74 @@ fn stop_halts_the_drive_and_keeps_the_steps_measured() {
         "{run:?}"
     );
 }
+
+/// The worst peak following error of run `index`.
+fn peak_error(harness: &Harness<'_, App>, index: usize) -> f64 {
+    runs(harness).runs[index]
+        .summary
+        .peak_following_error
+        .map(|s| s.worst.abs())
+        .expect("a following error")
+}
+
+#[test]
+fn four_times_the_velocity_gain_follows_more_closely_written_and_tested_again_from_the_gains_tab() {
+    let mut harness = test_tab();
+    // Closed loop needs the motor measured.
+    harness.get_by_label("Auto setup").click();
+    harness.step();
+    step_until(
+        &mut harness,
+        "the auto setup",
+        Duration::from_secs(10),
+        |h| {
+            h.state()
+                .shown()
+                .latest()
+                .is_some_and(|s| s.tx.status.is_set(drivedeck::pdi::StatusBit::AutosetupDone))
+        },
+    );
+    harness.get_by_label("Test").click();
+    harness.run();
+    fill(&mut harness, &[("test dwell", "0.2"), ("test cycles", "1")]);
+    run_once(&mut harness, 1);
+
+    // ×4 on the velocity loop's P, written and tested again from the Gains tab.
+    harness.get_by_label("Gains").click();
+    harness.run();
+    step_until(&mut harness, "the gains", Duration::from_secs(5), |h| {
+        h.query_by_label("3210h:03h value").is_some()
+    });
+    harness.get_by_label("3210h:03h value").click();
+    harness.run();
+    harness
+        .get_by_label("new value")
+        .set_text_value_accesskit("48000");
+    harness.run();
+    harness.key_press(egui::Key::Enter);
+    harness.run();
+    harness.get_by_label("Write and test again").click();
+    harness.step();
+    assert_eq!(
+        harness
+            .state()
+            .shown()
+            .panels
+            .find::<TestRuns>()
+            .map(|r| r.is_running()),
+        Some(true),
+        "the test runs again"
+    );
+    step_until(
+        &mut harness,
+        "the second run",
+        Duration::from_secs(20),
+        |h| runs(h).runs.len() == 2 && !runs(h).is_running(),
+    );
+    let (factory, raised) = (peak_error(&harness, 0), peak_error(&harness, 1));
+    assert!(
+        raised < factory,
+        "peak following error with ×4: {raised}, factory: {factory}"
+    );
+    eprintln!("peak following error: factory gains {factory}, velocity gain ×4 {raised}");
+}

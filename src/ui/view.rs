@@ -82,7 +82,7 @@ pub const CENTRAL: &[Panel] = &[
     Panel {
         id: gains::GAINS,
         title: |_| "Gains".into(),
-        ui: |ui, f| gains::gains_ui(ui, f.drive),
+        ui: |ui, f| gains::gains_ui(ui, f.drive, &mut f.window.settings.central),
         model: Some(model::<gains::GainsPanel>),
         clear: None,
     },

@@ -8,6 +8,7 @@ use super::housekeeping::Housekeeping;
 use super::model::GainsPanel;
 use crate::od::{Address, Value};
 use crate::ui::drive::Drive;
+use crate::ui::test_run::{TEST, TestRuns};
 use crate::ui::widgets::{AMBER, RED, message_ui, name_widget};
 
 /// The id of the Gains tab.
@@ -23,11 +24,15 @@ enum Intent {
     Typed(String),
     Submit,
     Confirm,
+    /// Write, then run the Test tab's test again (and show it).
+    ConfirmAndTest,
     Cancel,
     Focused,
 }
 
-pub fn gains_ui(ui: &mut Ui, drive: &mut Drive) {
+/// The tab; `central` is the window's central tab (Write and test again shows the Test
+/// tab).
+pub fn gains_ui(ui: &mut Ui, drive: &mut Drive, central: &mut String) {
     let panel = drive.panels.get::<GainsPanel>();
     let mut intents = Vec::new();
     ui.horizontal(|ui| {
@@ -92,6 +97,7 @@ pub fn gains_ui(ui: &mut Ui, drive: &mut Drive) {
                 .show(ui, |ui| table_ui(ui, panel, &mut intents));
         });
     for intent in intents {
+        let panel = drive.panels.get::<GainsPanel>();
         match intent {
             Intent::Ask(what) => panel.ask(what),
             Intent::Agree => panel.agree(),
@@ -101,6 +107,15 @@ pub fn gains_ui(ui: &mut Ui, drive: &mut Drive) {
             Intent::Typed(text) => panel.typed(text),
             Intent::Submit => panel.submit(),
             Intent::Confirm => panel.confirm(),
+            Intent::ConfirmAndTest => {
+                panel.confirm();
+                // The write is asked for first (the Gains model before the Test's): the
+                // run starts on the new value.
+                let tests = drive.panels.get::<TestRuns>();
+                tests.start();
+                *central = TEST.to_owned();
+                break;
+            }
             Intent::Cancel => panel.cancel(),
             Intent::Focused => panel.focused(),
         }
@@ -215,6 +230,14 @@ fn edit_ui(
                     .clicked()
                 {
                     intents.push(Intent::Confirm);
+                }
+                if ui
+                    .add_enabled(connected, egui::Button::new("Write and test again"))
+                    .on_hover_text("Write it, then run the Test tab's test as it is set there")
+                    .on_disabled_hover_text("not connected")
+                    .clicked()
+                {
+                    intents.push(Intent::ConfirmAndTest);
                 }
                 if ui.button("Cancel").clicked() || pressed(ui, egui::Key::Escape) {
                     intents.push(Intent::Cancel);
