@@ -10,6 +10,8 @@ use eframe::egui::{self, Ui};
 use super::exports::{Export, Job, note_written, others_over, save_others, triggered, visible};
 use super::files::{Answer, Ask, Picked, Wake, default_name, take};
 use super::model::PlotView;
+use super::spectrum::SpectrumPanel;
+use super::spectrum_view::spectrum_window_ui;
 use super::view::Plots;
 
 /// The buttons that save and export, each through the save dialog.
@@ -57,6 +59,20 @@ pub(super) fn export_ui(ui: &mut Ui, p: &mut Plots<'_>) {
             Err(e) => p.view.message = Some(Err(e)),
         }
     }
+    if ui
+        .button("Spectrum…")
+        .on_hover_text(
+            "The amplitude spectrum of a signal over the time span in view (live or the \
+             recording under review) and its strongest peaks: where a resonance rings",
+        )
+        .clicked()
+    {
+        match visible(p.view, p.drive, p.settings.window_s) {
+            Ok(recording) => p.drive.panels.get::<SpectrumPanel>().open_on(recording),
+            Err(e) => p.view.message = Some(Err(e)),
+        }
+    }
+    spectrum_window_ui(ui, p.drive.panels.get::<SpectrumPanel>());
     if ui
         .button("Save PNG…")
         .on_hover_text(

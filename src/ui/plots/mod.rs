@@ -19,6 +19,8 @@ mod picture;
 pub mod readout;
 pub mod review;
 mod review_view;
+pub mod spectrum;
+mod spectrum_view;
 mod traces;
 pub mod trigger;
 mod trigger_view;
