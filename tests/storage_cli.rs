@@ -19,11 +19,15 @@ use drivedeck::worker::ObjectPath;
 use probe::Probe;
 
 fn read_6083(link: &str) -> i64 {
-    let value = json(&["--link", link, "read", "6083:00"]);
+    read(link, "6083:00")
+}
+
+fn read(link: &str, object: &str) -> i64 {
+    let value = json(&["--link", link, "read", object]);
     value["hex"]
         .as_str()
         .and_then(|h| i64::from_str_radix(h.trim_end_matches('h'), 16).ok())
-        .unwrap_or_else(|| panic!("6083h: {value:#}"))
+        .unwrap_or_else(|| panic!("{object}: {value:#}"))
 }
 
 fn write(link: &str, object: &str, value: &str) {
@@ -31,8 +35,11 @@ fn write(link: &str, object: &str, value: &str) {
     assert_eq!(code, 0, "{object} = {value}: {out}{err}");
 }
 
-/// Store, restart and restore on the drive at `link`.
+/// Store, restart and restore on the drive at `link`: a changed gain (the velocity
+/// loop's P) and a changed ramp come back after the restart, and the factory values
+/// replace them.
 fn store_reboot_and_defaults(link: &str) {
+    write(link, "3210:03", "48000");
     write(link, "6083:00", "1234");
     let stored = json(&["--link", link, "store"]);
     assert!(
@@ -46,10 +53,12 @@ fn store_reboot_and_defaults(link: &str) {
     assert!((1.0..15.0).contains(&back), "{rebooted:#}");
     assert!(rebooted.get("notes").is_none(), "{rebooted:#}");
     assert_eq!(read_6083(link), 1234, "stored, then back");
+    assert_eq!(read(link, "3210:03"), 48000, "the gain stored, then back");
 
     let restored = json(&["--link", link, "defaults", "--reboot"]);
     assert!(restored["back_after_s"].as_f64().is_some(), "{restored:#}");
     assert_eq!(read_6083(link), 500, "the factory's");
+    assert_eq!(read(link, "3210:03"), 12000, "the factory's gain");
 }
 
 #[test]

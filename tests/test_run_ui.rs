@@ -78,6 +78,16 @@ fn a_test_move_runs_from_the_form_and_a_second_run_is_compared_with_it() {
     run_once(&mut harness, 2);
     assert_eq!(runs(&harness).compared, vec![1, 2], "both compared");
     assert!(harness.query_all_by_label("Run 2").next().is_some());
+
+    // The newest ticked run saved as a recording.
+    let dir = common::temp_dir("test-run");
+    let path = dir.path().join("run2.csv");
+    fill(&mut harness, &[("test run file", path.to_str().unwrap())]);
+    harness.get_by_label("Save run").click();
+    harness.run();
+    let back = drivedeck::telemetry::load_recording(&path, 1 << 24).expect("the saved run");
+    assert_eq!(back.markers.len(), 2, "a marker at each step");
+    assert!(harness.query_by_label_contains("Run 2: saved").is_some());
 }
 
 #[test]

@@ -158,6 +158,8 @@ pub struct TestRuns {
     pub runs: Vec<Run>,
     /// The runs ticked for the comparison and the overlay (by number).
     pub compared: Vec<usize>,
+    /// Where "Save run" writes (CSV, or JSON for a `.json` path).
+    pub save_path: String,
     running: Option<Running>,
     connected: bool,
     /// The newest sample's time: where a step begins.
@@ -449,11 +451,77 @@ impl TestRuns {
         while self.compared.len() > 2 {
             self.compared.remove(0);
         }
+        if self.save_path.trim().is_empty() {
+            self.save_path = "test-runs.csv".into();
+        }
         self.runs.push(run);
         if self.runs.len() > MAX_RUNS {
             let gone = self.runs.remove(0).number;
             self.compared.retain(|n| *n != gone);
         }
+    }
+
+    /// Run `number` as a recording: the measured signal over the run, a marker at each
+    /// step's start with its figures, the run's title as its note.
+    pub fn recording(&self, number: usize) -> Option<crate::telemetry::Recording> {
+        let run = self.runs.iter().find(|r| r.number == number)?;
+        let (id, name, unit) = match run.signal {
+            Signal::Velocity => ("velocity", "Velocity 606Ch", "rpm"),
+            _ => ("position", "Position 6064h", "0.1°"),
+        };
+        let markers = run
+            .step_starts
+            .iter()
+            .zip(&run.steps)
+            .map(|(t, s)| crate::telemetry::Marker {
+                t: *t,
+                text: format!(
+                    "cycle {} step {} → {}: rise {} s, overshoot {} %, settling {} s, peak following error {}",
+                    s.cycle,
+                    s.from,
+                    s.to,
+                    shown(s.rise_time_s, 3),
+                    shown(s.overshoot_pct, 1),
+                    shown(s.settling_time_s, 3),
+                    shown(s.peak_following_error, 1)
+                ),
+            })
+            .collect();
+        Some(crate::telemetry::Recording {
+            meta: crate::telemetry::Metadata {
+                note: Some(run.title.clone()),
+                ended_early: run.ended_early.clone(),
+                ..Default::default()
+            },
+            channels: vec![crate::telemetry::ChannelInfo {
+                id: id.into(),
+                name: name.into(),
+                unit: unit.into(),
+            }],
+            times: run.trace.iter().map(|p| p[0]).collect(),
+            columns: vec![run.trace.iter().map(|p| p[1]).collect()],
+            markers,
+        })
+    }
+
+    /// Save the newest ticked run to `save_path`; the outcome in `message`.
+    pub fn save_newest(&mut self) {
+        let Some(&number) = self.compared.last() else {
+            self.message = Some(Err("tick a run to save it".into()));
+            return;
+        };
+        let Some(recording) = self.recording(number) else {
+            return;
+        };
+        let path = self.save_path.trim().to_owned();
+        if path.is_empty() {
+            self.message = Some(Err("give a file to save the run to".into()));
+            return;
+        }
+        self.message = Some(
+            crate::telemetry::save_recording(&recording, &path)
+                .map(|said| format!("Run {number}: {said}")),
+        );
     }
 
     /// The runs ticked for the comparison, in the order ticked.
@@ -473,6 +541,11 @@ impl TestRuns {
             Phase::Dwell { .. } => None,
         }
     }
+}
+
+/// A figure for a marker: its value, or "–".
+fn shown(value: Option<f64>, digits: usize) -> String {
+    value.map_or("–".to_owned(), |v| format!("{v:.digits$}"))
 }
 
 #[cfg(test)]
@@ -606,6 +679,25 @@ mod tests {
         assert!(run.trace.len() > 100);
         assert_eq!(runs.compared, vec![1]);
         assert!(matches!(&runs.message, Some(Ok(m)) if m.contains("2 step(s) measured")));
+
+        // Saved as a recording that opens again, a marker with the figures at each step.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("run.csv");
+        runs.save_path = path.to_str().unwrap().into();
+        runs.save_newest();
+        assert!(
+            matches!(&runs.message, Some(Ok(m)) if m.contains("Run 1: saved")),
+            "{:?}",
+            runs.message
+        );
+        let back = crate::telemetry::load_recording(&path, 1 << 20).unwrap();
+        assert_eq!(back.markers.len(), 2);
+        assert!(
+            back.markers[0].text.contains("rise 0.4"),
+            "{:?}",
+            back.markers
+        );
+        assert_eq!(back.channels[0].id, "position");
     }
 
     #[test]

@@ -22,6 +22,7 @@ enum Intent {
     Stop,
     Toggle(usize),
     Clear,
+    Save,
 }
 
 pub fn test_ui(ui: &mut Ui, drive: &mut Drive) {
@@ -64,6 +65,7 @@ pub fn test_ui(ui: &mut Ui, drive: &mut Drive) {
             Intent::Stop => runs.stop(),
             Intent::Toggle(n) => runs.toggle_compared(n),
             Intent::Clear => runs.clear(),
+            Intent::Save => runs.save_newest(),
         }
     }
 }
@@ -137,7 +139,7 @@ fn form_ui(ui: &mut Ui, runs: &mut TestRuns, intents: &mut Vec<Intent>) {
     });
 }
 
-fn runs_list_ui(ui: &mut Ui, runs: &TestRuns, intents: &mut Vec<Intent>) {
+fn runs_list_ui(ui: &mut Ui, runs: &mut TestRuns, intents: &mut Vec<Intent>) {
     ui.horizontal(|ui| {
         ui.strong(format!("Runs ({})", runs.runs.len()));
         if ui
@@ -145,6 +147,20 @@ fn runs_list_ui(ui: &mut Ui, runs: &TestRuns, intents: &mut Vec<Intent>) {
             .clicked()
         {
             intents.push(Intent::Clear);
+        }
+    });
+    ui.horizontal(|ui| {
+        let field = ui.add(egui::TextEdit::singleline(&mut runs.save_path).desired_width(110.0));
+        name_widget(&field, egui::accesskit::Role::TextInput, "test run file");
+        if ui
+            .add_enabled(!runs.compared.is_empty(), egui::Button::new("Save run"))
+            .on_hover_text(
+                "The newest ticked run as a recording (CSV, or JSON for .json): its response \
+                 and a marker with the figures at each step; Open recording… shows it",
+            )
+            .clicked()
+        {
+            intents.push(Intent::Save);
         }
     });
     egui::ScrollArea::vertical()
