@@ -60,20 +60,6 @@ pub(super) fn export_ui(ui: &mut Ui, p: &mut Plots<'_>) {
         }
     }
     if ui
-        .button("Spectrum…")
-        .on_hover_text(
-            "The amplitude spectrum of a signal over the time span in view (live or the \
-             recording under review) and its strongest peaks: where a resonance rings",
-        )
-        .clicked()
-    {
-        match visible(p.view, p.drive, p.settings.window_s) {
-            Ok(recording) => p.drive.panels.get::<SpectrumPanel>().open_on(recording),
-            Err(e) => p.view.message = Some(Err(e)),
-        }
-    }
-    spectrum_window_ui(ui, p.drive.panels.get::<SpectrumPanel>());
-    if ui
         .button("Save PNG…")
         .on_hover_text(
             "A picture of the whole plot area with a title (the device, the date and the \
@@ -98,6 +84,25 @@ pub(super) fn export_ui(ui: &mut Ui, p: &mut Plots<'_>) {
     if toggle.clicked() {
         p.settings.picture_scale = if twice { 1.0 } else { 2.0 };
     }
+}
+
+/// "Spectrum…" (beside Signals and History, where a small screen still has room) and the
+/// spectrum's window while it is open.
+pub(super) fn spectrum_ui(ui: &mut Ui, p: &mut Plots<'_>) {
+    if ui
+        .button("Spectrum…")
+        .on_hover_text(
+            "The amplitude spectrum of a signal over the time span in view (live or the \
+             recording under review) and its strongest peaks: where a resonance rings",
+        )
+        .clicked()
+    {
+        match visible(p.view, p.drive, p.settings.window_s) {
+            Ok(recording) => p.drive.panels.get::<SpectrumPanel>().open_on(recording),
+            Err(e) => p.view.message = Some(Err(e)),
+        }
+    }
+    spectrum_window_ui(ui, p.drive.panels.get::<SpectrumPanel>());
 }
 
 /// The device the files are of, for their proposed names: the recording on screen's, or

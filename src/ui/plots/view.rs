@@ -237,6 +237,7 @@ fn toolbar(ui: &mut Ui, p: &mut Plots<'_>) {
         }
         signals_menu(ui, p);
         history_menu(ui, p);
+        super::exports_view::spectrum_ui(ui, p);
     });
 }
 
