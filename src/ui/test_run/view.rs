@@ -85,30 +85,12 @@ fn field(ui: &mut Ui, label: &str, text: &mut String, width: f32, enabled: bool)
 
 fn form_ui(ui: &mut Ui, runs: &mut TestRuns, intents: &mut Vec<Intent>) {
     let idle = !runs.is_running();
-    ui.horizontal_wrapped(|ui| {
+    // The test, Run or Stop, and where it stands.
+    ui.horizontal(|ui| {
         ui.add_enabled_ui(idle, |ui| {
             ui.selectable_value(&mut runs.form.kind, Kind::Move, "Test move");
             ui.selectable_value(&mut runs.form.kind, Kind::Velocity, "Velocity steps");
         });
-        ui.separator();
-        let form = &mut runs.form;
-        match form.kind {
-            Kind::Move => {
-                field(ui, "from", &mut form.from, 60.0, idle);
-                field(ui, "to", &mut form.to, 60.0, idle);
-                field(ui, "speed", &mut form.speed, 50.0, idle);
-                ui.weak("rpm");
-                field(ui, "dwell", &mut form.dwell, 40.0, idle);
-            }
-            Kind::Velocity => {
-                field(ui, "speed", &mut form.speed, 50.0, idle);
-                ui.weak("rpm");
-                field(ui, "hold", &mut form.dwell, 40.0, idle);
-            }
-        }
-        ui.weak("s");
-        field(ui, "cycles", &mut form.cycles, 40.0, idle);
-        field(ui, "band", &mut form.band, 50.0, idle);
         ui.separator();
         if idle {
             let button = ui
@@ -129,6 +111,27 @@ fn form_ui(ui: &mut Ui, runs: &mut TestRuns, intents: &mut Vec<Intent>) {
             ui.spinner();
             ui.label(progress);
         }
+    });
+    // Its settings.
+    ui.horizontal_wrapped(|ui| {
+        let form = &mut runs.form;
+        match form.kind {
+            Kind::Move => {
+                field(ui, "from", &mut form.from, 60.0, idle);
+                field(ui, "to", &mut form.to, 60.0, idle);
+                field(ui, "speed", &mut form.speed, 50.0, idle);
+                ui.weak("rpm");
+                field(ui, "dwell", &mut form.dwell, 40.0, idle);
+            }
+            Kind::Velocity => {
+                field(ui, "speed", &mut form.speed, 50.0, idle);
+                ui.weak("rpm");
+                field(ui, "hold", &mut form.dwell, 40.0, idle);
+            }
+        }
+        ui.weak("s");
+        field(ui, "cycles", &mut form.cycles, 40.0, idle);
+        field(ui, "band", &mut form.band, 50.0, idle);
     });
     ui.horizontal_wrapped(|ui| {
         ui.weak(match runs.form.kind {
