@@ -20,6 +20,7 @@ mod context;
 mod failure;
 mod gains;
 mod interrupt;
+mod nanoj;
 mod od;
 mod oneshot;
 mod progress;
@@ -160,6 +161,9 @@ pub enum Command {
     /// Velocity steps with figures: 0 → --speed → −speed → 0 rpm, --hold at each, --cycles
     /// times; per step the figures of the velocity's response, then their mean and worst.
     TestVelocity(TestVelocityArgs),
+    /// The drive's NanoJ program: `nanoj status`, `nanoj start` (waits until it runs or
+    /// says its error), `nanoj stop`.
+    Nanoj(nanoj::NanojArgs),
     /// Store every value as it is now for the next power-on ("save" to 1010h:01).
     Store,
     /// Bring the factory values back at the next restart ("load" to 1011h:01); --reboot
@@ -816,6 +820,10 @@ pub fn main() -> ExitCode {
             test_move::run_velocity(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
         }
         Some(Command::Spectrum(args)) => spectrum::run(&args, cli.json),
+        Some(Command::Nanoj(args)) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            nanoj::run(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
+        }
         Some(command @ (Command::Store | Command::Defaults(_) | Command::Reboot)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             let what = match command {

@@ -89,6 +89,7 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Sim(_)
         | Command::Spectrum(_)
         | Command::Store
+        | Command::Nanoj(_)
         | Command::Defaults(_)
         | Command::Reboot
         | Command::Bench(_)

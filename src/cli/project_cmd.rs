@@ -79,6 +79,7 @@ fn command_name(command: &Command) -> &'static str {
         Command::Sim(_) => "sim",
         Command::Spectrum(_) => "spectrum",
         Command::Store => "store",
+        Command::Nanoj(_) => "nanoj",
         Command::Defaults(_) => "defaults",
         Command::Reboot => "reboot",
         Command::Record(_) => "record",

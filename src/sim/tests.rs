@@ -801,5 +801,6 @@ fn with_the_pdi_off_commands_are_not_acknowledged() {
     rig.done(move_abs(1000, 100), 5000);
 }
 
+mod nanoj;
 mod storage;
 mod tuning;

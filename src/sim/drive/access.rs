@@ -50,6 +50,11 @@ impl Drive {
                 self.od.set(address, value);
                 self.on_command_byte(byte);
             }
+            (0x2300, 0) => {
+                let control = value.as_i128().unwrap_or(0) as i64;
+                self.od.set(address, value);
+                self.nanoj_control(control);
+            }
             (0x6040, 0) => {
                 let word = value.as_i128().unwrap_or(0) as u16;
                 self.od.set(address, value);

@@ -33,6 +33,7 @@ use crate::injection::Injection;
 
 mod access;
 mod faults;
+mod nanoj;
 mod pdi;
 mod physics;
 mod servo;
@@ -118,6 +119,8 @@ pub struct Drive {
     factory: std::sync::Arc<Dictionary>,
     /// What survives a restart, and the restart under way.
     storage: storage::Storage,
+    /// The built-in NanoJ program.
+    nanoj: nanoj::NanoJ,
     reboots: u32,
 }
 
@@ -145,6 +148,22 @@ impl Drive {
             Address::new(0x6505, 0),
             text("https://github.com/drivedeck"),
         );
+        // The built-in NanoJ program: its name, its mapping, its metadata.
+        let words = nanoj::program_words(nanoj::PROGRAM);
+        od.set_int(0x2304, 0, words.len() as i64);
+        for (k, word) in words.iter().enumerate() {
+            od.set_int(0x2304, k as u8 + 1, i64::from(*word));
+        }
+        let mapping = |index: u16, sub: u8| (i64::from(index) << 16) | (i64::from(sub) << 8) | 32;
+        od.set_int(0x2310, 0, 3);
+        for sub in 1..=3 {
+            od.set_int(0x2310, sub, mapping(0x2400, sub));
+        }
+        od.set_int(0x2320, 0, 2);
+        for sub in 1..=2 {
+            od.set_int(0x2320, sub, mapping(0x2500, sub));
+        }
+        od.set_int(0x2303, 1, 0x300);
         Self::from_dictionary(std::sync::Arc::new(od), world)
     }
 
@@ -154,6 +173,7 @@ impl Drive {
             od: (*factory).clone(),
             factory,
             storage: storage::Storage::default(),
+            nanoj: nanoj::NanoJ::default(),
             reboots: 0,
             world,
             state: PowerState::SwitchOnDisabled,

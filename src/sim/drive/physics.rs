@@ -22,6 +22,7 @@ impl Drive {
             let step = left.min(STEP);
             self.step(step.as_secs_f64());
             self.time += step;
+            self.step_nanoj();
             left -= step;
             self.finish_reboot();
         }

@@ -91,6 +91,7 @@ impl Drive {
         let tx = self.tx_image();
         let statusword = self.statusword();
         let sensors = self.world.sensors(self.x);
+        let nanoj = self.nanoj_status();
         let od = &mut self.od;
         // 2292h:01, 603Fh, 2292h:02 (TX_OBJECTS).
         for (object, value) in tx.object_values() {
@@ -132,6 +133,7 @@ impl Drive {
         od.set_int(0x3320, 1, analog.round() as i64);
         od.set_int(0x3220, 1, analog.round() as i64);
         od.set_int(0x230F, 0, self.time.as_secs() as i64);
+        od.set_int(0x2301, 0, nanoj);
         let controlword = match self.state {
             PowerState::OperationEnabled => {
                 controlword::ENABLE_OPERATION | if self.halted { controlword::HALT } else { 0 }

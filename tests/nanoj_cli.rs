@@ -1,0 +1,73 @@
+//! `drivedeck nanoj`: the simulated drive's program started, its injected error decoded,
+//! started again and stopped, over Modbus TCP and CANopen slcan.
+
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use common::cli::{json, run};
+use common::{PtyPair, Sim};
+
+fn start_error_restart_and_stop(link: &str) {
+    let status = json(&["--link", link, "nanoj", "status"]);
+    assert_eq!(status["state"], "stopped", "{status:#}");
+    assert_eq!(status["programs"][0], "demo.usr", "{status:#}");
+    assert_eq!(status["inputs"][0]["object"], "2400h:01h", "{status:#}");
+    assert_eq!(status["outputs"][1]["object"], "2500h:02h", "{status:#}");
+
+    let started = json(&["--link", link, "nanoj", "start"]);
+    assert_eq!(started["state"], "running", "{started:#}");
+    assert!(
+        started["done"]
+            .as_str()
+            .unwrap()
+            .contains("the program runs"),
+        "{started:#}"
+    );
+
+    // The injected error: NanoJ input 3 makes the program run too long.
+    let (code, out, err) = run(&["--link", link, "write", "2400:03", "5"]);
+    assert_eq!(code, 0, "{out}{err}");
+    let failed = json(&["--link", link, "nanoj", "status"]);
+    assert_eq!(failed["state"], "stopped by an error", "{failed:#}");
+    assert_eq!(failed["error_code"], 5);
+    assert_eq!(
+        failed["error"],
+        "it ran too long without yield() or sleep()"
+    );
+
+    // With the error still there, a start ends in it and says so (exit 1).
+    let (code, out, _) = run(&["--link", link, "nanoj", "start"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("stopped with an error") && out.contains("too long"),
+        "{out}"
+    );
+
+    let (code, out, err) = run(&["--link", link, "write", "2400:03", "0"]);
+    assert_eq!(code, 0, "{out}{err}");
+    let started = json(&["--link", link, "nanoj", "start"]);
+    assert_eq!(started["state"], "running", "{started:#}");
+    assert_eq!(started["error_code"], 0);
+    let stopped = json(&["--link", link, "nanoj", "stop"]);
+    assert_eq!(stopped["state"], "stopped", "{stopped:#}");
+}
+
+#[test]
+fn the_program_over_modbus_tcp() {
+    let (_sim, addr) = Sim::tcp(&[]);
+    start_error_restart_and_stop(&format!("modbus-tcp://{addr}"));
+}
+
+#[test]
+fn the_program_over_canopen_slcan() {
+    let Some(pair) = PtyPair::new() else {
+        return;
+    };
+    let _node = Sim::slcan(&pair.a, 5, &[]);
+    start_error_restart_and_stop(&format!(
+        "canopen+slcan://{}?bitrate=1000000&node=5",
+        pair.b.display()
+    ));
+}
