@@ -71,3 +71,41 @@ fn the_program_over_canopen_slcan() {
         pair.b.display()
     ));
 }
+
+/// python-canopen reads 2301h and 2302h from the node on `pty` (it has the line then).
+fn python_reads(python: &common::Python, pty: &std::path::Path) -> (u64, u64) {
+    let got = common::try_run_peer(
+        python,
+        "canopen_nanoj.py",
+        &[pty.to_str().expect("utf-8 path"), "5"],
+        std::time::Duration::from_secs(30),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    (
+        got["status_2301"].as_u64().expect("2301h"),
+        got["error_2302"].as_u64().expect("2302h"),
+    )
+}
+
+#[test]
+fn python_canopen_reads_the_program_running_after_nanoj_start_and_the_injected_error() {
+    let Some(python) = common::python_canopen() else {
+        return;
+    };
+    let Some(pair) = PtyPair::new() else {
+        return;
+    };
+    let _node = Sim::slcan(&pair.a, 5, &[]);
+    let link = format!(
+        "canopen+slcan://{}?bitrate=1000000&node=5",
+        pair.b.display()
+    );
+    let started = json(&["--link", &link, "nanoj", "start"]);
+    assert_eq!(started["state"], "running", "{started:#}");
+    assert_eq!(python_reads(&python, &pair.b), (1, 0), "running, no error");
+    let (code, out, err) = run(&["--link", &link, "write", "2400:03", "5"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert_eq!(python_reads(&python, &pair.b), (2, 5), "stopped: ran too long");
+    let status = json(&["--link", &link, "nanoj", "status"]);
+    assert_eq!(status["error"], "it ran too long without yield() or sleep()");
+}
