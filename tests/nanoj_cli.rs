@@ -105,7 +105,14 @@ fn python_canopen_reads_the_program_running_after_nanoj_start_and_the_injected_e
     assert_eq!(python_reads(&python, &pair.b), (1, 0), "running, no error");
     let (code, out, err) = run(&["--link", &link, "write", "2400:03", "5"]);
     assert_eq!(code, 0, "{out}{err}");
-    assert_eq!(python_reads(&python, &pair.b), (2, 5), "stopped: ran too long");
+    assert_eq!(
+        python_reads(&python, &pair.b),
+        (2, 5),
+        "stopped: ran too long"
+    );
     let status = json(&["--link", &link, "nanoj", "status"]);
-    assert_eq!(status["error"], "it ran too long without yield() or sleep()");
+    assert_eq!(
+        status["error"],
+        "it ran too long without yield() or sleep()"
+    );
 }
