@@ -20,6 +20,7 @@ mod context;
 mod failure;
 mod gains;
 mod interrupt;
+mod io;
 mod nanoj;
 mod od;
 mod oneshot;
@@ -161,6 +162,12 @@ pub enum Command {
     /// Velocity steps with figures: 0 → --speed → −speed → 0 rpm, --hold at each, --cycles
     /// times; per step the figures of the velocity's response, then their mean and worst.
     TestVelocity(TestVelocityArgs),
+    /// The digital inputs by name (with their special function and inversion), the
+    /// digital outputs and the analog input.
+    Io,
+    /// Force a digital output on or off, held until --hold ends or Ctrl-C and released
+    /// then; `release` gives it back to the drive.
+    Output(io::OutputArgs),
     /// The drive's NanoJ program: `nanoj status`, `nanoj start` (waits until it runs or
     /// says its error), `nanoj stop`.
     Nanoj(nanoj::NanojArgs),
@@ -820,6 +827,14 @@ pub fn main() -> ExitCode {
             test_move::run_velocity(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
         }
         Some(Command::Spectrum(args)) => spectrum::run(&args, cli.json),
+        Some(Command::Io) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            io::run_io(&link, cli.json, timeout(&cli), cli.trace, &context)
+        }
+        Some(Command::Output(args)) => {
+            let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
+            io::run_output(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
+        }
         Some(Command::Nanoj(args)) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             nanoj::run(&link, &args, cli.json, timeout(&cli), cli.trace, &context)

@@ -90,6 +90,8 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Spectrum(_)
         | Command::Store
         | Command::Nanoj(_)
+        | Command::Io
+        | Command::Output(_)
         | Command::Defaults(_)
         | Command::Reboot
         | Command::Bench(_)

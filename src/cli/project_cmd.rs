@@ -80,6 +80,8 @@ fn command_name(command: &Command) -> &'static str {
         Command::Spectrum(_) => "spectrum",
         Command::Store => "store",
         Command::Nanoj(_) => "nanoj",
+        Command::Io => "io",
+        Command::Output(_) => "output",
         Command::Defaults(_) => "defaults",
         Command::Reboot => "reboot",
         Command::Record(_) => "record",
