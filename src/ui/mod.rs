@@ -33,6 +33,7 @@ pub mod leave;
 pub mod log;
 pub mod machine;
 pub mod machine_table;
+pub mod nanoj;
 pub mod pace;
 pub mod panel;
 pub mod path_prompt;

@@ -15,8 +15,8 @@ use super::plots::{Beside, Plots};
 use super::project_files::ProjectFiles;
 use super::window::Window;
 use super::{
-    browser, changes, commands, connection, drive_list, faults, gains, glance, log, machine, plots,
-    scan, status, test_run, watch,
+    browser, changes, commands, connection, drive_list, faults, gains, glance, log, machine, nanoj,
+    plots, scan, status, test_run, watch,
 };
 
 /// What one frame of the window draws from, and where the user's intents go.
@@ -92,6 +92,14 @@ pub const CENTRAL: &[Panel] = &[
         title: |_| "Test".into(),
         ui: |ui, f| test_run::test_ui(ui, f.drive),
         model: Some(model::<test_run::TestRuns>),
+        clear: None,
+    },
+    // The drive's NanoJ program.
+    Panel {
+        id: nanoj::NANOJ,
+        title: |_| "NanoJ".into(),
+        ui: |ui, f| nanoj::nanoj_ui(ui, f.drive, f.commands),
+        model: Some(model::<nanoj::NanojPanel>),
         clear: None,
     },
     // Every drive on one line: the machine at a glance.
