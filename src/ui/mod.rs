@@ -28,6 +28,7 @@ pub mod fonts;
 pub mod gains;
 pub mod glance;
 pub mod input;
+pub mod io_panel;
 pub mod jog;
 pub mod leave;
 pub mod log;

@@ -15,8 +15,8 @@ use super::plots::{Beside, Plots};
 use super::project_files::ProjectFiles;
 use super::window::Window;
 use super::{
-    browser, changes, commands, connection, drive_list, faults, gains, glance, log, machine, nanoj,
-    plots, scan, status, test_run, watch,
+    browser, changes, commands, connection, drive_list, faults, gains, glance, io_panel, log,
+    machine, nanoj, plots, scan, status, test_run, watch,
 };
 
 /// What one frame of the window draws from, and where the user's intents go.
@@ -100,6 +100,14 @@ pub const CENTRAL: &[Panel] = &[
         title: |_| "NanoJ".into(),
         ui: |ui, f| nanoj::nanoj_ui(ui, f.drive, f.commands),
         model: Some(model::<nanoj::NanojPanel>),
+        clear: None,
+    },
+    // The digital inputs and outputs and the analog input.
+    Panel {
+        id: io_panel::IO,
+        title: |_| "I/O".into(),
+        ui: |ui, f| io_panel::io_ui(ui, f.drive, f.commands),
+        model: Some(model::<io_panel::IoPanel>),
         clear: None,
     },
     // Every drive on one line: the machine at a glance.

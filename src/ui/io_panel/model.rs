@@ -1,0 +1,252 @@
+//! The I/O tab's model: the digital inputs by name with their special function and
+//! inversion (60FDh, 3240h:01/:02), the digital outputs with their force mask (60FEh:01,
+//! :02) read live, a force asked for and confirmed before it is written, and the analog
+//! input. Every force is a write the Changes tab lists, so "Restore what I changed" — and
+//! leaving the window, which offers it — gives the outputs back.
+//!
+//! A model: no egui here.
+
+use crate::od::{Address, DataType, Value};
+use crate::ui::panel::PanelModel;
+use crate::worker::{Event, ObjectPath, Request};
+
+const LIVE: u64 = 1;
+const WRITE: u64 = 2;
+
+/// How often the values are read, seconds of the worker's clock.
+pub const EVERY_S: f64 = 0.25;
+/// Physical inputs and outputs shown (bits 16 on).
+pub const PHYSICAL: u8 = 8;
+
+/// A force waiting for the user's yes: output n, on (true) or off, or released (None).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Force {
+    pub output: u8,
+    pub on: Option<bool>,
+}
+
+/// The I/O tab of one drive.
+#[derive(Debug, Default)]
+pub struct IoPanel {
+    pub inputs: Option<u32>,
+    pub special: Option<u32>,
+    pub inverted: Option<u32>,
+    pub outputs: Option<u32>,
+    pub mask: Option<u32>,
+    pub analog: Option<i64>,
+    pub asking: Option<Force>,
+    pub message: Option<Result<String, String>>,
+    connected: bool,
+    reading: bool,
+    last_read: Option<f64>,
+    requests: Vec<(u64, Request)>,
+}
+
+/// The names of 60FDh's bits shown, in order: (bit, name).
+pub fn input_names() -> Vec<(u8, String)> {
+    let mut names = vec![
+        (0, "negative limit switch".to_owned()),
+        (1, "positive limit switch".to_owned()),
+        (2, "home switch".to_owned()),
+        (3, "interlock".to_owned()),
+    ];
+    names.extend((1..=PHYSICAL).map(|n| (15 + n, format!("input {n}"))));
+    names
+}
+
+impl PanelModel for IoPanel {
+    fn on_event(&mut self, event: &Event) {
+        match event {
+            Event::Connected(_) => {
+                self.connected = true;
+                self.reading = false;
+                self.read();
+            }
+            Event::Disconnected { .. } | Event::ConnectFailed { .. } => {
+                self.connected = false;
+                self.reading = false;
+                self.asking = None;
+            }
+            Event::Samples(samples) => {
+                if let Some(t) = samples.last().map(|s| s.t)
+                    && self.connected
+                    && !self.reading
+                    && self.last_read.is_none_or(|last| t - last >= EVERY_S)
+                {
+                    self.last_read = Some(t);
+                    self.read();
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn on_reply(&mut self, tag: u64, event: &Event) -> bool {
+        match (tag, event) {
+            (
+                LIVE,
+                Event::ObjectRead {
+                    address, result, ..
+                },
+            ) => {
+                let value = result.as_ref().ok().and_then(Value::as_i128);
+                let word = value.map(|v| v as u32);
+                match (address.index, address.sub) {
+                    (0x60FD, 0) => self.inputs = word,
+                    (0x3240, 1) => self.special = word,
+                    (0x3240, 2) => self.inverted = word,
+                    (0x60FE, 1) => self.outputs = word,
+                    (0x60FE, 2) => self.mask = word,
+                    (0x3220, 1) => self.analog = value.map(|v| v as i64),
+                    _ => {}
+                }
+                let done = address.index == 0x3220;
+                if done {
+                    self.reading = false;
+                }
+                done
+            }
+            (
+                WRITE,
+                Event::ObjectWritten {
+                    address, result, ..
+                },
+            ) => {
+                if let Err(e) = result {
+                    self.message = Some(Err(format!("{address}: the drive refused it: {e}")));
+                }
+                true
+            }
+            (_, Event::Rejected { reason, .. }) => {
+                if tag == WRITE {
+                    self.message = Some(Err(format!("not written: {reason}")));
+                } else {
+                    self.reading = false;
+                }
+                true
+            }
+            (_, Event::Cancelled { .. }) => {
+                self.reading = false;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    fn take_requests(&mut self) -> Vec<(u64, Request)> {
+        std::mem::take(&mut self.requests)
+    }
+}
+
+fn object(index: u16, sub: u8) -> (Address, DataType) {
+    let address = Address::new(index, sub);
+    let dtype = crate::od::builtin()
+        .get(address)
+        .map_or(DataType::Unsigned32, |e| e.dtype);
+    (address, dtype)
+}
+
+impl IoPanel {
+    pub fn is_connected(&self) -> bool {
+        self.connected
+    }
+
+    fn read(&mut self) {
+        self.reading = true;
+        self.requests.push((
+            LIVE,
+            Request::ReadMany {
+                objects: vec![
+                    object(0x60FD, 0),
+                    object(0x3240, 1),
+                    object(0x3240, 2),
+                    object(0x60FE, 1),
+                    object(0x60FE, 2),
+                    object(0x3220, 1),
+                ],
+                path: ObjectPath::Auto,
+            },
+        ));
+    }
+
+    /// Whether 60FDh's `bit` is set.
+    pub fn input(&self, bit: u8) -> Option<bool> {
+        self.inputs.map(|v| v & (1 << bit) != 0)
+    }
+
+    /// Output n (1–8): on, and forced.
+    pub fn output(&self, n: u8) -> (Option<bool>, Option<bool>) {
+        let bit = 1u32 << (15 + n);
+        (
+            self.outputs.map(|v| v & bit != 0),
+            self.mask.map(|m| m & bit != 0),
+        )
+    }
+
+    /// Ask before forcing (or releasing) output n.
+    pub fn ask(&mut self, force: Force) {
+        self.asking = Some(force);
+    }
+
+    pub fn decline(&mut self) {
+        self.asking = None;
+    }
+
+    /// The question asked, in words.
+    pub fn question(force: Force) -> String {
+        match force.on {
+            Some(on) => format!(
+                "Force output {} {}? Whatever it drives (a brake, a valve) follows at once; \
+                 the Changes tab can give it back.",
+                force.output,
+                if on { "on" } else { "off" }
+            ),
+            None => format!(
+                "Give output {} back to the drive (release its force)?",
+                force.output
+            ),
+        }
+    }
+
+    /// The user said yes: the value, then the mask (forcing) or the mask, then the value
+    /// (releasing).
+    pub fn agree(&mut self) {
+        let Some(force) = self.asking.take() else {
+            return;
+        };
+        let (Some(value), Some(mask)) = (self.outputs, self.mask) else {
+            self.message = Some(Err("60FEh not read yet: nothing written".into()));
+            return;
+        };
+        if !self.connected {
+            self.message = Some(Err("not connected: nothing written".into()));
+            return;
+        }
+        let bit = 1u32 << (15 + force.output);
+        let write = |sub: u8, v: u32| Request::WriteObject {
+            address: Address::new(0x60FE, sub),
+            dtype: DataType::Unsigned32,
+            value: Value::Uint(u64::from(v)),
+            path: ObjectPath::Auto,
+        };
+        match force.on {
+            Some(on) => {
+                let v = if on { value | bit } else { value & !bit };
+                self.requests.push((WRITE, write(1, v)));
+                self.requests.push((WRITE, write(2, mask | bit)));
+                self.message = Some(Ok(format!(
+                    "output {} forced {}",
+                    force.output,
+                    if on { "on" } else { "off" }
+                )));
+            }
+            None => {
+                self.requests.push((WRITE, write(2, mask & !bit)));
+                self.requests.push((WRITE, write(1, value & !bit)));
+                self.message = Some(Ok(format!("output {} released", force.output)));
+            }
+        }
+        // Seen at the next reading.
+        self.last_read = None;
+    }
+}
