@@ -16,7 +16,7 @@ use super::failure::{Failure, failed, usage};
 use super::report;
 use super::session::Session;
 use crate::link::LinkSpec;
-use crate::od::{Address, DataType, Value, builtin};
+use crate::od::{Address, DataType, Value};
 use crate::worker::ObjectPath;
 
 /// The physical inputs and outputs shown (bits 16 on).
@@ -75,18 +75,7 @@ struct IoReport {
 
 /// An object read in its catalog type (`None`: refused or not answered).
 fn read(session: &mut Session, index: u16, sub: u8, timeout: Duration) -> Option<i64> {
-    let address = Address::new(index, sub);
-    session
-        .try_read(
-            address,
-            builtin().get(address).map(|e| e.dtype),
-            ObjectPath::Auto,
-            timeout,
-        )
-        .ok()?
-        .ok()?
-        .as_i128()
-        .map(|v| v as i64)
+    session.read_int(index, sub, timeout).map(|v| v as i64)
 }
 
 fn write(

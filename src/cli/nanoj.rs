@@ -16,7 +16,6 @@ use super::session::Session;
 use crate::link::LinkSpec;
 use crate::od::nanoj::{error_text, mapping, program_names, status_text};
 use crate::od::{Address, DataType, Value, builtin};
-use crate::worker::ObjectPath;
 
 /// How often the status is read while waiting for a start or a stop.
 const POLL: Duration = Duration::from_millis(50);
@@ -112,18 +111,7 @@ pub fn run(
 
 /// An unsigned object read in its catalog type (a refusal or a broken link: `None`).
 fn read_u32(session: &mut Session, index: u16, sub: u8, timeout: Duration) -> Option<u32> {
-    let address = Address::new(index, sub);
-    session
-        .try_read(
-            address,
-            builtin().get(address).map(|e| e.dtype),
-            ObjectPath::Auto,
-            timeout,
-        )
-        .ok()?
-        .ok()?
-        .as_i128()
-        .map(|v| v as u32)
+    session.read_int(index, sub, timeout).map(|v| v as u32)
 }
 
 /// Write 2300h and wait for 2301h to say the program runs (or stopped by an error) or

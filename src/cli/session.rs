@@ -344,6 +344,17 @@ impl Session {
             .map_err(|e| failed(format!("read {address}: {e}")))
     }
 
+    /// An integer object read in the type the catalog gives it, as an i128; `None` when
+    /// the drive refused it or did not answer (for listings that show what they got).
+    pub(super) fn read_int(&mut self, index: u16, sub: u8, timeout: Duration) -> Option<i128> {
+        let address = Address::new(index, sub);
+        let dtype = crate::od::builtin().get(address).map(|e| e.dtype);
+        self.try_read(address, dtype, ObjectPath::Auto, timeout)
+            .ok()?
+            .ok()?
+            .as_i128()
+    }
+
     /// Read an object, keeping a refusal (the device's or the worker's: `Ok(Err(text))`)
     /// apart from a broken link or a timeout (`Err`).
     pub(super) fn try_read(

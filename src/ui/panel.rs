@@ -46,6 +46,36 @@ pub trait PanelModel: AsAny + Debug {
     }
 }
 
+/// When a panel that shows live values reads them again: every so many seconds of the
+/// worker's clock (the samples' time), never while its last reading is under way.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Cadence {
+    last: Option<f64>,
+    /// A reading is under way.
+    pub reading: bool,
+}
+
+impl Cadence {
+    /// Whether a reading is due with these samples, `every` seconds after the last one
+    /// (the reading then counts as under way).
+    pub fn due(&mut self, samples: &[crate::signal::Sample], every: f64) -> bool {
+        let Some(t) = samples.last().map(|s| s.t) else {
+            return false;
+        };
+        if self.reading || self.last.is_some_and(|last| t - last < every) {
+            return false;
+        }
+        self.last = Some(t);
+        self.reading = true;
+        true
+    }
+
+    /// Read again with the next samples (after a write, to show its effect soon).
+    pub fn soon(&mut self) {
+        self.last = None;
+    }
+}
+
 /// The panels' models of one drive, one of each type, made when first asked for.
 #[derive(Debug, Default)]
 pub struct Panels {

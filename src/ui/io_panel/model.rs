@@ -7,7 +7,7 @@
 //! A model: no egui here.
 
 use crate::od::{Address, DataType, Value};
-use crate::ui::panel::PanelModel;
+use crate::ui::panel::{Cadence, PanelModel};
 use crate::worker::{Event, ObjectPath, Request};
 
 const LIVE: u64 = 1;
@@ -37,8 +37,7 @@ pub struct IoPanel {
     pub asking: Option<Force>,
     pub message: Option<Result<String, String>>,
     connected: bool,
-    reading: bool,
-    last_read: Option<f64>,
+    cadence: Cadence,
     requests: Vec<(u64, Request)>,
 }
 
@@ -59,21 +58,16 @@ impl PanelModel for IoPanel {
         match event {
             Event::Connected(_) => {
                 self.connected = true;
-                self.reading = false;
+                self.cadence.reading = false;
                 self.read();
             }
             Event::Disconnected { .. } | Event::ConnectFailed { .. } => {
                 self.connected = false;
-                self.reading = false;
+                self.cadence.reading = false;
                 self.asking = None;
             }
             Event::Samples(samples) => {
-                if let Some(t) = samples.last().map(|s| s.t)
-                    && self.connected
-                    && !self.reading
-                    && self.last_read.is_none_or(|last| t - last >= EVERY_S)
-                {
-                    self.last_read = Some(t);
+                if self.connected && self.cadence.due(samples, EVERY_S) {
                     self.read();
                 }
             }
@@ -102,7 +96,7 @@ impl PanelModel for IoPanel {
                 }
                 let done = address.index == 0x3220;
                 if done {
-                    self.reading = false;
+                    self.cadence.reading = false;
                 }
                 done
             }
@@ -121,12 +115,12 @@ impl PanelModel for IoPanel {
                 if tag == WRITE {
                     self.message = Some(Err(format!("not written: {reason}")));
                 } else {
-                    self.reading = false;
+                    self.cadence.reading = false;
                 }
                 true
             }
             (_, Event::Cancelled { .. }) => {
-                self.reading = false;
+                self.cadence.reading = false;
                 true
             }
             _ => false,
@@ -152,7 +146,7 @@ impl IoPanel {
     }
 
     fn read(&mut self) {
-        self.reading = true;
+        self.cadence.reading = true;
         self.requests.push((
             LIVE,
             Request::ReadMany {
@@ -247,6 +241,6 @@ impl IoPanel {
             }
         }
         // Seen at the next reading.
-        self.last_read = None;
+        self.cadence.soon();
     }
 }

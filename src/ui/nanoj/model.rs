@@ -7,7 +7,7 @@
 
 use crate::od::nanoj::{error_text, mapping, program_names, status_text};
 use crate::od::{Address, DataType, Value};
-use crate::ui::panel::PanelModel;
+use crate::ui::panel::{Cadence, PanelModel};
 use crate::worker::{Event, ObjectPath, Request};
 
 /// The tag of the reading of the names and the mapping (once on connecting).
@@ -42,10 +42,9 @@ pub struct NanojPanel {
     /// Start (true) or Stop asked and not yet seen in 2301h.
     pub asked: Option<bool>,
     connected: bool,
-    reading: bool,
+    cadence: Cadence,
     /// 2304h, 2310h, 2320h words as they come.
     layout: Vec<(Address, i64)>,
-    last_read: Option<f64>,
     requests: Vec<(u64, Request)>,
 }
 
@@ -66,7 +65,7 @@ impl PanelModel for NanojPanel {
         match event {
             Event::Connected(_) => {
                 self.connected = true;
-                self.reading = false;
+                self.cadence.reading = false;
                 self.layout.clear();
                 let mut list: Vec<(u16, u8)> = (0..=6).map(|s| (0x2304, s)).collect();
                 list.extend((0..=8).map(|s| (0x2310, s)));
@@ -82,15 +81,10 @@ impl PanelModel for NanojPanel {
             }
             Event::Disconnected { .. } | Event::ConnectFailed { .. } => {
                 self.connected = false;
-                self.reading = false;
+                self.cadence.reading = false;
             }
             Event::Samples(samples) => {
-                if let Some(t) = samples.last().map(|s| s.t)
-                    && self.connected
-                    && !self.reading
-                    && self.last_read.is_none_or(|last| t - last >= EVERY_S)
-                {
-                    self.last_read = Some(t);
+                if self.connected && self.cadence.due(samples, EVERY_S) {
                     self.read_live();
                 }
             }
@@ -140,7 +134,7 @@ impl PanelModel for NanojPanel {
                 }
                 let done = address.index == 0x2500 && address.sub == SHOWN;
                 if done {
-                    self.reading = false;
+                    self.cadence.reading = false;
                     self.seen();
                 }
                 done
@@ -162,12 +156,12 @@ impl PanelModel for NanojPanel {
                     self.asked = None;
                     self.message = Some(Err(format!("not sent: {reason}")));
                 } else {
-                    self.reading = false;
+                    self.cadence.reading = false;
                 }
                 true
             }
             (_, Event::Cancelled { .. }) => {
-                self.reading = false;
+                self.cadence.reading = false;
                 true
             }
             _ => false,
@@ -203,7 +197,7 @@ impl NanojPanel {
         let mut list = vec![(0x2301, 0), (0x2302, 0), (0x230F, 0)];
         list.extend((1..=SHOWN).map(|s| (0x2400, s)));
         list.extend((1..=SHOWN).map(|s| (0x2500, s)));
-        self.reading = true;
+        self.cadence.reading = true;
         self.requests.push((
             LIVE,
             Request::ReadMany {
