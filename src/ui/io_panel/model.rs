@@ -66,10 +66,8 @@ impl PanelModel for IoPanel {
                 self.cadence.reading = false;
                 self.asking = None;
             }
-            Event::Samples(samples) => {
-                if self.connected && self.cadence.due(samples, EVERY_S) {
-                    self.read();
-                }
+            Event::Samples(samples) if self.connected && self.cadence.due(samples, EVERY_S) => {
+                self.read();
             }
             _ => {}
         }

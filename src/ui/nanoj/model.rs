@@ -83,10 +83,8 @@ impl PanelModel for NanojPanel {
                 self.connected = false;
                 self.cadence.reading = false;
             }
-            Event::Samples(samples) => {
-                if self.connected && self.cadence.due(samples, EVERY_S) {
-                    self.read_live();
-                }
+            Event::Samples(samples) if self.connected && self.cadence.due(samples, EVERY_S) => {
+                self.read_live();
             }
             _ => {}
         }
