@@ -205,6 +205,10 @@ impl Link for AnyLink {
         each_link!(self, l => l.read_object(address, dtype).await)
     }
 
+    async fn read_object_of_unknown_type(&mut self, address: Address) -> Answer<Value> {
+        each_link!(self, l => l.read_object_of_unknown_type(address).await)
+    }
+
     async fn write_object(
         &mut self,
         address: Address,

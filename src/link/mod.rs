@@ -23,6 +23,7 @@ pub use notice::{Notice, NoticeKind};
 pub use spec::{CanopenOptions, EnipIo, LinkSpec, Parity, SpecError};
 pub use trace::{RawFrames, TRACE_LIMIT, TraceRecord, TraceRing};
 
+use crate::cia::AbortCode;
 use crate::od::{Address, DataType, Value};
 use crate::pdi::{RxImage, TxImage};
 
@@ -125,6 +126,37 @@ pub trait Link {
     /// Read an object without the PDI. `Refusal::NotSupported` when the link has no such
     /// path (the worker then uses PDI OD-Read).
     async fn read_object(&mut self, address: Address, dtype: DataType) -> Answer<Value>;
+
+    /// Read an object whose type nobody here knows (it is not in the catalog): as the
+    /// integer of the size the device accepts. Modbus FC 43 must ask for the object's exact
+    /// size (a 1-byte object asked for 4 bytes answers abort 06070012h, "length too high"),
+    /// so by default 32 bits are asked first, then 16 and 8 on "too high" or 64 on "too
+    /// low". Links whose answer carries its size (an SDO upload) or its type (GetOD
+    /// Rockwell) read once.
+    async fn read_object_of_unknown_type(&mut self, address: Address) -> Answer<Value> {
+        let first = self.read_object(address, DataType::Integer32).await?;
+        let Err(Refusal::Abort(code)) = &first else {
+            return Ok(first);
+        };
+        let others: &[DataType] = match *code {
+            AbortCode::TYPE_LENGTH_TOO_HIGH | AbortCode::TYPE_LENGTH_MISMATCH => {
+                &[DataType::Integer16, DataType::Integer8]
+            }
+            AbortCode::TYPE_LENGTH_TOO_LOW => &[DataType::Integer64],
+            _ => return Ok(first),
+        };
+        let mut last = first;
+        for &dtype in others {
+            last = self.read_object(address, dtype).await?;
+            match &last {
+                Err(Refusal::Abort(
+                    AbortCode::TYPE_LENGTH_TOO_HIGH | AbortCode::TYPE_LENGTH_MISMATCH,
+                )) => continue,
+                _ => return Ok(last),
+            }
+        }
+        Ok(last)
+    }
 
     /// Write an object without the PDI, sized to `dtype`.
     async fn write_object(

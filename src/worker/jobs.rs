@@ -159,10 +159,11 @@ impl Session {
         dtype: Option<DataType>,
         sink: &mut EventSink,
     ) -> Result<Option<Refusal>, link::Error> {
-        let result = self
-            .link
-            .read_object(address, dtype.unwrap_or(DataType::Integer32))
-            .await?;
+        let dtype = dtype.or_else(|| crate::od::builtin().get(address).map(|e| e.dtype));
+        let result = match dtype {
+            Some(dtype) => self.link.read_object(address, dtype).await?,
+            None => self.link.read_object_of_unknown_type(address).await?,
+        };
         self.trace_out(sink);
         match result {
             Ok(value) => {

@@ -781,6 +781,11 @@ impl Link for EnipLink {
         self.get(address, dtype).await
     }
 
+    /// GetOD Rockwell brings the entry's type with its value.
+    async fn read_object_of_unknown_type(&mut self, address: Address) -> Answer<Value> {
+        Ok(self.get_typed(address).await?.map(|(_, v)| v))
+    }
+
     async fn write_object(
         &mut self,
         address: Address,

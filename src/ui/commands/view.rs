@@ -403,7 +403,10 @@ fn object_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
             (Ok(_), Some(entry)) => {
                 format!("{} ({}, {})", entry.full_name(), entry.dtype, entry.access)
             }
-            (Ok(_), None) => "not in the catalog: read as a 32-bit integer".to_owned(),
+            (Ok(_), None) => {
+                "not in the catalog: read as an integer of the size the drive answers with"
+                    .to_owned()
+            }
         };
         let read = ui
             .add_enabled(connected && address.is_ok(), egui::Button::new("Read"))

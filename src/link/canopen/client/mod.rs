@@ -477,6 +477,19 @@ impl<B: CanBus> Link for CanopenLink<B> {
         })
     }
 
+    /// The upload says how many bytes the object has: the integer of that size (bytes of
+    /// any other length as they are).
+    async fn read_object_of_unknown_type(&mut self, address: Address) -> Answer<Value> {
+        Ok(match self.sdo_upload(address.index, address.sub).await? {
+            Ok(data) => {
+                let dtype = DataType::integer((data.len() * 8).min(255) as u8, true)
+                    .unwrap_or(DataType::OctetString);
+                Value::from_le_bytes(dtype, &data).map_err(|e| Refusal::Malformed(e.to_string()))
+            }
+            Err(code) => Err(Refusal::Abort(code)),
+        })
+    }
+
     async fn write_object(
         &mut self,
         address: Address,
