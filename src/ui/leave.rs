@@ -110,6 +110,19 @@ fn leave_question_ui(
             );
         }
     }
+    for drive in drives {
+        for held in drive.panels.holding() {
+            let line = format!("{held}: it is given back to the drive first, whatever you choose.");
+            ui.colored_label(
+                AMBER,
+                if several {
+                    format!("{}: {line}", drive.name)
+                } else {
+                    line
+                },
+            );
+        }
+    }
     if energised {
         ui.label("What should stay behind?");
     }

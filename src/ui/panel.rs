@@ -40,6 +40,17 @@ pub trait PanelModel: AsAny + Debug {
         false
     }
 
+    /// What it holds on the drive that must be given back before the window lets go of
+    /// the drive (an output it forced), one sentence each; empty when nothing.
+    fn holding(&self) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// The drive is being left (Disconnect, closing the window): give back what it holds.
+    /// Its requests go out with the next frame's; `holding` stays non-empty until they
+    /// are answered.
+    fn let_go(&mut self) {}
+
     /// The requests it wants sent now, each with its tag.
     fn take_requests(&mut self) -> Vec<(u64, Request)> {
         Vec::new()
@@ -122,6 +133,18 @@ impl Panels {
             .iter_mut()
             .find(|(t, _)| *t == panel)
             .is_some_and(|(_, m)| m.on_reply(tag, event))
+    }
+
+    /// What every model holds on the drive ([`PanelModel::holding`]).
+    pub fn holding(&self) -> Vec<String> {
+        self.models.iter().flat_map(|(_, m)| m.holding()).collect()
+    }
+
+    /// Every model gives back what it holds ([`PanelModel::let_go`]).
+    pub fn let_go(&mut self) {
+        for (_, model) in &mut self.models {
+            model.let_go();
+        }
     }
 
     /// Every model's requests, with the model's type and the request's tag.

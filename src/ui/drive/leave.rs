@@ -1,8 +1,9 @@
 //! Leaving a drive safely: on Disconnect (or closing the window) with the power stage on
 //! or objects changed, the window asks what to leave behind — halt (the default), switch
 //! off, or leave it on — and offers to restore what the tool changed first. Then it does
-//! that in order, a step a frame: stop, restore, disconnect (and close). The question
-//! itself is `ui::leave`'s.
+//! that in order, a step a frame: stop, give back what the panels hold (forced outputs:
+//! always, whatever was answered), restore, disconnect (and close). The question itself
+//! is `ui::leave`'s.
 //!
 //! A model: no egui here.
 
@@ -33,6 +34,8 @@ pub enum Stage {
     Asking,
     /// The halt or switch-off went out; waiting until the drive shows it (window clock).
     Stopping { since: f64 },
+    /// The panels give back what they hold (forced outputs); since (window clock).
+    Releasing { since: f64 },
     /// Writing the old values back; since (window clock).
     Restoring { since: f64 },
     /// All done: disconnect (and close) now.
@@ -50,6 +53,9 @@ pub struct Leaving {
 
 /// How long restoring may take before the window disconnects anyway (and says so).
 const RESTORE_TIMEOUT_S: f64 = 10.0;
+/// How long giving back forced outputs may take before the window goes on anyway (and
+/// says so, in red).
+const RELEASE_TIMEOUT_S: f64 = 5.0;
 /// How long the window waits for the drive to show the halt (or switch-off) before it
 /// disconnects anyway (and says so, in red).
 pub const STOP_TIMEOUT_S: f64 = 5.0;
@@ -119,7 +125,8 @@ impl Drive {
     /// objects changed that could be restored.
     pub fn needs_leave_question(&self) -> bool {
         let restorable = self.restorable() > 0;
-        self.is_connected() && (self.power_stage_on() || restorable)
+        let holding = !self.panels.holding().is_empty();
+        self.is_connected() && (self.power_stage_on() || restorable || holding)
     }
 
     /// The user wants to disconnect (or close the window): ask first when the drive is
@@ -134,6 +141,20 @@ impl Drive {
                 stage: Stage::Asking,
             });
         } else {
+            let held = self.panels.holding();
+            if !held.is_empty() {
+                // Nothing can reach the drive: say what stays behind on it.
+                self.log.push(LogEntry {
+                    at: self.clock,
+                    id: None,
+                    what: "Give forced outputs back before disconnecting".to_owned(),
+                    image: None,
+                    outcome: Outcome::Failed(format!(
+                        "not given back (no link to the drive): {} — it stays so on the drive",
+                        held.join("; ")
+                    )),
+                });
+            }
             self.leaving = Some(Leaving {
                 close_window,
                 stop: StopChoice::LeaveOn,
@@ -163,8 +184,57 @@ impl Drive {
         }
     }
 
-    /// The stop is done (or given up on): restore, then disconnect.
+    /// The stop is done (or given up on): the panels give back what they hold, then
+    /// restore, then disconnect.
     fn stopped(&mut self) {
+        let held = self.panels.holding();
+        if held.is_empty() {
+            return self.released();
+        }
+        self.panels.let_go();
+        self.info(format!(
+            "giving back before disconnecting: {}",
+            held.join("; ")
+        ));
+        if let Some(l) = self.leaving.as_mut() {
+            l.stage = Stage::Releasing { since: self.clock };
+        }
+    }
+
+    /// One frame of waiting for the panels to give back what they held: on when they
+    /// have, the link is gone or the time is up; the log says which.
+    fn releasing_step(&mut self, since: f64) {
+        let held = self.panels.holding();
+        let late = self.clock - since > RELEASE_TIMEOUT_S;
+        let connected = self.is_connected();
+        if !(held.is_empty() || late || !connected) {
+            return;
+        }
+        let outcome = if held.is_empty() {
+            Outcome::Succeeded("given back to the drive".to_owned())
+        } else {
+            let why = if connected {
+                format!("no answer within {RELEASE_TIMEOUT_S:.0} s")
+            } else {
+                "the link is down".to_owned()
+            };
+            Outcome::Failed(format!(
+                "not given back ({why}): {} — it stays so on the drive",
+                held.join("; ")
+            ))
+        };
+        self.log.push(LogEntry {
+            at: self.clock,
+            id: None,
+            what: "Give forced outputs back before disconnecting".to_owned(),
+            image: None,
+            outcome,
+        });
+        self.released();
+    }
+
+    /// What the panels held is given back (or given up on): restore, then disconnect.
+    fn released(&mut self) {
         let Some(leaving) = self.leaving.as_mut() else {
             return;
         };
@@ -217,6 +287,10 @@ impl Drive {
             Stage::Asking => false,
             Stage::Stopping { since } => {
                 self.stopping_step(leaving.stop, since);
+                false
+            }
+            Stage::Releasing { since } => {
+                self.releasing_step(since);
                 false
             }
             Stage::Restoring { since } => {

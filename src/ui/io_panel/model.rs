@@ -1,8 +1,10 @@
 //! The I/O tab's model: the digital inputs by name with their special function and
 //! inversion (60FDh, 3240h:01/:02), the digital outputs with their force mask (60FEh:01,
 //! :02) read live, a force asked for and confirmed before it is written, and the analog
-//! input. Every force is a write the Changes tab lists, so "Restore what I changed" — and
-//! leaving the window, which offers it — gives the outputs back.
+//! input. Every force is a write the Changes tab lists, so "Restore what I changed" gives
+//! the outputs back; and whatever the user answers when leaving (Disconnect, closing the
+//! window), the outputs this window forced are released first
+//! ([`PanelModel::let_go`]), as the CLI's `output` releases its output on exit.
 //!
 //! A model: no egui here.
 
@@ -37,6 +39,11 @@ pub struct IoPanel {
     pub asking: Option<Force>,
     pub message: Option<Result<String, String>>,
     connected: bool,
+    /// Outputs' bits (60FEh) this window forced and has not given back yet; kept across
+    /// a lost link (the drive still holds the force).
+    forced: u32,
+    /// Writes to 60FEh sent and not answered yet.
+    writing: usize,
     cadence: Cadence,
     requests: Vec<(u64, Request)>,
 }
@@ -88,7 +95,17 @@ impl PanelModel for IoPanel {
                     (0x3240, 1) => self.special = word,
                     (0x3240, 2) => self.inverted = word,
                     (0x60FE, 1) => self.outputs = word,
-                    (0x60FE, 2) => self.mask = word,
+                    (0x60FE, 2) => {
+                        self.mask = word;
+                        // A force given back elsewhere (Restore what I changed, the CLI):
+                        // no longer ours. Not while a write is under way, which this
+                        // reading may predate.
+                        if let Some(mask) = word
+                            && self.writing == 0
+                        {
+                            self.forced &= mask;
+                        }
+                    }
                     (0x3220, 1) => self.analog = value.map(|v| v as i64),
                     _ => {}
                 }
@@ -104,6 +121,7 @@ impl PanelModel for IoPanel {
                     address, result, ..
                 },
             ) => {
+                self.writing = self.writing.saturating_sub(1);
                 if let Err(e) = result {
                     self.message = Some(Err(format!("{address}: the drive refused it: {e}")));
                 }
@@ -111,6 +129,7 @@ impl PanelModel for IoPanel {
             }
             (_, Event::Rejected { reason, .. }) => {
                 if tag == WRITE {
+                    self.writing = self.writing.saturating_sub(1);
                     self.message = Some(Err(format!("not written: {reason}")));
                 } else {
                     self.cadence.reading = false;
@@ -118,7 +137,11 @@ impl PanelModel for IoPanel {
                 true
             }
             (_, Event::Cancelled { .. }) => {
-                self.cadence.reading = false;
+                if tag == WRITE {
+                    self.writing = self.writing.saturating_sub(1);
+                } else {
+                    self.cadence.reading = false;
+                }
                 true
             }
             _ => false,
@@ -127,6 +150,58 @@ impl PanelModel for IoPanel {
 
     fn take_requests(&mut self) -> Vec<(u64, Request)> {
         std::mem::take(&mut self.requests)
+    }
+
+    fn holding(&self) -> Vec<String> {
+        let mut held: Vec<String> = (1..=PHYSICAL)
+            .filter(|&n| self.forced & output_bit(n) != 0)
+            .map(|n| {
+                let state = match self.output(n).0 {
+                    Some(true) => " on",
+                    Some(false) => " off",
+                    None => "",
+                };
+                format!("Output {n} is forced{state} by this window")
+            })
+            .collect();
+        if held.is_empty() && self.writing > 0 {
+            held.push("The outputs are being given back to the drive".to_owned());
+        }
+        held
+    }
+
+    fn let_go(&mut self) {
+        let forced = self.forced;
+        if forced == 0 {
+            return;
+        }
+        self.asking = None;
+        if !self.connected {
+            self.message = Some(Err(
+                "the link is down: the forced outputs could not be given back".into(),
+            ));
+            return;
+        }
+        let (Some(value), Some(mask)) = (self.outputs, self.mask) else {
+            return;
+        };
+        self.release(forced, value, mask);
+        self.message = Some(Ok("the forced outputs were given back to the drive".into()));
+    }
+}
+
+/// Output n's bit in 60FEh:01 and :02 (outputs start at bit 16).
+fn output_bit(n: u8) -> u32 {
+    1u32 << (15 + n)
+}
+
+/// A write of 60FEh:`sub`.
+fn write_outputs(sub: u8, v: u32) -> Request {
+    Request::WriteObject {
+        address: Address::new(0x60FE, sub),
+        dtype: DataType::Unsigned32,
+        value: Value::Uint(u64::from(v)),
+        path: ObjectPath::Auto,
     }
 }
 
@@ -168,7 +243,7 @@ impl IoPanel {
 
     /// Output n (1–8): on, and forced.
     pub fn output(&self, n: u8) -> (Option<bool>, Option<bool>) {
-        let bit = 1u32 << (15 + n);
+        let bit = output_bit(n);
         (
             self.outputs.map(|v| v & bit != 0),
             self.mask.map(|m| m & bit != 0),
@@ -214,18 +289,14 @@ impl IoPanel {
             self.message = Some(Err("not connected: nothing written".into()));
             return;
         }
-        let bit = 1u32 << (15 + force.output);
-        let write = |sub: u8, v: u32| Request::WriteObject {
-            address: Address::new(0x60FE, sub),
-            dtype: DataType::Unsigned32,
-            value: Value::Uint(u64::from(v)),
-            path: ObjectPath::Auto,
-        };
+        let bit = output_bit(force.output);
         match force.on {
             Some(on) => {
                 let v = if on { value | bit } else { value & !bit };
-                self.requests.push((WRITE, write(1, v)));
-                self.requests.push((WRITE, write(2, mask | bit)));
+                self.requests.push((WRITE, write_outputs(1, v)));
+                self.requests.push((WRITE, write_outputs(2, mask | bit)));
+                self.writing += 2;
+                self.forced |= bit;
                 self.message = Some(Ok(format!(
                     "output {} forced {}",
                     force.output,
@@ -233,12 +304,20 @@ impl IoPanel {
                 )));
             }
             None => {
-                self.requests.push((WRITE, write(2, mask & !bit)));
-                self.requests.push((WRITE, write(1, value & !bit)));
+                self.release(bit, value, mask);
                 self.message = Some(Ok(format!("output {} released", force.output)));
             }
         }
         // Seen at the next reading.
+        self.cadence.soon();
+    }
+
+    /// Give the outputs in `bits` back to the drive: the mask first, then the value.
+    fn release(&mut self, bits: u32, value: u32, mask: u32) {
+        self.requests.push((WRITE, write_outputs(2, mask & !bits)));
+        self.requests.push((WRITE, write_outputs(1, value & !bits)));
+        self.writing += 2;
+        self.forced &= !bits;
         self.cadence.soon();
     }
 }
