@@ -22,26 +22,32 @@ pub enum Injection {
     UnderVoltage,
     /// The controller is hot: 85 °C (warning 4200h, no fault).
     OverTemperature,
+    /// The wire to input 1 (the negative limit switch, normally closed) is broken: the
+    /// input reads low, so the switch reads as pressed. A condition of the machine, neither
+    /// a fault nor a warning of the drive.
+    WireBreak,
     /// The cable is pulled for 3 s: the link to the simulated drive stops answering (the
     /// drive itself carries on). Only the in-process link can simulate this.
     LinkLoss,
 }
 
 impl Injection {
-    pub const ALL: [Injection; 5] = [
+    pub const ALL: [Injection; 6] = [
         Injection::FollowingError,
         Injection::OverCurrent,
         Injection::UnderVoltage,
         Injection::OverTemperature,
+        Injection::WireBreak,
         Injection::LinkLoss,
     ];
 
     /// The conditions of the drive itself (not of the link to it).
-    pub const DRIVE: [Injection; 4] = [
+    pub const DRIVE: [Injection; 5] = [
         Injection::FollowingError,
         Injection::OverCurrent,
         Injection::UnderVoltage,
         Injection::OverTemperature,
+        Injection::WireBreak,
     ];
 
     /// The code the drive reports in 603Fh, 1003h and EMCY.
@@ -51,7 +57,7 @@ impl Injection {
             Injection::OverCurrent => ErrorCode::OUTPUT_CURRENT,
             Injection::UnderVoltage => ErrorCode::VOLTAGE,
             Injection::OverTemperature => ErrorCode::TEMPERATURE,
-            Injection::LinkLoss => ErrorCode::NONE,
+            Injection::WireBreak | Injection::LinkLoss => ErrorCode::NONE,
         }
     }
 
@@ -62,7 +68,7 @@ impl Injection {
             Injection::OverCurrent => 2,
             Injection::UnderVoltage => 3,
             Injection::OverTemperature => 12,
-            Injection::LinkLoss => 0,
+            Injection::WireBreak | Injection::LinkLoss => 0,
         }
     }
 
@@ -73,12 +79,21 @@ impl Injection {
             Injection::OverCurrent => 0x02 | 0x01,
             Injection::UnderVoltage => 0x04 | 0x01,
             Injection::OverTemperature => 0x08 | 0x01,
-            Injection::LinkLoss => 0,
+            Injection::WireBreak | Injection::LinkLoss => 0,
         }
     }
 
     pub fn is_fault(self) -> bool {
-        !matches!(self, Injection::OverTemperature | Injection::LinkLoss)
+        !matches!(
+            self,
+            Injection::OverTemperature | Injection::WireBreak | Injection::LinkLoss
+        )
+    }
+
+    /// Whether the drive reports it (a fault or a warning with its code); a condition of
+    /// the machine or the link it does not.
+    pub fn is_reported(self) -> bool {
+        !matches!(self, Injection::WireBreak | Injection::LinkLoss)
     }
 
     /// Whether this is a condition of the link rather than of the drive.
@@ -92,6 +107,7 @@ impl Injection {
             Injection::OverCurrent => "over-current",
             Injection::UnderVoltage => "under-voltage",
             Injection::OverTemperature => "over-temperature",
+            Injection::WireBreak => "wire-break",
             Injection::LinkLoss => "link-loss",
         }
     }
@@ -102,6 +118,9 @@ impl Injection {
             Injection::OverCurrent => "output current too large: fault (2300h)",
             Injection::UnderVoltage => "supply voltage at 9 V: fault (3100h)",
             Injection::OverTemperature => "controller at 85 °C: warning (4200h)",
+            Injection::WireBreak => {
+                "wire to input 1 broken: the normally closed negative limit switch reads as pressed"
+            }
             Injection::LinkLoss => {
                 "cable pulled for 3 s: the link stops answering, the drive carries on"
             }

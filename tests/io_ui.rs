@@ -54,7 +54,7 @@ fn an_output_is_forced_after_a_yes_listed_in_changes_and_given_back() {
     harness.get_by_label("I/O").click();
     harness.run();
     step_until(&mut harness, "the I/O read", Duration::from_secs(5), |h| {
-        panel(h).outputs.is_some() && panel(h).inputs.is_some()
+        panel(h).outputs.is_some() && panel(h).words.inputs.is_some()
     });
     assert!(
         harness
@@ -62,7 +62,14 @@ fn an_output_is_forced_after_a_yes_listed_in_changes_and_given_back() {
             .next()
             .is_some()
     );
-    assert!(harness.query_all_by_label("input 1").next().is_some());
+    // The simulated machine's normally closed limit switch on input 1.
+    assert!(
+        harness
+            .query_all_by_label("input 1 (negative limit switch, inverted, terminal high)")
+            .next()
+            .is_some()
+    );
+    assert!(harness.query_all_by_label("input 4").next().is_some());
 
     answer_yes(&mut harness, "On output 2");
     step_until(&mut harness, "forced on", Duration::from_secs(5), |h| {

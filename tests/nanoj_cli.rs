@@ -1,5 +1,5 @@
 //! `drivedeck nanoj`: the simulated drive's program started, its injected error decoded,
-//! started again and stopped, over Modbus TCP and CANopen slcan.
+//! started again and stopped, over Modbus TCP, EtherNet/IP and CANopen slcan.
 
 // Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -58,6 +58,12 @@ fn start_error_restart_and_stop(link: &str) {
 fn the_program_over_modbus_tcp() {
     let (_sim, addr) = Sim::tcp(&[]);
     start_error_restart_and_stop(&format!("modbus-tcp://{addr}"));
+}
+
+#[test]
+fn the_program_over_ethernet_ip() {
+    let (_sim, addr) = Sim::enip(&[]);
+    start_error_restart_and_stop(&format!("enip://{addr}"));
 }
 
 #[test]

@@ -16,13 +16,9 @@ use super::failure::{Failure, failed, usage};
 use super::report;
 use super::session::Session;
 use crate::link::LinkSpec;
+use crate::od::io::{InputLine, InputWords, PHYSICAL, input_lines, output_bit};
 use crate::od::{Address, DataType, Value};
 use crate::worker::ObjectPath;
-
-/// The physical inputs and outputs shown (bits 16 on).
-const PHYSICAL: u8 = 8;
-/// The outputs that can be forced (60FEh:01 bits 16 on).
-const OUTPUTS: u8 = 8;
 
 #[derive(Args, Debug, Clone)]
 pub struct OutputArgs {
@@ -49,10 +45,34 @@ struct Input {
     bit: u8,
     name: String,
     on: bool,
+    /// The special function the input serves (3240h:01).
     #[serde(skip_serializing_if = "Option::is_none")]
-    special_function: Option<bool>,
+    special_function: Option<&'static str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     inverted: Option<bool>,
+    /// Forced by 3240h:03.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    forced: Option<bool>,
+    /// The level at the terminal, 3240h:05.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    terminal_high: Option<bool>,
+    /// "input 1 (negative limit switch, inverted)".
+    label: String,
+}
+
+impl From<InputLine> for Input {
+    fn from(line: InputLine) -> Self {
+        Input {
+            bit: line.bit,
+            label: line.label(),
+            on: line.on.unwrap_or(false),
+            special_function: line.function,
+            inverted: line.inverted,
+            forced: line.forced,
+            terminal_high: line.raw,
+            name: line.name,
+        }
+    }
 }
 
 #[derive(Serialize, Debug)]
@@ -95,31 +115,16 @@ fn write(
 }
 
 fn io_report(session: &mut Session, link: &LinkSpec, timeout: Duration) -> IoReport {
-    let inputs = read(session, 0x60FD, 0, timeout).map(|v| v as u32);
-    let special = read(session, 0x3240, 1, timeout).map(|v| v as u32);
-    let inverted = read(session, 0x3240, 2, timeout).map(|v| v as u32);
-    let named = [
-        (0, "negative limit switch".to_owned()),
-        (1, "positive limit switch".to_owned()),
-        (2, "home switch".to_owned()),
-        (3, "interlock".to_owned()),
-    ];
-    let physical = (1..=PHYSICAL).map(|n| (15 + n, format!("input {n}")));
-    let list = named
-        .into_iter()
-        .chain(physical)
-        .map(|(bit, name)| {
-            // 3240h's bit n−1 is input n.
-            let n = bit.checked_sub(16);
-            Input {
-                bit,
-                name,
-                on: inputs.is_some_and(|v| v & (1 << bit) != 0),
-                special_function: n.and_then(|n| special.map(|s| s & (1 << n) != 0)),
-                inverted: n.and_then(|n| inverted.map(|s| s & (1 << n) != 0)),
-            }
-        })
-        .collect();
+    let mut word = |index: u16, sub: u8| read(session, index, sub, timeout).map(|v| v as u32);
+    let words = InputWords {
+        inputs: word(0x60FD, 0),
+        special: word(0x3240, 1),
+        inverted: word(0x3240, 2),
+        forced: word(0x3240, 3),
+        raw: word(0x3240, 5),
+    };
+    let inputs = words.inputs;
+    let list = input_lines(&words).into_iter().map(Input::from).collect();
     let outputs = read(session, 0x60FE, 1, timeout).map(|v| v as u32);
     let mask = read(session, 0x60FE, 2, timeout).map(|v| v as u32);
     IoReport {
@@ -128,11 +133,11 @@ fn io_report(session: &mut Session, link: &LinkSpec, timeout: Duration) -> IoRep
         inputs: list,
         outputs_60fe: outputs,
         mask_60fe: mask,
-        outputs: (1..=OUTPUTS)
+        outputs: (1..=PHYSICAL)
             .map(|n| Output {
                 number: n,
-                on: outputs.is_some_and(|v| v & (1 << (15 + n)) != 0),
-                forced: mask.is_some_and(|v| v & (1 << (15 + n)) != 0),
+                on: outputs.is_some_and(|v| v & output_bit(n) != 0),
+                forced: mask.is_some_and(|v| v & output_bit(n) != 0),
             })
             .collect(),
         analog_input_3220: read(session, 0x3220, 1, timeout),
@@ -145,19 +150,7 @@ fn print(r: &IoReport) {
         None => println!("digital inputs 60FDh: not read"),
     }
     for i in &r.inputs {
-        let mut notes = vec![];
-        if i.special_function == Some(true) {
-            notes.push("special function");
-        }
-        if i.inverted == Some(true) {
-            notes.push("inverted");
-        }
-        let notes = if notes.is_empty() {
-            String::new()
-        } else {
-            format!(" ({})", notes.join(", "))
-        };
-        println!("  [{}] {}{notes}", if i.on { "x" } else { " " }, i.name);
+        println!("  [{}] {}", if i.on { "x" } else { " " }, i.label);
     }
     match (r.outputs_60fe, r.mask_60fe) {
         (Some(v), Some(m)) => println!("digital outputs 60FEh:01 = {v:08X}h, mask :02 = {m:08X}h"),

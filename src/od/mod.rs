@@ -6,6 +6,7 @@ mod catalog;
 pub mod eds;
 mod error;
 pub mod gains;
+pub mod io;
 pub mod nanoj;
 mod role;
 mod types;

@@ -19,7 +19,7 @@ mod tests;
 pub use crate::injection::Injection;
 pub use canbus::SimCanBus;
 pub use dictionary::{Dictionary, wrap_integer};
-pub use drive::{AUTO_SETUP_TIME, BOOT_TIME, Drive, STEP};
+pub use drive::{AUTO_SETUP_TIME, BOOT_TIME, Drive, FACTORY_SETTINGS, STEP};
 pub use homing::SUPPORTED_METHODS;
 pub use link::SimLink;
 pub use motion::{rpm_to_units, units_to_rpm};

@@ -11,7 +11,9 @@ impl Drive {
             return;
         }
         self.injected.insert(injection);
-        if injection.is_fault() {
+        if !injection.is_reported() {
+            // A condition of the machine (a broken wire): the inputs show it.
+        } else if injection.is_fault() {
             self.raise_fault(
                 injection.error_code(),
                 injection.error_number(),

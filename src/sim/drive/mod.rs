@@ -33,6 +33,7 @@ use crate::injection::Injection;
 
 mod access;
 mod faults;
+mod inputs;
 mod nanoj;
 mod pdi;
 mod physics;
@@ -43,6 +44,7 @@ mod storage;
 /// The simulation step: every `tick` is cut into steps of at most this length.
 pub const STEP: Duration = Duration::from_millis(1);
 
+pub use inputs::FACTORY_SETTINGS;
 pub use storage::BOOT_TIME;
 
 /// How long auto setup takes.
@@ -164,6 +166,11 @@ impl Drive {
             od.set_int(0x2320, sub, mapping(0x2500, sub));
         }
         od.set_int(0x2303, 1, 0x300);
+        // The machine's switches: special functions of inputs 1–3 on, the normally
+        // closed limit switches on inputs 1–2 inverted (`inputs`).
+        for (index, sub, value) in inputs::FACTORY_SETTINGS {
+            od.set_int(index, sub, i64::from(value));
+        }
         Self::from_dictionary(std::sync::Arc::new(od), world)
     }
 

@@ -230,7 +230,7 @@ impl Drive {
     }
 
     fn after_step(&mut self, x_before: f64, dt: f64) {
-        let sensors = self.world.sensors(self.x);
+        let sensors = self.switches();
         let step = Duration::from_secs_f64(dt);
         if matches!(self.activity, Activity::Homing { .. }) {
             self.step_homing(x_before);

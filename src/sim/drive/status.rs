@@ -21,7 +21,7 @@ impl Drive {
             self.state,
             PowerState::Fault | PowerState::FaultReactionActive
         );
-        let sensors = self.world.sensors(self.x);
+        let sensors = self.switches();
         Status(0)
             .with(
                 StatusBit::OperationEnabled,
@@ -56,7 +56,7 @@ impl Drive {
 
     /// The CiA 402 statusword 6041h, consistent with the PDI state.
     pub fn statusword(&self) -> u16 {
-        let sensors = self.world.sensors(self.x);
+        let sensors = self.switches();
         let mut word = self.state.statusword_bits();
         if !self.injected.contains(&Injection::UnderVoltage) {
             word |= 1 << 4;
@@ -90,7 +90,8 @@ impl Drive {
     pub(super) fn publish(&mut self) {
         let tx = self.tx_image();
         let statusword = self.statusword();
-        let sensors = self.world.sensors(self.x);
+        let inputs = self.digital_inputs();
+        let levels = self.input_levels();
         let nanoj = self.nanoj_status();
         let od = &mut self.od;
         // 2292h:01, 603Fh, 2292h:02 (TX_OBJECTS).
@@ -111,7 +112,8 @@ impl Drive {
             0.0
         };
         od.set_int(0x60F4, 0, deviation.round() as i64);
-        od.set_int(0x60FD, 0, i64::from(sensors.digital_inputs()));
+        od.set_int(0x60FD, 0, i64::from(inputs));
+        od.set_int(0x3240, 5, i64::from(levels));
         let rated = od.int(0x203B, 1) as f64;
         let current = self.torque * rated / 1000.0;
         od.set_int(0x2039, 2, current.round() as i64);

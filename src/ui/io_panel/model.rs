@@ -17,8 +17,8 @@ const WRITE: u64 = 2;
 
 /// How often the values are read, seconds of the worker's clock.
 pub const EVERY_S: f64 = 0.25;
-/// Physical inputs and outputs shown (bits 16 on).
-pub const PHYSICAL: u8 = 8;
+pub use crate::od::io::PHYSICAL;
+use crate::od::io::{InputLine, InputWords, input_lines, output_bit};
 
 /// A force waiting for the user's yes: output n, on (true) or off, or released (None).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,9 +30,8 @@ pub struct Force {
 /// The I/O tab of one drive.
 #[derive(Debug, Default)]
 pub struct IoPanel {
-    pub inputs: Option<u32>,
-    pub special: Option<u32>,
-    pub inverted: Option<u32>,
+    /// 60FDh and 3240h:01, :02, :03, :05.
+    pub words: InputWords,
     pub outputs: Option<u32>,
     pub mask: Option<u32>,
     pub analog: Option<i64>,
@@ -46,18 +45,6 @@ pub struct IoPanel {
     writing: usize,
     cadence: Cadence,
     requests: Vec<(u64, Request)>,
-}
-
-/// The names of 60FDh's bits shown, in order: (bit, name).
-pub fn input_names() -> Vec<(u8, String)> {
-    let mut names = vec![
-        (0, "negative limit switch".to_owned()),
-        (1, "positive limit switch".to_owned()),
-        (2, "home switch".to_owned()),
-        (3, "interlock".to_owned()),
-    ];
-    names.extend((1..=PHYSICAL).map(|n| (15 + n, format!("input {n}"))));
-    names
 }
 
 impl PanelModel for IoPanel {
@@ -91,9 +78,11 @@ impl PanelModel for IoPanel {
                 let value = result.as_ref().ok().and_then(Value::as_i128);
                 let word = value.map(|v| v as u32);
                 match (address.index, address.sub) {
-                    (0x60FD, 0) => self.inputs = word,
-                    (0x3240, 1) => self.special = word,
-                    (0x3240, 2) => self.inverted = word,
+                    (0x60FD, 0) => self.words.inputs = word,
+                    (0x3240, 1) => self.words.special = word,
+                    (0x3240, 2) => self.words.inverted = word,
+                    (0x3240, 3) => self.words.forced = word,
+                    (0x3240, 5) => self.words.raw = word,
                     (0x60FE, 1) => self.outputs = word,
                     (0x60FE, 2) => {
                         self.mask = word;
@@ -190,11 +179,6 @@ impl PanelModel for IoPanel {
     }
 }
 
-/// Output n's bit in 60FEh:01 and :02 (outputs start at bit 16).
-fn output_bit(n: u8) -> u32 {
-    1u32 << (15 + n)
-}
-
 /// A write of 60FEh:`sub`.
 fn write_outputs(sub: u8, v: u32) -> Request {
     Request::WriteObject {
@@ -227,6 +211,8 @@ impl IoPanel {
                     object(0x60FD, 0),
                     object(0x3240, 1),
                     object(0x3240, 2),
+                    object(0x3240, 3),
+                    object(0x3240, 5),
                     object(0x60FE, 1),
                     object(0x60FE, 2),
                     object(0x3220, 1),
@@ -238,7 +224,12 @@ impl IoPanel {
 
     /// Whether 60FDh's `bit` is set.
     pub fn input(&self, bit: u8) -> Option<bool> {
-        self.inputs.map(|v| v & (1 << bit) != 0)
+        self.words.inputs.map(|v| v & (1 << bit) != 0)
+    }
+
+    /// The inputs, line by line, with what 3240h does to each.
+    pub fn input_lines(&self) -> Vec<InputLine> {
+        input_lines(&self.words)
     }
 
     /// Output n (1–8): on, and forced.

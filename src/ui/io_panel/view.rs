@@ -3,7 +3,7 @@
 
 use eframe::egui::{self, RichText, Ui};
 
-use super::model::{Force, IoPanel, PHYSICAL, input_names};
+use super::model::{Force, IoPanel, PHYSICAL};
 use crate::od::Address;
 use crate::ui::command::{Command, Said};
 use crate::ui::drive::Drive;
@@ -77,27 +77,19 @@ fn inputs_ui(ui: &mut Ui, panel: &IoPanel) {
     ui.strong(format!(
         "Digital inputs 60FDh{}",
         panel
+            .words
             .inputs
             .map_or(String::new(), |v| format!(" = {v:08X}h"))
     ));
-    for (bit, name) in input_names() {
-        let on = panel.input(bit).unwrap_or(false);
-        let n = bit.checked_sub(16);
-        let mut notes = vec![];
-        if let Some(n) = n {
-            if panel.special.is_some_and(|s| s & (1 << n) != 0) {
-                notes.push("special function");
-            }
-            if panel.inverted.is_some_and(|s| s & (1 << n) != 0) {
-                notes.push("inverted");
-            }
-        }
-        let label = if notes.is_empty() {
-            name.clone()
-        } else {
-            format!("{name} ({})", notes.join(", "))
-        };
-        lamp(ui, on, GREEN, &label, &format!("60FDh bit {bit}"));
+    for line in panel.input_lines() {
+        let on = line.on.unwrap_or(false);
+        lamp(
+            ui,
+            on,
+            GREEN,
+            &line.label(),
+            &format!("60FDh bit {}", line.bit),
+        );
     }
 }
 
