@@ -97,8 +97,7 @@ fn inputs_and_a_forced_output_over_ethernet_ip() {
     let link = format!("enip://{addr}");
     let io = json(&["--link", &link, "io"]);
     assert_eq!(
-        io["inputs"][4]["label"],
-        "input 1 (negative limit switch, inverted, terminal high)",
+        io["inputs"][4]["label"], "input 1 (negative limit switch, inverted, terminal high)",
         "{io:#}"
     );
     let held = run(&["--link", &link, "output", "1", "on", "--hold", "0.5"]);

@@ -37,29 +37,24 @@ pub fn io_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
         .id_salt("io_body")
         .auto_shrink([false, false])
         .show(ui, |ui| {
-            ui.horizontal_top(|ui| {
-                ui.vertical(|ui| inputs_ui(ui, panel));
+            // Inputs beside outputs and the analog input where the tab is wide enough
+            // for both; one under the other on a narrow window.
+            let right = |ui: &mut Ui, intents: &mut Vec<Intent>, commands: &mut Vec<Command>| {
+                outputs_ui(ui, panel, intents);
                 ui.separator();
-                ui.vertical(|ui| outputs_ui(ui, panel, &mut intents));
-                ui.separator();
-                ui.vertical(|ui| {
-                    ui.strong("Analog input 3220h:01");
-                    ui.horizontal(|ui| {
-                        ui.monospace(panel.analog.map_or("–".into(), |v| v.to_string()));
-                        ui.weak("digits");
-                        let plot = ui
-                            .small_button("Plot")
-                            .on_hover_text("Sample it every cycle and add it to the plots");
-                        name_widget(&plot, egui::accesskit::Role::Button, "Plot analog input");
-                        if plot.clicked() {
-                            commands.push(Command::PlotObject {
-                                text: Address::new(0x3220, 1).to_string(),
-                                from: Said::Plots,
-                            });
-                        }
-                    });
+                analog_ui(ui, panel, commands);
+            };
+            if ui.available_width() >= SIDE_BY_SIDE {
+                ui.horizontal_top(|ui| {
+                    ui.vertical(|ui| inputs_ui(ui, panel));
+                    ui.separator();
+                    ui.vertical(|ui| right(ui, &mut intents, commands));
                 });
-            });
+            } else {
+                inputs_ui(ui, panel);
+                ui.separator();
+                right(ui, &mut intents, commands);
+            }
             if !panel.is_connected() {
                 ui.colored_label(AMBER, "not connected: the values are as last read");
             }
@@ -71,6 +66,27 @@ pub fn io_ui(ui: &mut Ui, drive: &mut Drive, commands: &mut Vec<Command>) {
             Intent::Decline => panel.decline(),
         }
     }
+}
+
+/// The width from which the inputs and the outputs stand side by side.
+const SIDE_BY_SIDE: f32 = 680.0;
+
+fn analog_ui(ui: &mut Ui, panel: &IoPanel, commands: &mut Vec<Command>) {
+    ui.strong("Analog input 3220h:01");
+    ui.horizontal(|ui| {
+        ui.monospace(panel.analog.map_or("–".into(), |v| v.to_string()));
+        ui.weak("digits");
+        let plot = ui
+            .small_button("Plot")
+            .on_hover_text("Sample it every cycle and add it to the plots");
+        name_widget(&plot, egui::accesskit::Role::Button, "Plot analog input");
+        if plot.clicked() {
+            commands.push(Command::PlotObject {
+                text: Address::new(0x3220, 1).to_string(),
+                from: Said::Plots,
+            });
+        }
+    });
 }
 
 fn inputs_ui(ui: &mut Ui, panel: &IoPanel) {
