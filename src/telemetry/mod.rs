@@ -1,7 +1,8 @@
 //! Recorded signals: the bounded history of the live plots (`Ring`, with min/max
 //! decimation per pixel column), triggers, recordings and their files, and the plot model
 //! that ties them to the worker's samples (`Scope`); the figures of a test move's steps
-//! (`figures`); the amplitude spectrum of a recorded signal (`spectrum`).
+//! (`figures`), a test run's plan and its sequence of steps (`test_run`,
+//! `test_sequence`); the amplitude spectrum of a recorded signal (`spectrum`).
 
 pub mod figures;
 pub mod recording;
@@ -10,6 +11,7 @@ mod save;
 mod scope;
 pub mod spectrum;
 pub mod test_run;
+pub mod test_sequence;
 pub mod trigger;
 
 pub use recording::stream::{Layout, StreamWriter, Summary};

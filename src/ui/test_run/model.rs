@@ -11,9 +11,9 @@
 use crate::pdi::Action;
 use crate::signal::{Sample, Signal};
 use crate::telemetry::test_run::{
-    MoveTest, Plan, StepReport, Summary, VelocityTest, move_plan, step_report, summary,
-    velocity_plan,
+    MoveTest, Plan, StepReport, Summary, VelocityTest, move_plan, summary, velocity_plan,
 };
+use crate::telemetry::test_sequence::{Next, Sequence};
 use crate::ui::panel::PanelModel;
 use crate::worker::{CommandProgress, Event, Request};
 
@@ -120,33 +120,11 @@ pub struct Run {
     pub ended_early: Option<String>,
 }
 
-/// Where a run stands.
-#[derive(Clone, Debug, PartialEq)]
-enum Phase {
-    /// Going to the start (not measured).
-    ToStart,
-    /// A step's command sent; its samples collected.
-    Step { index: usize, cycle: u32 },
-    /// The step's move is done; the dwell runs until `until` (sample time).
-    Dwell {
-        index: usize,
-        cycle: u32,
-        until: f64,
-    },
-}
-
-/// The run under way.
+/// The run under way: its sequence and what the list will show of it.
 #[derive(Clone, Debug)]
 struct Running {
-    plan: Plan,
-    phase: Phase,
+    sequence: Sequence,
     run: Run,
-    /// The current step's samples, the first from its command on.
-    samples: Vec<Sample>,
-    /// When the current step's command was sent (the newest sample's time then).
-    step_t0: Option<f64>,
-    /// The run's first step's command time.
-    run_t0: Option<f64>,
 }
 
 /// The Test tab of one drive.
@@ -193,7 +171,7 @@ impl PanelModel for TestRuns {
                 if tag == HALT {
                     return true;
                 }
-                self.on_command_over(tag, progress);
+                self.on_command_over(progress);
                 true
             }
             Event::Rejected { reason, .. } => {
@@ -222,21 +200,7 @@ impl TestRuns {
 
     /// Where the run under way stands, in words.
     pub fn progress(&self) -> Option<String> {
-        let r = self.running.as_ref()?;
-        let steps = r.plan.steps.len();
-        Some(match r.phase {
-            Phase::ToStart => "moving to the start".into(),
-            Phase::Step { index, cycle } => format!(
-                "cycle {cycle} of {}, step {} of {steps}: moving",
-                r.plan.cycles,
-                index + 1
-            ),
-            Phase::Dwell { index, cycle, .. } => format!(
-                "cycle {cycle} of {}, step {} of {steps}: dwell",
-                r.plan.cycles,
-                index + 1
-            ),
-        })
+        Some(self.running.as_ref()?.sequence.progress())
     }
 
     /// Start a run from the form (refused with the reason when the form is wrong, the
@@ -288,11 +252,7 @@ impl TestRuns {
                 step_starts: Vec::new(),
                 ended_early: None,
             },
-            plan,
-            phase: Phase::ToStart,
-            samples: Vec::new(),
-            step_t0: None,
-            run_t0: None,
+            sequence: Sequence::new(plan, self.last_t),
         });
     }
 
@@ -324,106 +284,32 @@ impl TestRuns {
         if let Some(last) = samples.last() {
             self.last_t = Some(last.t);
         }
-        let Some(running) = self.running.as_mut() else {
-            return;
-        };
-        let Some(t0) = running.step_t0 else {
-            return;
-        };
-        running
-            .samples
-            .extend(samples.iter().filter(|s| s.t >= t0).cloned());
-        if let Phase::Dwell { until, .. } = running.phase
-            && self.last_t.is_some_and(|t| t >= until)
-        {
-            self.step_over();
+        if let Some(running) = self.running.as_mut() {
+            let next = running.sequence.on_samples(samples);
+            self.follow(next);
+        }
+    }
+
+    /// Do what the sequence asks for.
+    fn follow(&mut self, next: Next) {
+        match next {
+            Next::Wait => {}
+            Next::Send(action) => self.requests.push((STEP, Request::Command(action))),
+            Next::Over(why) => self.end(why),
         }
     }
 
     /// A step's or the start's command ended.
-    fn on_command_over(&mut self, tag: u64, progress: &CommandProgress) {
+    fn on_command_over(&mut self, progress: &CommandProgress) {
         let Some(running) = self.running.as_mut() else {
             return;
         };
-        if !matches!(progress, CommandProgress::Done { .. }) {
-            let what = if tag == START {
-                "the move to the start"
-            } else {
-                "the step"
-            };
-            self.end(Some(format!("{what} did not end well: {progress}")));
-            return;
-        }
-        match running.phase {
-            Phase::ToStart => self.begin_step(0, 1),
-            Phase::Step { index, cycle } => {
-                let now = self.last_t.unwrap_or(0.0);
-                running.phase = Phase::Dwell {
-                    index,
-                    cycle,
-                    until: now + running.plan.dwell,
-                };
-                if running.plan.dwell <= 0.0 {
-                    self.step_over();
-                }
-            }
-            Phase::Dwell { .. } => {}
-        }
-    }
-
-    /// Send step `index` of `cycle`.
-    fn begin_step(&mut self, index: usize, cycle: u32) {
-        let last_t = self.last_t;
-        let Some(running) = self.running.as_mut() else {
-            return;
+        let outcome = match progress {
+            CommandProgress::Done { .. } => Ok(()),
+            other => Err(other.to_string()),
         };
-        let Some(&(_, _, action)) = running.plan.steps.get(index) else {
-            return;
-        };
-        let t0 = last_t.unwrap_or(0.0);
-        running.step_t0 = Some(t0);
-        let run_t0 = *running.run_t0.get_or_insert(t0);
-        running.run.step_starts.push(t0 - run_t0);
-        running.samples.clear();
-        running.phase = Phase::Step { index, cycle };
-        self.requests.push((STEP, Request::Command(action)));
-    }
-
-    /// The dwell is over: the step's figures, then the next step, cycle or the end.
-    fn step_over(&mut self) {
-        let Some(running) = self.running.as_mut() else {
-            return;
-        };
-        let (Phase::Dwell { index, cycle, .. } | Phase::Step { index, cycle }) = running.phase
-        else {
-            return;
-        };
-        let (from, to, _) = running.plan.steps[index];
-        let step = step_report(
-            cycle,
-            (from, to),
-            running.plan.band,
-            running.plan.signal,
-            &running.samples,
-        );
-        running.run.steps.push(step);
-        let run_t0 = running.run_t0.unwrap_or(0.0);
-        let signal = running.plan.signal;
-        running.run.trace.extend(
-            running
-                .samples
-                .iter()
-                .filter_map(|s| s.signals.get(signal).map(|v| [s.t - run_t0, v])),
-        );
-        let steps = running.plan.steps.len();
-        let cycles = running.plan.cycles;
-        if index + 1 < steps {
-            self.begin_step(index + 1, cycle);
-        } else if cycle < cycles {
-            self.begin_step(0, cycle + 1);
-        } else {
-            self.end(None);
-        }
+        let next = running.sequence.on_command_over(outcome);
+        self.follow(next);
     }
 
     /// The run ends (`why`: before its last cycle): kept in the list with its figures.
@@ -432,6 +318,10 @@ impl TestRuns {
             return;
         };
         let mut run = running.run;
+        let sequence = running.sequence;
+        run.steps = sequence.steps;
+        run.trace = sequence.trace;
+        run.step_starts = sequence.step_starts;
         run.summary = summary(&run.steps);
         self.message = Some(match &why {
             None => Ok(format!(
@@ -534,12 +424,7 @@ impl TestRuns {
 
     /// The command the run under way waits for, if any (for tests and the view).
     pub fn waiting_for(&self) -> Option<Action> {
-        let r = self.running.as_ref()?;
-        match r.phase {
-            Phase::ToStart => Some(r.plan.start),
-            Phase::Step { index, .. } => r.plan.steps.get(index).map(|s| s.2),
-            Phase::Dwell { .. } => None,
-        }
+        self.running.as_ref()?.sequence.waiting_for()
     }
 }
 
