@@ -17,6 +17,7 @@ pub mod link;
 pub mod number;
 pub mod od;
 pub mod pdi;
+pub mod procedure;
 pub mod project;
 pub mod proto;
 pub mod signal;

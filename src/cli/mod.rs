@@ -16,6 +16,7 @@ macro_rules! outln {
 mod bench;
 mod bench_io;
 mod bench_start;
+mod commission;
 mod context;
 mod failure;
 mod gains;
@@ -171,6 +172,11 @@ pub enum Command {
     /// The drive's NanoJ program: `nanoj status`, `nanoj start` (waits until it runs or
     /// says its error), `nanoj stop`.
     Nanoj(nanoj::NanojArgs),
+    /// Run a commissioning procedure (TOML) on --link or on a project's drives and write
+    /// its record (HTML and JSON): `commission axis.toml --project machine.json --record
+    /// out.html`; --rehearse runs it against simulated drives first. Exit 0 all passed,
+    /// 1 any failed, 130 interrupted.
+    Commission(commission::CommissionArgs),
     /// Store every value as it is now for the next power-on ("save" to 1010h:01).
     Store,
     /// Bring the factory values back at the next restart ("load" to 1011h:01); --reboot
@@ -763,6 +769,33 @@ pub fn main() -> ExitCode {
         },
         expected: None,
     };
+    if let Some(Command::Commission(args)) = &cli.command {
+        // A procedure covers every drive of a project (or those named) itself.
+        let project = match &cli.project {
+            Some(path) => match project_cmd::load(path) {
+                Ok(project) => Some((path.clone(), project)),
+                Err(f) => {
+                    report::print_error(&f.message, cli.json);
+                    return ExitCode::from(f.code);
+                }
+            },
+            None => None,
+        };
+        if project.is_some() && cli.link.is_some() {
+            report::print_error("give --link or --project, not both", cli.json);
+            return ExitCode::from(EXIT_USAGE);
+        }
+        return commission::run(
+            args,
+            cli.link.as_ref(),
+            project.as_ref().map(|(p, pr)| (p.as_path(), pr)),
+            cli.drive.as_deref(),
+            cli.json,
+            timeout(&cli),
+            cli.trace,
+            &context,
+        );
+    }
     let target = match project_cmd::target(&cli) {
         Ok(target) => target,
         Err(f) => {

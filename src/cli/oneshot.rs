@@ -90,6 +90,7 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Spectrum(_)
         | Command::Store
         | Command::Nanoj(_)
+        | Command::Commission(_)
         | Command::Io
         | Command::Output(_)
         | Command::Defaults(_)

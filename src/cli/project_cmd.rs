@@ -80,6 +80,7 @@ fn command_name(command: &Command) -> &'static str {
         Command::Spectrum(_) => "spectrum",
         Command::Store => "store",
         Command::Nanoj(_) => "nanoj",
+        Command::Commission(_) => "commission",
         Command::Io => "io",
         Command::Output(_) => "output",
         Command::Defaults(_) => "defaults",

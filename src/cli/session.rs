@@ -254,6 +254,38 @@ impl Session {
         Ok(event)
     }
 
+    /// The next event within `wait`, or `None`: unlike [`Session::next`], a lost link
+    /// comes back as its event (a procedure's restart expects one). A caught signal ends
+    /// the waiting (once).
+    pub(super) fn poll(&mut self, wait: Duration) -> Result<Option<Event>, Failure> {
+        if self.interruptible
+            && let Some(signal) = interrupt::take()
+        {
+            return Err(interrupted(signal));
+        }
+        let event = match self.worker.recv_timeout(wait) {
+            Ok(event) => event,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => return Ok(None),
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(failed("the worker thread stopped"));
+            }
+        };
+        match &event {
+            Event::Samples(samples) => {
+                for sample in samples {
+                    self.latest = Some(match &self.latest {
+                        Some(older) => sample.merged_over(older),
+                        None => *sample,
+                    });
+                }
+            }
+            Event::Notice(notice) => self.notes.push(notice.text.clone()),
+            Event::Frames(frames) => print_frames(frames),
+            _ => {}
+        }
+        Ok(Some(event))
+    }
+
     /// Send a PDI request and wait for acceptance, or completion with `wait`. A travel
     /// command waited for ends as soon as its target can no longer be reached (a limit
     /// switch, a halt from elsewhere: [`EndWatch`]); a move that seems to end by a fault

@@ -403,3 +403,19 @@ pub enum Event {
         result: Result<Vec<FoundDevice>, LinkFailure>,
     },
 }
+
+impl Event {
+    /// The request this event answers, if it is a reply to one.
+    pub fn reply_id(&self) -> Option<RequestId> {
+        match self {
+            Event::Rejected { id, .. }
+            | Event::Sent { id, .. }
+            | Event::Progress { id, .. }
+            | Event::ObjectRead { id, .. }
+            | Event::ObjectWritten { id, .. }
+            | Event::Cancelled { id, .. }
+            | Event::Scanned { id, .. } => Some(*id),
+            _ => None,
+        }
+    }
+}

@@ -499,13 +499,11 @@ impl Drive {
     /// when the event was such a reply.
     fn reply_to_panel(&mut self, event: &Event) -> bool {
         let id = match event {
-            Event::Rejected { id, .. }
-            | Event::Sent { id, .. }
-            | Event::Progress { id, .. }
-            | Event::ObjectRead { id, .. }
-            | Event::ObjectWritten { id, .. }
-            | Event::Cancelled { id, .. } => *id,
-            _ => return false,
+            Event::Scanned { .. } => return false,
+            other => match other.reply_id() {
+                Some(id) => id,
+                None => return false,
+            },
         };
         let Some(Owner::Panel { panel, tag }) = self.requests.owner(id).cloned() else {
             return false;

@@ -1,0 +1,217 @@
+//! The commissioning record as data: the machine and each drive's identity, who ran what
+//! procedure when with which tool, every step's verdict with its measured values against
+//! their limits and its plot, the settings that differ from the factory's and from the
+//! project's baseline, the fault timeline, and a SHA-256 over all of it. Written as JSON
+//! beside the HTML page (`html`) that shows the same data.
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+/// How a step ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Verdict {
+    Passed,
+    Failed,
+    Skipped,
+    Aborted,
+}
+
+impl Verdict {
+    pub fn word(self) -> &'static str {
+        match self {
+            Verdict::Passed => "passed",
+            Verdict::Failed => "failed",
+            Verdict::Skipped => "skipped",
+            Verdict::Aborted => "aborted",
+        }
+    }
+}
+
+/// One measured value against its limit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Figure {
+    /// What it is ("overshoot", "settling time").
+    pub name: String,
+    /// As measured (the worst step's); `None` when it could not be measured.
+    pub value: Option<f64>,
+    pub unit: String,
+    /// "≤ 5" where a limit applies.
+    pub limit: Option<String>,
+    /// Whether it kept its limit (None: no limit).
+    pub passed: Option<bool>,
+}
+
+impl Figure {
+    /// The value in words: "0.449 s", "yes", "active", "not measured".
+    pub fn shown(&self) -> String {
+        match self.value {
+            Some(_)
+                if self.name == "answer" || self.unit == "active" || self.unit == "inactive" =>
+            {
+                self.unit.clone()
+            }
+            Some(v) => {
+                let number = if v.fract() == 0.0 && v.abs() < 1e12 {
+                    format!("{v:.0}")
+                } else if v.abs() >= 100.0 {
+                    format!("{v:.1}")
+                } else {
+                    format!("{v:.3}")
+                };
+                if self.unit.is_empty() {
+                    number
+                } else {
+                    format!("{number} {}", self.unit)
+                }
+            }
+            None => "not measured".into(),
+        }
+    }
+}
+
+/// A step's plot: the measured signal over time and where each of its steps began.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plot {
+    pub signal: String,
+    pub unit: String,
+    /// (t in s, value).
+    pub points: Vec<[f64; 2]>,
+    pub step_starts: Vec<f64>,
+}
+
+/// One step as it ran.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StepRecord {
+    pub number: usize,
+    pub kind: String,
+    pub title: String,
+    pub verdict: Verdict,
+    /// What happened, in a sentence (why it failed, was skipped or aborted).
+    pub note: String,
+    pub figures: Vec<Figure>,
+    /// Seconds from the drive's run start.
+    pub started_s: f64,
+    pub duration_s: f64,
+    pub plot: Option<Plot>,
+}
+
+/// A setting that differs from a reference (the factory's, the project's baseline).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Difference {
+    pub object: String,
+    pub name: String,
+    pub value: String,
+    pub reference: String,
+}
+
+/// One entry of the fault timeline.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Event {
+    pub wall: String,
+    pub severity: String,
+    pub text: String,
+}
+
+/// One drive's run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DriveRecord {
+    pub name: String,
+    pub link: String,
+    /// The identity read, in words (vendor, product, revision, serial, name, software).
+    pub identity: Vec<(String, String)>,
+    pub steps: Vec<StepRecord>,
+    pub differs_from_factory: Vec<Difference>,
+    /// `None` where the project holds no baseline for the drive.
+    pub differs_from_baseline: Option<Vec<Difference>>,
+    pub timeline: Vec<Event>,
+    pub verdict: Verdict,
+}
+
+/// The whole record.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    pub procedure: String,
+    pub procedure_file: String,
+    /// SHA-256 of the procedure file as run.
+    pub procedure_sha256: String,
+    pub description: String,
+    /// The project file, or the link, that was commissioned.
+    pub machine: String,
+    pub tool: String,
+    pub operator: String,
+    pub started: String,
+    pub finished: String,
+    /// Run against simulated drives standing in for the project's.
+    pub rehearsal: bool,
+    pub drives: Vec<DriveRecord>,
+    pub verdict: Verdict,
+    /// SHA-256 of this record's JSON with this field empty.
+    pub sha256: String,
+}
+
+/// The SHA-256 of `bytes`, in lowercase hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// A whole run's verdict from its steps: aborted if any step was, failed if any failed,
+/// else passed (skipped steps alone do not fail a run).
+pub fn overall<'a>(verdicts: impl Iterator<Item = &'a Verdict>) -> Verdict {
+    let mut result = Verdict::Passed;
+    for v in verdicts {
+        match v {
+            Verdict::Aborted => return Verdict::Aborted,
+            Verdict::Failed => result = Verdict::Failed,
+            _ => {}
+        }
+    }
+    result
+}
+
+impl Record {
+    /// The JSON the fingerprint is taken over: the record with `sha256` empty.
+    fn fingerprinted(&self) -> String {
+        let mut copy = self.clone();
+        copy.sha256.clear();
+        serde_json::to_string(&copy).unwrap_or_default()
+    }
+
+    /// Set `sha256` over the record's data.
+    pub fn seal(&mut self) {
+        self.sha256 = sha256_hex(self.fingerprinted().as_bytes());
+    }
+
+    /// Whether `sha256` matches the data (a record edited after the run does not).
+    pub fn verify(&self) -> bool {
+        self.sha256 == sha256_hex(self.fingerprinted().as_bytes())
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sha256_of_the_standard_test_vector() {
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+
+    #[test]
+    fn the_overall_verdict_is_the_worst_step() {
+        use Verdict::*;
+        assert_eq!(overall([Passed, Skipped].iter()), Passed);
+        assert_eq!(overall([Passed, Failed, Skipped].iter()), Failed);
+        assert_eq!(overall([Failed, Aborted, Passed].iter()), Aborted);
+    }
+}
