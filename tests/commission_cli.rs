@@ -1,0 +1,305 @@
+//! `drivedeck commission`: the shipped example procedure (ten steps) passes end to end on
+//! the simulated drive; the same procedure with one limit made impossible exits 1 and the
+//! record names that step, its measured value and its limit; a bad file is refused with
+//! its line before anything moves; a project's drives are rehearsed in turn on simulated
+//! stand-ins; Ctrl-C aborts (a halt sent) and the record says so. Every record
+//! is a self-contained page and a JSON file whose SHA-256 seal holds.
+
+// Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use common::cli::{run, start};
+use drivedeck::procedure::Record;
+
+const EXAMPLE: &str = "assets/procedures/axis-commissioning.toml";
+const BACKUP: &str = "assets/procedures/axis-backup.json";
+
+/// The example procedure (and its backup) copied into `dir`, with `edit` applied.
+fn procedure_in(dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string(EXAMPLE).expect("the example");
+    let path = dir.join("procedure.toml");
+    std::fs::write(&path, edit(text)).expect("write");
+    std::fs::copy(BACKUP, dir.join("axis-backup.json")).expect("copy the backup");
+    path
+}
+
+fn answers_in(dir: &Path, lines: &str) -> PathBuf {
+    let path = dir.join("answers.txt");
+    std::fs::write(&path, lines).expect("write");
+    path
+}
+
+/// The record's JSON beside `html`, read, its seal checked.
+fn record_of(html: &Path) -> Record {
+    let text = std::fs::read_to_string(html.with_extension("json")).expect("the JSON record");
+    let record: Record = serde_json::from_str(&text).expect("a record");
+    assert!(record.verify(), "the SHA-256 seal holds");
+    record
+}
+
+/// The page stands alone: no script, no external resource.
+fn self_contained(html: &Path) -> String {
+    let page = std::fs::read_to_string(html).expect("the HTML record");
+    assert!(page.starts_with("<!DOCTYPE html>"));
+    for bad in ["<script", "<link", "src=", "url(", "@import", "href=\"http"] {
+        assert!(!page.contains(bad), "{bad} in the page");
+    }
+    page
+}
+
+#[test]
+fn the_example_procedure_passes_end_to_end_on_the_simulated_drive() {
+    let dir = common::temp_dir("commission");
+    let procedure = procedure_in(dir.path(), |t| t);
+    let answers = answers_in(dir.path(), "# the one question\nyes\n");
+    let html = dir.path().join("record.html");
+    let (code, out, err) = run(&[
+        "--link",
+        "sim",
+        "commission",
+        procedure.to_str().unwrap(),
+        "--record",
+        html.to_str().unwrap(),
+        "--answers",
+        answers.to_str().unwrap(),
+        "--operator",
+        "Test Bench",
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("Linear axis commissioning: passed"), "{out}");
+    let record = record_of(&html);
+    assert_eq!(record.operator, "Test Bench");
+    assert_eq!(record.drives.len(), 1);
+    let drive = &record.drives[0];
+    let verdicts: Vec<&str> = drive.steps.iter().map(|s| s.verdict.word()).collect();
+    assert_eq!(
+        verdicts,
+        [
+            "skipped", "passed", "passed", "passed", "passed", "passed", "passed", "passed",
+            "passed", "passed"
+        ],
+        "{err}"
+    );
+    // The test move's figures against its limits, and its plot.
+    let test = &drive.steps[4];
+    let overshoot = test.figures.iter().find(|f| f.name == "overshoot").unwrap();
+    assert_eq!(overshoot.limit.as_deref(), Some("≤ 5"));
+    assert_eq!(overshoot.passed, Some(true));
+    assert!(test.plot.as_ref().is_some_and(|p| p.points.len() > 100));
+    // The restart brought the three values of the backup back.
+    assert!(
+        drive.steps[9].note.contains("all 3 value(s) as stored"),
+        "{}",
+        drive.steps[9].note
+    );
+    // Settings away from the factory's: the backup's three among them.
+    for object in ["6081h:00h", "6083h:00h", "6084h:00h"] {
+        assert!(
+            drive
+                .differs_from_factory
+                .iter()
+                .any(|d| d.object == object),
+            "{object}: {:?}",
+            drive.differs_from_factory
+        );
+    }
+    let page = self_contained(&html);
+    assert!(page.contains("<svg"), "the plots inline");
+    assert!(page.contains(&record.sha256));
+    assert_eq!(page.matches("data-verdict=\"passed\"").count(), 9);
+}
+
+#[test]
+fn an_impossible_limit_fails_its_step_and_the_record_names_value_and_limit() {
+    let dir = common::temp_dir("commission-fail");
+    let procedure = procedure_in(dir.path(), |t| {
+        t.replace("settling_s = 1.0", "settling_s = 0.001")
+    });
+    let answers = answers_in(dir.path(), "yes\n");
+    let html = dir.path().join("record.html");
+    let (code, out, err) = run(&[
+        "--link",
+        "sim",
+        "commission",
+        procedure.to_str().unwrap(),
+        "--record",
+        html.to_str().unwrap(),
+        "--answers",
+        answers.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{out}{err}");
+    let record = record_of(&html);
+    assert_eq!(record.verdict.word(), "failed");
+    let step = &record.drives[0].steps[4];
+    assert_eq!(step.verdict.word(), "failed");
+    assert_eq!(step.kind, "test-move");
+    let settling = step
+        .figures
+        .iter()
+        .find(|f| f.name == "settling time")
+        .unwrap();
+    assert_eq!(settling.limit.as_deref(), Some("≤ 0.001"));
+    assert_eq!(settling.passed, Some(false));
+    let measured = settling.value.expect("measured");
+    assert!(measured > 0.1, "{measured}");
+    assert!(
+        step.note.contains("settling time") && step.note.contains("≤ 0.001"),
+        "{}",
+        step.note
+    );
+    // The steps after it went on (a test's failure does not stop the run).
+    assert_ne!(record.drives[0].steps[5].verdict.word(), "skipped");
+    assert_eq!(record.drives[0].steps[9].verdict.word(), "passed");
+    let page = self_contained(&html);
+    assert!(
+        page.contains("<tr class=\"failed\" data-step=\"5\""),
+        "the failed row"
+    );
+    assert!(err.contains("[failed] Test move"), "{err}");
+}
+
+#[test]
+fn a_bad_file_is_refused_with_its_line_before_anything_moves() {
+    let dir = common::temp_dir("commission-bad");
+    let html = dir.path().join("record.html");
+    let cases = [
+        (
+            "input = \"positive limit switch\"",
+            "input = \"left foot\"",
+            "line 68 (step 7, input): unknown input \"left foot\"",
+        ),
+        (
+            "speed = 300\ndwell_s",
+            "speed = 0\ndwell_s",
+            "line 44 (step 5, test-move)",
+        ),
+        ("kind = \"store\"", "kind = \"stor\"", "line 85, column 8"),
+        (
+            "file = \"axis-backup.json\"",
+            "file = \"missing.json\"",
+            "line 26 (step 2): the backup for drive cannot be used",
+        ),
+    ];
+    for (from, to, expected) in cases {
+        let procedure = procedure_in(dir.path(), |t| {
+            assert!(t.contains(from), "{from}");
+            t.replacen(from, to, 1)
+        });
+        let (code, out, err) = run(&[
+            "--link",
+            "sim",
+            "commission",
+            procedure.to_str().unwrap(),
+            "--record",
+            html.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 2, "{to}: {out}{err}");
+        assert!(
+            err.contains(expected),
+            "{to}: expected {expected:?} in {err}"
+        );
+        assert!(!html.exists(), "no record for a refused file");
+        assert!(!err.contains("commissioning drive"), "nothing ran: {err}");
+    }
+}
+
+#[test]
+fn a_projects_drives_are_rehearsed_in_turn_on_simulated_stand_ins() {
+    let dir = common::temp_dir("commission-project");
+    let project = dir.path().join("machine.json");
+    let (code, out, err) = run(&[
+        "project",
+        "new",
+        project.to_str().unwrap(),
+        "X axis=modbus-tcp://192.0.2.10:502",
+        "Y axis=modbus-tcp://192.0.2.11:502",
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    // A short procedure: the identity, a question, store and restart.
+    let procedure = dir.path().join("short.toml");
+    std::fs::write(
+        &procedure,
+        "[procedure]\nname = \"Short\"\n\n[[step]]\nkind = \"identity\"\n\n[[step]]\nkind = \"question\"\ntext = \"Guard closed?\"\nexpect = \"yes\"\n\n[[step]]\nkind = \"store\"\n\n[[step]]\nkind = \"reboot\"\nverify = [\"6083:00\"]\n",
+    )
+    .unwrap();
+    let answers = answers_in(dir.path(), "yes\nno\n");
+    let html = dir.path().join("rehearsal.html");
+    let (code, out, err) = run(&[
+        "--project",
+        project.to_str().unwrap(),
+        "commission",
+        procedure.to_str().unwrap(),
+        "--rehearse",
+        "--record",
+        html.to_str().unwrap(),
+        "--answers",
+        answers.to_str().unwrap(),
+    ]);
+    // The second drive's operator said no: that step fails, so the run exits 1.
+    assert_eq!(code, 1, "{out}{err}");
+    let record = record_of(&html);
+    assert!(record.rehearsal);
+    let names: Vec<&str> = record.drives.iter().map(|d| d.name.as_str()).collect();
+    assert_eq!(names, ["X axis", "Y axis"]);
+    assert_eq!(record.drives[0].verdict.word(), "passed");
+    assert_eq!(record.drives[1].verdict.word(), "failed");
+    assert_eq!(record.drives[1].steps[1].verdict.word(), "failed");
+    for drive in &record.drives {
+        assert!(
+            drive
+                .link
+                .starts_with("rehearsal: simulated drive on modbus-tcp://127.0.0.1:")
+        );
+        assert!(
+            drive
+                .link
+                .contains("standing in for modbus-tcp://192.0.2.1"),
+            "{}",
+            drive.link
+        );
+        assert!(
+            drive.steps[3].verdict.word() == "passed",
+            "{:?}",
+            drive.steps[3]
+        );
+    }
+    let page = self_contained(&html);
+    assert!(page.contains("Rehearsal: simulated drives stood in"));
+}
+
+#[test]
+fn ctrl_c_aborts_the_run_and_the_record_says_so() {
+    let dir = common::temp_dir("commission-abort");
+    // A long test move to be interrupted in.
+    let procedure = procedure_in(dir.path(), |t| t.replace("cycles = 2", "cycles = 20"));
+    let answers = answers_in(dir.path(), "yes\n");
+    let html = dir.path().join("record.html");
+    let mut child = start(&[
+        "--link",
+        "sim",
+        "commission",
+        procedure.to_str().unwrap(),
+        "--record",
+        html.to_str().unwrap(),
+        "--answers",
+        answers.to_str().unwrap(),
+    ]);
+    // Connecting, the backup and the 3 s auto setup take about 4 s: then the test move
+    // (20 cycles, some 40 s) runs.
+    std::thread::sleep(Duration::from_secs(8));
+    child.signal("INT");
+    let status = child.wait(Duration::from_secs(15)).expect("ends on Ctrl-C");
+    assert_eq!(status.code(), Some(130), "{}", child.report());
+    let record = record_of(&html);
+    let steps = &record.drives[0].steps;
+    assert_eq!(steps[4].verdict.word(), "aborted", "{steps:?}");
+    assert!(steps[4].note.contains("interrupted"), "{}", steps[4].note);
+    assert!(steps[5..].iter().all(|s| s.verdict.word() == "skipped"));
+    assert_eq!(record.verdict.word(), "aborted");
+    self_contained(&html);
+}
