@@ -31,7 +31,9 @@ table{border-collapse:collapse;width:100%;margin:.5em 0 1em;font-size:.92em}
 th,td{border:1px solid #bbb;padding:.25em .5em;text-align:left;vertical-align:top}
 th{background:#eee} td.num{text-align:right;font-variant-numeric:tabular-nums}
 .verdict{font-weight:bold;text-transform:uppercase}
-.passed{color:#0a6b1f} .failed{color:#b00020} .skipped{color:#666} .aborted{color:#a35200}
+.verdict.passed,.banner.passed{color:#0a6b1f} .verdict.failed,.banner.failed,span.failed{color:#b00020}
+.verdict.skipped,.banner.skipped{color:#555} .verdict.aborted,.banner.aborted{color:#a35200}
+span.failed{font-weight:bold}
 tr.failed td{background:#fde8eb} tr.aborted td{background:#fff0e0}
 .banner{padding:.6em 1em;border-radius:4px;font-size:1.3em;font-weight:bold;margin:1em 0}
 .banner.passed{background:#e3f4e6} .banner.failed{background:#fde8eb}
