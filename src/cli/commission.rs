@@ -25,8 +25,7 @@ use super::report;
 use super::session::Session;
 use crate::link::LinkSpec;
 use crate::od::backup::Backup;
-use crate::procedure::html;
-use crate::procedure::record::{self, DriveRecord, Record, StepRecord, Verdict};
+use crate::procedure::record::{self, DriveRecord, Record, RunInfo, StepRecord, Verdict};
 use crate::procedure::runner::{DriveRun, DriveSetup, Prompt};
 use crate::procedure::{Kind, Procedure};
 use crate::project::Project;
@@ -131,14 +130,6 @@ struct Target {
     name: String,
     link: LinkSpec,
     setup: DriveSetup,
-}
-
-/// The OS user, for the record.
-fn os_user() -> String {
-    ["USER", "USERNAME", "LOGNAME"]
-        .iter()
-        .find_map(|v| std::env::var(v).ok().filter(|s| !s.trim().is_empty()))
-        .unwrap_or_else(|| "unknown".into())
 }
 
 fn now_utc() -> String {
@@ -422,16 +413,6 @@ fn print_step(step: &StepRecord) {
     );
 }
 
-/// Write the HTML page and the JSON beside it, each whole (temporary file, then renamed).
-fn write_record(record: &Record, html_path: &Path) -> Result<PathBuf, String> {
-    let json_path = html_path.with_extension("json");
-    crate::file::write_whole(html_path, html::render(record).as_bytes())
-        .map_err(|e| format!("cannot write {}: {e}", html_path.display()))?;
-    crate::file::write_whole(&json_path, record.to_json().as_bytes())
-        .map_err(|e| format!("cannot write {}: {e}", json_path.display()))?;
-    Ok(json_path)
-}
-
 /// Simulated drives served on loopback Modbus TCP, one per target, standing in for them.
 fn stand_ins(targets: &mut [Target]) -> Result<Vec<ServerThread>, Failure> {
     let mut servers = vec![];
@@ -530,24 +511,19 @@ pub(super) fn run(
         }
         drives.push(record);
     }
-    let verdict = record::overall(drives.iter().map(|d| &d.verdict));
-    let mut record = Record {
-        procedure: procedure.name.clone(),
-        procedure_file: procedure.path.display().to_string(),
-        procedure_sha256: record::sha256_hex(procedure.text.as_bytes()),
-        description: procedure.description.clone(),
-        machine,
-        tool: format!("drivedeck {}", env!("CARGO_PKG_VERSION")),
-        operator: args.operator.clone().unwrap_or_else(os_user),
-        started,
-        finished: now_utc(),
-        rehearsal: rehearse,
+    let record = Record::new(
+        &procedure,
+        RunInfo {
+            machine,
+            operator: args.operator.clone().unwrap_or_else(record::os_user),
+            started,
+            finished: now_utc(),
+            rehearsal: rehearse,
+        },
         drives,
-        verdict,
-        sha256: String::new(),
-    };
-    record.seal();
-    let json_path = match write_record(&record, &args.record) {
+    );
+    let verdict = record.verdict;
+    let json_path = match record.write(&args.record) {
         Ok(p) => p,
         Err(e) => return fail(failed(e)),
     };

@@ -150,6 +150,32 @@ pub struct Record {
     pub sha256: String,
 }
 
+/// The user logged in, for the record: $USER (or $USERNAME, $LOGNAME), else the name
+/// /etc/passwd gives this process's user id.
+pub fn os_user() -> String {
+    if let Some(name) = ["USER", "USERNAME", "LOGNAME"]
+        .iter()
+        .find_map(|v| std::env::var(v).ok().filter(|s| !s.trim().is_empty()))
+    {
+        return name;
+    }
+    let uid = std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("Uid:"))
+                .and_then(|l| l.split_whitespace().nth(1).map(str::to_owned))
+        });
+    let passwd = std::fs::read_to_string("/etc/passwd").unwrap_or_default();
+    uid.and_then(|uid| {
+        passwd.lines().find_map(|line| {
+            let fields: Vec<&str> = line.split(':').collect();
+            (fields.get(2) == Some(&uid.as_str())).then(|| fields[0].to_owned())
+        })
+    })
+    .unwrap_or_else(|| "unknown".into())
+}
+
 /// The SHA-256 of `bytes`, in lowercase hex.
 pub fn sha256_hex(bytes: &[u8]) -> String {
     Sha256::digest(bytes)
@@ -172,7 +198,51 @@ pub fn overall<'a>(verdicts: impl Iterator<Item = &'a Verdict>) -> Verdict {
     result
 }
 
+/// Who ran a procedure and on what, for [`Record::new`].
+#[derive(Clone, Debug, Default)]
+pub struct RunInfo {
+    /// "project machine.json", "link modbus-tcp://…".
+    pub machine: String,
+    pub operator: String,
+    pub started: String,
+    pub finished: String,
+    pub rehearsal: bool,
+}
+
 impl Record {
+    /// The record of `procedure` run on `drives`, sealed.
+    pub fn new(procedure: &super::Procedure, info: RunInfo, drives: Vec<DriveRecord>) -> Record {
+        let verdict = overall(drives.iter().map(|d| &d.verdict));
+        let mut record = Record {
+            procedure: procedure.name.clone(),
+            procedure_file: procedure.path.display().to_string(),
+            procedure_sha256: sha256_hex(procedure.text.as_bytes()),
+            description: procedure.description.clone(),
+            machine: info.machine,
+            tool: format!("drivedeck {}", env!("CARGO_PKG_VERSION")),
+            operator: info.operator,
+            started: info.started,
+            finished: info.finished,
+            rehearsal: info.rehearsal,
+            drives,
+            verdict,
+            sha256: String::new(),
+        };
+        record.seal();
+        record
+    }
+
+    /// Write the HTML page at `html_path` and the JSON beside it (`.json`), each whole:
+    /// the JSON's path, or why it could not be written.
+    pub fn write(&self, html_path: &std::path::Path) -> Result<std::path::PathBuf, String> {
+        let json_path = html_path.with_extension("json");
+        crate::file::write_whole(html_path, super::html::render(self).as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", html_path.display()))?;
+        crate::file::write_whole(&json_path, self.to_json().as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", json_path.display()))?;
+        Ok(json_path)
+    }
+
     /// The JSON the fingerprint is taken over: the record with `sha256` empty.
     fn fingerprinted(&self) -> String {
         let mut copy = self.clone();

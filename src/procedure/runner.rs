@@ -15,7 +15,7 @@ use super::record::{self, Difference, DriveRecord, Figure, Plot, StepRecord, Ver
 use crate::diagnostics::Timeline;
 use crate::od::backup::{self, Backup, DeviceIdentity, IDENTITY, STORE_ALL};
 use crate::od::{Address, DataType, Value, builtin};
-use crate::pdi::Action;
+use crate::pdi::{Action, Opcode};
 use crate::signal::{Sample, Signal};
 use crate::telemetry::test_run::{Plan, StepReport};
 use crate::telemetry::test_sequence::{Next, Sequence};
@@ -373,6 +373,18 @@ impl DriveRun {
                 }
             }
             Event::Samples(samples) => self.on_samples(samples),
+            // A stop from elsewhere (the window's Esc, a Quickstop button, another
+            // script): the run never sends one itself, so it ends here, said so.
+            Event::Sent { image, .. } if self.started.is_some() && self.record.is_none() => {
+                let stop = match image.command().map(|c| c.opcode) {
+                    Ok(Opcode::Quickstop) => Some("a quick stop was sent (Esc)"),
+                    Ok(Opcode::SwitchOff) => Some("the power stage was switched off (Shift+Esc)"),
+                    _ => None,
+                };
+                if let Some(why) = stop {
+                    self.abort(why);
+                }
+            }
             _ => {}
         }
     }
@@ -886,6 +898,13 @@ impl DriveRun {
     }
 
     fn on_command_over(&mut self, progress: &CommandProgress) {
+        if matches!(progress, CommandProgress::Superseded) {
+            // The run sends one command at a time: another came from elsewhere.
+            return self.abort(
+                "the step's command was replaced by another (a stop from the window — Esc — \
+                 or another master)",
+            );
+        }
         match &mut self.phase {
             Phase::Test { sequence, .. } => {
                 let outcome = match progress {

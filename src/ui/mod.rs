@@ -40,6 +40,7 @@ pub mod panel;
 pub mod path_prompt;
 pub mod plots;
 pub mod power_state;
+pub mod procedure;
 pub mod project_files;
 pub mod run;
 pub mod scan;

@@ -40,6 +40,9 @@ pub trait PanelModel: AsAny + Debug {
         false
     }
 
+    /// The window's clock (seconds), every frame: for waits and time-outs of its own.
+    fn tick(&mut self, _now: f64) {}
+
     /// What it holds on the drive that must be given back before the window lets go of
     /// the drive (an output it forced), one sentence each; empty when nothing.
     fn holding(&self) -> Vec<String> {
@@ -133,6 +136,13 @@ impl Panels {
             .iter_mut()
             .find(|(t, _)| *t == panel)
             .is_some_and(|(_, m)| m.on_reply(tag, event))
+    }
+
+    /// The window's clock, to every model ([`PanelModel::tick`]).
+    pub fn tick(&mut self, now: f64) {
+        for (_, model) in &mut self.models {
+            model.tick(now);
+        }
     }
 
     /// What every model holds on the drive ([`PanelModel::holding`]).

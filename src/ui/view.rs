@@ -16,7 +16,7 @@ use super::project_files::ProjectFiles;
 use super::window::Window;
 use super::{
     browser, changes, commands, connection, drive_list, faults, gains, glance, io_panel, log,
-    machine, nanoj, plots, scan, status, test_run, watch,
+    machine, nanoj, plots, procedure, scan, status, test_run, watch,
 };
 
 /// What one frame of the window draws from, and where the user's intents go.
@@ -108,6 +108,14 @@ pub const CENTRAL: &[Panel] = &[
         title: |_| "I/O".into(),
         ui: |ui, f| io_panel::io_ui(ui, f.drive, f.commands),
         model: Some(model::<io_panel::IoPanel>),
+        clear: None,
+    },
+    // A commissioning procedure run on the drive, its record written.
+    Panel {
+        id: procedure::PROCEDURE,
+        title: |_| "Procedure".into(),
+        ui: |ui, f| procedure::procedure_ui(ui, f.drive),
+        model: Some(model::<procedure::ProcedurePanel>),
         clear: None,
     },
     // Every drive on one line: the machine at a glance.

@@ -28,6 +28,7 @@ impl App {
                     None => {}
                 }
             }
+            drive.panels.tick(clock);
         }
     }
 }
