@@ -171,14 +171,14 @@ fn a_bad_file_is_refused_with_its_line_before_anything_moves() {
         (
             "input = \"positive limit switch\"",
             "input = \"left foot\"",
-            "line 68 (step 7, input): unknown input \"left foot\"",
+            "line 70 (step 7, input): unknown input \"left foot\"",
         ),
         (
             "speed = 300\ndwell_s",
             "speed = 0\ndwell_s",
             "line 44 (step 5, test-move)",
         ),
-        ("kind = \"store\"", "kind = \"stor\"", "line 85, column 8"),
+        ("kind = \"store\"", "kind = \"stor\"", "line 87, column 8"),
         (
             "file = \"axis-backup.json\"",
             "file = \"missing.json\"",
@@ -302,4 +302,33 @@ fn ctrl_c_aborts_the_run_and_the_record_says_so() {
     assert!(steps[5..].iter().all(|s| s.verdict.word() == "skipped"));
     assert_eq!(record.verdict.word(), "aborted");
     self_contained(&html);
+}
+
+#[test]
+fn a_test_that_runs_into_a_limit_switch_says_so() {
+    let dir = common::temp_dir("commission-limit");
+    // 300 rpm for 1.5 s and the ramps carry the simulated axis past its positive limit
+    // switch at 36000 units.
+    let procedure = dir.path().join("long.toml");
+    std::fs::write(
+        &procedure,
+        "[procedure]\nname = \"Too long\"\n\n[[step]]\nkind = \"velocity-step\"\nspeed = 300\nhold_s = 1.5\n[step.limits]\nsettling_s = 1.5\n",
+    )
+    .unwrap();
+    let html = dir.path().join("record.html");
+    let (code, out, err) = run(&[
+        "--link",
+        "sim",
+        "commission",
+        procedure.to_str().unwrap(),
+        "--record",
+        html.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{out}{err}");
+    let record = record_of(&html);
+    let note = &record.drives[0].steps[0].note;
+    assert!(
+        note.contains("a limit switch was reached during the test"),
+        "{note}"
+    );
 }

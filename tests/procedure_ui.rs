@@ -151,7 +151,7 @@ fn a_bad_file_is_refused_with_its_line() {
         t.replace("input = \"positive limit switch\"", "input = \"left foot\"")
     });
     assert!(
-        matches!(&panel(&harness).message, Some(Err(m)) if m.contains("line 68 (step 7, input): unknown input")),
+        matches!(&panel(&harness).message, Some(Err(m)) if m.contains("line 70 (step 7, input): unknown input")),
         "{:?}",
         panel(&harness).message
     );

@@ -83,6 +83,8 @@ enum Phase {
         sequence: Box<Sequence>,
         limits: Limits,
         deadline: f64,
+        /// Where a limit switch was reached during the test, if one was (position).
+        limit_at: Option<f64>,
     },
     /// Rehearsal: 3240h:03 and :04 read before an input is forced.
     ForceRead {
@@ -396,7 +398,17 @@ impl DriveRun {
         if let Some(last) = samples.last() {
             self.latest = Some(*last);
         }
-        if let Phase::Test { sequence, .. } = &mut self.phase {
+        if let Phase::Test {
+            sequence, limit_at, ..
+        } = &mut self.phase
+        {
+            if limit_at.is_none()
+                && let Some(hit) = samples
+                    .iter()
+                    .find(|s| s.tx.status.is_set(crate::pdi::StatusBit::LimitReached))
+            {
+                *limit_at = Some(hit.signals.get(Signal::Position).unwrap_or(f64::NAN));
+            }
             let next = sequence.on_samples(samples);
             self.follow(next);
         }
@@ -804,6 +816,7 @@ impl DriveRun {
             sequence: Box::new(sequence),
             limits,
             deadline,
+            limit_at: None,
         };
         self.send(Request::Command(start));
     }
@@ -840,17 +853,26 @@ impl DriveRun {
             Next::Send(action) => self.send(Request::Command(action)),
             Next::Over(why) => {
                 let Phase::Test {
-                    sequence, limits, ..
+                    sequence,
+                    limits,
+                    limit_at,
+                    ..
                 } = std::mem::replace(&mut self.phase, Phase::Ready)
                 else {
                     return;
                 };
-                self.end_test(*sequence, limits, why);
+                self.end_test(*sequence, limits, why, limit_at);
             }
         }
     }
 
-    fn end_test(&mut self, sequence: Sequence, limits: Limits, why: Option<String>) {
+    fn end_test(
+        &mut self,
+        sequence: Sequence,
+        limits: Limits,
+        why: Option<String>,
+        limit_at: Option<f64>,
+    ) {
         let signal = sequence.plan.signal;
         let figures = judge(&sequence.steps, &limits, signal);
         let (name, unit) = match signal {
@@ -890,6 +912,14 @@ impl DriveRun {
                 ),
             ),
             (None, false) => (Verdict::Failed, failed.join("; ")),
+        };
+        // A limit switch reached explains figures that make no sense otherwise.
+        let note = match limit_at {
+            Some(at) => format!(
+                "{note}; a limit switch was reached during the test (at position {at:.0}): \
+                 the axis ran out of travel — shorten the test or move it away from the end"
+            ),
+            None => note,
         };
         self.end_step(verdict, note, figures);
         if let Some(last) = self.steps.last_mut() {
