@@ -57,7 +57,7 @@ pub fn procedure_ui(ui: &mut Ui, drive: &mut Drive) {
     }
     ui.horizontal(|ui| {
         ui.label("Procedure");
-        let typed = named_text_edit(ui, &mut panel.path, 260.0, "Procedure file");
+        let typed = named_text_edit(ui, &mut panel.path, 300.0, "Procedure file");
         let enter = typed.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
         if ui
             .add_enabled(!panel.is_running(), egui::Button::new("Load"))
@@ -67,12 +67,14 @@ pub fn procedure_ui(ui: &mut Ui, drive: &mut Drive) {
         {
             intents.push(Intent::Load);
         }
+    });
+    ui.horizontal_wrapped(|ui| {
         ui.label("Record");
-        named_text_edit(ui, &mut panel.record_path, 200.0, "Record file");
+        named_text_edit(ui, &mut panel.record_path, 220.0, "Record file");
         ui.label("Operator");
         named_text_edit(ui, &mut panel.operator, 120.0, "Operator");
     });
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         let can_run = panel.procedure.is_some() && panel.is_connected() && !panel.is_running();
         let run = ui
             .add_enabled(
@@ -141,9 +143,15 @@ pub fn procedure_ui(ui: &mut Ui, drive: &mut Drive) {
 
 fn steps_ui(ui: &mut Ui, panel: &ProcedurePanel) {
     let Some(procedure) = panel.procedure.as_ref() else {
-        ui.weak(
-            "Load a procedure file (TOML): ordered steps with limits — see docs/procedures.md \
-             and assets/procedures/ for an example.",
+        ui.add(
+            egui::Label::new(
+                RichText::new(
+                    "Load a procedure file (TOML): ordered steps with limits — see \
+                     docs/procedures.md and assets/procedures/ for an example.",
+                )
+                .weak(),
+            )
+            .wrap(),
         );
         return;
     };
@@ -152,6 +160,15 @@ fn steps_ui(ui: &mut Ui, panel: &ProcedurePanel) {
         ui.weak(&procedure.description);
     }
     let done = panel.run().map(|r| r.steps.as_slice()).unwrap_or_default();
+    // Long titles and notes wrap inside the tab rather than widen it.
+    let title_width = 240.0;
+    let details_width = (ui.available_width() - title_width - 130.0).max(200.0);
+    let wrapped = |ui: &mut Ui, text: &str, width: f32| {
+        ui.scope(|ui| {
+            ui.set_max_width(width);
+            ui.add(egui::Label::new(text).wrap());
+        });
+    };
     let current = panel.run().and_then(|r| r.current());
     egui::Grid::new("procedure_grid")
         .striped(true)
@@ -164,7 +181,7 @@ fn steps_ui(ui: &mut Ui, panel: &ProcedurePanel) {
             ui.end_row();
             for (i, step) in procedure.steps.iter().enumerate() {
                 ui.label(format!("{}", i + 1));
-                ui.label(&step.title);
+                wrapped(ui, &step.title, title_width);
                 match done.get(i) {
                     Some(record) => {
                         ui.label(
@@ -181,7 +198,7 @@ fn steps_ui(ui: &mut Ui, panel: &ProcedurePanel) {
                             })
                             .collect();
                         lines.push(record.note.clone());
-                        ui.label(lines.join("\n"));
+                        wrapped(ui, &lines.join("\n"), details_width);
                     }
                     None if current == Some(i) && panel.is_running() => {
                         ui.label(RichText::new("under way").color(AMBER));
