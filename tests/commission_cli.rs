@@ -332,3 +332,45 @@ fn a_test_that_runs_into_a_limit_switch_says_so() {
         "{note}"
     );
 }
+
+#[test]
+fn a_drive_lost_mid_procedure_aborts_the_run_and_the_record_names_the_cause() {
+    let (sim, addr) = common::Sim::tcp(&[]);
+    let dir = common::temp_dir("commission-lost");
+    let procedure = procedure_in(dir.path(), |t| t.replace("cycles = 2", "cycles = 20"));
+    let answers = answers_in(dir.path(), "yes\n");
+    let html = dir.path().join("record.html");
+    let link = format!("modbus-tcp://{addr}");
+    let mut child = start(&[
+        "--link",
+        &link,
+        "commission",
+        procedure.to_str().unwrap(),
+        "--record",
+        html.to_str().unwrap(),
+        "--answers",
+        answers.to_str().unwrap(),
+    ]);
+    // In the test move (after the backup and the 3 s auto setup), the drive goes away.
+    std::thread::sleep(Duration::from_secs(8));
+    sim.process.signal("KILL");
+    let status = child.wait(Duration::from_secs(30)).expect("ends");
+    assert_eq!(status.code(), Some(130), "{}", child.report());
+    let record = record_of(&html);
+    let steps = &record.drives[0].steps;
+    let aborted: Vec<_> = steps
+        .iter()
+        .filter(|s| s.verdict.word() == "aborted")
+        .collect();
+    assert_eq!(aborted.len(), 1, "{steps:#?}");
+    assert!(
+        aborted[0].note.contains("link") || aborted[0].note.contains("lost"),
+        "{}",
+        aborted[0].note
+    );
+    assert_eq!(aborted[0].number, 5, "the test move");
+    assert!(steps[5..].iter().all(|s| s.verdict.word() == "skipped"));
+    // The steps before it keep their verdicts.
+    assert_eq!(steps[1].verdict.word(), "passed");
+    self_contained(&html);
+}
