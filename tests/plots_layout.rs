@@ -536,8 +536,13 @@ fn a_png_larger_than_the_window_holds_is_taken_as_large_as_it_holds_and_says_so(
 
 #[test]
 fn a_png_from_a_small_screen_shows_every_plot_whole_not_the_scrolled_part() {
-    // 1024×600: the plots scroll on screen, some (or part of one) out of view.
-    let mut harness = window::harness_with(Settings::default(), true, egui::vec2(1024.0, 600.0));
+    // 1024×600 as the window starts there (the command panel folded on a narrow screen):
+    // the plots scroll on screen, some (or part of one) out of view.
+    let settings = Settings {
+        commands_collapsed: true,
+        ..Settings::default()
+    };
+    let mut harness = window::harness_with(settings, true, egui::vec2(1024.0, 600.0));
     window::step_for(&mut harness, Duration::from_millis(300));
     let clipped = |plots: &[DrawnPlot]| {
         plots

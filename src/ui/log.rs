@@ -16,9 +16,21 @@ pub fn commands_ui(ui: &mut Ui, drive: &Drive) {
     // Long lines wrap within the panel instead of running off its right edge: what was
     // done gets up to half the width, how the drive answered the rest.
     let width = ui.available_width();
+    // The fixed columns (the time, the image) as wide as their widest text, so the two
+    // wrapping ones share what is left and a row never runs off the panel.
+    let mono = egui::TextStyle::Monospace.resolve(ui.style());
+    let measure = |text: &str| {
+        ui.painter()
+            .layout_no_wrap(text.to_owned(), mono.clone(), egui::Color32::WHITE)
+            .size()
+            .x
+    };
+    let fixed = measure("12345.678") + measure("cmd 123 [00 00 00 00 00 00 00 00]");
+    let spacing = ui.spacing().item_spacing.x * 4.0;
+    let left = (width - fixed - spacing).max(320.0);
     let widths = Widths {
-        what: (width * 0.45).max(160.0),
-        outcome: (width * 0.3).max(160.0),
+        what: (left * 0.55).max(160.0),
+        outcome: (left * 0.45).max(160.0),
     };
     log_grid_ui(ui, "log_grid", 4, |ui| {
         for entry in &drive.log {

@@ -329,19 +329,28 @@ fn commands_panel_ui(ui: &mut Ui, f: &mut Frame<'_>) -> i32 {
 /// The middle: the panel picked in its tabs ([`CENTRAL`]), in all the room the others
 /// leave, and the watch panel beside it when shown.
 fn central_ui(ui: &mut Ui, f: &mut Frame<'_>) {
-    ui.horizontal(|ui| {
-        for panel in CENTRAL {
-            let title = (panel.title)(f.drive);
-            ui.selectable_value(&mut f.window.settings.central, panel.id.to_owned(), title);
-        }
-        ui.separator();
-        let watched = f.drive.settings.watch.pins.len();
-        ui.toggle_value(
-            &mut f.window.settings.watch_open,
-            format!("Watch ({watched})"),
-        )
-        .on_hover_text("Objects pinned to be read live, beside the plots and the dictionary");
-    });
+    // The tabs scroll sideways where the middle is narrow (the command panel open on a
+    // small screen) instead of widening it: a wider middle would push the panels' own
+    // buttons under the command panel, out of reach.
+    egui::ScrollArea::horizontal()
+        .id_salt("central_tabs")
+        .show(ui, |ui| {
+            ui.horizontal(|ui| {
+                for panel in CENTRAL {
+                    let title = (panel.title)(f.drive);
+                    ui.selectable_value(&mut f.window.settings.central, panel.id.to_owned(), title);
+                }
+                ui.separator();
+                let watched = f.drive.settings.watch.pins.len();
+                ui.toggle_value(
+                    &mut f.window.settings.watch_open,
+                    format!("Watch ({watched})"),
+                )
+                .on_hover_text(
+                    "Objects pinned to be read live, beside the plots and the dictionary",
+                );
+            });
+        });
     ui.separator();
     if f.window.settings.watch_open {
         egui::Panel::right("watch")
