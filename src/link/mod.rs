@@ -11,6 +11,7 @@ mod error;
 pub mod modbus;
 mod notice;
 pub(crate) mod owner;
+pub mod serial;
 pub mod spec;
 mod trace;
 pub(crate) mod tries;

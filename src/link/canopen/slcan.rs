@@ -102,23 +102,7 @@ fn io_error(e: io::Error, context: String, gone: impl FnOnce(&io::Error) -> Stri
 }
 
 fn serial_open_error(path: &str, e: tokio_serial::Error) -> Error {
-    use tokio_serial::ErrorKind;
-    match e.kind {
-        ErrorKind::NoDevice => Error::Refused(format!(
-            "the serial port {path} is in use by another program (slcand, python-can, another drivedeck?) or was just unplugged ({})",
-            e.description
-        )),
-        ErrorKind::Io(io::ErrorKind::NotFound) => Error::Refused(format!(
-            "there is no serial port {path}: is the adapter plugged in? (its port is usually /dev/ttyACM0 on Linux, COMn on Windows)"
-        )),
-        ErrorKind::Io(io::ErrorKind::PermissionDenied) => Error::Refused(format!(
-            "no permission to open {path}: on Linux add yourself to the dialout group (sudo usermod -aG dialout $USER) and log in again"
-        )),
-        _ => Error::Io {
-            context: format!("opening serial port {path}"),
-            source: io::Error::other(e.description),
-        },
-    }
+    crate::link::serial::open_error(path, e)
 }
 
 // ---------------------------------------------------------------------------------------

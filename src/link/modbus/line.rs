@@ -253,10 +253,7 @@ fn open(settings: &Settings) -> Result<SerialStream, Error> {
             tokio_serial::StopBits::One
         })
         .open_native_async()
-        .map_err(|e| Error::Io {
-            context: format!("opening serial port {path}"),
-            source: std::io::Error::other(e.to_string()),
-        })
+        .map_err(|e| crate::link::serial::open_error(path, e))
 }
 
 /// The port and what the line remembers between tries.
