@@ -20,6 +20,7 @@ mod commission;
 mod context;
 mod failure;
 mod gains;
+mod install_files;
 mod interrupt;
 mod io;
 mod nanoj;
@@ -177,6 +178,9 @@ pub enum Command {
     /// out.html`; --rehearse runs it against simulated drives first. Exit 0 all passed,
     /// 1 any failed, 130 interrupted.
     Commission(commission::CommissionArgs),
+    /// Write the man pages and shell completions (bash, zsh, fish) into DIR, for a package.
+    #[command(hide = true)]
+    InstallFiles { dir: std::path::PathBuf },
     /// Store every value as it is now for the next power-on ("save" to 1010h:01).
     Store,
     /// Bring the factory values back at the next restart ("load" to 1011h:01); --reboot
@@ -845,6 +849,7 @@ pub fn main() -> ExitCode {
             }
         },
         Some(Command::Project(args)) => project_cmd::run(&args, &cli, &context),
+        Some(Command::InstallFiles { dir }) => install_files::run(&dir),
         Some(Command::Sim(args)) => serve::run(&args),
         Some(Command::Bench(args)) => bench::run(cli.link.clone(), &args, cli.json),
         Some(Command::TestMove(args)) => {

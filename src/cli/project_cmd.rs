@@ -81,6 +81,7 @@ fn command_name(command: &Command) -> &'static str {
         Command::Store => "store",
         Command::Nanoj(_) => "nanoj",
         Command::Commission(_) => "commission",
+        Command::InstallFiles { .. } => "install-files",
         Command::Io => "io",
         Command::Output(_) => "output",
         Command::Defaults(_) => "defaults",
