@@ -69,3 +69,33 @@ fn man_pages_and_completions_cover_every_command() {
         }
     }
 }
+
+#[test]
+fn the_desktop_entry_validates_and_names_the_windows_app_id_and_icon() {
+    let entry = std::fs::read_to_string("assets/drivedeck.desktop").unwrap();
+    assert!(entry.contains("\nIcon=drivedeck\n"));
+    assert!(entry.contains(&format!(
+        "\nStartupWMClass={}\n",
+        drivedeck::ui::run::APP_ID
+    )));
+    for size in [16, 32, 48, 64, 128, 256, 512] {
+        let png = std::fs::read(format!("assets/icons/drivedeck-{size}.png")).unwrap();
+        assert!(png.starts_with(b"\x89PNG"), "{size}");
+    }
+    let Ok(out) = std::process::Command::new("desktop-file-validate")
+        .arg("assets/drivedeck.desktop")
+        .output()
+    else {
+        common::skip_or_fail(
+            "desktop-file-validate is not installed (.ci/run installs desktop-file-utils)",
+        );
+        return;
+    };
+    common::peers::record(common::peers::RAN, "");
+    assert!(
+        out.status.success() && out.stdout.is_empty(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -25,6 +25,32 @@ pub enum Opening {
     },
 }
 
+/// The application id desktops group the window by (`assets/drivedeck.desktop`).
+pub const APP_ID: &str = "drivedeck";
+
+/// The window's icon: `assets/icons/drivedeck-256.png`, built in.
+pub fn icon() -> egui::IconData {
+    const PNG: &[u8] = include_bytes!("../../assets/icons/drivedeck-256.png");
+    decode_icon(PNG).unwrap_or_default()
+}
+
+/// RGBA pixels of a PNG (8-bit RGBA, as the shipped icons are).
+fn decode_icon(bytes: &[u8]) -> Option<egui::IconData> {
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::ALPHA);
+    let mut reader = decoder.read_info().ok()?;
+    let mut rgba = vec![0; reader.output_buffer_size()?];
+    let info = reader.next_frame(&mut rgba).ok()?;
+    rgba.truncate(info.buffer_size());
+    (info.color_type == png::ColorType::Rgba && info.bit_depth == png::BitDepth::Eight).then_some(
+        egui::IconData {
+            rgba,
+            width: info.width,
+            height: info.height,
+        },
+    )
+}
+
 /// Open the window. Blocks until it is closed.
 pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
     let options = eframe::NativeOptions {
@@ -33,6 +59,10 @@ pub fn run_window(opening: Opening) -> Result<(), eframe::Error> {
         // them with the settings).
         viewport: egui::ViewportBuilder::default()
             .with_title("drivedeck")
+            // The desktop entry's name (StartupWMClass, the Wayland app id): the window is
+            // grouped with its launcher and shows its icon.
+            .with_app_id(APP_ID)
+            .with_icon(icon())
             .with_inner_size([7680.0, 4320.0])
             .with_maximized(true)
             .with_min_inner_size([900.0, 560.0]),
@@ -165,5 +195,19 @@ mod tests {
             }
             _ => panic!("a spoilt last project must be said"),
         }
+    }
+}
+
+#[cfg(test)]
+mod icon_tests {
+    #[test]
+    fn the_built_in_icon_decodes_to_its_256_pixels() {
+        let icon = super::icon();
+        assert_eq!((icon.width, icon.height), (256, 256));
+        assert_eq!(icon.rgba.len(), 256 * 256 * 4);
+        // Transparent corners, an opaque middle.
+        assert_eq!(icon.rgba[3], 0);
+        let middle = (128 * 256 + 128) * 4;
+        assert_eq!(icon.rgba[middle + 3], 255);
     }
 }
