@@ -374,3 +374,40 @@ fn a_drive_lost_mid_procedure_aborts_the_run_and_the_record_names_the_cause() {
     assert_eq!(steps[1].verdict.word(), "passed");
     self_contained(&html);
 }
+
+#[test]
+fn ctrl_c_leaves_the_drive_as_on_exit_says() {
+    let (_sim, addr) = common::Sim::tcp(&[]);
+    let dir = common::temp_dir("commission-on-exit");
+    let procedure = procedure_in(dir.path(), |t| t.replace("cycles = 2", "cycles = 20"));
+    let answers = answers_in(dir.path(), "yes\n");
+    let html = dir.path().join("record.html");
+    let link = format!("modbus-tcp://{addr}");
+    let mut child = start(&[
+        "--link",
+        &link,
+        "--on-exit",
+        "switch-off",
+        "commission",
+        procedure.to_str().unwrap(),
+        "--record",
+        html.to_str().unwrap(),
+        "--answers",
+        answers.to_str().unwrap(),
+    ]);
+    std::thread::sleep(Duration::from_secs(8));
+    child.signal("INT");
+    let status = child.wait(Duration::from_secs(15)).expect("ends on Ctrl-C");
+    assert_eq!(status.code(), Some(130), "{}", child.report());
+    // The drive, asked afterwards: switched off, not merely halted.
+    let (code, out, err) = run(&["--link", &link, "--json", "status"]);
+    assert_eq!(code, 0, "{out}{err}");
+    let status: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let state = status["state"].as_str().unwrap_or_default().to_owned();
+    assert!(
+        !state.contains("Operation enabled"),
+        "the power stage is off after the abort: {status:#}"
+    );
+    let record = record_of(&html);
+    assert_eq!(record.drives[0].steps[4].verdict.word(), "aborted");
+}

@@ -183,6 +183,7 @@ fn targets(
     project: Option<&Project>,
     names: Option<Vec<String>>,
     rehearse: bool,
+    on_abort: crate::worker::LinkLossAction,
 ) -> Result<Vec<Target>, Failure> {
     if let Some(project) = project {
         let chosen: Vec<&crate::project::Drive> = match names {
@@ -205,6 +206,7 @@ fn targets(
                         baseline: d.backup.clone(),
                         backups: backups_for(procedure, Some(d), &d.name)?,
                         rehearsal: rehearse,
+                        on_abort,
                     },
                 })
             })
@@ -220,6 +222,7 @@ fn targets(
             baseline: None,
             backups: backups_for(procedure, None, &name)?,
             rehearsal: rehearse,
+            on_abort,
         },
         name,
         link,
@@ -474,7 +477,15 @@ pub(super) fn run(
         ));
     }
     let rehearse = args.rehearse;
-    let mut targets = match targets(&procedure, link, project.map(|p| p.1), names, rehearse) {
+    let on_abort = context.policy.on_exit;
+    let mut targets = match targets(
+        &procedure,
+        link,
+        project.map(|p| p.1),
+        names,
+        rehearse,
+        on_abort,
+    ) {
         Ok(t) => t,
         Err(f) => return fail(f),
     };

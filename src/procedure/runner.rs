@@ -19,7 +19,7 @@ use crate::pdi::{Action, Opcode};
 use crate::signal::{Sample, Signal};
 use crate::telemetry::test_run::{Plan, StepReport};
 use crate::telemetry::test_sequence::{Next, Sequence};
-use crate::worker::{CommandProgress, Event, ObjectPath, Request};
+use crate::worker::{CommandProgress, Event, LinkLossAction, ObjectPath, Request};
 
 /// "boot" to 2800h:01 restarts the firmware.
 const BOOT: u64 = 0x746F_6F62;
@@ -46,6 +46,9 @@ pub struct DriveSetup {
     pub backups: BTreeMap<usize, Backup>,
     /// A simulated drive stands in for the project's.
     pub rehearsal: bool,
+    /// What an aborted run leaves the drive in (the on-exit rule: `--on-exit`, or the
+    /// project drive's link-loss policy): halt by default.
+    pub on_abort: LinkLossAction,
 }
 
 /// What the operator is asked now.
@@ -665,14 +668,21 @@ impl DriveRun {
         }
     }
 
-    /// Abort the run (Esc, Ctrl-C, a lost link): the drive is halted, the step under way
-    /// is aborted and the rest skipped, the record says why.
+    /// Abort the run (Esc, Ctrl-C, a lost link): the drive is left as the on-exit rule
+    /// says (halted by default), the step under way is aborted and the rest skipped, the
+    /// record says why.
     pub fn abort(&mut self, why: &str) {
         if self.record.is_some() {
             return;
         }
         if self.connected {
-            self.requests.push((0, Request::Halt));
+            match self.setup.on_abort {
+                LinkLossAction::Halt => self.requests.push((0, Request::Halt)),
+                LinkLossAction::SwitchOff => {
+                    self.requests.push((0, Request::Command(Action::SwitchOff)))
+                }
+                LinkLossAction::Nothing => {}
+            }
         }
         self.prompt = None;
         self.waiting = None;

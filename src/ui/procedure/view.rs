@@ -35,6 +35,8 @@ fn setup_of(drive: &Drive) -> (DriveSetup, String) {
         backups: Default::default(),
         // The built-in simulated drive has no switch to press: its inputs are forced.
         rehearsal: spec == Some(crate::link::LinkSpec::Sim),
+        // The drive's own rule for a lost link is what an aborted run leaves it in.
+        on_abort: drive.settings.on_link_loss,
     };
     (setup, format!("{} on {link} (window)", drive.name))
 }
