@@ -112,6 +112,30 @@ fn the_example_procedure_passes_end_to_end_on_the_simulated_drive() {
     assert!(page.contains("<svg"), "the plots inline");
     assert!(page.contains(&record.sha256));
     assert_eq!(page.matches("data-verdict=\"passed\"").count(), 9);
+    // The simulated drive stood in for a machine's: the record says it was a rehearsal.
+    assert!(record.rehearsal, "--link sim is a rehearsal");
+
+    // `verify` holds the record to its seal, from the page's name or the JSON's.
+    let (code, out, err) = run(&["verify", html.to_str().unwrap()]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.starts_with("the seal holds: "), "{out}");
+    assert!(out.contains(&record.sha256), "{out}");
+    // The overall verdict edited by hand, the JSON kept well-formed: exit 1, named.
+    let json = html.with_extension("json");
+    let mut value: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    value["verdict"] = "failed".into();
+    std::fs::write(&json, serde_json::to_string_pretty(&value).unwrap()).unwrap();
+    let (code, out, err) = run(&["verify", json.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(err.contains("changed after it was sealed"), "{err}");
+    // Not a record at all: exit 2.
+    let (code, _, err) = run(&["verify", procedure.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("not a drivedeck commissioning record"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -505,6 +505,8 @@ pub(super) fn run(
     } else {
         vec![]
     };
+    // Any drive a simulated one stands in for makes the run a rehearsal in its record.
+    let rehearsal = rehearse || targets.iter().any(|t| t.setup.rehearsal);
     let started = now_utc();
     let machine = match project {
         Some((path, _)) => format!("project {}", path.display()),
@@ -529,7 +531,7 @@ pub(super) fn run(
             operator: args.operator.clone().unwrap_or_else(record::os_user),
             started,
             finished: now_utc(),
-            rehearsal: rehearse,
+            rehearsal,
         },
         drives,
     );

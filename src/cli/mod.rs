@@ -36,6 +36,7 @@ mod spectrum;
 mod stop;
 mod storage;
 mod test_move;
+mod verify;
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -178,6 +179,9 @@ pub enum Command {
     /// out.html`; --rehearse runs it against simulated drives first. Exit 0 all passed,
     /// 1 any failed, 130 interrupted.
     Commission(commission::CommissionArgs),
+    /// Check a commissioning record's seal: `verify record.json` (or the .html beside it).
+    /// Exit 0 the record is as it was written, 1 it was changed after, 2 no record.
+    Verify(verify::VerifyArgs),
     /// Write the man pages and shell completions (bash, zsh, fish) into DIR, for a package.
     #[command(hide = true)]
     InstallFiles { dir: std::path::PathBuf },
@@ -278,7 +282,7 @@ pub struct RecordArgs {
     #[arg(long, value_name = "FILE")]
     pub out: std::path::PathBuf,
     /// Start on a condition: 'position rises 1000', 'velocity falls 0',
-    /// 'pdi_status bit 10 rises', 'digital_inputs bit 16 changes'.
+    /// 'pdi_status bit 3 rises', 'digital_inputs bit 16 changes'.
     #[arg(long, value_name = "CONDITION")]
     pub trigger: Option<String>,
     /// With --trigger: history kept from before it fired.
@@ -865,6 +869,7 @@ pub fn main() -> ExitCode {
             test_move::run_velocity(&link, &args, cli.json, timeout(&cli), cli.trace, &context)
         }
         Some(Command::Spectrum(args)) => spectrum::run(&args, cli.json),
+        Some(Command::Verify(args)) => verify::run(&args, cli.json),
         Some(Command::Io) => {
             let link = cli.link.clone().unwrap_or(LinkSpec::Sim);
             io::run_io(&link, cli.json, timeout(&cli), cli.trace, &context)

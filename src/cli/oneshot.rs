@@ -91,6 +91,7 @@ fn planned_request(command: &Command) -> Result<Option<(Request, bool)>, Failure
         | Command::Store
         | Command::Nanoj(_)
         | Command::Commission(_)
+        | Command::Verify(_)
         | Command::InstallFiles { .. }
         | Command::Io
         | Command::Output(_)

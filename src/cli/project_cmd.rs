@@ -81,6 +81,7 @@ fn command_name(command: &Command) -> &'static str {
         Command::Store => "store",
         Command::Nanoj(_) => "nanoj",
         Command::Commission(_) => "commission",
+        Command::Verify(_) => "verify",
         Command::InstallFiles { .. } => "install-files",
         Command::Io => "io",
         Command::Output(_) => "output",
@@ -140,7 +141,11 @@ pub(super) fn target(cli: &Cli) -> Result<Target, Failure> {
         || matches!(command, Command::Od(OdArgs { command: OdCommand::Dump(d) }) if d.dir.is_some());
     match (command, drive) {
         (
-            Command::Sim(_) | Command::Discover(_) | Command::Project(_) | Command::Spectrum(_),
+            Command::Sim(_)
+            | Command::Discover(_)
+            | Command::Project(_)
+            | Command::Spectrum(_)
+            | Command::Verify(_),
             _,
         ) => Err(usage(format!(
             "{} does not use --project or --drive",

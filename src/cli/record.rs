@@ -148,7 +148,7 @@ fn signals(text: &str) -> Result<(Vec<String>, Watched), String> {
 }
 
 /// `position rises 1000`, `velocity falls 0`, `torque crosses 200`,
-/// `pdi_status bit 10 rises`, `digital_inputs bit 16 changes`.
+/// `pdi_status bit 3 rises`, `digital_inputs bit 16 changes`.
 pub fn parse_trigger(text: &str, scope: &Scope) -> Result<Condition, String> {
     let words: Vec<&str> = text.split_whitespace().collect();
     let edge = |w: &str| match w {
@@ -160,7 +160,7 @@ pub fn parse_trigger(text: &str, scope: &Scope) -> Result<Condition, String> {
         )),
     };
     let bad = || {
-        format!("trigger '{text}': write e.g. 'position rises 1000' or 'pdi_status bit 10 rises'")
+        format!("trigger '{text}': write e.g. 'position rises 1000' or 'pdi_status bit 3 rises'")
     };
     let signal = words.first().ok_or_else(bad)?;
     let def = scope

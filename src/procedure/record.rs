@@ -263,6 +263,48 @@ impl Record {
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_default()
     }
+
+    /// The record in `json` (a record's `.json` file), if its seal holds: nothing added,
+    /// removed or changed since it was written. A field the record does not know counts as
+    /// a change (it would not be covered by the seal).
+    pub fn check_sealed(json: &str) -> Result<Record, SealError> {
+        let record: Record =
+            serde_json::from_str(json).map_err(|e| SealError::NotARecord(e.to_string()))?;
+        let as_read: serde_json::Value =
+            serde_json::from_str(json).map_err(|e| SealError::NotARecord(e.to_string()))?;
+        let known =
+            serde_json::to_value(&record).map_err(|e| SealError::NotARecord(e.to_string()))?;
+        if as_read != known {
+            return Err(SealError::Unknown);
+        }
+        if record.sha256.is_empty() {
+            return Err(SealError::Unsealed);
+        }
+        if !record.verify() {
+            return Err(SealError::Broken {
+                sealed: record.sha256.clone(),
+                now: sha256_hex(record.fingerprinted().as_bytes()),
+            });
+        }
+        Ok(record)
+    }
+}
+
+/// Why a record's seal does not hold.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SealError {
+    #[error("not a drivedeck commissioning record: {0}")]
+    NotARecord(String),
+    #[error("the record has no seal (its sha256 is empty)")]
+    Unsealed,
+    #[error(
+        "the record holds fields a drivedeck record does not have: something was added after it was sealed"
+    )]
+    Unknown,
+    #[error(
+        "the record was changed after it was sealed: sealed {sealed}, its contents now give {now}"
+    )]
+    Broken { sealed: String, now: String },
 }
 
 #[cfg(test)]
@@ -275,6 +317,53 @@ mod tests {
             sha256_hex(b"abc"),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
         );
+    }
+
+    fn sealed() -> Record {
+        let mut record = Record {
+            procedure: "Axis".into(),
+            procedure_file: "axis.toml".into(),
+            procedure_sha256: sha256_hex(b"[procedure]"),
+            description: "a \"quoted\" line".into(),
+            machine: "link sim".into(),
+            tool: "drivedeck 0.1.0".into(),
+            operator: "<closed> & locked".into(),
+            started: "2026-12-06T10:00:00Z".into(),
+            finished: "2026-12-06T10:01:00Z".into(),
+            rehearsal: false,
+            drives: vec![],
+            verdict: Verdict::Passed,
+            sha256: String::new(),
+        };
+        record.seal();
+        record
+    }
+
+    #[test]
+    fn a_sealed_record_checks_and_any_edit_breaks_it() {
+        let record = sealed();
+        let json = record.to_json();
+        assert_eq!(Record::check_sealed(&json), Ok(record.clone()));
+        // Pretty or compact, the same record.
+        let compact = serde_json::to_string(&record).unwrap();
+        assert!(Record::check_sealed(&compact).is_ok());
+        // A verdict changed by hand.
+        let edited = json.replace("\"verdict\": \"passed\"", "\"verdict\": \"failed\"");
+        assert_ne!(edited, json);
+        assert!(matches!(
+            Record::check_sealed(&edited),
+            Err(SealError::Broken { .. })
+        ));
+        // A field added, which the seal could not have covered.
+        let added = json.replacen('{', "{\"approved_by\": \"me\",", 1);
+        assert_eq!(Record::check_sealed(&added), Err(SealError::Unknown));
+        // The seal emptied, and not a record at all.
+        let unsealed = json.replace(&record.sha256, "");
+        assert_eq!(Record::check_sealed(&unsealed), Err(SealError::Unsealed));
+        assert!(matches!(
+            Record::check_sealed("[1, 2]"),
+            Err(SealError::NotARecord(_))
+        ));
     }
 
     #[test]
