@@ -1,6 +1,6 @@
 //! The procedure file: TOML, a `[procedure]` table and an ordered `[[step]]` array, each
-//! step a `kind` with its parameters and acceptance limits (docs/procedures.md, the
-//! commented example in `assets/procedures/`). Read whole and checked before anything
+//! step a `kind` with its parameters and acceptance limits (the user guide's
+//! `docs/guide/09-procedures-and-records.md`, the commented example in `assets/procedures/`). Read whole and checked before anything
 //! moves: a bad file is refused with the line of the step and what is wrong with it.
 
 use std::path::{Path, PathBuf};

@@ -148,8 +148,10 @@ fn steps_ui(ui: &mut Ui, panel: &ProcedurePanel) {
         ui.add(
             egui::Label::new(
                 RichText::new(
-                    "Load a procedure file (TOML): ordered steps with limits — see \
-                     docs/procedures.md and assets/procedures/ for an example.",
+                    "Load a procedure file (TOML): ordered steps with limits. The guide's page \
+                     \"Procedures and records\" describes the file (docs/guide/ in the source, \
+                     /usr/share/doc/drivedeck/guide/ where the package is installed); an \
+                     example is in assets/procedures/ (/usr/share/doc/drivedeck/examples/).",
                 )
                 .weak(),
             )
