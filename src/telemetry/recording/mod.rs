@@ -233,6 +233,28 @@ impl Metadata {
         })
     }
 
+    /// The fields this sets that `earlier` does not hold with the same value.
+    pub fn news_since(&self, earlier: &Metadata) -> Metadata {
+        let mut news = Metadata::default();
+        for (key, value) in self.text_fields() {
+            let held = earlier.text_fields().into_iter().find(|(k, _)| *k == key);
+            if let (Some(value), Some(field)) = (value, news.text_field(key))
+                && held.is_none_or(|(_, v)| v.as_ref() != Some(value))
+            {
+                *field = Some(value.clone());
+            }
+        }
+        for (key, value) in self.number_fields() {
+            let held = earlier.number_fields().into_iter().find(|(k, _)| *k == key);
+            if let (Some(value), Some(field)) = (value, news.number_field(key))
+                && held.is_none_or(|(_, v)| v != Some(value))
+            {
+                *field = Some(value);
+            }
+        }
+        news
+    }
+
     /// Take every field `update` sets (a file written as taken says some only at its end).
     pub fn merge(&mut self, update: &Metadata) {
         for (key, value) in update.text_fields() {

@@ -85,6 +85,9 @@ pub struct StreamWriter {
     last_flush: Instant,
     line: String,
     ended: bool,
+    /// The metadata in the file so far (the header's, then each update): the end says
+    /// only what is new, so no field appears twice.
+    written: Metadata,
 }
 
 /// Serializing plain structs, strings and numbers cannot fail.
@@ -130,6 +133,7 @@ impl StreamWriter {
             last_flush: Instant::now(),
             line: String::new(),
             ended: false,
+            written: meta.clone(),
         };
         writer.out.write_all(head.as_bytes())?;
         writer.flush()?;
@@ -176,6 +180,7 @@ impl StreamWriter {
 
     /// Fields of the metadata learned on the way (the trigger's time), at once.
     pub fn meta(&mut self, update: &Metadata) -> std::io::Result<()> {
+        self.written.merge(update);
         self.line.clear();
         match self.layout {
             Layout::Csv => meta_lines(&mut self.line, update),
@@ -191,12 +196,14 @@ impl StreamWriter {
         self.flush()
     }
 
-    /// The recording is complete: the fields known only now (`last`: the rate achieved,
-    /// why it ended early) and the end line, on the disk.
+    /// The recording is complete: the fields known only now (those of `last` the file
+    /// does not hold yet: the rate achieved, why it ended early) and the end line, on
+    /// the disk.
     pub fn finish(&mut self, last: &Metadata, samples: usize) -> std::io::Result<()> {
         if self.ended {
             return Ok(());
         }
+        let last = &last.news_since(&self.written);
         self.line.clear();
         match self.layout {
             Layout::Csv => {

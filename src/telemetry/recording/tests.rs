@@ -474,12 +474,30 @@ fn a_streamed_file_cut_anywhere_opens_with_its_whole_rows_and_says_it_was_cut() 
                 "no sample stays no sample"
             );
         }
+        // The trigger's time is written when it fires; the end is handed the whole
+        // metadata, as `record` does, and adds only what is new.
+        let fired = Metadata {
+            trigger_time_s: Some(0.25),
+            ..Metadata::default()
+        };
+        writer.meta(&fired).expect("meta");
         let last = Metadata {
             rate_hz: Some(100.0),
             ended_early: Some("interrupted by SIGINT at t = 0.390 s".into()),
-            ..Metadata::default()
+            trigger_time_s: Some(0.25),
+            ..head.clone()
         };
         writer.finish(&last, 40).expect("end");
+        if layout == Layout::Csv {
+            let text = std::fs::read_to_string(&path).expect("text");
+            for key in ["trigger_time_s", "rate_asked_hz", "vendor", "rate_hz"] {
+                assert_eq!(
+                    text.matches(&format!("# {key}:")).count(),
+                    1,
+                    "{key} once in\n{text}"
+                );
+            }
+        }
         let recording =
             crate::telemetry::load_recording(&path, crate::telemetry::MAX_RECORDING_BYTES)
                 .expect("a complete file");
@@ -488,6 +506,7 @@ fn a_streamed_file_cut_anywhere_opens_with_its_whole_rows_and_says_it_was_cut() 
         assert_eq!(recording.meta.rate_hz, Some(100.0));
         assert_eq!(recording.meta.rate_asked_hz, Some(100.0));
         assert_eq!(recording.meta.ended_early, last.ended_early);
+        assert_eq!(recording.meta.trigger_time_s, Some(0.25));
         assert_eq!(
             recording.markers,
             vec![Marker {
@@ -499,7 +518,8 @@ fn a_streamed_file_cut_anywhere_opens_with_its_whole_rows_and_says_it_was_cut() 
             // Once complete, the file is one JSON document for any JSON tool.
             let text = std::fs::read_to_string(&path).expect("text");
             let value: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
-            assert_eq!(value["rows"].as_array().map(Vec::len), Some(41));
+            // 40 rows, the marker and the trigger's time.
+            assert_eq!(value["rows"].as_array().map(Vec::len), Some(42));
             assert_eq!(value["end"]["samples"], 40);
         }
     }
