@@ -29,7 +29,9 @@ use std::time::{Duration, Instant};
 use common::cli::{run, start};
 use common::{Process, Sim, modbus_server};
 use drivedeck::injection::Injection;
+use drivedeck::pdi::StatusBit;
 use drivedeck::sim::server::modbus::ServerOptions;
+use drivedeck::sim::Load;
 
 /// The exit code of a process that should end by itself within `timeout`.
 fn exit_code(process: &mut Process, timeout: Duration) -> i32 {
@@ -97,6 +99,48 @@ fn a_fault_mid_move_ends_the_wait_naming_the_fault_read_again_and_the_position()
     );
     assert!(report.contains("at position "), "{report}");
     assert!(!report.contains("timed out"), "{report}");
+}
+
+#[test]
+fn an_axis_that_does_not_follow_ends_the_wait_and_is_halted() {
+    // A load the motor cannot move at its rated torque, in closed loop (after an auto
+    // setup): the axis stalls. The drive's factory reaction to a following error is none
+    // (3700h), so only PdiStatusFollowingError says it; the wait must not push on to
+    // --timeout.
+    let server = modbus_server(ServerOptions::default());
+    let link = format!("modbus-tcp://{}", server.addr);
+    let (code, out, err) = run(&["--link", &link, "auto-setup", "--wait"]);
+    assert_eq!(code, 0, "{out}{err}");
+    server.drive().lock().set_load(Load {
+        inertia: 50.0,
+        torque: 1000.0,
+    });
+    let blocked = Instant::now();
+    let mut mover = start(&[
+        "--link", &link, "move-abs", "20000", "--speed", "3000", "--wait",
+    ]);
+    let code = exit_code(&mut mover, Duration::from_secs(15));
+    let report = mover.report();
+    eprintln!("{report}");
+    assert_eq!(code, 1, "{report}");
+    assert!(
+        report.contains("Check what blocks or loads the axis"),
+        "what to do leads: {report}"
+    );
+    assert!(report.contains("PdiStatusFollowingError"), "{report}");
+    assert!(report.contains("behind (60F4h)"), "{report}");
+    assert!(report.contains("target not reached"), "{report}");
+    assert!(!report.contains("timed out"), "{report}");
+    // Functional bound only: ended on the following error, not the 30 s --timeout.
+    assert!(blocked.elapsed() < Duration::from_secs(15), "{report}");
+    // Not a fault: the drive is still enabled, and was halted on the way out.
+    let tx = server.drive().lock().tx_image();
+    // 603Fh holds 8611h as a warning (PdiStatusWarning), not a fault.
+    assert!(!tx.status.is_set(StatusBit::Fault), "no fault: {tx:?}");
+    assert!(
+        tx.status.is_set(StatusBit::OperationEnabled) && tx.status.is_set(StatusBit::QsHaltBit),
+        "--on-exit halt: {tx:?} {report}"
+    );
 }
 
 /// A Modbus TCP proxy in front of a served drive that can reset the connections it

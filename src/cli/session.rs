@@ -565,9 +565,16 @@ fn written(event: Event) -> Option<(u64, Result<(), ObjectError>)> {
 /// that starts at a limit switch, away from it, is still at rest for its first cycles.
 const END_HOLD: f64 = 0.5;
 
+/// How long PdiStatusFollowingError must stay set before a `--wait` gives up on the
+/// travel command: the axis does not follow (blocked, overloaded). A drive reacts to it
+/// only where 3700h says so; the factory's is no reaction, so it would push on until
+/// `--timeout`. Longer than an acceleration's passing lag.
+const FOLLOWING_HOLD: f64 = 2.0;
+
 /// Watches the samples of a travel command waited for, for the end of it short of its
 /// target: the motor at rest, PdiStatusTargetReached clear, and the drive at a limit
-/// switch or halted (by someone else: the command did not ask for it), for [`END_HOLD`].
+/// switch or halted (by someone else: the command did not ask for it), for [`END_HOLD`];
+/// or PdiStatusFollowingError set, moving or not, for [`FOLLOWING_HOLD`].
 #[derive(Default)]
 pub(super) struct EndWatch {
     /// Sample time since which the end shows, and what it is.
@@ -579,6 +586,8 @@ pub(super) struct EndWatch {
 pub(super) enum End {
     LimitSwitch,
     Halted,
+    /// The axis does not follow its command (PdiStatusFollowingError).
+    NotFollowing,
 }
 
 /// A travel command's end short of its target, as seen in the samples.
@@ -609,7 +618,11 @@ impl EndWatch {
     pub(super) fn check(&mut self, sample: &Sample) -> Option<EndSeen> {
         let status = sample.tx.status;
         let moving = sample.at_rest() == Some(false);
-        let end = if status.is_set(StatusBit::TargetReached) || moving {
+        let end = if status.is_set(StatusBit::TargetReached) {
+            None
+        } else if status.is_set(StatusBit::FollowingError) {
+            Some(End::NotFollowing)
+        } else if moving {
             None
         } else if status.is_set(StatusBit::LimitReached) {
             Some(End::LimitSwitch)
@@ -630,7 +643,12 @@ impl EndWatch {
                 sample.t
             }
         };
-        (sample.t - since >= END_HOLD).then_some(EndSeen {
+        let hold = if end == End::NotFollowing {
+            FOLLOWING_HOLD
+        } else {
+            END_HOLD
+        };
+        (sample.t - since >= hold).then_some(EndSeen {
             end,
             at_rest: sample.at_rest() == Some(true),
         })
@@ -656,9 +674,17 @@ impl EndSeen {
             End::Halted => format!(
                 "Find who halted the drive (another master or tool): it was halted (PdiStatusQsHaltBit) {at} before reaching its target, by a request not from this command; {what}: target not reached"
             ),
+            End::NotFollowing => format!(
+                "Check what blocks or loads the axis (a brake still closed, an end stop, a load too heavy for the current limit) and the gains: it does not follow its command, the drive signalled a following error (PdiStatusFollowingError) for {FOLLOWING_HOLD:.1} s {at}{}; the drive does not stop on it by itself unless its reaction 3700h says so (the factory's is no reaction); {what}: target not reached",
+                match sample.following_error() {
+                    Some(e) => format!(", {e:.0} behind (60F4h)"),
+                    None => String::new(),
+                }
+            ),
         };
         Failure {
-            stop: !self.at_rest,
+            // A drive that does not follow still pushes: stopped by `--on-exit`.
+            stop: !self.at_rest || self.end == End::NotFollowing,
             ..failed(message)
         }
     }
