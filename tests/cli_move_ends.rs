@@ -30,8 +30,8 @@ use common::cli::{run, start};
 use common::{Process, Sim, modbus_server};
 use drivedeck::injection::Injection;
 use drivedeck::pdi::StatusBit;
-use drivedeck::sim::server::modbus::ServerOptions;
 use drivedeck::sim::Load;
+use drivedeck::sim::server::modbus::ServerOptions;
 
 /// The exit code of a process that should end by itself within `timeout`.
 fn exit_code(process: &mut Process, timeout: Duration) -> i32 {

@@ -430,7 +430,8 @@ fn crafted_backup(objects: &[(&str, &str, &str, &str, u64)]) -> String {
         .collect();
     serde_json::json!({
         "format": "drivedeck backup", "version": 1, "saved_at": 0, "link": "sim",
-        "identity": {"vendor": 0x26C}, "objects": objects,
+        // The simulated drive's own vendor, product and serial.
+        "identity": {"vendor": 0x26C, "product": 0x42, "serial": 0x1234}, "objects": objects,
     })
     .to_string()
 }
@@ -514,6 +515,84 @@ fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_th
             .query_by_label_contains("skipped: a command (restore default parameters")
             .is_some()
     );
+}
+
+#[test]
+fn a_backup_of_another_kind_of_device_is_restored_only_when_forced() {
+    let dir = temp_dir("backup-other-product");
+    let path = dir.path().join("other.json");
+    let mut file: serde_json::Value = serde_json::from_str(&crafted_backup(&[(
+        "6081:00",
+        "Profile Velocity",
+        "UNSIGNED32",
+        "uint",
+        777,
+    )]))
+    .expect("json");
+    file["identity"]["product"] = 0x99.into();
+    file["identity"]["name"] = "PD6-C8918M9504-E-08".into();
+    std::fs::write(&path, file.to_string()).expect("write");
+    let mut harness = browser();
+    backup_file(&mut harness, &path);
+    preview_restore(&mut harness);
+    harness.run();
+    // Named in red, and the restore held back until the user says so.
+    assert!(
+        harness
+            .query_by_label_contains(
+                "the file was saved from another kind of device (PD6-C8918M9504-E-08"
+            )
+            .is_some(),
+        "the mismatch is said"
+    );
+    assert!(
+        harness
+            .get_by_label("Restore 1 writes")
+            .accesskit_node()
+            .is_disabled(),
+        "not without forcing"
+    );
+    harness
+        .get_by_label("Restore onto this other kind of device anyway")
+        .click();
+    harness.run();
+    restore_the_one_write(&mut harness);
+    assert_eq!(
+        harness
+            .state()
+            .shown()
+            .browser
+            .restore
+            .as_ref()
+            .map(|r| r.force),
+        Some(true)
+    );
+}
+
+#[test]
+fn another_unit_of_the_same_kind_is_said_but_not_held_back() {
+    let dir = temp_dir("backup-other-unit");
+    let path = dir.path().join("unit.json");
+    let mut file: serde_json::Value = serde_json::from_str(&crafted_backup(&[(
+        "6081:00",
+        "Profile Velocity",
+        "UNSIGNED32",
+        "uint",
+        777,
+    )]))
+    .expect("json");
+    file["identity"]["serial"] = 0x777.into();
+    std::fs::write(&path, file.to_string()).expect("write");
+    let mut harness = browser();
+    backup_file(&mut harness, &path);
+    preview_restore(&mut harness);
+    harness.run();
+    assert!(
+        harness
+            .query_by_label_contains("the file was saved from another unit (serial 00000777h)")
+            .is_some()
+    );
+    restore_the_one_write(&mut harness);
 }
 
 #[test]

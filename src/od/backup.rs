@@ -183,6 +183,46 @@ impl DeviceIdentity {
     pub fn same_product(&self, other: &DeviceIdentity) -> bool {
         self.vendor == other.vendor && self.product == other.product
     }
+
+    /// How the device a backup was saved from (`self`) differs from `device`, the one
+    /// it is to be compared with or restored onto: another kind of device (a restore
+    /// needs forcing), or another unit of the same kind (a replacement: fine, but said).
+    pub fn mismatch(&self, device: &DeviceIdentity) -> Option<Mismatch> {
+        let serial = |s: Option<u32>| s.map_or("?".into(), |s| format!("{s:08X}h"));
+        if !self.same_product(device) {
+            Some(Mismatch::OtherProduct(format!(
+                "the file was saved from another kind of device ({}); this is {}",
+                self.summary(),
+                device.summary()
+            )))
+        } else if self.serial != device.serial {
+            Some(Mismatch::OtherUnit(format!(
+                "the file was saved from another unit (serial {}); this one is serial {}",
+                serial(self.serial),
+                serial(device.serial)
+            )))
+        } else {
+            None
+        }
+    }
+}
+
+/// How a backup's device differs from the one at hand ([`DeviceIdentity::mismatch`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Mismatch {
+    /// Another vendor or product (or the file does not say): its settings may mean
+    /// something else here; a restore must be forced.
+    OtherProduct(String),
+    /// The same kind of device, another serial number.
+    OtherUnit(String),
+}
+
+impl Mismatch {
+    pub fn text(&self) -> &str {
+        match self {
+            Mismatch::OtherProduct(t) | Mismatch::OtherUnit(t) => t,
+        }
+    }
 }
 
 /// One saved object.

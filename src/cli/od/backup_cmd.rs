@@ -315,21 +315,10 @@ struct DiffReport {
 
 /// Identity differences worth a warning: another product, or another unit of the same.
 fn identity_warnings(file: &DeviceIdentity, device: &DeviceIdentity) -> Vec<String> {
-    if !file.same_product(device) {
-        vec![format!(
-            "the file was saved from another kind of device ({}); this is {}",
-            file.summary(),
-            device.summary()
-        )]
-    } else if file.serial != device.serial {
-        vec![format!(
-            "the file was saved from another unit (serial {}); this one is serial {}",
-            file.serial.map_or("?".into(), |s| format!("{s:08X}h")),
-            device.serial.map_or("?".into(), |s| format!("{s:08X}h"))
-        )]
-    } else {
-        vec![]
-    }
+    file.mismatch(device)
+        .map(|m| m.text().to_owned())
+        .into_iter()
+        .collect()
 }
 
 fn diff_report(

@@ -3,7 +3,7 @@
 use eframe::egui::{self, RichText, Ui};
 
 use super::{Browser, Pending, Purpose, Restore, shown_in};
-use crate::od::backup::{self, Backup, Comparison, Step, Why};
+use crate::od::backup::{self, Backup, Comparison, Mismatch, Step, Why};
 use crate::od::{Catalog, DataType, Entry, Value};
 use crate::ui::widgets::{AMBER, GREEN, RED, title_with_close_ui};
 use crate::worker::{ObjectPath, Request};
@@ -158,15 +158,37 @@ pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, connected: bool) {
     };
     let mut close = false;
     let mut start = false;
+    let mut force = restore.force;
     ui.group(|ui| {
         let from = format!("from {}", restore.backup.identity.summary());
         close = title_with_close_ui(ui, "Restore preview", Some(&from));
         if restore.steps.is_empty() {
             ui.label("The device already matches the file: nothing to write.");
         }
+        match &restore.mismatch {
+            Some(m @ Mismatch::OtherProduct(_)) => {
+                ui.colored_label(
+                    RED,
+                    format!("{}: its settings may mean something else here.", m.text()),
+                );
+                ui.checkbox(&mut force, "Restore onto this other kind of device anyway");
+            }
+            Some(m @ Mismatch::OtherUnit(_)) => {
+                ui.colored_label(
+                    AMBER,
+                    format!(
+                        "{} (a replacement takes its predecessor's settings so).",
+                        m.text()
+                    ),
+                );
+            }
+            None => {}
+        }
         restore_steps_ui(ui, b.catalog(), restore);
         skipped_ui(ui, b.catalog(), restore);
+        let allowed = force || !matches!(restore.mismatch, Some(Mismatch::OtherProduct(_)));
         let can = connected
+            && allowed
             && !restore.running
             && !restore.steps.is_empty()
             && restore.results.iter().all(Option::is_none);
@@ -180,6 +202,9 @@ pub(super) fn restore_ui(ui: &mut Ui, b: &mut Browser, connected: bool) {
             start = true;
         }
     });
+    if let Some(restore) = b.restore.as_mut() {
+        restore.force = force;
+    }
     if close {
         b.restore = None;
         return;

@@ -135,6 +135,8 @@ mod tests {
             running: true,
             confirm: false,
             skipped: vec![],
+            mismatch: None,
+            force: false,
         });
         assert!(!b.restore_result(0, Ok(())));
         assert!(b.restore_result(1, Err("refused".into())));

@@ -101,6 +101,10 @@ pub struct Restore {
     /// Saved objects left alone, with the reason: not settings of the dictionary shown
     /// (commands, process data, read-only, unknown), or unreadable on the device.
     pub skipped: Vec<(Address, String)>,
+    /// How the file's device differs from this one, as read before the preview.
+    pub mismatch: Option<backup::Mismatch>,
+    /// The user ticked "restore onto another kind of device anyway" (the CLI's --force).
+    pub force: bool,
 }
 
 /// What a request the browser sent is for: it leaves with the request as its owner's
@@ -621,7 +625,12 @@ impl Browser {
                 }
             ),
         );
+        let mismatch = file
+            .identity
+            .mismatch(&backup::DeviceIdentity::from_reads(reads));
         self.restore = Some(Restore {
+            mismatch,
+            force: false,
             results: vec![None; steps.len()],
             backup: file,
             steps,
