@@ -164,7 +164,8 @@ pub fn log_grid_ui(ui: &mut Ui, id_salt: &str, columns: usize, rows_ui: impl FnO
 
 /// A section's title, a note beside it, and its Close button: `true` when that is clicked.
 pub fn title_with_close_ui(ui: &mut Ui, title: &str, note: Option<&str>) -> bool {
-    ui.horizontal(|ui| {
+    // Wrapped: a long note (a device's whole identity) stays within a narrow window.
+    ui.horizontal_wrapped(|ui| {
         ui.label(RichText::new(title).strong());
         if let Some(note) = note {
             ui.weak(note);
