@@ -34,6 +34,27 @@ fn answers_in(dir: &Path, lines: &str) -> PathBuf {
     path
 }
 
+/// `drivedeck [before…] commission PROCEDURE --record HTML [after…]`, as arguments.
+fn commission(before: &[&str], procedure: &Path, html: &Path, after: &[&str]) -> Vec<String> {
+    let mut args: Vec<String> = before.iter().map(|a| (*a).to_owned()).collect();
+    args.push("commission".into());
+    args.push(procedure.display().to_string());
+    args.push("--record".into());
+    args.push(html.display().to_string());
+    args.extend(after.iter().map(|a| (*a).to_owned()));
+    args
+}
+
+/// [`run`] with owned arguments.
+fn run_with(args: &[String]) -> (i32, String, String) {
+    run(&args.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
+/// [`start`] with owned arguments.
+fn start_with(args: &[String]) -> common::Process {
+    start(&args.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
 /// The record's JSON beside `html`, read, its seal checked.
 fn record_of(html: &Path) -> Record {
     let text = std::fs::read_to_string(html.with_extension("json")).expect("the JSON record");
@@ -58,18 +79,17 @@ fn the_example_procedure_passes_end_to_end_on_the_simulated_drive() {
     let procedure = procedure_in(dir.path(), |t| t);
     let answers = answers_in(dir.path(), "# the one question\nyes\n");
     let html = dir.path().join("record.html");
-    let (code, out, err) = run(&[
-        "--link",
-        "sim",
-        "commission",
-        procedure.to_str().unwrap(),
-        "--record",
-        html.to_str().unwrap(),
-        "--answers",
-        answers.to_str().unwrap(),
-        "--operator",
-        "Test Bench",
-    ]);
+    let (code, out, err) = run_with(&commission(
+        &["--link", "sim"],
+        &procedure,
+        &html,
+        &[
+            "--answers",
+            answers.to_str().unwrap(),
+            "--operator",
+            "Test Bench",
+        ],
+    ));
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("Linear axis commissioning: passed"), "{out}");
     let record = record_of(&html);
@@ -146,16 +166,12 @@ fn an_impossible_limit_fails_its_step_and_the_record_names_value_and_limit() {
     });
     let answers = answers_in(dir.path(), "yes\n");
     let html = dir.path().join("record.html");
-    let (code, out, err) = run(&[
-        "--link",
-        "sim",
-        "commission",
-        procedure.to_str().unwrap(),
-        "--record",
-        html.to_str().unwrap(),
-        "--answers",
-        answers.to_str().unwrap(),
-    ]);
+    let (code, out, err) = run_with(&commission(
+        &["--link", "sim"],
+        &procedure,
+        &html,
+        &["--answers", answers.to_str().unwrap()],
+    ));
     assert_eq!(code, 1, "{out}{err}");
     let record = record_of(&html);
     assert_eq!(record.verdict.word(), "failed");
@@ -214,14 +230,7 @@ fn a_bad_file_is_refused_with_its_line_before_anything_moves() {
             assert!(t.contains(from), "{from}");
             t.replacen(from, to, 1)
         });
-        let (code, out, err) = run(&[
-            "--link",
-            "sim",
-            "commission",
-            procedure.to_str().unwrap(),
-            "--record",
-            html.to_str().unwrap(),
-        ]);
+        let (code, out, err) = run_with(&commission(&["--link", "sim"], &procedure, &html, &[]));
         assert_eq!(code, 2, "{to}: {out}{err}");
         assert!(
             err.contains(expected),
@@ -303,16 +312,12 @@ fn ctrl_c_aborts_the_run_and_the_record_says_so() {
     let procedure = procedure_in(dir.path(), |t| t.replace("cycles = 2", "cycles = 20"));
     let answers = answers_in(dir.path(), "yes\n");
     let html = dir.path().join("record.html");
-    let mut child = start(&[
-        "--link",
-        "sim",
-        "commission",
-        procedure.to_str().unwrap(),
-        "--record",
-        html.to_str().unwrap(),
-        "--answers",
-        answers.to_str().unwrap(),
-    ]);
+    let mut child = start_with(&commission(
+        &["--link", "sim"],
+        &procedure,
+        &html,
+        &["--answers", answers.to_str().unwrap()],
+    ));
     // Connecting, the backup and the 3 s auto setup take about 4 s: then the test move
     // (20 cycles, some 40 s) runs.
     std::thread::sleep(Duration::from_secs(8));
@@ -340,14 +345,7 @@ fn a_test_that_runs_into_a_limit_switch_says_so() {
     )
     .unwrap();
     let html = dir.path().join("record.html");
-    let (code, out, err) = run(&[
-        "--link",
-        "sim",
-        "commission",
-        procedure.to_str().unwrap(),
-        "--record",
-        html.to_str().unwrap(),
-    ]);
+    let (code, out, err) = run_with(&commission(&["--link", "sim"], &procedure, &html, &[]));
     assert_eq!(code, 1, "{out}{err}");
     let record = record_of(&html);
     let note = &record.drives[0].steps[0].note;
@@ -365,16 +363,12 @@ fn a_drive_lost_mid_procedure_aborts_the_run_and_the_record_names_the_cause() {
     let answers = answers_in(dir.path(), "yes\n");
     let html = dir.path().join("record.html");
     let link = format!("modbus-tcp://{addr}");
-    let mut child = start(&[
-        "--link",
-        &link,
-        "commission",
-        procedure.to_str().unwrap(),
-        "--record",
-        html.to_str().unwrap(),
-        "--answers",
-        answers.to_str().unwrap(),
-    ]);
+    let mut child = start_with(&commission(
+        &["--link", &link],
+        &procedure,
+        &html,
+        &["--answers", answers.to_str().unwrap()],
+    ));
     // In the test move (after the backup and the 3 s auto setup), the drive goes away.
     std::thread::sleep(Duration::from_secs(8));
     sim.process.signal("KILL");
@@ -407,18 +401,12 @@ fn ctrl_c_leaves_the_drive_as_on_exit_says() {
     let answers = answers_in(dir.path(), "yes\n");
     let html = dir.path().join("record.html");
     let link = format!("modbus-tcp://{addr}");
-    let mut child = start(&[
-        "--link",
-        &link,
-        "--on-exit",
-        "switch-off",
-        "commission",
-        procedure.to_str().unwrap(),
-        "--record",
-        html.to_str().unwrap(),
-        "--answers",
-        answers.to_str().unwrap(),
-    ]);
+    let mut child = start_with(&commission(
+        &["--link", &link, "--on-exit", "switch-off"],
+        &procedure,
+        &html,
+        &["--answers", answers.to_str().unwrap()],
+    ));
     std::thread::sleep(Duration::from_secs(8));
     child.signal("INT");
     let status = child.wait(Duration::from_secs(15)).expect("ends on Ctrl-C");

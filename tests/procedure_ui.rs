@@ -163,3 +163,34 @@ fn a_bad_file_is_refused_with_its_line() {
             .is_disabled()
     );
 }
+
+#[test]
+fn drive_in_a_backup_path_is_the_drive_s_file_name_as_on_the_command_line() {
+    let dir = common::temp_dir("procedure-ui-drive-stem");
+    let mut harness = loaded(dir.path(), |t| {
+        t.replace(
+            "file = \"axis-backup.json\"",
+            "file = \"{drive}-backup.json\"",
+        )
+    });
+    let name = harness.state().shown().name.clone();
+    let stem = drivedeck::project::file_stem(&name);
+    assert_ne!(
+        stem, name,
+        "a name with a character a file name avoids: {name}"
+    );
+    std::fs::copy(
+        dir.path().join("axis-backup.json"),
+        dir.path().join(format!("{stem}-backup.json")),
+    )
+    .unwrap();
+    harness.get_by_label_contains("Run on ").click();
+    harness.step();
+    assert!(
+        matches!(&panel(&harness).message, Some(Ok(m)) if m.ends_with("started")),
+        "the backup {stem}-backup.json was found: {:?}",
+        panel(&harness).message
+    );
+    harness.get_by_label("Abort").click();
+    harness.step();
+}

@@ -164,26 +164,30 @@ impl Drive {
         }
     }
 
-    /// A file name for things saved per drive (`od dump DIR`): the name with every
-    /// character but ASCII letters, digits, `-` and `_` made `_`, never empty, never
-    /// starting with a dot. "X axis" → `X_axis`.
+    /// A file name for things saved per drive: [`file_stem`] of its name.
     pub fn file_stem(&self) -> String {
-        let stem: String = self
-            .name
-            .chars()
-            .map(|c| {
-                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                    c
-                } else {
-                    '_'
-                }
-            })
-            .collect();
-        if stem.chars().all(|c| c == '_') {
-            format!("drive{stem}")
-        } else {
-            stem
-        }
+        file_stem(&self.name)
+    }
+}
+
+/// A file name for things saved per drive (`od dump DIR`, a procedure's `{drive}`): the
+/// drive's name with every character but ASCII letters, digits, `-` and `_` made `_`,
+/// never empty, never starting with a dot. "X axis" → `X_axis`.
+pub fn file_stem(name: &str) -> String {
+    let stem: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if stem.chars().all(|c| c == '_') {
+        format!("drive{stem}")
+    } else {
+        stem
     }
 }
 

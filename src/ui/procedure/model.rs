@@ -150,7 +150,9 @@ impl ProcedurePanel {
             };
             let backup = match file {
                 Some(file) => {
-                    let path = procedure.backup_path(file, &setup.name);
+                    // `{drive}` is the name made a file name, as on the command line.
+                    let stem = crate::project::file_stem(&setup.name);
+                    let path = procedure.backup_path(file, &stem);
                     crate::od::backup::Backup::load(&path).map_err(|e| {
                         format!(
                             "step {} (line {}): {}: {e}",
