@@ -151,6 +151,12 @@ fn the_list_shows_each_drive_selecting_points_the_panels_at_it_and_names_stay() 
     );
     // A name given twice is refused, and the list says why.
     assert!(harness.state_mut().rename(1, "X axis".into()).is_err());
+    // As a project file would: upper and lower case aside, and names it could not hold.
+    let refused = harness.state_mut().rename(1, "x AXIS".into()).unwrap_err();
+    assert!(refused.to_string().contains("('X axis')"), "{refused}");
+    let refused = harness.state_mut().rename(1, "Y=axis".into()).unwrap_err();
+    assert!(refused.to_string().contains("has an '='"), "{refused}");
+    assert!(harness.state_mut().rename(1, "Y table".into()).is_ok());
     // Each drive keeps the colour it was given when it was added, whichever is shown.
     let colors = |h: &Harness<'_, App>| -> Vec<usize> {
         h.state()

@@ -200,6 +200,12 @@ pub struct Project {
     pub plot: Option<serde_json::Value>,
 }
 
+/// Whether two drive names are the same to a project: upper and lower case aside (a
+/// file system, a person reading the record, `--drive` typed by hand would confuse them).
+pub fn same_name(a: &str, b: &str) -> bool {
+    a.to_lowercase() == b.to_lowercase()
+}
+
 /// Why a drive's name is not one: `None` when it is.
 pub fn name_problem(name: &str) -> Option<String> {
     if name.trim().is_empty() {
@@ -276,7 +282,7 @@ impl Project {
             }
             if let Some(first) = self.drives[..i]
                 .iter()
-                .find(|d| d.name.to_lowercase() == drive.name.to_lowercase())
+                .find(|d| same_name(&d.name, &drive.name))
             {
                 return Err(ProjectError::Twice {
                     first: first.name.clone(),

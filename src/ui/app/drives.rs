@@ -18,10 +18,14 @@ use crate::worker::Request;
 /// Why a drive could not be added.
 #[derive(Debug, thiserror::Error)]
 pub enum DriveError {
-    #[error("'{name}' is a name already given to another drive: each drive needs its own")]
-    NameTaken { name: String },
+    #[error(
+        "'{name}' is a name already given to another drive ('{other}'): each drive needs its own, differing in more than upper and lower case"
+    )]
+    NameTaken { name: String, other: String },
     #[error("a drive needs a name")]
     NoName,
+    #[error("the name '{name}' {reason}")]
+    BadName { name: String, reason: String },
     #[error(transparent)]
     Spec(#[from] SpecError),
 }
@@ -99,13 +103,19 @@ impl App {
         if name.is_empty() {
             return Err(DriveError::NoName);
         }
-        let taken = self
-            .drives
-            .iter()
-            .enumerate()
-            .any(|(i, s)| Some(i) != except && s.drive.name == name);
-        if taken {
-            return Err(DriveError::NameTaken { name });
+        // The rules a project file holds its names to, so that the list can be saved.
+        if let Some(reason) = crate::project::name_problem(&name) {
+            return Err(DriveError::BadName { name, reason });
+        }
+        let taken =
+            self.drives.iter().enumerate().find(|(i, s)| {
+                Some(*i) != except && crate::project::same_name(&s.drive.name, &name)
+            });
+        if let Some((_, other)) = taken {
+            return Err(DriveError::NameTaken {
+                other: other.drive.name.clone(),
+                name,
+            });
         }
         Ok(name)
     }
