@@ -56,6 +56,17 @@ fn main() -> ExitCode {
             python: false,
             found: common::check_socat().map(|_| "socat".to_owned()),
         },
+        PeerCheck {
+            peer: "chromium",
+            python: false,
+            found: common::chromium().map(|p| p.display().to_string()),
+        },
+        PeerCheck {
+            peer: "desktop-file-validate",
+            python: false,
+            found: common::check_desktop_file_validate()
+                .map(|_| "desktop-file-validate".to_owned()),
+        },
     ];
     let run = peers::run_dir();
     let records = peers::read_records(&run);

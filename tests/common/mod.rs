@@ -211,6 +211,30 @@ pub fn check_socat() -> Result<PathBuf, String> {
     }
 }
 
+/// Debian's Chromium (or Chrome), for the record's browser test.
+pub fn chromium() -> Result<PathBuf, String> {
+    [
+        "/usr/bin/chromium",
+        "/usr/bin/chromium-browser",
+        "/usr/bin/google-chrome",
+    ]
+    .iter()
+    .map(PathBuf::from)
+    .find(|p| p.exists())
+    .ok_or_else(|| "chromium is not installed (.ci/run installs Debian's chromium)".to_owned())
+}
+
+/// desktop-file-validate, for the desktop entry's test.
+pub fn check_desktop_file_validate() -> Result<PathBuf, String> {
+    match Command::new("desktop-file-validate").arg("--help").output() {
+        Ok(_) => Ok(PathBuf::from("desktop-file-validate")),
+        Err(_) => Err(
+            "desktop-file-validate is not installed (.ci/run installs desktop-file-utils)"
+                .to_owned(),
+        ),
+    }
+}
+
 /// A fresh, empty directory under the system's temp dir, named `drivedeck-{what}-…`,
 /// removed on drop.
 pub fn temp_dir(what: &str) -> tempfile::TempDir {

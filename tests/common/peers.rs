@@ -601,8 +601,13 @@ pub fn summary(
         if let Ok(python) = python {
             out.push_str(&format!(" at {}", python.display()));
         }
-        for check in checks.iter().filter(|c| !c.python) {
-            out.push_str(&format!(", and {}", check.found.as_deref().unwrap_or("")));
+        let others: Vec<&str> = checks
+            .iter()
+            .filter(|c| !c.python)
+            .map(|c| c.found.as_deref().unwrap_or(""))
+            .collect();
+        if !others.is_empty() {
+            out.push_str(&format!(", and {}", others.join(", ")));
         }
         if ran > 0 {
             out.push_str(&format!(

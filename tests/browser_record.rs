@@ -7,28 +7,17 @@
 //! verdict table is there and the failing steps are marked failed.
 //!
 //! Needs chromium (`.ci/run` installs it): skipped with a reason without it, and required
-//! in CI.
+//! in CI. Named so that cargo runs it before `peers_status`, which counts it.
 
 // Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use common::cli::run;
-
-fn chromium() -> Option<PathBuf> {
-    [
-        "/usr/bin/chromium",
-        "/usr/bin/chromium-browser",
-        "/usr/bin/google-chrome",
-    ]
-    .iter()
-    .map(PathBuf::from)
-    .find(|p| p.exists())
-}
 
 /// Chromium headless on `page` with `args`, a fresh profile, no background networking.
 fn chrome(browser: &Path, profile: &Path, args: &[String], page: &Path) -> std::process::Output {
@@ -94,9 +83,12 @@ fn open(browser: &Path, dir: &Path, page: &Path, name: &str) -> (String, Vec<Str
 
 #[test]
 fn chromium_prints_the_record_loads_nothing_and_shows_the_failed_steps() {
-    let Some(browser) = chromium() else {
-        common::skip_or_fail("chromium is not installed (.ci/run installs Debian's chromium)");
-        return;
+    let browser = match common::chromium() {
+        Ok(browser) => browser,
+        Err(why) => {
+            common::skip_or_fail(&why);
+            return;
+        }
     };
     common::peers::record(common::peers::RAN, "");
     let dir = common::temp_dir("record-browser");
