@@ -12,6 +12,7 @@ pub mod cli;
 pub mod connect;
 pub mod diagnostics;
 pub mod file;
+pub mod guide;
 pub mod injection;
 pub mod link;
 pub mod number;

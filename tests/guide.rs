@@ -205,3 +205,18 @@ fn every_link_and_picture_points_at_a_file() {
         "the guide shows the window: {pictures} pictures"
     );
 }
+
+#[test]
+fn every_page_is_built_into_the_binary() {
+    let built: Vec<&str> = drivedeck::guide::PAGES.iter().map(|p| p.file).collect();
+    for (name, text) in pages() {
+        let page = drivedeck::guide::PAGES
+            .iter()
+            .find(|p| p.file == name)
+            .unwrap_or_else(|| panic!("{name} is not in guide::PAGES ({built:?})"));
+        assert_eq!(
+            page.markdown, text,
+            "{name}: the binary's copy is the file's"
+        );
+    }
+}

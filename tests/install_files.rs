@@ -1,6 +1,7 @@
 //! `drivedeck install-files DIR`: the man pages and shell completions a package installs,
 //! generated from the command line's definitions — a page for the tool and one for every
-//! command `--help` lists, completions for bash, zsh and fish that know every command.
+//! command `--help` lists, completions for bash, zsh and fish that know every command —
+//! and the user guide as HTML.
 
 // Tests may panic: that is how they fail (clippy.toml covers #[test] fns, not helpers).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -68,6 +69,27 @@ fn man_pages_and_completions_cover_every_command() {
             );
         }
     }
+    // The guide as HTML, one page per Markdown page, its pictures from img/ beside it
+    // (where the package installs docs/guide/img).
+    for page in drivedeck::guide::PAGES {
+        let html = dir
+            .path()
+            .join("guide")
+            .join(drivedeck::guide::html_name(page.file));
+        let text =
+            std::fs::read_to_string(&html).unwrap_or_else(|e| panic!("{}: {e}", html.display()));
+        assert!(text.starts_with("<!DOCTYPE html>"), "{}", html.display());
+    }
+    let index = std::fs::read_to_string(dir.path().join("guide/index.html")).unwrap();
+    assert!(
+        index.contains("src=\"img/window.png\"") || !index.contains("<img"),
+        "pictures from img/"
+    );
+    let start = std::fs::read_to_string(dir.path().join("guide/01-getting-started.html")).unwrap();
+    assert!(
+        start.contains("src=\"img/window.png\""),
+        "pictures from img/"
+    );
 }
 
 #[test]

@@ -1,7 +1,9 @@
 //! `drivedeck install-files DIR` (hidden): the files a package installs beside the binary,
 //! generated from the command line's own definitions so they never disagree with it — the
-//! man pages (`drivedeck.1`, one `drivedeck-COMMAND.1` per command) and the shell
-//! completions for bash (`drivedeck.bash`), zsh (`_drivedeck`) and fish (`drivedeck.fish`).
+//! man pages (`drivedeck.1`, one `drivedeck-COMMAND.1` per command), the shell
+//! completions for bash (`drivedeck.bash`), zsh (`_drivedeck`) and fish (`drivedeck.fish`),
+//! and the user guide as HTML (`guide/index.html` …, its pictures beside it in `img/`
+//! where the package installs them).
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -41,6 +43,9 @@ pub fn write(dir: &Path) -> Result<Vec<String>, String> {
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
         );
     }
+    let index = crate::guide::write(&dir.join("guide"), "img")?;
+    written.push(format!("guide/{}", crate::guide::INDEX));
+    debug_assert!(index.ends_with(crate::guide::INDEX));
     Ok(written)
 }
 

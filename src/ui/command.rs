@@ -75,6 +75,8 @@ pub enum Command {
     SaveProject,
     /// Save the drives to a project file the user picks.
     SaveProjectAs,
+    /// Open the user guide in the browser (the "?" button, F1).
+    OpenGuide,
 
     // The plots.
     Plot(PlotCommand),

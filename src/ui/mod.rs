@@ -27,6 +27,7 @@ pub mod faults;
 pub mod fonts;
 pub mod gains;
 pub mod glance;
+pub mod guide;
 pub mod input;
 pub mod io_panel;
 pub mod jog;

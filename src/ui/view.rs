@@ -214,6 +214,13 @@ fn top_bar_ui(ui: &mut Ui, f: &mut Frame<'_>) {
         ui.add_space(4.0);
         ui.horizontal(|ui| {
             ui.heading("drivedeck");
+            if ui
+                .small_button("?")
+                .on_hover_text("The user guide, in the browser (F1)")
+                .clicked()
+            {
+                f.commands.push(Command::OpenGuide);
+            }
             ui.separator();
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
                 let names: Vec<&str> = f.rows.iter().map(|r| r.name.as_str()).collect();

@@ -61,6 +61,13 @@ impl App {
             }
             Command::StopAll(action) => self.stop_all(action),
             Command::ClearLog(tab) => self.clear_log(tab),
+            Command::OpenGuide => {
+                let said = match super::super::guide::open() {
+                    Ok(index) => format!("the guide: {} opened in the browser", index.display()),
+                    Err(why) => format!("the guide could not be opened: {why}"),
+                };
+                self.shown_mut().info(said);
+            }
             Command::OpenProject => self.ask_project_file(Purpose::Open),
             Command::SaveProject => match self.project.path.clone() {
                 Some(path) => self.project.message = Some(self.save_project(&path)),

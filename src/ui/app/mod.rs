@@ -271,6 +271,9 @@ impl App {
         if let Some(stop) = super::connection::stop_keys(&ctx, self.any_connected()) {
             self.commands.push(Command::StopAll(stop));
         }
+        if ctx.input_mut(|i| i.consume_key(egui::Modifiers::NONE, egui::Key::F1)) {
+            self.commands.push(Command::OpenGuide);
+        }
         // Closing the window with a drive energised asks first.
         if ctx.input(|i| i.viewport().close_requested()) && !self.may_close {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);

@@ -301,22 +301,31 @@ pub fn default_name(
 
 /// Open the folder holding `path` in the file manager, without waiting for it.
 pub fn open_folder(path: &Path) -> Result<(), String> {
-    let folder = path.parent().unwrap_or(Path::new("."));
-    let program = if cfg!(target_os = "windows") {
+    open_with_system(path.parent().unwrap_or(Path::new(".")))
+}
+
+/// Open `target` (a folder, a page) with what the desktop opens it with (xdg-open,
+/// open, explorer), or the program `DRIVEDECK_OPENER` names; without waiting for it.
+pub fn open_with_system(target: &Path) -> Result<(), String> {
+    let default = if cfg!(target_os = "windows") {
         "explorer"
     } else if cfg!(target_os = "macos") {
         "open"
     } else {
         "xdg-open"
     };
-    let mut child = std::process::Command::new(program)
-        .arg(folder)
+    let program = std::env::var("DRIVEDECK_OPENER")
+        .ok()
+        .filter(|p| !p.trim().is_empty())
+        .unwrap_or_else(|| default.to_owned());
+    let mut child = std::process::Command::new(&program)
+        .arg(target)
         .stdin(std::process::Stdio::null())
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
-        .map_err(|e| format!("cannot open {} with {program}: {e}", folder.display()))?;
-    // Reaped on a thread of its own: the window does not wait for the file manager.
+        .map_err(|e| format!("cannot open {} with {program}: {e}", target.display()))?;
+    // Reaped on a thread of its own: the window does not wait for the program.
     std::thread::spawn(move || child.wait());
     Ok(())
 }
