@@ -2,8 +2,9 @@
 //! --record OUT.html [--answers FILE] [--rehearse] [--operator NAME]`: a procedure run on
 //! one drive, or on every drive of a project in turn (or those named), its record written
 //! as a self-contained HTML page and a JSON file beside it. Exit 0 when every step passed
-//! (or was skipped), 1 when any failed, 130 when interrupted (Ctrl-C: the drive is halted
-//! and the record says the run was aborted).
+//! (or was skipped), 1 when any failed or a run aborted on its own (a lost link, a stop
+//! from elsewhere), 130 when interrupted (Ctrl-C: the drive is halted and the record says
+//! the run was aborted).
 //!
 //! The procedure is read and checked, and every backup it names loaded, before anything
 //! moves. With `--rehearse` (and for `--link sim`) simulated drives served on loopback
@@ -554,7 +555,7 @@ pub(super) fn run(
     match (interrupted, verdict) {
         (Some(f), _) => ExitCode::from(f.code),
         (None, Verdict::Passed | Verdict::Skipped) => ExitCode::SUCCESS,
-        (None, Verdict::Aborted) => ExitCode::from(super::EXIT_INTERRUPTED),
-        (None, Verdict::Failed) => ExitCode::from(super::EXIT_FAILED),
+        // Aborted by itself (a lost link, a stop from elsewhere): a failure, not Ctrl-C.
+        (None, Verdict::Aborted | Verdict::Failed) => ExitCode::from(super::EXIT_FAILED),
     }
 }
