@@ -33,6 +33,8 @@ pub struct ProcedurePanel {
     rehearsal: bool,
     /// The last run's record.
     pub record: Option<Record>,
+    /// Where the last run's record page was written.
+    pub written: Option<PathBuf>,
     connected: bool,
     now: f64,
 }
@@ -236,8 +238,11 @@ impl ProcedurePanel {
             vec![drive],
         );
         let path = PathBuf::from(self.record_path.trim());
+        self.written = None;
         self.message = Some(match record.write(&path) {
             Ok(json) => {
+                // Whole, for the browser (a relative path is the window's working folder's).
+                self.written = Some(std::path::absolute(&path).unwrap_or_else(|_| path.clone()));
                 let line = format!(
                     "{}: {} — record {} (and {})",
                     record.procedure,

@@ -18,6 +18,7 @@ enum Intent {
     Start,
     Answer(bool),
     Abort(&'static str),
+    OpenRecord(std::path::PathBuf),
 }
 
 /// What the project and the connection say of the drive, for a run.
@@ -102,6 +103,14 @@ pub fn procedure_ui(ui: &mut Ui, drive: &mut Drive) {
         {
             intents.push(Intent::Abort("aborted by the operator"));
         }
+        if let Some(page) = panel.written.clone().filter(|_| !panel.is_running())
+            && ui
+                .button("Open record")
+                .on_hover_text(format!("{} in the browser", page.display()))
+                .clicked()
+        {
+            intents.push(Intent::OpenRecord(page));
+        }
         if let Some(progress) = panel.run().and_then(|r| r.progress()) {
             ui.spinner();
             ui.weak(progress);
@@ -138,6 +147,11 @@ pub fn procedure_ui(ui: &mut Ui, drive: &mut Drive) {
             Intent::Load => panel.load(),
             Intent::Start => panel.start(setup.clone(), machine.clone()),
             Intent::Answer(yes) => panel.answer(yes),
+            Intent::OpenRecord(page) => {
+                if let Err(why) = crate::ui::plots::files::open_with_system(&page) {
+                    panel.message = Some(Err(format!("the record could not be opened: {why}")));
+                }
+            }
             Intent::Abort(why) => panel.abort(why),
         }
     }
