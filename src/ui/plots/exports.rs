@@ -216,24 +216,15 @@ pub fn others_over(
         .collect()
 }
 
-/// Where another drive's recording goes beside `path`: the drive's name (letters, digits,
-/// `-` and `_`; the rest `_`) added to the file's stem — `…_capture.csv` beside
+/// Where another drive's recording goes beside `path`: the drive's name as a file name
+/// (`project::file_stem`) added to the file's stem — `…_capture.csv` beside
 /// `…_capture_Y_axis.csv`.
 pub fn beside_path(path: &Path, drive: &str) -> PathBuf {
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let name: String = drive
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
+    let name = crate::project::file_stem(drive);
     let file = match path.extension() {
         Some(ext) => format!("{stem}_{name}.{}", ext.to_string_lossy()),
         None => format!("{stem}_{name}"),
