@@ -55,6 +55,23 @@ fn start_with(args: &[String]) -> common::Process {
     start(&args.iter().map(String::as_str).collect::<Vec<_>>())
 }
 
+/// The example with a long test move (20 cycles, some 40 s), answered yes, started with
+/// `before` (the link and its options) in a fresh folder: the folder (kept while the run
+/// lives), the record's page and the running command.
+fn long_run(what: &str, before: &[&str]) -> (tempfile::TempDir, PathBuf, common::Process) {
+    let dir = common::temp_dir(what);
+    let procedure = procedure_in(dir.path(), |t| t.replace("cycles = 2", "cycles = 20"));
+    let answers = answers_in(dir.path(), "yes\n");
+    let html = dir.path().join("record.html");
+    let child = start_with(&commission(
+        before,
+        &procedure,
+        &html,
+        &["--answers", answers.to_str().unwrap()],
+    ));
+    (dir, html, child)
+}
+
 /// The record's JSON beside `html`, read, its seal checked.
 fn record_of(html: &Path) -> Record {
     let text = std::fs::read_to_string(html.with_extension("json")).expect("the JSON record");
@@ -307,17 +324,8 @@ fn a_projects_drives_are_rehearsed_in_turn_on_simulated_stand_ins() {
 
 #[test]
 fn ctrl_c_aborts_the_run_and_the_record_says_so() {
-    let dir = common::temp_dir("commission-abort");
     // A long test move to be interrupted in.
-    let procedure = procedure_in(dir.path(), |t| t.replace("cycles = 2", "cycles = 20"));
-    let answers = answers_in(dir.path(), "yes\n");
-    let html = dir.path().join("record.html");
-    let mut child = start_with(&commission(
-        &["--link", "sim"],
-        &procedure,
-        &html,
-        &["--answers", answers.to_str().unwrap()],
-    ));
+    let (_dir, html, mut child) = long_run("commission-abort", &["--link", "sim"]);
     // Connecting, the backup and the 3 s auto setup take about 4 s: then the test move
     // (20 cycles, some 40 s) runs.
     std::thread::sleep(Duration::from_secs(8));
@@ -358,17 +366,8 @@ fn a_test_that_runs_into_a_limit_switch_says_so() {
 #[test]
 fn a_drive_lost_mid_procedure_aborts_the_run_and_the_record_names_the_cause() {
     let (sim, addr) = common::Sim::tcp(&[]);
-    let dir = common::temp_dir("commission-lost");
-    let procedure = procedure_in(dir.path(), |t| t.replace("cycles = 2", "cycles = 20"));
-    let answers = answers_in(dir.path(), "yes\n");
-    let html = dir.path().join("record.html");
     let link = format!("modbus-tcp://{addr}");
-    let mut child = start_with(&commission(
-        &["--link", &link],
-        &procedure,
-        &html,
-        &["--answers", answers.to_str().unwrap()],
-    ));
+    let (_dir, html, mut child) = long_run("commission-lost", &["--link", &link]);
     // In the test move (after the backup and the 3 s auto setup), the drive goes away.
     std::thread::sleep(Duration::from_secs(8));
     sim.process.signal("KILL");
@@ -397,17 +396,11 @@ fn a_drive_lost_mid_procedure_aborts_the_run_and_the_record_names_the_cause() {
 #[test]
 fn ctrl_c_leaves_the_drive_as_on_exit_says() {
     let (_sim, addr) = common::Sim::tcp(&[]);
-    let dir = common::temp_dir("commission-on-exit");
-    let procedure = procedure_in(dir.path(), |t| t.replace("cycles = 2", "cycles = 20"));
-    let answers = answers_in(dir.path(), "yes\n");
-    let html = dir.path().join("record.html");
     let link = format!("modbus-tcp://{addr}");
-    let mut child = start_with(&commission(
+    let (_dir, html, mut child) = long_run(
+        "commission-on-exit",
         &["--link", &link, "--on-exit", "switch-off"],
-        &procedure,
-        &html,
-        &["--answers", answers.to_str().unwrap()],
-    ));
+    );
     std::thread::sleep(Duration::from_secs(8));
     child.signal("INT");
     let status = child.wait(Duration::from_secs(15)).expect("ends on Ctrl-C");

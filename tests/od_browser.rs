@@ -517,10 +517,14 @@ fn the_restore_preview_skips_commands_process_data_and_read_only_objects_with_th
     );
 }
 
-#[test]
-fn a_backup_of_another_kind_of_device_is_restored_only_when_forced() {
-    let dir = temp_dir("backup-other-product");
-    let path = dir.path().join("other.json");
+/// A backup of one changed setting (6081h = 777) whose identity `edit` changes, written
+/// into `dir` as `name`: its path.
+fn one_setting_backup(
+    dir: &std::path::Path,
+    name: &str,
+    edit: impl Fn(&mut serde_json::Value),
+) -> std::path::PathBuf {
+    let path = dir.join(name);
     let mut file: serde_json::Value = serde_json::from_str(&crafted_backup(&[(
         "6081:00",
         "Profile Velocity",
@@ -529,9 +533,18 @@ fn a_backup_of_another_kind_of_device_is_restored_only_when_forced() {
         777,
     )]))
     .expect("json");
-    file["identity"]["product"] = 0x99.into();
-    file["identity"]["name"] = "PD6-C8918M9504-E-08".into();
+    edit(&mut file["identity"]);
     std::fs::write(&path, file.to_string()).expect("write");
+    path
+}
+
+#[test]
+fn a_backup_of_another_kind_of_device_is_restored_only_when_forced() {
+    let dir = temp_dir("backup-other-product");
+    let path = one_setting_backup(dir.path(), "other.json", |identity| {
+        identity["product"] = 0x99.into();
+        identity["name"] = "PD6-C8918M9504-E-08".into();
+    });
     let mut harness = browser();
     backup_file(&mut harness, &path);
     preview_restore(&mut harness);
@@ -572,17 +585,9 @@ fn a_backup_of_another_kind_of_device_is_restored_only_when_forced() {
 #[test]
 fn another_unit_of_the_same_kind_is_said_but_not_held_back() {
     let dir = temp_dir("backup-other-unit");
-    let path = dir.path().join("unit.json");
-    let mut file: serde_json::Value = serde_json::from_str(&crafted_backup(&[(
-        "6081:00",
-        "Profile Velocity",
-        "UNSIGNED32",
-        "uint",
-        777,
-    )]))
-    .expect("json");
-    file["identity"]["serial"] = 0x777.into();
-    std::fs::write(&path, file.to_string()).expect("write");
+    let path = one_setting_backup(dir.path(), "unit.json", |identity| {
+        identity["serial"] = 0x777.into();
+    });
     let mut harness = browser();
     backup_file(&mut harness, &path);
     preview_restore(&mut harness);

@@ -18,7 +18,6 @@ use std::sync::OnceLock;
 use std::time::Duration;
 
 use drivedeck::ui::Settings;
-use drivedeck::ui::procedure::ProcedurePanel;
 use eframe::egui;
 use egui_kittest::kittest::Queryable;
 use window::{harness_with, step_until};
@@ -120,19 +119,7 @@ fn open_record_shows_the_record_a_run_wrote() {
     let mut harness = harness_with(Settings::default(), true, egui::vec2(1366.0, 768.0));
     harness.run();
     window::connected(&mut harness);
-    harness.get_by_label("Procedure").click();
-    harness.run();
-    {
-        let model = harness
-            .state_mut()
-            .shown_mut()
-            .panels
-            .get::<ProcedurePanel>();
-        model.path = procedure.display().to_string();
-        model.record_path = record.display().to_string();
-    }
-    harness.get_by_label("Load").click();
-    harness.run();
+    window::load_procedure(&mut harness, &procedure, &record);
     assert!(
         harness.query_by_label("Open record").is_none(),
         "no record yet"

@@ -43,20 +43,7 @@ fn loaded(dir: &Path, edit: impl Fn(String) -> String) -> Harness<'static, App> 
     let mut harness = harness_with(Settings::default(), true, egui::vec2(1366.0, 768.0));
     harness.run();
     connected(&mut harness);
-    harness.get_by_label("Procedure").click();
-    harness.run();
-    {
-        let model = harness
-            .state_mut()
-            .shown_mut()
-            .panels
-            .get::<ProcedurePanel>();
-        model.path = path.display().to_string();
-        model.record_path = dir.join("record.html").display().to_string();
-        model.operator = "Kittest".into();
-    }
-    harness.get_by_label("Load").click();
-    harness.run();
+    window::load_procedure(&mut harness, &path, &dir.join("record.html"));
     harness
 }
 

@@ -229,3 +229,26 @@ pub fn text_containing<State>(harness: &Harness<'_, State>, text: &str) -> Strin
         .unwrap_or_default()
         .to_string()
 }
+
+/// Open the Procedure tab and load `procedure` there, its record to go to `record` (the
+/// operator "Kittest").
+pub fn load_procedure(
+    harness: &mut Harness<'_, App>,
+    procedure: &std::path::Path,
+    record: &std::path::Path,
+) {
+    harness.get_by_label("Procedure").click();
+    harness.run();
+    {
+        let model = harness
+            .state_mut()
+            .shown_mut()
+            .panels
+            .get::<drivedeck::ui::procedure::ProcedurePanel>();
+        model.path = procedure.display().to_string();
+        model.record_path = record.display().to_string();
+        model.operator = "Kittest".into();
+    }
+    harness.get_by_label("Load").click();
+    harness.run();
+}
